@@ -1,0 +1,17 @@
+"""The one jit policy of the package (STYLE example 1).
+
+Every kernel imports its decorators from here: ``cache=True`` so a second
+process starts without compiling, ``error_model="numpy"`` so a division by
+zero gives inf/nan instead of raising inside a kernel, and no fastmath at all
+(NaN marks "no point" in every output array, and the event location relies on
+IEEE rounding).
+"""
+
+import numba
+
+jit = numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True)
+
+
+def pjit(fn):
+    """Parallel kernel: ``prange`` over independent items only."""
+    return numba.njit(cache=True, error_model="numpy", fastmath=False, parallel=True, nogil=True)(fn)

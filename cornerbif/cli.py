@@ -1,0 +1,159 @@
+"""Command line: ``cornerbif sweep | plot | info | validate`` (click).
+
+Bad input ends with exit code 2 and every problem listed (key, value, what is
+allowed), never a traceback.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import click
+
+from .config import SceneError
+
+
+def _fail(msg, code=2):
+    click.echo(f"error: {msg}", err=True)
+    sys.exit(code)
+
+
+def _load(scene_path, sets):
+    from . import config
+    try:
+        return config.load(scene_path, sets)
+    except SceneError as e:
+        click.echo(f"error: {scene_path}: the scene cannot be run:", err=True)
+        for p in e.problems:
+            click.echo(f"  {p}", err=True)
+        sys.exit(2)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="cornerbif")
+def main():
+    """Bifurcation sweeps for impact oscillators with non-smooth forcing."""
+
+
+@main.command()
+@click.argument("scene_path", metavar="SCENE.toml", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", "out", type=click.Path(dir_okay=False),
+              help="Output HDF5 file (default: the scene name + .h5).")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="Override a scene key, e.g. --set sweep.kappa.num=101.")
+@click.option("--threads", type=click.IntRange(min=1), help="Numba threads (default: all cores).")
+@click.option("--resume", is_flag=True, help="Complete an interrupted sweep (OUT.h5.partial).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing output.")
+@click.option("--dry-run", is_flag=True, help="Validate, print the work and output estimate, run nothing.")
+@click.option("--progress/--no-progress", default=None,
+              help="Progress bar on stderr (default: when stderr is a terminal).")
+def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress):
+    """Run SCENE.toml and write the diagram to HDF5."""
+    scene = _load(scene_path, sets)
+    from .sweep import SweepError, estimate_bytes, run_sweep
+    out = out or f"{scene.name}.h5"
+    import numpy as np
+    n_points = int(np.prod(scene.shape or (1,)))
+    n_items = n_points * scene.n_ic
+    if dry_run:
+        click.echo(f"scene {scene.name}: model {scene.model}, grid {scene.shape or '(single point)'}, "
+                   f"{scene.n_ic} starts -> {n_items} runs of {scene.transient + scene.record} impacts")
+        click.echo(f"output {out}: up to {estimate_bytes(scene) / 2**20:.1f} MiB (uncompressed)")
+        return
+    if progress is None:
+        progress = sys.stderr.isatty() and not os.environ.get("CI")
+    try:
+        path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
+                         progress=progress, command=" ".join(["cornerbif"] + sys.argv[1:]))
+    except SweepError as e:
+        _fail(str(e), 1 if "interrupted" in str(e) else 2)
+    click.echo(f"wrote {path}")
+
+
+@main.command()
+@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("-o", "--out", "out", type=click.Path(dir_okay=False),
+              help="Figure file (.png, .pdf or .svg; default: first file with .png).")
+@click.option("--y", "y", type=click.Choice(["impact_u", "impact_v", "section_u", "section_v"]),
+              help="What to draw against the swept parameter.")
+@click.option("--title", help="Figure title (default: the scene's).")
+def plot(files, out, y, title):
+    """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down)."""
+    from .io import FileFormatError
+    from .plot import figure
+    out = out or os.path.splitext(files[0])[0] + ".png"
+    ext = os.path.splitext(out)[1].lower()
+    if ext not in (".png", ".pdf", ".svg"):
+        _fail(f"-o {out}: the figure must be .png, .pdf or .svg")
+    try:
+        figure(list(files), out, y=y, title=title)
+    except FileFormatError as e:
+        _fail(str(e))
+    except ValueError as e:
+        _fail(str(e))
+    click.echo(f"wrote {out}")
+
+
+@main.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+def info(file):
+    """Summarise a cornerbif HDF5 file."""
+    import json
+
+    import numpy as np
+
+    from . import status as S
+    from .io import FileFormatError, check_readable
+    try:
+        f = check_readable(file)
+    except FileFormatError as e:
+        _fail(str(e))
+    with f:
+        a = f.attrs
+        click.echo(f"{file}: cornerbif format {a['format_version']}, written by cornerbif "
+                   f"{a['cornerbif_version']}")
+        click.echo(f"  created {a['created']}, completed {a['completed'] or 'NO (partial)'}")
+        import tomllib
+        sc = tomllib.loads(a["scene"])
+        click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
+        click.echo(f"  model {sc['scene']['model']}, obstacle {sc['system'].get('obstacle')}")
+        for k, v in sc.get("sweep", {}).items():
+            if k != "follow":
+                vals = v["values"]
+                click.echo(f"  axis {k}: {len(vals)} values in [{min(vals)}, {max(vals)}]")
+        done = f["done"][...]
+        click.echo(f"  grid points done: {int(done.sum())} / {done.size}")
+        st = f["status"][...].ravel()
+        codes = json.loads(a["status_codes"])
+        counts = {codes.get(str(c), "NOT_RUN") if c >= 0 else "NOT_RUN": int((st == c).sum())
+                  for c in np.unique(st)}
+        click.echo(f"  status: {counts}")
+        per = f["period"][...].ravel()
+        per = per[per > 0]
+        if per.size:
+            vals, cnt = np.unique(per, return_counts=True)
+            top = sorted(zip(cnt, vals), reverse=True)[:8]
+            click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
+        click.echo(f"  datasets: {', '.join(sorted(_names(f)))}")
+        del S
+
+
+def _names(f):
+    import h5py
+    out = []
+    f.visititems(lambda n, o: out.append(n) if isinstance(o, h5py.Dataset) else None)
+    return out
+
+
+@main.command()
+@click.argument("scene_path", metavar="SCENE.toml", type=click.Path(dir_okay=False))
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE")
+def validate(scene_path, sets):
+    """Check a scene and print it as it would run."""
+    scene = _load(scene_path, sets)
+    click.echo(scene.text)
+
+
+if __name__ == "__main__":
+    main()

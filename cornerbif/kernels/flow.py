@@ -1,0 +1,346 @@
+"""Event-driven kernel of the ``flow`` model (sections 2-3; eqs 4, 5, 7, 8).
+
+Three layers (STYLE, stumpy): ``run_one`` integrates one (parameter point,
+initial condition) item, ``run_batch`` fans out over items with ``prange``,
+and the Python layer in ``cornerbif.sweep`` checks and allocates.
+
+The run is a sequence of phases:
+
+* flight: exact closed-form motion; the next impact on the current smooth
+  piece of the obstacle is located by the certified search of ``roots``; if
+  there is none the motion is carried to the piece's end (a corner or a
+  half-period) and continues on the next piece;
+* impact: law (5) with the slope of the piece the root was found in;
+* chattering: when the relative velocity after an impact falls below
+  ``run.chatter`` while the contact force N = z'' + 2 sigma z' + k^2 z - f is
+  positive, the geometric sequence of impacts is summed: it ends after
+  2 w / (N (1 - r)), where the particle sticks (u = z);
+* sticking: u = z while N >= 0; release at the first sign change of N (a
+  certified root search on N); at a corner where the slope jumps up the
+  obstacle kicks the particle by law (5) (recorded as an impact just after the
+  corner); where it jumps down the particle leaves with its velocity.
+
+Every run ends with a status from ``cornerbif.status``; nothing raises.
+"""
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .. import status as S
+from .._jit import jit, pjit
+from ..models import params as P
+from ..models.impact import restitution
+from ..models.obstacle import (D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
+                               zpp_range, z_state)
+from ..models.oscillator import amplitude, derive, forcing, homogeneous, particular, upp_bound
+from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
+
+GAP = 0       # f = u - z along the flight
+FORCE = 1     # f = N, the contact force needed to stay on the obstacle
+NEGFORCE = 2  # f = -N
+
+
+@jit
+def contact_force(p, d, j, tau):
+    """N = z'' + 2 sigma z' + k^2 z - f(t) and N' on piece j at tau.
+
+    While stuck (u = z) the obstacle must push with N >= 0; the particle leaves
+    where N changes sign.
+    """
+    z, zp, zpp, zppp = z_state(p, j, tau)
+    sig = p[P.SIGMA]
+    k2 = p[P.K] * p[P.K]
+    t = piece_start(d, j) + tau
+    f = forcing(p, t)
+    n = zpp + 2.0 * sig * zp + k2 * z - f
+    fp = 0.0
+    if p[P.F_AMP] != 0.0:
+        fp = -p[P.F_AMP] * p[P.F_OMEGA] * math.sin(p[P.F_OMEGA] * t + p[P.F_PHI])
+    n1 = zppp + 2.0 * sig * zpp + k2 * zp - fp
+    return n, n1
+
+
+@jit
+def evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s):
+    """Value, slope and curvature of the searched function at tau_ref + s."""
+    tau = tau_ref + s
+    if kind == GAP:
+        uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)
+        t = piece_start(d, j) + tau
+        up, vp = particular(p, d, t)
+        u = uh + up
+        v = vh + vp
+        z, zp, zpp, _ = z_state(p, j, tau)
+        upp = -2.0 * p[P.SIGMA] * v - p[P.K] * p[P.K] * u + forcing(p, t)
+        return u - z, v - zp, upp - zpp
+    n, n1 = contact_force(p, d, j, tau)
+    if kind == FORCE:
+        return n, n1, 0.0
+    return -n, -n1, 0.0
+
+
+@jit
+def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, tol, skip_first):
+    """First root of the function ``kind`` on [s0, s_end]; see ``roots``.
+
+    Returns (code, s): code FOUND with the root, NONE with s_end, FAIL when the
+    step budget ran out.  ``skip_first`` ignores f <= 0 at s0 (the point just
+    after an impact, where g = 0 and g' > 0).
+    """
+    s = s0
+    f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
+    first = skip_first
+    for _ in range(MAXIT):
+        if not (f == f):
+            return FAIL, s
+        if not first and f <= 0.0:
+            return FOUND, s
+        first = False
+        hlo = quad_first_root(f, fp, lo2)
+        if s + hlo >= s_end:
+            return NONE, s_end
+        hup = quad_first_root(f, fp, hi2)
+        if hup - hlo <= tol and s + hup <= s_end:
+            return FOUND, s + hlo
+        if hlo < tol:
+            if fp < 0.0 or (fpp < 0.0 and fp <= 0.0):
+                return FOUND, s + hlo
+            s = s + tol
+            if s >= s_end:
+                return NONE, s_end
+        else:
+            s = s + hlo
+        f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
+    return FAIL, s
+
+
+@jit
+def force_bounds(p, d):
+    """Bounds of N'' on any piece (for the certified search on N)."""
+    return -d[D_NPP], d[D_NPP]
+
+
+@jit
+def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final):
+    """Integrate one item from (t, u, v) = (0, u0, v0); fill its output rows.
+
+    Impacts number ``transient`` and above are stored (time, height, v-, v+,
+    signed offset to the nearest corner and that corner's index); the state at
+    each Poincare section t = n T during the recording window is stored too.
+    ``final`` receives the state at the last section crossed (for ``follow``).
+    Returns the status code.
+    """
+    d = derive(p)
+    tol = p[P.TOL]
+    r = p[P.R]
+    sig = p[P.SIGMA]
+    k2 = p[P.K] * p[P.K]
+    chatter = p[P.CHATTER]
+    escape = p[P.ESCAPE]
+    pps = np.int64(p[P.SECTION_PIECES])
+    transient = ints[P.I_TRANSIENT]
+    record = ints[P.I_RECORD]
+    max_events = ints[P.I_MAX_EVENTS]
+    max_pieces = ints[P.I_MAX_PIECES]
+    need = transient + record
+    final[0] = math.nan
+    final[1] = math.nan
+
+    if not (u0 == u0 and v0 == v0):
+        return S.NONFINITE
+    z0, _, _, _ = z_state(p, 0, 0.0)
+    if u0 < z0:
+        return S.BELOW_OBSTACLE
+
+    j = np.int64(0)
+    tau_ref = 0.0
+    up, vp = particular(p, d, 0.0)
+    uh_ref = u0 - up
+    vh_ref = v0 - vp
+    skip = u0 == z0  # starting on the obstacle: treat as just left it
+    s_start = 0.0
+    stuck = False
+    tau_s = 0.0
+    n_imp = 0
+    n_sec = 0
+    events = 0
+    pieces = 0
+    wd = d[D_WD]
+    underdamped = d[D_REGIME] == 0.0
+
+    while True:
+        L = piece_length(d, j)
+        if stuck:
+            # ---- sticking on piece j from tau_s -----------------------------------
+            code, s = first_root(FORCE, p, d, j, tau_s, 0.0, 0.0, 0.0, L - tau_s,
+                                 -d[D_NPP], d[D_NPP], tol, False)
+            if code == FAIL:
+                return S.STEP_LIMIT
+            if code == FOUND:
+                # release at tau_rel: the gap stays >= 0 while N < 0 (and for less
+                # than half a damped period): g'' + 2 sigma g' + k^2 g = -N with
+                # g = g' = 0 at release, and the impulse response is >= 0 there.
+                tau_rel = tau_s + s
+                z, zp, _, _ = z_state(p, j, tau_rel)
+                t = piece_start(d, j) + tau_rel
+                up, vp = particular(p, d, t)
+                uh_ref = z - up
+                vh_ref = zp - vp
+                tau_ref = tau_rel
+                code2, sb = first_root(NEGFORCE, p, d, j, tau_rel, 0.0, 0.0, 0.0, L - tau_rel,
+                                       -d[D_NPP], d[D_NPP], tol, True)
+                if code2 == FAIL:
+                    return S.STEP_LIMIT
+                s_free = sb
+                if underdamped and math.pi / wd < s_free:
+                    s_free = math.pi / wd
+                s_start = s_free
+                skip = False
+                stuck = False
+                events += 1
+                if events > max_events:
+                    return S.MAX_EVENTS
+                continue
+            # stuck through the end of the piece: cross the corner
+            _, zb, _, _ = z_state(p, j, L)
+            j += 1
+            pieces += 1
+            if pieces > max_pieces:
+                return S.STUCK
+            z, za, _, _ = z_state(p, j, 0.0)
+            t = piece_start(d, j)
+            up, vp = particular(p, d, t)
+            v_after = za
+            if za > zb:
+                # corner kick by law (5): an impact just after the corner
+                v_out = restitution(zb, za, r)
+                v_after = v_out
+                if n_imp >= transient:
+                    i = n_imp - transient
+                    o_t[i] = t
+                    o_u[i] = z
+                    o_vin[i] = zb
+                    o_vout[i] = v_out
+                    c, off = corner_of(p, d, j, 0.0)
+                    o_corner[i] = c
+                    o_off[i] = off
+                n_imp += 1
+                if n_imp >= need:
+                    return S.OK
+                tau_ref = 0.0
+                uh_ref = z - up
+                vh_ref = v_out - vp
+                s_start = 0.0
+                skip = True
+                stuck = False
+                if v_out - za <= chatter:
+                    nf, _ = contact_force(p, d, j, 0.0)
+                    if nf > 0.0:
+                        stuck = True
+                        tau_s = 0.0
+                        v_after = za
+            elif za < zb:
+                # the obstacle turns down under the particle: it leaves with zb
+                v_after = zb
+                tau_ref = 0.0
+                uh_ref = z - up
+                vh_ref = zb - vp
+                s_start = 0.0
+                skip = True
+                stuck = False
+            else:
+                tau_s = 0.0
+            if j % pps == 0:
+                if n_imp >= transient and n_sec < record:
+                    o_su[n_sec] = z
+                    o_sv[n_sec] = v_after
+                    n_sec += 1
+                final[0] = z
+                final[1] = v_after
+            events += 1
+            if events > max_events:
+                return S.MAX_EVENTS
+            continue
+
+        # ---- flight on piece j from tau_ref ----------------------------------------
+        amp = amplitude(p, d, uh_ref, vh_ref)
+        if not (amp == amp):
+            return S.NONFINITE
+        if amp > escape:
+            return S.ESCAPED
+        bu = upp_bound(p, d, uh_ref, vh_ref)
+        zlo, zhi = zpp_range(p, j)
+        code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s_start, L - tau_ref,
+                             -bu - zhi, bu - zlo, tol, skip)
+        if code == FAIL:
+            return S.STEP_LIMIT
+        uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)
+        tau = tau_ref + s
+        t = piece_start(d, j) + tau
+        up, vp = particular(p, d, t)
+        if code == NONE:
+            # carry the flight over the end of the piece
+            j += 1
+            pieces += 1
+            if pieces > max_pieces:
+                return S.NO_IMPACT
+            tau_ref = 0.0
+            uh_ref = uh
+            vh_ref = vh
+            s_start = 0.0
+            skip = False
+            if j % pps == 0:
+                if n_imp >= transient and n_sec < record:
+                    o_su[n_sec] = uh + up
+                    o_sv[n_sec] = vh + vp
+                    n_sec += 1
+                final[0] = uh + up
+                final[1] = vh + vp
+            continue
+        # ---- impact at (j, tau) -----------------------------------------------------
+        z, zp, zpp, _ = z_state(p, j, tau)
+        v_in = vh + vp
+        v_out = restitution(v_in, zp, r)
+        if n_imp >= transient:
+            i = n_imp - transient
+            o_t[i] = t
+            o_u[i] = z
+            o_vin[i] = v_in
+            o_vout[i] = v_out
+            c, off = corner_of(p, d, j, tau)
+            o_corner[i] = c
+            o_off[i] = off
+        n_imp += 1
+        events += 1
+        if n_imp >= need:
+            return S.OK
+        if events > max_events:
+            return S.MAX_EVENTS
+        tau_ref = tau
+        uh_ref = z - up
+        vh_ref = v_out - vp
+        s_start = 0.0
+        skip = True
+        w_out = v_out - zp
+        if w_out <= chatter:
+            nf = zpp + 2.0 * sig * zp + k2 * z - forcing(p, t)
+            if nf > 0.0 and r < 1.0:
+                # chattering: sum the geometric sequence of impacts
+                tau_acc = tau + 2.0 * max(w_out, 0.0) / (nf * (1.0 - r))
+                stuck = True
+                tau_s = tau_acc if tau_acc < L else L
+
+
+@pjit
+def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
+              o_status, o_final):
+    """Run every item i = (parameter row params[i], initial state ics[i]) in parallel.
+
+    Each item writes only its own rows; results do not depend on the thread count.
+    """
+    n = params.shape[0]
+    for i in prange(n):
+        o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1], o_t[i], o_u[i], o_vin[i],
+                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i])

@@ -1,0 +1,1 @@
+"""Physics of the models as plain data (parameter layouts) and small jitted pieces."""

@@ -1,0 +1,106 @@
+"""Obstacles z(t) of the ``flow`` model, piece by piece (eqs 7, 8; section 2.2).
+
+Time is kept as a piece index ``j`` and a local time ``tau`` in [0, L_j]
+(DESIGN 2b): precision stays at rounding level over long runs, and a corner is
+always exactly at a piece boundary.
+
+* ``rectified_sine`` (eq 8): pieces of length pi/omega, each a corner
+  (slope jumps from -beta omega to +beta omega); z = kappa + beta sin(omega tau).
+* ``sine`` (section 2.2): split at half periods (no corner: the slope is
+  continuous), z = kappa + (-1)^j beta sin(omega tau).
+* ``triangle`` (eq 7 made periodic, period P = pi/omega): a valley corner at
+  every t = nP where z = kappa, slope +theta2 up to the peak at
+  tau_p = theta1 P / (theta1 + theta2), slope -theta1 back down.
+"""
+
+import math
+
+from .._jit import jit
+from . import params as P
+
+# derived per-point quantities (filled once per run by ``derive``)
+D_L0 = 0        # length of even pieces
+D_L1 = 1        # length of odd pieces
+D_PERIOD = 2    # L0 + L1
+D_REGIME = 3    # oscillator: 0 under-, 1 critically, 2 over-damped
+D_WD = 4        # damped frequency sqrt(k^2 - sigma^2)
+D_LAM1 = 5      # over-damped exponents
+D_LAM2 = 6
+D_X = 7         # particular solution X cos(Omega t + phi) + Y sin(Omega t + phi)
+D_Y = 8
+D_UPP_PART = 9  # bound of |u_p''|
+D_NPP = 10      # bound of |N''| (contact force, second derivative)
+NDERIVED = 11
+
+
+@jit
+def piece_start(d, j):
+    """Absolute time of the start of piece j."""
+    return (j // 2) * d[D_PERIOD] + (j % 2) * d[D_L0]
+
+
+@jit
+def piece_length(d, j):
+    return d[D_L0] if j % 2 == 0 else d[D_L1]
+
+
+@jit
+def z_state(p, j, tau):
+    """Obstacle height, slope, curvature and third derivative on piece j at local time tau."""
+    ob = p[P.OBSTACLE]
+    if ob == P.TRIANGLE:
+        if j % 2 == 0:
+            return p[P.KAPPA] + p[P.THETA2] * tau, p[P.THETA2], 0.0, 0.0
+        L1 = p[P.THETA2] * math.pi / p[P.OMEGA] / (p[P.THETA1] + p[P.THETA2])
+        return p[P.KAPPA] + p[P.THETA1] * (L1 - tau), -p[P.THETA1], 0.0, 0.0
+    w = p[P.OMEGA]
+    b = p[P.BETA]
+    if ob == P.SINE and j % 2 == 1:
+        b = -b
+    s = math.sin(w * tau)
+    c = math.cos(w * tau)
+    return p[P.KAPPA] + b * s, b * w * c, -b * w * w * s, -b * w * w * w * c
+
+
+@jit
+def zpp_range(p, j):
+    """Lower and upper bound of z'' on piece j (used by the certified event search)."""
+    ob = p[P.OBSTACLE]
+    if ob == P.TRIANGLE:
+        return 0.0, 0.0
+    a = p[P.BETA] * p[P.OMEGA] * p[P.OMEGA]
+    if ob == P.SINE and j % 2 == 1:
+        return 0.0, a
+    return -a, 0.0
+
+
+@jit
+def is_valley_corner(p, j):
+    """True when the start of piece j is a corner where the slope jumps up (Gamma_k)."""
+    ob = p[P.OBSTACLE]
+    if ob == P.RECTIFIED_SINE:
+        return True
+    if ob == P.TRIANGLE:
+        return j % 2 == 0
+    return False
+
+
+@jit
+def corner_of(p, d, j, tau):
+    """Nearest valley corner to (j, tau): its index and the signed offset tau - t_corner.
+
+    For ``sine`` (no corners) the "corner" is the nearest start of a forcing
+    period; the kernel uses it only to group impacts, and the file stores NaN.
+    """
+    ob = p[P.OBSTACLE]
+    if ob == P.RECTIFIED_SINE:
+        L = d[D_L0]
+        if tau < 0.5 * L:
+            return j, tau
+        return j + 1, tau - L
+    # sine and triangle: two pieces per period, corners at period starts
+    x = tau if j % 2 == 0 else d[D_L0] + tau
+    per = d[D_PERIOD]
+    if x < 0.5 * per:
+        return j // 2, x
+    return j // 2 + 1, x - per

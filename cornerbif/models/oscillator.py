@@ -1,0 +1,152 @@
+"""The oscillator u'' + 2 sigma u' + k^2 u = f(t), f = F cos(Omega t + phi) (eq 4).
+
+Free flight is exact (closed form) in every regime, so all numerical error of
+the engine lives in event location (DESIGN 2).  The state is split as
+u = u_h + u_p: u_p is the particular solution of the harmonic forcing, u_h the
+homogeneous part carried from the flight's reference point.
+"""
+
+import math
+
+import numpy as np
+
+from .._jit import jit
+from . import params as P
+from .obstacle import (D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD, D_REGIME, D_UPP_PART,
+                       D_WD, D_X, D_Y, NDERIVED)
+
+
+@jit
+def derive(p):
+    """Per-point constants: piece lengths, damping regime, particular solution, bounds."""
+    d = np.zeros(NDERIVED)
+    w = p[P.OMEGA]
+    ob = p[P.OBSTACLE]
+    if ob == P.TRIANGLE:
+        per = math.pi / w
+        t1 = p[P.THETA1]
+        t2 = p[P.THETA2]
+        d[D_L0] = t1 * per / (t1 + t2)
+        d[D_L1] = t2 * per / (t1 + t2)
+        d[D_PERIOD] = per
+    else:
+        d[D_L0] = math.pi / w
+        d[D_L1] = math.pi / w
+        d[D_PERIOD] = 2.0 * math.pi / w
+    sig = p[P.SIGMA]
+    k = p[P.K]
+    if sig < k:
+        d[D_REGIME] = 0.0
+        d[D_WD] = math.sqrt(k * k - sig * sig)
+    elif sig == k:
+        d[D_REGIME] = 1.0
+    else:
+        d[D_REGIME] = 2.0
+        q = math.sqrt(sig * sig - k * k)
+        d[D_LAM1] = -sig + q
+        d[D_LAM2] = -sig - q
+    F = p[P.F_AMP]
+    W = p[P.F_OMEGA]
+    if F != 0.0:
+        a = k * k - W * W
+        b = 2.0 * sig * W
+        den = a * a + b * b
+        d[D_X] = F * a / den
+        d[D_Y] = F * b / den
+        d[D_UPP_PART] = W * W * math.sqrt(d[D_X] ** 2 + d[D_Y] ** 2)
+    # bound of |N''| with N = z'' + 2 sigma z' + k^2 z - f (contact force while stuck)
+    if ob == P.TRIANGLE:
+        d[D_NPP] = abs(F) * W * W
+    else:
+        be = p[P.BETA]
+        d[D_NPP] = w * w * be * (abs(k * k - w * w) + 2.0 * sig * w) + abs(F) * W * W
+    return d
+
+
+@jit
+def particular(p, d, t):
+    """Particular solution (u_p, u_p') at absolute time t."""
+    if p[P.F_AMP] == 0.0:
+        return 0.0, 0.0
+    W = p[P.F_OMEGA]
+    th = W * t + p[P.F_PHI]
+    c = math.cos(th)
+    s = math.sin(th)
+    return d[D_X] * c + d[D_Y] * s, W * (d[D_Y] * c - d[D_X] * s)
+
+
+@jit
+def forcing(p, t):
+    """f(t) = F cos(Omega t + phi) (eq 4)."""
+    if p[P.F_AMP] == 0.0:
+        return 0.0
+    return p[P.F_AMP] * math.cos(p[P.F_OMEGA] * t + p[P.F_PHI])
+
+
+@jit
+def homogeneous(p, d, uh0, vh0, s):
+    """Homogeneous flight: (u_h, u_h') a time s after the state (uh0, vh0)."""
+    sig = p[P.SIGMA]
+    reg = d[D_REGIME]
+    if reg == 0.0:
+        wd = d[D_WD]
+        A = uh0
+        B = (vh0 + sig * uh0) / wd
+        c = math.cos(wd * s)
+        sn = math.sin(wd * s)
+        u = A * c + B * sn
+        v = (B * wd - sig * A) * c - (A * wd + sig * B) * sn
+        if sig != 0.0:
+            e = math.exp(-sig * s)
+            u *= e
+            v *= e
+        return u, v
+    if reg == 1.0:
+        A = uh0
+        B = vh0 + sig * uh0
+        e = math.exp(-sig * s)
+        return e * (A + B * s), e * (B - sig * (A + B * s))
+    l1 = d[D_LAM1]
+    l2 = d[D_LAM2]
+    c1 = (vh0 - l2 * uh0) / (l1 - l2)
+    c2 = uh0 - c1
+    e1 = math.exp(l1 * s)
+    e2 = math.exp(l2 * s)
+    return c1 * e1 + c2 * e2, l1 * c1 * e1 + l2 * c2 * e2
+
+
+@jit
+def upp_bound(p, d, uh0, vh0):
+    """Bound of |u''| over the whole future flight from the homogeneous state (uh0, vh0).
+
+    Under-damped: u_h = R e^{-sigma s} cos(w_d s - psi) gives |u_h''| <= R k^2;
+    critically damped: |u_h''| <= sigma^2 |A| + 2 sigma |B|; over-damped:
+    |c1| l1^2 + |c2| l2^2; plus Omega^2 |(X, Y)| for the particular solution.
+    """
+    sig = p[P.SIGMA]
+    reg = d[D_REGIME]
+    if reg == 0.0:
+        wd = d[D_WD]
+        B = (vh0 + sig * uh0) / wd
+        amp = math.sqrt(uh0 * uh0 + B * B)
+        hb = amp * p[P.K] * p[P.K]
+    elif reg == 1.0:
+        B = vh0 + sig * uh0
+        hb = sig * sig * abs(uh0) + 2.0 * sig * abs(B)
+    else:
+        l1 = d[D_LAM1]
+        l2 = d[D_LAM2]
+        c1 = (vh0 - l2 * uh0) / (l1 - l2)
+        c2 = uh0 - c1
+        hb = abs(c1) * l1 * l1 + abs(c2) * l2 * l2
+    return hb + d[D_UPP_PART]
+
+
+@jit
+def amplitude(p, d, uh0, vh0):
+    """Size of the homogeneous motion (for the escape test)."""
+    reg = d[D_REGIME]
+    if reg == 0.0:
+        B = (vh0 + p[P.SIGMA] * uh0) / d[D_WD]
+        return math.sqrt(uh0 * uh0 + B * B)
+    return abs(uh0) + abs(vh0)

@@ -1,0 +1,316 @@
+"""Grid x initial conditions -> blocks -> parallel kernels -> HDF5 (DESIGN 4, 6).
+
+Data flow is one way: scene -> blocks of grid points -> ``run_batch`` (flow
+kernel) -> ``detect_cycles`` (analysis) -> ``io.write_block``.  Blocks are
+sized so memory stays flat whatever the grid size; each block is marked done
+in the file once its data are flushed, so an interrupted sweep resumes where
+it stopped.  Initial conditions are drawn outside the kernels from a
+counter-based generator keyed by (seed, grid point, initial condition), so
+they do not depend on block size, thread count or resume history.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import math
+import os
+import sys
+
+import numpy as np
+
+from . import io
+from . import status as S
+from .analysis import detect_cycles
+from .config import Scene, SceneError
+from .models import params as P
+
+BLOCK_BYTES = 48 * 2**20     # working memory per block (kernel outputs)
+ITEM_FIELDS = 7              # t, u, v_in, v_out, offset, section u, v (+ corner index)
+
+
+class SweepError(Exception):
+    """A sweep that cannot start or continue; the message says what to do."""
+
+
+# ------------------------------------------------------------------ initial conditions
+def _splitmix64(x):
+    x = (x + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
+    z = x
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+def uniform(seed, point, ic, coord):
+    """Counter-based uniform numbers in [0, 1) keyed by (seed, point, ic, coord)."""
+    with np.errstate(over="ignore"):
+        key = (np.asarray(point, np.uint64) * np.uint64(1 << 20) + np.asarray(ic, np.uint64)) \
+            * np.uint64(4) + np.uint64(coord)
+        z = _splitmix64(_splitmix64(np.uint64(seed) ^ np.uint64(0xC0FFEE)) ^ key)
+        z = _splitmix64(z)
+    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+
+
+def draw_initial(scene: Scene, flat_points: np.ndarray, z0: np.ndarray):
+    """Initial (u, v) at t = 0 for grid points ``flat_points`` (shape (n,)): (n, n_ic, 2).
+
+    u is uniform on the part of ``initial.u`` strictly above the obstacle z(0)
+    (the same law as drawing on the whole range and redrawing points below).
+    """
+    n = flat_points.shape[0]
+    pts = np.repeat(flat_points.astype(np.uint64), scene.n_ic)
+    ics = np.tile(np.arange(scene.n_ic, dtype=np.uint64), n)
+    uu = uniform(scene.seed, pts, ics, 0).reshape(n, scene.n_ic)
+    uv = uniform(scene.seed, pts, ics, 1).reshape(n, scene.n_ic)
+    ulo, uhi = scene.u_range
+    lo = np.maximum(ulo, z0)[:, None]
+    u = uhi - (uhi - lo) * uu          # in (lo, uhi]
+    vlo, vhi = scene.v_range
+    v = vlo + (vhi - vlo) * uv
+    return np.stack([u, v], axis=-1)
+
+
+# ------------------------------------------------------------------ packing
+def pack_points(scene: Scene, index_list):
+    """Packed parameter rows for a list of grid indices."""
+    rows = []
+    for idx in index_list:
+        vals = scene.point(idx)
+        rows.append(P.pack(vals, scene.obstacle, scene.tol, scene.chatter, scene.escape,
+                           scene.section_period))
+    return np.array(rows).reshape(len(index_list), P.NPARAM)
+
+
+def int_settings(scene: Scene) -> np.ndarray:
+    ints = np.zeros(P.NINT, np.int64)
+    ints[P.I_TRANSIENT] = scene.transient
+    ints[P.I_RECORD] = scene.record
+    ints[P.I_MAX_EVENTS] = scene.max_events
+    per_pieces = 4  # at most 4 pieces per obstacle period (triangle, sine: 2)
+    ints[P.I_MAX_PIECES] = scene.max_periods * per_pieces
+    return ints
+
+
+def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
+    """Run the flow kernel and the cycle analysis on n items (rows of params/ics)."""
+    from .kernels.flow import run_batch
+    n = params.shape[0]
+    rec = scene.record
+    out = {k: np.full((n, rec), np.nan) for k in ("t", "u", "v_in", "v_out", "corner_offset",
+                                                   "su", "sv")}
+    corner = np.zeros((n, rec), np.int64)
+    st = np.zeros(n, np.int8)
+    final = np.zeros((n, 2))
+    run_batch(params, ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
+              out["corner_offset"], corner, out["su"], out["sv"], st, final)
+    period = np.zeros(n, np.int64)
+    ipc = np.zeros(n, np.int64)
+    sym = np.zeros((n, rec), np.uint8)
+    cornered = params[:, P.OBSTACLE] != P.SINE
+    detect_cycles(out["t"], out["v_in"], out["corner_offset"], corner, cornered,
+                  scene.period_tol, period, ipc, sym)
+    if not cornered.all():
+        out["corner_offset"][~cornered] = np.nan
+    return out, st, final, period, ipc, sym
+
+
+def _words(sym):
+    from .analysis import words
+    return words(sym)
+
+
+# ------------------------------------------------------------------ blocks
+def blocks(scene: Scene):
+    """Grid slabs in execution order: list of index tuples (of slices/ints)."""
+    G = scene.shape
+    per_item = scene.record * ITEM_FIELDS * 8 + 64
+    max_points = max(1, BLOCK_BYTES // (per_item * scene.n_ic))
+    if not G:
+        return [()]
+    if scene.follow != "none":
+        order = range(G[0]) if scene.follow == "up" else range(G[0] - 1, -1, -1)
+        if len(G) == 1:
+            return [(slice(i, i + 1),) for i in order]
+        return [(slice(i, i + 1), slice(0, G[1])) for i in order]
+    if len(G) == 1:
+        return [(slice(a, min(a + max_points, G[0])),) for a in range(0, G[0], max_points)]
+    out = []
+    for i in range(G[0]):
+        for a in range(0, G[1], max_points):
+            out.append((slice(i, i + 1), slice(a, min(a + max_points, G[1]))))
+    return out
+
+
+def _indices(scene, blk):
+    ranges = [range(s.start, s.stop) for s in blk]
+    grid = np.stack(np.meshgrid(*[np.arange(r.start, r.stop) for r in ranges], indexing="ij"),
+                    axis=-1).reshape(-1, len(ranges)) if ranges else np.zeros((1, 0), int)
+    return [tuple(int(x) for x in row) for row in grid], [len(r) for r in ranges]
+
+
+def estimate_bytes(scene: Scene) -> int:
+    """Upper estimate of the output file size (uncompressed)."""
+    n = int(np.prod(scene.shape or (1,))) * scene.n_ic
+    per = 2 * 8 + 1 + 4 + 4 + 16
+    if "impacts" in scene.keep:
+        per += 5 * 8 * scene.record
+    if "section" in scene.keep:
+        per += 2 * 8 * scene.record
+    return n * per
+
+
+# ------------------------------------------------------------------ the sweep
+def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
+              overwrite: bool = False, progress: bool = False, command: str = "",
+              echo=None) -> str:
+    """Run a scene to ``out_path``; return the path of the finished file."""
+    import h5py
+    import numba
+
+    if scene.model != "flow":
+        raise SceneError([f"scene.model: {scene.model!r} is not implemented yet"])
+    partial = out_path + ".partial"
+    lock_path = out_path + ".lock"
+    if os.path.exists(out_path) and not overwrite:
+        raise SweepError(f"{out_path} exists; pass --overwrite to replace it")
+    lock = open(lock_path, "w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise SweepError(f"{out_path}: another sweep is writing this output (lock {lock_path} "
+                         "is held)") from None
+    try:
+        if threads:
+            numba.set_num_threads(int(threads))
+        if os.path.exists(partial):
+            if resume:
+                f = _reopen(partial, scene)
+            elif overwrite:
+                os.remove(partial)
+                f = None
+            else:
+                raise SweepError(f"{partial} holds an interrupted sweep; pass --resume to "
+                                 "complete it or --overwrite to start again")
+        else:
+            f = None
+        if f is None:
+            free = _free_bytes(os.path.dirname(os.path.abspath(out_path)))
+            need = estimate_bytes(scene)
+            if free is not None and need > free:
+                raise SweepError(f"the output needs up to {need / 2**30:.2f} GiB but only "
+                                 f"{free / 2**30:.2f} GiB are free; shrink the grid or keep less")
+            f = io.create(partial, scene, scene.n_ic, command=command, versions=io.versions())
+            f.swmr_mode = True
+        try:
+            _run_blocks(scene, f, progress)
+        except KeyboardInterrupt:
+            f.close()
+            raise SweepError(f"interrupted; finished points are kept in {partial}; "
+                             "run again with --resume to complete it") from None
+        except OSError as e:
+            try:
+                f.close()
+            except Exception:  # noqa: BLE001
+                pass
+            raise SweepError(f"writing {partial} failed ({e}); finished points are kept; "
+                             "free space and run again with --resume") from None
+        f.close()
+        with h5py.File(partial, "r+") as g:
+            g.attrs["completed"] = io._now()
+            counts = np.bincount(g["status"][...].ravel().astype(np.int64) + 1, minlength=9)
+            g.attrs["status_counts"] = str({S.NAMES.get(i - 1, "NOT_RUN"): int(c)
+                                            for i, c in enumerate(counts) if c})
+        os.replace(partial, out_path)
+        return out_path
+    finally:
+        fcntl.flock(lock, fcntl.LOCK_UN)
+        lock.close()
+        try:
+            os.remove(lock_path)
+        except OSError:
+            pass
+
+
+def _free_bytes(d):
+    try:
+        st = os.statvfs(d)
+        return st.f_bavail * st.f_frsize
+    except OSError:
+        return None
+
+
+def _reopen(partial, scene):
+    import h5py
+    try:
+        f = h5py.File(partial, "r+", libver="latest")
+    except OSError as e:
+        raise SweepError(f"{partial}: cannot reopen to resume ({e}); start again with "
+                         "--overwrite") from None
+    if f.attrs.get("scene_hash") != scene.hash:
+        f.close()
+        raise SweepError(f"{partial}: the scene differs from the one this file was started with; "
+                         "--resume needs the same scene (or --overwrite to start again)")
+    f.swmr_mode = True
+    return f
+
+
+def _run_blocks(scene, f, progress):
+    ints = int_settings(scene)
+    G = scene.shape
+    done = f["done"][...]
+    todo = [b for b in blocks(scene) if not np.all(done[b])]
+    total = len(blocks(scene))
+    bar = None
+    if progress:
+        import click
+        bar = click.progressbar(length=total, label=f"sweep {scene.name}", file=sys.stderr,
+                                show_pos=True, show_eta=True)
+        bar.__enter__()
+        bar.update(total - len(todo))
+    carry = None  # follow: final states of the previous grid slab
+    if scene.follow != "none" and todo:
+        carry = _carry_from_file(scene, f, blocks(scene), todo[0])
+    try:
+        for blk in todo:
+            idx, sub = _indices(scene, blk)
+            params = pack_points(scene, idx)
+            flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
+            kap = params[:, P.KAPPA]
+            ics = draw_initial(scene, flat, kap)
+            if carry is not None:
+                ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > kap[:, None])
+                ics = np.where(ok[..., None], carry, ics)
+            n = len(idx) * scene.n_ic
+            prm = np.repeat(params, scene.n_ic, axis=0)
+            out, st, final, period, ipc, sym = run_items(prm, ics.reshape(n, 2), ints, scene)
+            shape = tuple(sub) + (scene.n_ic,)
+            block = {"initial/u": ics[..., 0].reshape(shape), "initial/v": ics[..., 1].reshape(shape),
+                     "status": st.reshape(shape), "period": period.reshape(shape),
+                     "impacts_per_cycle": ipc.reshape(shape),
+                     "symbols": _words(sym).reshape(shape),
+                     "final/u": final[:, 0].reshape(shape), "final/v": final[:, 1].reshape(shape)}
+            if "impacts" in scene.keep:
+                for k in io.IMPACT_FIELDS:
+                    block[f"impacts/{k}"] = out[k].reshape(shape + (scene.record,))
+            if "section" in scene.keep:
+                block["section/u"] = out["su"].reshape(shape + (scene.record,))
+                block["section/v"] = out["sv"].reshape(shape + (scene.record,))
+            io.write_block(f, blk, block)
+            if scene.follow != "none":
+                carry = final.reshape(len(idx), scene.n_ic, 2)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.__exit__(None, None, None)
+
+
+def _carry_from_file(scene, f, all_blocks, first_todo):
+    """On resume of a followed sweep: the final states of the previous slab."""
+    i = all_blocks.index(first_todo)
+    if i == 0:
+        return None
+    prev = all_blocks[i - 1]
+    carry = np.stack([f["final/u"][prev], f["final/v"][prev]], -1)
+    return carry.reshape(-1, scene.n_ic, 2)
