@@ -51,7 +51,7 @@ def main():
 def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress):
     """Run SCENE.toml and write the diagram to HDF5."""
     scene = _load(scene_path, sets)
-    from .sweep import SweepError, estimate_bytes, run_sweep
+    from .sweep import SweepError, SweepInterrupted, estimate_bytes, run_sweep
     out = out or f"{scene.name}.h5"
     import numpy as np
     n_points = int(np.prod(scene.shape or (1,)))
@@ -66,8 +66,10 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress):
     try:
         path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
                          progress=progress, command=" ".join(["cornerbif"] + sys.argv[1:]))
+    except SweepInterrupted as e:
+        _fail(str(e), 130)
     except SweepError as e:
-        _fail(str(e), 1 if "interrupted" in str(e) else 2)
+        _fail(str(e))
     click.echo(f"wrote {path}")
 
 

@@ -94,6 +94,9 @@ def draw_corner_points(ax, data: PlotData):
         marks = [(theory.omega_C(kap, r, beta), r"$\omega_C$", "tab:red"),
                  (theory.omega_CC(kap, r, beta), r"$\omega_{CC}$", "tab:blue")]
     arts = []
+    if a == "kappa":
+        # the height of the corner itself, z(t_k) = kappa (the solid line of Fig. 7b)
+        arts += ax.plot([lo, hi], [lo, hi], color="0.6", lw=0.6, label=r"corner $z(t_k)=\kappa$")
     for x, lab, c in marks:
         if math.isfinite(x) and lo <= x <= hi:
             arts.append(ax.axvline(x, color=c, lw=0.8, ls="--", label=f"{lab} = {x:.6g}"))
@@ -157,7 +160,8 @@ def figure(paths, out, y=None, title=None):
                 lab = f"follow {d.follow}" if d.follow != "none" else d.scene["scene"]["name"]
             draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6),
                              color=colors[i % len(colors)], label=lab)
-        draw_corner_points(ax, d0)
+        if kind == "impact_u":
+            draw_corner_points(ax, d0)
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
         ax.set_ylabel(YLABELS[kind])
@@ -171,7 +175,9 @@ def figure(paths, out, y=None, title=None):
     if "ylim" in plot_cfg:
         ax.set_ylim(*plot_cfg["ylim"])
     sc = d0.scene.get("scene", {})
-    ax.set_title(title or plot_cfg.get("title") or sc.get("title", sc.get("name", "")), fontsize=9)
+    import textwrap
+    ax.set_title("\n".join(textwrap.wrap(title or plot_cfg.get("title")
+                                          or sc.get("title", sc.get("name", "")), 80)), fontsize=9)
     if not all(d.complete for d in datas):
         ax.text(0.99, 0.01, "incomplete sweep", transform=ax.transAxes, ha="right", va="bottom",
                 color="r", fontsize=8)

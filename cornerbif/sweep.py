@@ -32,6 +32,10 @@ class SweepError(Exception):
     """A sweep that cannot start or continue; the message says what to do."""
 
 
+class SweepInterrupted(SweepError):
+    """The sweep was interrupted; finished points are kept in the partial file."""
+
+
 # ------------------------------------------------------------------ initial conditions
 def _splitmix64(x):
     x = (x + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
@@ -206,7 +210,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             _run_blocks(scene, f, progress)
         except KeyboardInterrupt:
             f.close()
-            raise SweepError(f"interrupted; finished points are kept in {partial}; "
+            raise SweepInterrupted(f"interrupted; finished points are kept in {partial}; "
                              "run again with --resume to complete it") from None
         except OSError as e:
             try:
@@ -314,3 +318,53 @@ def _carry_from_file(scene, f, all_blocks, first_todo):
     prev = all_blocks[i - 1]
     carry = np.stack([f["final/u"][prev], f["final/v"][prev]], -1)
     return carry.reshape(-1, scene.n_ic, 2)
+
+
+# ------------------------------------------------------------------ one run, from Python
+def simulate(u0, v0, transient=0, record=100, obstacle="rectified_sine", tol=1e-12,
+             chatter=1e-6, escape=1e6, period_tol=1e-6, section_period=None,
+             max_events=None, max_periods=None, **system):
+    """Run the flow model for one or many initial states (u0, v0) at t = 0.
+
+    ``system`` takes the names of ``[system]`` (omega, kappa, beta, r, sigma, k,
+    F, Omega, phi, theta1, theta2), each a scalar or an array broadcast against
+    u0.  Returns a dict of arrays: impacts (t, u, v_in, v_out, corner_offset),
+    section (su, sv), status, final, period, impacts_per_cycle, symbols.
+    Parameters are validated exactly as a scene's.
+    """
+    from .config import FLOW_PARAMS, from_dict
+    raw = {"system": {"obstacle": obstacle}, "run": {"transient": transient, "record": record,
+                                                     "tol": tol, "chatter": chatter,
+                                                     "escape": escape, "period_tol": period_tol}}
+    if max_events is not None:
+        raw["run"]["max_events"] = max_events
+    if max_periods is not None:
+        raw["run"]["max_periods"] = max_periods
+    arrays = {k: np.atleast_1d(np.asarray(v, float)) for k, v in system.items() if v is not None}
+    u0 = np.atleast_1d(np.asarray(u0, float))
+    v0 = np.atleast_1d(np.asarray(v0, float))
+    shape = np.broadcast_shapes(u0.shape, v0.shape, *[a.shape for a in arrays.values()])
+    flat = {k: np.broadcast_to(a, shape).ravel() for k, a in arrays.items()}
+    n = int(np.prod(shape))
+    for k, a in flat.items():
+        raw["system"][k] = float(a[0])
+    if section_period is not None:
+        raw["system"]["section_period"] = section_period
+    raw["initial"] = {"u": [float(u0.max()) + 1.0, float(u0.max()) + 2.0]}
+    scene = from_dict(raw)
+    params = np.empty((n, P.NPARAM))
+    for i in range(n):
+        vals = dict(scene.system)
+        for k, a in flat.items():
+            if k not in FLOW_PARAMS:
+                raise TypeError(f"simulate() got an unknown parameter {k!r}")
+            vals[k] = float(a[i])
+        params[i] = P.pack(vals, obstacle, tol, chatter, escape, section_period)
+    ics = np.stack([np.broadcast_to(u0, shape).ravel(), np.broadcast_to(v0, shape).ravel()], -1)
+    out, st, final, period, ipc, sym = run_items(params, np.ascontiguousarray(ics),
+                                                 int_settings(scene), scene)
+    res = {k: v.reshape(shape + (record,)) for k, v in out.items()}
+    res.update(status=st.reshape(shape), final=final.reshape(shape + (2,)),
+               period=period.reshape(shape), impacts_per_cycle=ipc.reshape(shape),
+               symbols=_words(sym).reshape(shape))
+    return res
