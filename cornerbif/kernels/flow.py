@@ -33,7 +33,7 @@ from .._jit import jit, pjit
 from ..models import params as P
 from ..models.impact import restitution
 from ..models.obstacle import (D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
-                               zpp_range, z_state)
+                               zpp_range, zppp_max, z_state)
 from ..models.oscillator import amplitude, derive, forcing, homogeneous, particular, upp_bound
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
 
@@ -82,8 +82,13 @@ def evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s):
 
 
 @jit
-def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, tol, skip_first):
+def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, tol, skip_first):
     """First root of the function ``kind`` on [s0, s_end]; see ``roots``.
+
+    ``lo2 <= f'' <= hi2`` on the whole rest of the piece; ``m3 >= |f'''|`` (inf if
+    unknown) tightens those bounds locally: on [s, s + H], f'' lies within
+    f''(s) +- m3 H.  H is 1.25 times the root predicted with the exact curvature,
+    so near a transversal root the bracket closes at third order.
 
     Returns (code, s): code FOUND with the root, NONE with s_end, FAIL when the
     step budget ran out.  ``skip_first`` ignores f <= 0 at s0 (the point just
@@ -92,17 +97,34 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, tol,
     s = s0
     f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     first = skip_first
+    local = m3 < math.inf
     for _ in range(MAXIT):
         if not (f == f):
             return FAIL, s
         if not first and f <= 0.0:
             return FOUND, s
         first = False
+        rest = s_end - s
         hlo = quad_first_root(f, fp, lo2)
-        if s + hlo >= s_end:
+        if hlo >= rest:
             return NONE, s_end
         hup = quad_first_root(f, fp, hi2)
-        if hup - hlo <= tol and s + hup <= s_end:
+        if local:
+            H = 1.25 * quad_first_root(f, fp, fpp)
+            if H > rest:
+                H = rest
+            if H > hlo:
+                h1 = quad_first_root(f, fp, max(lo2, fpp - m3 * H))
+                if h1 >= H:
+                    h1 = H            # no root in [s, s + H]
+                    if H == rest:
+                        return NONE, s_end
+                if h1 > hlo:
+                    hlo = h1
+                h2 = quad_first_root(f, fp, min(hi2, fpp + m3 * H))
+                if h2 <= H and h2 < hup:
+                    hup = h2
+        if hup - hlo <= tol and hup <= rest:
             return FOUND, s + hlo
         if hlo < tol:
             if fp < 0.0 or (fpp < 0.0 and fp <= 0.0):
@@ -114,12 +136,6 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, tol,
             s = s + hlo
         f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     return FAIL, s
-
-
-@jit
-def force_bounds(p, d):
-    """Bounds of N'' on any piece (for the certified search on N)."""
-    return -d[D_NPP], d[D_NPP]
 
 
 @jit
@@ -168,6 +184,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     events = 0
     pieces = 0
     wd = d[D_WD]
+    zppp_bound = zppp_max(p)
     underdamped = d[D_REGIME] == 0.0
 
     while True:
@@ -175,7 +192,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
         if stuck:
             # ---- sticking on piece j from tau_s -----------------------------------
             code, s = first_root(FORCE, p, d, j, tau_s, 0.0, 0.0, 0.0, L - tau_s,
-                                 -d[D_NPP], d[D_NPP], tol, False)
+                                 -d[D_NPP], d[D_NPP], math.inf, tol, False)
             if code == FAIL:
                 return S.STEP_LIMIT
             if code == FOUND:
@@ -190,7 +207,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 vh_ref = zp - vp
                 tau_ref = tau_rel
                 code2, sb = first_root(NEGFORCE, p, d, j, tau_rel, 0.0, 0.0, 0.0, L - tau_rel,
-                                       -d[D_NPP], d[D_NPP], tol, True)
+                                       -d[D_NPP], d[D_NPP], math.inf, tol, True)
                 if code2 == FAIL:
                     return S.STEP_LIMIT
                 s_free = sb
@@ -270,10 +287,10 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             return S.NONFINITE
         if amp > escape:
             return S.ESCAPED
-        bu = upp_bound(p, d, uh_ref, vh_ref)
+        bu, bu3 = upp_bound(p, d, uh_ref, vh_ref)
         zlo, zhi = zpp_range(p, j)
         code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s_start, L - tau_ref,
-                             -bu - zhi, bu - zlo, tol, skip)
+                             -bu - zhi, bu - zlo, bu3 + zppp_bound, tol, skip)
         if code == FAIL:
             return S.STEP_LIMIT
         uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)

@@ -75,6 +75,14 @@ def zpp_range(p, j):
 
 
 @jit
+def zppp_max(p):
+    """Bound of |z'''| on every piece."""
+    if p[P.OBSTACLE] == P.TRIANGLE:
+        return 0.0
+    return p[P.BETA] * p[P.OMEGA] ** 3
+
+
+@jit
 def is_valley_corner(p, j):
     """True when the start of piece j is a corner where the slope jumps up (Gamma_k)."""
     ob = p[P.OBSTACLE]

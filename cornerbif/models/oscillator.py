@@ -117,11 +117,13 @@ def homogeneous(p, d, uh0, vh0, s):
 
 @jit
 def upp_bound(p, d, uh0, vh0):
-    """Bound of |u''| over the whole future flight from the homogeneous state (uh0, vh0).
+    """Bounds of |u''| and |u'''| over the whole future flight from (uh0, vh0).
 
-    Under-damped: u_h = R e^{-sigma s} cos(w_d s - psi) gives |u_h''| <= R k^2;
-    critically damped: |u_h''| <= sigma^2 |A| + 2 sigma |B|; over-damped:
-    |c1| l1^2 + |c2| l2^2; plus Omega^2 |(X, Y)| for the particular solution.
+    Under-damped: u_h = R e^{-sigma s} cos(w_d s - psi), and each derivative
+    multiplies the envelope by at most k, so |u_h''| <= R k^2, |u_h'''| <= R k^3;
+    critically damped (u_h = e^{-sigma s}(A + B s)): |u_h''| <= sigma^2 |A| + 2 sigma |B|,
+    |u_h'''| <= sigma^3 |A| + 3 sigma^2 |B|; over-damped: sum of |c_i| |l_i|^n.
+    The particular solution adds Omega^n |(X, Y)|.
     """
     sig = p[P.SIGMA]
     reg = d[D_REGIME]
@@ -129,17 +131,22 @@ def upp_bound(p, d, uh0, vh0):
         wd = d[D_WD]
         B = (vh0 + sig * uh0) / wd
         amp = math.sqrt(uh0 * uh0 + B * B)
-        hb = amp * p[P.K] * p[P.K]
+        k = p[P.K]
+        hb = amp * k * k
+        hb3 = hb * k
     elif reg == 1.0:
         B = vh0 + sig * uh0
         hb = sig * sig * abs(uh0) + 2.0 * sig * abs(B)
+        hb3 = sig * sig * sig * abs(uh0) + 3.0 * sig * sig * abs(B)
     else:
         l1 = d[D_LAM1]
         l2 = d[D_LAM2]
         c1 = (vh0 - l2 * uh0) / (l1 - l2)
         c2 = uh0 - c1
         hb = abs(c1) * l1 * l1 + abs(c2) * l2 * l2
-    return hb + d[D_UPP_PART]
+        hb3 = abs(c1) * abs(l1) ** 3 + abs(c2) * abs(l2) ** 3
+    W = p[P.F_OMEGA]
+    return hb + d[D_UPP_PART], hb3 + d[D_UPP_PART] * W
 
 
 @jit
