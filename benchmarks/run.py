@@ -1,0 +1,264 @@
+"""The benchmark suite: speed, scaling, start-up, memory, and the tolerance trade.
+
+    python benchmarks/run.py [--smoke] [--out DIR]
+
+writes DIR/results.json, DIR/report.md and DIR/tolerance.png.  ``--smoke`` runs
+tiny sizes (CI runs it so the suite cannot rot); the numbers in the README come
+from a full run on the machine named in the report.
+
+Everything is measured in one run, and performance is reported as ratios against
+the peers measured in the same run (this machine is shared and noisy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+
+
+def _scene(name, **over):
+    from cornerbif import config
+    sets = [f"{k}={v}" for k, v in over.items()]
+    return config.load(os.path.join(ROOT, "configs", f"{name}.toml"), sets)
+
+
+def _items(scene):
+    """Parameter rows and initial conditions of a whole scene (no file I/O)."""
+    from cornerbif import sweep
+    G = scene.shape
+    idx = [tuple(i) for i in np.ndindex(*G)]
+    params = sweep.pack_points(scene, idx)
+    flat = np.arange(len(idx))
+    from cornerbif.models import params as P
+    ics = sweep.draw_initial(scene, flat, params[:, P.KAPPA])
+    prm = np.repeat(params, scene.n_ic, axis=0)
+    return prm, ics.reshape(-1, 2)
+
+
+def bench_flow(scene, threads, repeat=3):
+    """Impacts per second of the flow kernel (+ cycle analysis) on a whole scene."""
+    import numba
+
+    from cornerbif import sweep
+    prm, ics = _items(scene)
+    ints = sweep.int_settings(scene)
+    old = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        sweep.run_items(prm[:8], ics[:8], ints, scene)        # warm
+        best = math.inf
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            _, st, *_ = sweep.run_items(prm, ics, ints, scene)
+            best = min(best, time.perf_counter() - t0)
+    finally:
+        numba.set_num_threads(old)
+    n_imp = len(prm) * (scene.transient + scene.record)
+    return {"items": len(prm), "impacts": n_imp, "seconds": best,
+            "impacts_per_second": n_imp / best, "ok_fraction": float(np.mean(st == 0))}
+
+
+def bench_peer(n_omega, n_starts, n_impacts, method):
+    import peer_scipy
+    om = np.linspace(1.5, 2.5, n_omega)
+    res = peer_scipy.sweep_peer(om, kappa=0.0, beta=1.0, r=0.8, n_starts=n_starts,
+                                n_impacts=n_impacts, seed=1, method=method, rtol=1e-9, atol=1e-12)
+    return {k: res[k] for k in ("total_impacts", "total_seconds", "impacts_per_second",
+                                "total_misses", "miss_fraction")}
+
+
+def _sweep_cmd(args, env):
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "cornerbif.cli"] + args, env=env,
+                       capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise RuntimeError(p.stderr)
+    return dt
+
+
+def bench_startup(tmp):
+    """Cold (empty numba cache) and cached wall time of a tiny `cornerbif sweep`."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "numba-cache"))
+    scene = os.path.join(ROOT, "configs", "fig06a.toml")
+    args = ["sweep", scene, "-o", os.path.join(tmp, "s.h5"), "--overwrite", "--no-progress",
+            "--set", "sweep.kappa.num=3", "--set", "initial.count=2"]
+    cold = _sweep_cmd(args, env)
+    cached = min(_sweep_cmd(args, env) for _ in range(3))
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "import cornerbif.cli"], env=env, check=True)
+    imp = time.perf_counter() - t0
+    return {"cold_seconds": cold, "cached_seconds": cached, "import_seconds": imp}
+
+
+def bench_memory(tmp, base):
+    """Peak RSS of `cornerbif sweep` as the grid grows 1x, 10x, 100x."""
+    out = {}
+    code = ("import resource, sys; from cornerbif.cli import main\n"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            "print('MAXRSS', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+    scene = os.path.join(ROOT, "configs", "fig06a.toml")
+    for mult in (1, 10, 100):
+        p = subprocess.run([sys.executable, "-c", code, "sweep", scene, "-o",
+                            os.path.join(tmp, f"m{mult}.h5"), "--overwrite", "--no-progress",
+                            "--set", f"sweep.kappa.num={base * mult}", "--set", "initial.count=2",
+                            "--set", "run.transient=50", "--set", "run.record=50"],
+                           capture_output=True, text=True)
+        line = [x for x in p.stdout.splitlines() if x.startswith("MAXRSS")]
+        out[f"x{mult}"] = {"grid": base * mult, "peak_rss_mib": int(line[0].split()[1]) / 1024}
+    r = out["x100"]["peak_rss_mib"] / out["x1"]["peak_rss_mib"]
+    out["ratio_100x_to_1x"] = r
+    return out
+
+
+def bench_tolerance(n_runs, n_impacts, tols):
+    """Impact-time error against the slow reference (brentq to 1e-15) and throughput, per tol."""
+    import naive
+
+    from cornerbif.sweep import simulate
+    rng = np.random.default_rng(2)
+    w = rng.uniform(1.5, 2.5, n_runs)
+    u0 = rng.uniform(0.1, 20, n_runs)
+    v0 = rng.uniform(-20, 20, n_runs)
+    refs = [naive.naive_impacts("rectified_sine", w[i], 0.0, 1.0, 0.8, u0[i], v0[i], n_impacts,
+                                dt=2e-3) for i in range(n_runs)]
+    rows = []
+    for tol in tols:
+        res = simulate(u0, v0, transient=0, record=n_impacts, omega=w, kappa=0.0, r=0.8, tol=tol,
+                       chatter=1e-12)
+        errs = []
+        for i, ref in enumerate(refs):
+            m = min(len(ref), 5)   # the first impacts: one-step errors before chaos amplifies them
+            errs += list(np.abs(res["t"][i, :m] - ref[:m, 0]))
+        # throughput at this tolerance on a larger batch
+        big = 20 * n_runs
+        ww = np.resize(w, big)
+        t0 = time.perf_counter()
+        simulate(np.resize(u0, big), np.resize(v0, big), transient=0, record=200, omega=ww,
+                 kappa=0.0, r=0.8, tol=tol)
+        dt = time.perf_counter() - t0
+        rows.append({"tol": tol, "median_error": float(np.median(errs)),
+                     "max_error": float(np.max(errs)), "impacts_per_second": big * 200 / dt})
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--smoke", action="store_true", help="tiny sizes (CI)")
+    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    a = ap.parse_args(argv)
+    os.makedirs(a.out, exist_ok=True)
+    smoke = a.smoke
+    res = {"machine": {"platform": platform.platform(), "processor": platform.processor(),
+                       "cpus": os.cpu_count(), "python": sys.version.split()[0]},
+           "smoke": smoke, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+    import numba
+    res["machine"]["numba"] = numba.__version__
+    ncores = min(2, os.cpu_count() or 1)
+
+    fig04c = _scene("fig04c", **({"sweep.omega.num": 20} if smoke else {}))
+    fig06a = _scene("fig06a", **({"sweep.kappa.num": 20} if smoke else {}))
+    print("flow, Fig. 4(c) scene ...", flush=True)
+    res["flow_fig04c_1thread"] = bench_flow(fig04c, 1, 1 if smoke else 3)
+    res["flow_fig04c_2threads"] = bench_flow(fig04c, ncores, 1 if smoke else 3)
+    res["speedup_2cores"] = (res["flow_fig04c_1thread"]["seconds"]
+                             / res["flow_fig04c_2threads"]["seconds"])
+    res["flow_fig06a_1thread"] = bench_flow(fig06a, 1, 1 if smoke else 3)
+
+    print("peers (solve_ivp) ...", flush=True)
+    res["peer_dop853"] = bench_peer(3 if smoke else 20, 2, 20 if smoke else 150, "DOP853")
+    res["peer_rk45"] = bench_peer(2 if smoke else 10, 2, 20 if smoke else 100, "RK45")
+    per_core = res["flow_fig04c_1thread"]["impacts_per_second"]
+    res["ratio_vs_dop853"] = per_core / res["peer_dop853"]["impacts_per_second"]
+    res["ratio_vs_rk45"] = per_core / res["peer_rk45"]["impacts_per_second"]
+
+    with tempfile.TemporaryDirectory() as tmp:
+        print("start-up ...", flush=True)
+        res["startup"] = bench_startup(tmp)
+        print("memory ...", flush=True)
+        res["memory"] = bench_memory(tmp, 5 if smoke else 200)
+
+    print("tolerance trade ...", flush=True)
+    tols = [1e-6, 1e-10, 1e-14] if smoke else [1e-6, 1e-8, 1e-10, 1e-12, 1e-14]
+    res["tolerance"] = bench_tolerance(3 if smoke else 40, 10, tols)
+
+    with open(os.path.join(a.out, "results.json"), "w") as fh:
+        json.dump(res, fh, indent=2)
+    report = render(res)
+    with open(os.path.join(a.out, "report.md"), "w") as fh:
+        fh.write(report)
+    plot_tolerance(res, os.path.join(a.out, "tolerance.png"))
+    print(report)
+
+
+def render(r):
+    f = r["flow_fig04c_1thread"]
+    L = [f"# Benchmark report{' (SMOKE: tiny sizes, numbers meaningless)' if r['smoke'] else ''}",
+         "", f"Machine: {r['machine']['platform']}, {r['machine']['cpus']} CPUs, Python "
+         f"{r['machine']['python']}, numba {r['machine']['numba']}; {r['date']}.",
+         "Command: `python benchmarks/run.py`", "",
+         "| quantity | value | target |", "|---|---|---|",
+         f"| flow, Fig. 4(c) scene, 1 thread | {f['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
+         f"| flow, Fig. 6(a) scene, 1 thread | "
+         f"{r['flow_fig06a_1thread']['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
+         f"| solve_ivp DOP853 loop (rtol 1e-9), same scene | "
+         f"{r['peer_dop853']['impacts_per_second']:.0f} impacts/s, "
+         f"{r['peer_dop853']['miss_fraction'] * 100:.2f} % misses | |",
+         f"| solve_ivp RK45 loop | {r['peer_rk45']['impacts_per_second']:.0f} impacts/s | |",
+         f"| flow per core / DOP853 loop | {r['ratio_vs_dop853']:.0f}x | >= 3000x |",
+         f"| flow per core / RK45 loop | {r['ratio_vs_rk45']:.0f}x | |",
+         f"| speed-up on 2 cores | {r['speedup_2cores']:.2f}x | >= 1.8x |",
+         f"| `cornerbif sweep` cold (empty cache) | {r['startup']['cold_seconds']:.1f} s | |",
+         f"| `cornerbif sweep` cached start-up | {r['startup']['cached_seconds']:.2f} s | < 1.5 s |",
+         f"| `import cornerbif.cli` | {r['startup']['import_seconds']:.2f} s | |",
+         f"| peak memory, grid 1x / 10x / 100x | "
+         f"{r['memory']['x1']['peak_rss_mib']:.0f} / {r['memory']['x10']['peak_rss_mib']:.0f} / "
+         f"{r['memory']['x100']['peak_rss_mib']:.0f} MiB | flat within 20 % |",
+         "", "## Event tolerance against impact-time error and throughput", "",
+         "Error: first five impacts of random flights (omega in [1.5, 2.5]) against "
+         "tests/naive.py (exhaustive search, brentq to 1e-15).", "",
+         "| tol | median error | max error | impacts/s (2 threads) |", "|---|---|---|---|"]
+    for row in r["tolerance"]:
+        L.append(f"| {row['tol']:.0e} | {row['median_error']:.1e} | {row['max_error']:.1e} | "
+                 f"{row['impacts_per_second'] / 1e6:.2f} M |")
+    L.append("")
+    return "\n".join(L)
+
+
+def plot_tolerance(r, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = r["tolerance"]
+    tol = [x["tol"] for x in rows]
+    fig, ax = plt.subplots(1, 2, figsize=(8, 3.2), dpi=120)
+    ax[0].loglog(tol, [max(x["max_error"], 1e-17) for x in rows], "o-", label="max")
+    ax[0].loglog(tol, [max(x["median_error"], 1e-17) for x in rows], "s-", label="median")
+    ax[0].loglog(tol, tol, "k:", label="tol")
+    ax[0].set_xlabel("run.tol")
+    ax[0].set_ylabel("impact-time error")
+    ax[0].legend(fontsize=7)
+    ax[1].semilogx(tol, [x["impacts_per_second"] / 1e6 for x in rows], "o-")
+    ax[1].set_xlabel("run.tol")
+    ax[1].set_ylabel("M impacts / s")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
