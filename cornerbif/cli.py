@@ -48,7 +48,9 @@ def main():
 @click.option("--dry-run", is_flag=True, help="Validate, print the work and output estimate, run nothing.")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: when stderr is a terminal).")
-def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress):
+@click.option("--block-points", type=click.IntRange(min=1), default=None,
+              help="Grid points per block (the unit that is written and marked done).")
+def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, block_points):
     """Run SCENE.toml and write the diagram to HDF5."""
     scene = _load(scene_path, sets)
     from .sweep import SweepError, SweepInterrupted, estimate_bytes, run_sweep
@@ -65,12 +67,29 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress):
         progress = sys.stderr.isatty() and not os.environ.get("CI")
     try:
         path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
-                         progress=progress, command=" ".join(["cornerbif"] + sys.argv[1:]))
+                         progress=progress, command=_command_line(scene_path, out, sets, threads,
+                                                                  resume, overwrite, block_points),
+                         block_points=block_points)
     except SweepInterrupted as e:
         _fail(str(e), 130)
     except SweepError as e:
         _fail(str(e))
     click.echo(f"wrote {path}")
+
+
+def _command_line(scene_path, out, sets, threads, resume, overwrite, block_points):
+    """The sweep command as run, for the file's provenance."""
+    import shlex
+    parts = ["cornerbif", "sweep", scene_path, "-o", out]
+    for s in sets:
+        parts += ["--set", s]
+    if threads:
+        parts += ["--threads", str(threads)]
+    if block_points:
+        parts += ["--block-points", str(block_points)]
+    parts += ["--resume"] if resume else []
+    parts += ["--overwrite"] if overwrite else []
+    return " ".join(shlex.quote(str(p)) for p in parts)
 
 
 @main.command()

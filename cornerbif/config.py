@@ -508,6 +508,8 @@ def from_dict(raw) -> Scene:
                 "max_events": max_events, "max_periods": max_periods},
         "output": {"keep": list(keep)},
     }
+    if not axes:
+        del as_run["sweep"]
     if section_period is not None:
         as_run["system"]["section_period"] = section_period
     if plot:

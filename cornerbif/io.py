@@ -12,7 +12,7 @@ Layout (public, keep these names)::
     /section/u, v    G + (n_ic, record)
     /status          G + (n_ic,) int8 (names in its attribute ``codes``)
     /period, /impacts_per_cycle   G + (n_ic,) int32
-    /symbols         G + (n_ic,) variable-length UTF-8 string
+    /symbols         G + (n_ic,) fixed-length ASCII string (record // 2 bytes, NUL-padded)
     /final/u, v      G + (n_ic,): state at the last section crossed (what follow carries)
     /done            G uint8: 1 where the grid point is complete
 
@@ -88,18 +88,15 @@ def create(path, scene, n_ic, command="", versions=None):
     recd.attrs["long_name"] = "recorded event index"
 
     def make(name, shape, dtype, fill, scales, **attrs):
-        nb = np.dtype(dtype).itemsize if dtype is not str else 16
+        nb = np.dtype(dtype).itemsize
         trailing = int(np.prod(shape[len(G):])) if len(shape) > len(G) else 1
         per = max(1, (256 * 1024) // max(1, trailing * nb))
         ch = [1] * len(G) + list(shape[len(G):])
         if G:
             ch[len(G) - 1] = min(G[-1], per)
         kw = dict(chunks=tuple(ch) if shape else None)
-        if dtype is str:
-            ds = f.create_dataset(name, shape=shape, dtype=h5py.string_dtype("utf-8"), **kw)
-        else:
-            ds = f.create_dataset(name, shape=shape, dtype=dtype, fillvalue=fill,
-                                  compression="gzip", compression_opts=4, shuffle=True, **kw)
+        ds = f.create_dataset(name, shape=shape, dtype=dtype, fillvalue=fill,
+                              compression="gzip", compression_opts=4, shuffle=True, **kw)
         for i, sc in enumerate(scales):
             ds.dims[i].attach_scale(sc)
         for k, v in attrs.items():
@@ -129,7 +126,9 @@ def create(path, scene, n_ic, command="", versions=None):
     make("period", G + (n_ic,), "i4", 0, gsc + [ic],
          long_name="clusters per cycle (Poincare-map iterates near omega = 2); 0: none found")
     make("impacts_per_cycle", G + (n_ic,), "i4", 0, gsc + [ic], long_name="impacts per cycle")
-    make("symbols", G + (n_ic,), str, None, gsc + [ic],
+    # fixed length (no global heap): a period needs two cycles in the window, so at
+    # most record // 2 letters; stays consistent for readers of an interrupted file
+    make("symbols", G + (n_ic,), symbol_dtype(rec), b"", gsc + [ic],
          long_name="cycle word: a alpha, b beta, g gamma, x other; smallest rotation")
     d = f.create_dataset("done", shape=G, dtype="u1", fillvalue=0,
                          chunks=(tuple([1] * (len(G) - 1) + [min(G[-1], 65536)]) if G else None))
@@ -137,6 +136,11 @@ def create(path, scene, n_ic, command="", versions=None):
         d.dims[i].attach_scale(sc)
     d.attrs["long_name"] = "1 where the grid point is complete"
     return f
+
+
+def symbol_dtype(record):
+    """Fixed-length ASCII dtype of the ``symbols`` dataset."""
+    return h5py.string_dtype("ascii", max(1, record // 2))
 
 
 def write_block(f, index, block):
@@ -163,8 +167,15 @@ def check_readable(path):
         raise FileFormatError(f"{path}: not an HDF5 file")
     try:
         f = h5py.File(path, "r", locking=False)
-    except Exception as e:  # noqa: BLE001 - h5py raises a zoo of errors for damaged files
-        raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e})") from None
+    except Exception as e0:  # noqa: BLE001 - h5py raises a zoo of errors for damaged files
+        if "already open for write" not in str(e0):
+            raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e0})") from None
+        try:
+            # a sweep killed while writing leaves HDF5's "open for writing" flags set;
+            # its single-writer/multiple-reader layout still reads consistently
+            f = h5py.File(path, "r", swmr=True, locking=False)
+        except Exception as e:  # noqa: BLE001
+            raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e})") from None
     try:
         if f.attrs.get("format") != "cornerbif":
             raise FileFormatError(f"{path}: not a cornerbif file (root attribute format is "

@@ -118,17 +118,30 @@ def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scen
     return out, st, final, period, ipc, sym
 
 
+def _symbol_bytes(sym, record):
+    """uint8 word rows -> fixed-length byte strings for the file (no Python objects)."""
+    L = max(1, record // 2)
+    return np.ascontiguousarray(sym[:, :L]).view(f"S{L}").reshape(sym.shape[0])
+
+
 def _words(sym):
     from .analysis import words
     return words(sym)
 
 
 # ------------------------------------------------------------------ blocks
-def blocks(scene: Scene):
-    """Grid slabs in execution order: list of index tuples (of slices/ints)."""
+def blocks(scene: Scene, block_points: int | None = None):
+    """Grid slabs in execution order: list of index tuples (of slices).
+
+    A slab holds at most ``block_points`` grid points (default: as many as fit
+    in BLOCK_BYTES of kernel output); a followed sweep runs one value of the
+    first axis at a time, in the direction of ``follow``.
+    """
     G = scene.shape
     per_item = scene.record * ITEM_FIELDS * 8 + 64
     max_points = max(1, BLOCK_BYTES // (per_item * scene.n_ic))
+    if block_points:
+        max_points = min(max_points, int(block_points))
     if not G:
         return [()]
     if scene.follow != "none":
@@ -166,7 +179,7 @@ def estimate_bytes(scene: Scene) -> int:
 # ------------------------------------------------------------------ the sweep
 def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
               overwrite: bool = False, progress: bool = False, command: str = "",
-              echo=None) -> str:
+              block_points: int | None = None) -> str:
     """Run a scene to ``out_path``; return the path of the finished file."""
     import h5py
     import numba
@@ -204,10 +217,14 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             if free is not None and need > free:
                 raise SweepError(f"the output needs up to {need / 2**30:.2f} GiB but only "
                                  f"{free / 2**30:.2f} GiB are free; shrink the grid or keep less")
-            f = io.create(partial, scene, scene.n_ic, command=command, versions=io.versions())
+            # set the file up under a temporary name: a partial file exists only once
+            # every dataset is in place and single-writer/multiple-reader mode is on
+            init = partial + ".init"
+            f = io.create(init, scene, scene.n_ic, command=command, versions=io.versions())
             f.swmr_mode = True
+            os.replace(init, partial)
         try:
-            _run_blocks(scene, f, progress)
+            _run_blocks(scene, f, progress, block_points)
         except KeyboardInterrupt:
             f.close()
             raise SweepInterrupted(f"interrupted; finished points are kept in {partial}; "
@@ -245,12 +262,17 @@ def _free_bytes(d):
 
 
 def _reopen(partial, scene):
+    """Open an interrupted sweep's partial file for writing.
+
+    A file whose writer was killed keeps HDF5's "open for writing" flags; it still
+    opens read-only in SWMR mode, so its finished points are copied into a fresh
+    partial file, which replaces it.
+    """
     import h5py
     try:
         f = h5py.File(partial, "r+", libver="latest")
-    except OSError as e:
-        raise SweepError(f"{partial}: cannot reopen to resume ({e}); start again with "
-                         "--overwrite") from None
+    except OSError:
+        f = _rebuild(partial, scene)
     if f.attrs.get("scene_hash") != scene.hash:
         f.close()
         raise SweepError(f"{partial}: the scene differs from the one this file was started with; "
@@ -259,12 +281,57 @@ def _reopen(partial, scene):
     return f
 
 
-def _run_blocks(scene, f, progress):
+def _rebuild(partial, scene):
+    import h5py
+    try:
+        src = h5py.File(partial, "r", swmr=True, locking=False)
+    except OSError as e:
+        raise SweepError(f"{partial}: cannot be read to resume ({e}); start again with "
+                         "--overwrite") from None
+    try:
+        return _copy_done(src, partial, scene)
+    except SweepError:
+        raise
+    except Exception as e:  # noqa: BLE001
+        raise SweepError(f"{partial}: cannot be read to resume ({e}); start again with "
+                         "--overwrite") from None
+
+
+def _copy_done(src, partial, scene):
+    import h5py
+    with src:
+        if src.attrs.get("scene_hash") != scene.hash:
+            raise SweepError(f"{partial}: the scene differs from the one this file was started "
+                             "with; --resume needs the same scene (or --overwrite to start again)")
+        tmp = partial + ".rebuild"
+        dst = io.create(tmp, scene, scene.n_ic, command=src.attrs.get("command", ""),
+                        versions=io.versions())
+        dst.attrs["created"] = src.attrs.get("created", "")
+        names = []
+        dst.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        scales = {a.name for a in scene.axes} | {"ic", "record"}
+        G0 = scene.shape[0] if scene.shape else 1
+        step = max(1, G0 // 64)
+        for name in names:
+            if name in scales or name not in src:
+                continue
+            if not scene.shape:
+                dst[name][...] = src[name][...]
+                continue
+            for a in range(0, G0, step):
+                dst[name][a:a + step] = src[name][a:a + step]
+        dst.close()
+    os.replace(tmp, partial)
+    return h5py.File(partial, "r+", libver="latest")
+
+
+def _run_blocks(scene, f, progress, block_points=None):
     ints = int_settings(scene)
     G = scene.shape
     done = f["done"][...]
-    todo = [b for b in blocks(scene) if not np.all(done[b])]
-    total = len(blocks(scene))
+    every = blocks(scene, block_points)
+    todo = [b for b in every if not np.all(done[b])]
+    total = len(every)
     bar = None
     if progress:
         import click
@@ -274,7 +341,7 @@ def _run_blocks(scene, f, progress):
         bar.update(total - len(todo))
     carry = None  # follow: final states of the previous grid slab
     if scene.follow != "none" and todo:
-        carry = _carry_from_file(scene, f, blocks(scene), todo[0])
+        carry = _carry_from_file(scene, f, every, todo[0])
     try:
         for blk in todo:
             idx, sub = _indices(scene, blk)
@@ -292,7 +359,7 @@ def _run_blocks(scene, f, progress):
             block = {"initial/u": ics[..., 0].reshape(shape), "initial/v": ics[..., 1].reshape(shape),
                      "status": st.reshape(shape), "period": period.reshape(shape),
                      "impacts_per_cycle": ipc.reshape(shape),
-                     "symbols": _words(sym).reshape(shape),
+                     "symbols": _symbol_bytes(sym, scene.record).reshape(shape),
                      "final/u": final[:, 0].reshape(shape), "final/v": final[:, 1].reshape(shape)}
             if "impacts" in scene.keep:
                 for k in io.IMPACT_FIELDS:

@@ -1,0 +1,225 @@
+"""Faults: bad scenes (fuzzed), bad files, interrupted and concurrent runs (issue: reliability)."""
+
+import errno
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from cornerbif import config, io
+from cornerbif import sweep as sweep_mod
+from cornerbif.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(__file__))
+FIG06A = os.path.join(ROOT, "configs", "fig06a.toml")
+
+
+# ---------------------------------------------------------------- fuzzing the scene loader
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.text(max_size=400))
+def test_arbitrary_toml_text_gives_a_scene_or_a_scene_error(text):
+    try:
+        sc = config.loads(text)
+    except config.SceneError as e:
+        assert e.problems and all(isinstance(p, str) for p in e.problems)
+    else:
+        assert isinstance(sc, config.Scene)
+
+
+KEYS = st.sampled_from(list(config.TABLES) + list(config.FLOW_PARAMS)
+                       + ["obstacle", "follow", "start", "stop", "num", "values", "count",
+                          "seed", "u", "v", "transient", "record", "tol", "keep", "model",
+                          "name", "y", "xlim", "omgea", ""])
+SCALARS = (st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True)
+           | st.text(max_size=12) | st.sampled_from(["flow", "sine", "rectified_sine", "up"]))
+VALUES = st.recursive(SCALARS, lambda c: st.lists(c, max_size=4) | st.dictionaries(KEYS, c, max_size=5),
+                      max_leaves=20)
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.dictionaries(KEYS, VALUES, max_size=7))
+def test_arbitrary_dicts_give_a_scene_or_a_scene_error(raw):
+    try:
+        sc = config.from_dict(raw)
+    except config.SceneError as e:
+        assert e.problems
+    else:
+        assert isinstance(sc, config.Scene)
+        # a valid scene's text reloads to the same scene
+        assert config.loads(sc.text).hash == sc.hash
+
+
+# ---------------------------------------------------------------- bad files for plot and info
+def _good_file(tmp_path, name="good.h5"):
+    out = tmp_path / name
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), "--set", "sweep.kappa.num=3",
+                                  "--set", "initial.count=2", "--set", "run.transient=10",
+                                  "--set", "run.record=10"])
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def _refused(path, needle):
+    for cmd in ("plot", "info"):
+        fig = str(path) + ".png"
+        r = CliRunner().invoke(main, [cmd, str(path)] + (["-o", fig] if cmd == "plot" else []))
+        assert r.exit_code == 2, (cmd, r.output)
+        assert needle in r.output, (cmd, r.output)
+        assert "Traceback" not in r.output
+        assert not os.path.exists(fig)
+
+
+def test_truncated_file(tmp_path):
+    good = _good_file(tmp_path)
+    data = good.read_bytes()
+    bad = tmp_path / "trunc.h5"
+    bad.write_bytes(data[: len(data) // 2])
+    _refused(bad, "trunc.h5")
+
+
+def test_newer_format_version(tmp_path):
+    good = _good_file(tmp_path)
+    with h5py.File(good, "r+") as f:
+        f.attrs["format_version"] = 99
+    _refused(good, "newer than this cornerbif reads")
+
+
+def test_missing_required_dataset(tmp_path):
+    good = _good_file(tmp_path)
+    with h5py.File(good, "r+") as f:
+        del f["status"]
+    _refused(good, "required dataset 'status' is missing")
+
+
+def test_external_link_is_refused(tmp_path):
+    good = _good_file(tmp_path)
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as g:
+        g["secret"] = np.arange(3)
+    with h5py.File(good, "r+") as f:
+        f["sneaky"] = h5py.ExternalLink(str(other), "secret")
+    os.remove(other)                     # opening it would fail: it must never be opened
+    _refused(good, "refers to other files")
+
+
+def test_virtual_dataset_and_external_storage_are_refused(tmp_path):
+    good = _good_file(tmp_path)
+    src = tmp_path / "src.h5"
+    with h5py.File(src, "w") as g:
+        g["x"] = np.arange(4.0)
+    layout = h5py.VirtualLayout(shape=(4,), dtype="f8")
+    layout[:] = h5py.VirtualSource(str(src), "x", shape=(4,))
+    with h5py.File(good, "r+") as f:
+        f.create_virtual_dataset("virt", layout)
+    _refused(good, "virtual dataset")
+    good2 = _good_file(tmp_path, "good2.h5")
+    raw = tmp_path / "raw.bin"
+    raw.write_bytes(np.arange(4.0).tobytes())
+    with h5py.File(good2, "r+") as f:
+        f.create_dataset("ext", shape=(4,), dtype="f8", external=[(str(raw), 0, 32)])
+    _refused(good2, "external storage")
+
+
+# ---------------------------------------------------------------- interrupted and concurrent runs
+def _sweep_args(out, extra=()):
+    return [sys.executable, "-m", "cornerbif.cli", "sweep", FIG06A, "-o", str(out), "--no-progress",
+            "--set", "sweep.kappa.num=240", "--set", "initial.count=4", "--block-points", "8",
+            *extra]
+
+
+def test_sigkill_at_random_moments_then_resume_is_bitwise_equal(tmp_path):
+    """20 runs killed with SIGKILL (by process id) at random moments: the partial file always
+    opens, every point marked done holds data, and --resume completes to the same bytes."""
+    ref = tmp_path / "ref.h5"
+    subprocess.run(_sweep_args(ref), check=True, capture_output=True)
+    with h5py.File(ref) as f:
+        want = {k: f[k][...] for k in ("impacts/t", "impacts/v_out", "section/u", "status",
+                                        "period", "initial/u")}
+        want_sym = f["symbols"][...]
+    rng = random.Random(42)
+    kinds = set()
+    for trial in range(20):
+        out = tmp_path / f"k{trial}.h5"
+        p = subprocess.Popen(_sweep_args(out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(rng.uniform(0.3, 2.2))
+        os.kill(p.pid, signal.SIGKILL)
+        p.wait()
+        partial = str(out) + ".partial"
+        if os.path.exists(partial):
+            with io.check_readable(partial) as f:          # opens, is a cornerbif file
+                done = f["done"][...].astype(bool)
+                st_ = f["status"][...]
+                assert (st_[done] >= 0).all()
+                assert np.isfinite(f["initial/u"][...][done]).all()
+                assert np.isfinite(f["impacts/t"][...][done][..., -1]).all()
+                kinds.add("partial" if not done.all() else "all-done")
+        elif os.path.exists(out):
+            kinds.add("finished")
+        else:
+            kinds.add("not started")
+        if not os.path.exists(out):
+            r = subprocess.run(_sweep_args(out, ["--resume"]), capture_output=True, text=True)
+            assert r.returncode == 0, (trial, r.stderr)
+        with h5py.File(out) as f:
+            for k, v in want.items():
+                assert np.array_equal(f[k][...], v, equal_nan=True), (trial, k)
+            assert (f["symbols"][...] == want_sym).all()
+    assert "partial" in kinds
+
+
+def test_second_writer_fails_fast(tmp_path):
+    out = tmp_path / "c.h5"
+    p = subprocess.Popen(_sweep_args(out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.time() + 20
+        while not os.path.exists(str(out) + ".lock") and time.time() < deadline:
+            time.sleep(0.05)
+        t0 = time.time()
+        r = subprocess.run(_sweep_args(out, ["--resume"]), capture_output=True, text=True)
+        assert time.time() - t0 < 10
+        if p.poll() is None:          # still running: the second writer must have been refused
+            assert r.returncode == 2 and "another sweep is writing" in r.stderr
+    finally:
+        p.wait()
+
+
+def test_full_disk_ends_with_a_clear_message_and_a_resumable_file(tmp_path, monkeypatch):
+    out = tmp_path / "d.h5"
+    real = sweep_mod.io.write_block
+    calls = {"n": 0}
+
+    def full(f, index, block):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(f, index, block)
+
+    monkeypatch.setattr(sweep_mod.io, "write_block", full)
+    args = ["sweep", FIG06A, "-o", str(out), "--set", "sweep.kappa.num=6", "--set",
+            "initial.count=2", "--set", "run.transient=10", "--set", "run.record=10",
+            "--block-points", "2"]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "No space left" in r.output and "--resume" in r.output
+    monkeypatch.setattr(sweep_mod.io, "write_block", real)
+    r = CliRunner().invoke(main, args + ["--resume"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        assert f["done"][...].all()
+
+
+def test_provenance_in_the_file(tmp_path):
+    good = _good_file(tmp_path)
+    with h5py.File(good) as f:
+        for k in ("scene", "scene_hash", "created", "completed", "command", "cornerbif_version",
+                  "numpy_version", "numba_version", "h5py_version"):
+            assert f.attrs[k], k
+        assert "sweep" in f.attrs["command"]
