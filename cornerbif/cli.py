@@ -96,7 +96,8 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("-o", "--out", "out", type=click.Path(dir_okay=False),
               help="Figure file (.png, .pdf or .svg; default: first file with .png).")
-@click.option("--y", "y", type=click.Choice(["impact_u", "impact_v", "section_u", "section_v"]),
+@click.option("--y", "y", type=click.Choice(["impact_u", "impact_v", "section_u", "section_v",
+                                             "winding", "period"]),
               help="What to draw against the swept parameter.")
 @click.option("--title", help="Figure title (default: the scene's).")
 def plot(files, out, y, title):

@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-MODELS = ("flow",)
-PLANNED_MODELS = ("map2d", "two_particle")
+MODELS = ("flow", "map2d")
+PLANNED_MODELS = ("two_particle",)
 OBSTACLES = ("sine", "rectified_sine", "triangle")
 KEEP = ("impacts", "section")
 FOLLOW = ("none", "up", "down")
@@ -39,6 +39,15 @@ FLOW_PARAMS = {
     "theta2": (None, "> 0 (default beta * omega)"),
 }
 SYSTEM_OTHER = {"obstacle": "rectified_sine", "section_period": None}
+# model 'map2d' (section 5): the local maps with epsilon = 1, omega1 = omega - 2, kappa1 = kappa
+MAP2D_PARAMS = {
+    "omega": (1.999, "> 0 (the map uses omega1 = omega - 2)"),
+    "kappa": (-0.01, "any finite number (kappa1 = kappa)"),
+    "r": (0.8, "in (0, 1]"),
+}
+MODEL_PARAMS = {"flow": FLOW_PARAMS, "map2d": MAP2D_PARAMS}
+MODEL_INITIAL = {"flow": {"u": [0.0, 20.0], "v": [-20.0, 20.0]},
+                 "map2d": {"u": [0.0, 20.0], "v": [-0.05, 0.05]}}
 
 RUN_DEFAULTS = {
     "transient": 500,
@@ -60,7 +69,7 @@ TABLES = {
     "output": ("keep",),
     "plot": ("y", "xlim", "ylim", "marker_size", "title"),
 }
-PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v")
+PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
 
 
 class SceneError(ValueError):
@@ -141,19 +150,21 @@ def _fmt(x):
     return repr(x)
 
 
-def _check_param(name, value, key, problems):
+def _check_param(name, value, key, problems, model="flow"):
+    allowed = MODEL_PARAMS.get(model, FLOW_PARAMS)[name][1]
     if not _is_number(value):
-        problems.append(f"{key}: {_fmt(value)} is not a number; {name} must be {FLOW_PARAMS[name][1]}")
+        problems.append(f"{key}: {_fmt(value)} is not a number; {name} must be {allowed}")
         return False
     v = float(value)
     if not math.isfinite(v):
-        problems.append(f"{key}: {_fmt(value)} is not finite; {name} must be {FLOW_PARAMS[name][1]}")
+        problems.append(f"{key}: {_fmt(value)} is not finite; {name} must be {allowed}")
         return False
     bad = ((name in ("omega", "Omega", "theta1", "theta2") and v <= 0)
            or (name in ("beta", "sigma", "k") and v < 0)
-           or (name == "r" and not 0.0 <= v <= 1.0))
+           or (name == "r" and not 0.0 <= v <= 1.0)
+           or (name == "r" and model == "map2d" and v == 0.0))
     if bad:
-        problems.append(f"{key}: {_fmt(value)} is out of range; {name} must be {FLOW_PARAMS[name][1]}")
+        problems.append(f"{key}: {_fmt(value)} is out of range; {name} must be {allowed}")
         return False
     return True
 
@@ -296,22 +307,27 @@ def from_dict(raw) -> Scene:
             problems.append(f"scene.model: {_fmt(model)} is not a model"
                             f"{_suggest(str(model), MODELS + PLANNED_MODELS)}; allowed: "
                             + ", ".join(MODELS))
+        model = "flow"   # validate the rest as a flow scene; the error above stands
 
     # [system]
     sy = table("system")
-    unknown("system", TABLES["system"])
+    mparams = MODEL_PARAMS.get(model, FLOW_PARAMS)
+    if model == "map2d":
+        unknown("system", tuple(MAP2D_PARAMS))
+    else:
+        unknown("system", TABLES["system"])
     obstacle = sy.get("obstacle", SYSTEM_OTHER["obstacle"])
     if obstacle not in OBSTACLES:
         problems.append(f"system.obstacle: {_fmt(obstacle)} is not an obstacle"
                         f"{_suggest(str(obstacle), OBSTACLES)}; allowed: {', '.join(OBSTACLES)}")
         obstacle = "rectified_sine"
     system = {}
-    for p, (default, _) in FLOW_PARAMS.items():
+    for p, (default, _) in mparams.items():
         v = sy.get(p, default)
         if v is None:
             system[p] = None
             continue
-        if _check_param(p, v, f"system.{p}", problems):
+        if _check_param(p, v, f"system.{p}", problems, model):
             system[p] = float(v)
         else:
             system[p] = default
@@ -334,10 +350,10 @@ def from_dict(raw) -> Scene:
         if k == "follow":
             continue
         key = f"sweep.{k}"
-        if k not in FLOW_PARAMS:
-            hint = _suggest(str(k), FLOW_PARAMS)
+        if k not in mparams:
+            hint = _suggest(str(k), mparams)
             problems.append(f"{key}: {k!r} is not a parameter of model {model!r}{hint}; "
-                            f"allowed: {', '.join(FLOW_PARAMS)}")
+                            f"allowed: {', '.join(mparams)}")
             continue
         if not isinstance(spec, dict):
             problems.append(f"{key}: {_fmt(spec)} must be {{ start = .., stop = .., num = .. }} "
@@ -355,7 +371,7 @@ def from_dict(raw) -> Scene:
             if not isinstance(vals, list) or not vals:
                 problems.append(f"{key}.values: {_fmt(vals)} must be a non-empty list of numbers")
             else:
-                good = all(_check_param(k, v, f"{key}.values", problems) for v in vals)
+                good = all(_check_param(k, v, f"{key}.values", problems, model) for v in vals)
                 if good:
                     values = tuple(float(v) for v in vals)
         else:
@@ -372,8 +388,8 @@ def from_dict(raw) -> Scene:
                 elif num < 1:
                     problems.append(f"{key}.num: {num} must be an integer >= 1")
                     ok = False
-                a = _check_param(k, spec["start"], f"{key}.start", problems)
-                b = _check_param(k, spec["stop"], f"{key}.stop", problems)
+                a = _check_param(k, spec["start"], f"{key}.start", problems, model)
+                b = _check_param(k, spec["stop"], f"{key}.stop", problems, model)
                 if ok and a and b:
                     lo, hi = float(spec["start"]), float(spec["stop"])
                     if hi < lo:
@@ -398,6 +414,9 @@ def from_dict(raw) -> Scene:
     if section_period is not None and any(a.name == "omega" for a in axes):
         problems.append("system.section_period: cannot be fixed while omega is swept "
                         "(the default T = 2 pi / omega follows omega)")
+    if section_period is not None and model != "flow":
+        problems.append(f"system.section_period: not a parameter of model {model!r}")
+        section_period = None
     if section_period is not None and system.get("omega"):
         per = (2 if obstacle == "sine" else 1) * math.pi / system["omega"]
         m = section_period / per
@@ -418,7 +437,7 @@ def from_dict(raw) -> Scene:
         seed = 0
     ranges = {}
     for c in ("u", "v"):
-        rng = ini.get(c, INITIAL_DEFAULTS[c])
+        rng = ini.get(c, MODEL_INITIAL.get(model, INITIAL_DEFAULTS)[c])
         if _is_number(rng):
             rng = [rng, rng]
         if (not isinstance(rng, list) or len(rng) != 2 or not all(_is_number(x) for x in rng)
@@ -467,6 +486,12 @@ def from_dict(raw) -> Scene:
             problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, KEEP)}; "
                             f"allowed: {', '.join(KEEP)}")
     keep = tuple(x for x in KEEP if x in keep)
+    if model == "map2d" and "impacts" in keep:
+        if "keep" in outp:
+            problems.append("output.keep: 'impacts' is not an observable of model 'map2d' (the "
+                            "map's iterates are stored as section/u = a_n, section/v = b_n); "
+                            "allowed: section")
+        keep = tuple(x for x in keep if x != "impacts")
 
     # [plot]
     pl = table("plot")
@@ -490,7 +515,7 @@ def from_dict(raw) -> Scene:
         kap = [system["kappa"]]
     else:
         kap = list(next((a.values for a in axes if a.name == "kappa"), [system["kappa"]]))
-    if ranges.get("u") and kap and all(_is_number(x) for x in kap):
+    if model == "flow" and ranges.get("u") and kap and all(_is_number(x) for x in kap):
         if ranges["u"][1] <= max(kap):
             problems.append(f"initial.u: {list(ranges['u'])} lies on or below the obstacle at t = 0 "
                             f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
@@ -500,8 +525,8 @@ def from_dict(raw) -> Scene:
     # the scene as run: defaults made explicit, so the file says everything
     as_run = {
         "scene": {"name": name, "title": title, "model": model},
-        "system": {"obstacle": obstacle,
-                   **{k: v for k, v in system.items() if v is not None}},
+        "system": ({"obstacle": obstacle} if model == "flow" else {})
+        | {k: v for k, v in system.items() if v is not None},
         "sweep": {**{a.name: {"values": list(a.values)} for a in axes}, "follow": follow},
         "initial": {"count": n_ic, "seed": seed, "u": list(ranges["u"]), "v": list(ranges["v"])},
         "run": {**{k: v for k, v in run.items() if v is not None},

@@ -22,7 +22,9 @@ LABELS = {
 }
 YLABELS = {
     "impact_u": "impact height $u$", "impact_v": "impact velocity $v^-$",
-    "section_u": r"$u(nT)$", "section_v": r"$v(nT)$",
+    "section_u": r"$u(nT)$ (map2d: $a_n$)", "section_v": r"$v(nT)$ (map2d: $b_n$)",
+    "winding": r"winding number $W$ (share of $\gamma$, §5.4)",
+    "period": "period (clusters per cycle)",
 }
 
 
@@ -37,6 +39,8 @@ class PlotData:
             self.values = {a: f[a][...] for a in self.axes}
             self.status = f["status"][...]
             self.period = f["period"][...]
+            self.symbols = f["symbols"][...].astype(str)
+            self.model = self.scene.get("scene", {}).get("model", "flow")
             self.done = f["done"][...]
             self.data = {}
             for name in ("impacts/u", "impacts/v_in", "section/u", "section/v"):
@@ -46,11 +50,18 @@ class PlotData:
             self.complete = bool(f.attrs.get("completed", ""))
 
     def y(self, kind):
+        if kind == "winding":
+            w = np.vectorize(lambda s: s.count("g") / len(s) if s else np.nan, otypes=[float])
+            return w(self.symbols)
+        if kind == "period":
+            return np.where(self.period > 0, self.period, np.nan).astype(float)
         name = {"impact_u": "impacts/u", "impact_v": "impacts/v_in",
                 "section_u": "section/u", "section_v": "section/v"}[kind]
         return self.data.get(name)
 
     def default_y(self):
+        if self.model == "map2d":
+            return "section_v"
         for kind in ("impact_u", "section_u"):
             if self.y(kind) is not None:
                 return kind
@@ -73,10 +84,12 @@ def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=
                    rasterized=True)
 
 
-def draw_corner_points(ax, data: PlotData):
+def draw_corner_points(ax, data: PlotData, corner_line=True):
     """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis."""
     sys_ = data.scene.get("system", {})
     if sys_.get("obstacle", "rectified_sine") != "rectified_sine":
+        return []
+    if not data.axes:
         return []
     a = data.axes[0]
     r = sys_.get("r", 0.8)
@@ -94,7 +107,7 @@ def draw_corner_points(ax, data: PlotData):
         marks = [(theory.omega_C(kap, r, beta), r"$\omega_C$", "tab:red"),
                  (theory.omega_CC(kap, r, beta), r"$\omega_{CC}$", "tab:blue")]
     arts = []
-    if a == "kappa":
+    if a == "kappa" and corner_line:
         # the height of the corner itself, z(t_k) = kappa (the solid line of Fig. 7b)
         arts += ax.plot([lo, hi], [lo, hi], color="0.6", lw=0.6, label=r"corner $z(t_k)=\kappa$")
     for x, lab, c in marks:
@@ -134,6 +147,40 @@ def draw_plane(ax, data: PlotData):
     return im
 
 
+def hausdorff_per_point(y1, y2, decimals=9):
+    """Distance between the sets of recorded values at each grid point (1-axis sweeps).
+
+    For each parameter value: the Hausdorff distance between the finite values of
+    y1 (all starts and records) and those of y2; NaN where either set is empty.
+    """
+    n = y1.shape[0]
+    out = np.full(n, np.nan)
+    for i in range(n):
+        a = np.unique(np.round(y1[i][np.isfinite(y1[i])], decimals))
+        b = np.unique(np.round(y2[i][np.isfinite(y2[i])], decimals))
+        if a.size and b.size:
+            d = np.abs(a[:, None] - b[None, :])
+            out[i] = max(d.min(axis=1).max(), d.min(axis=0).max())
+    return out
+
+
+def draw_comparison(fig, datas, kind, plot_cfg):
+    """Flow against map2d on one parameter axis (paper Fig. 16): both, and their distance."""
+    axs = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [2, 2, 1]})
+    a = datas[0].axes[0]
+    for ax, d in zip(axs[:2], datas):
+        draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6))
+        ax.set_ylabel(YLABELS[kind], fontsize=8)
+        ax.set_title(f"{d.model}: {d.scene['scene']['name']}", fontsize=8, loc="left")
+        if "ylim" in plot_cfg:
+            ax.set_ylim(*plot_cfg["ylim"])
+    dist = hausdorff_per_point(datas[0].y(kind), datas[1].y(kind))
+    axs[2].semilogy(datas[0].values[a], dist, "k.", ms=1.5)
+    axs[2].set_ylabel("distance\nflow to map", fontsize=8)
+    axs[2].set_xlabel(LABELS.get(a, a))
+    return axs
+
+
 def figure(paths, out, y=None, title=None):
     """Draw one or more files of the same kind into ``out`` (png, pdf or svg)."""
     import matplotlib
@@ -143,6 +190,19 @@ def figure(paths, out, y=None, title=None):
     datas = [PlotData(p) for p in paths]
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {})
+    models = {d.model for d in datas}
+    if len(datas) == 2 and models == {"flow", "map2d"} and len(d0.axes) == 1:
+        datas.sort(key=lambda d: d.model != "flow")
+        kind = y or "section_v"
+        fig = plt.figure(figsize=(7, 7), dpi=150)
+        axs = draw_comparison(fig, datas, kind, plot_cfg)
+        import textwrap
+        sc = datas[1].scene.get("scene", {})
+        fig.suptitle("\n".join(textwrap.wrap(title or sc.get("title", ""), 80)), fontsize=9)
+        fig.tight_layout()
+        fig.savefig(out)
+        plt.close(fig)
+        return out
     fig, ax = plt.subplots(figsize=(7, 4.5), dpi=150)
     if len(d0.axes) == 2:
         im = draw_plane(ax, d0)
@@ -160,8 +220,8 @@ def figure(paths, out, y=None, title=None):
                 lab = f"follow {d.follow}" if d.follow != "none" else d.scene["scene"]["name"]
             draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6),
                              color=colors[i % len(colors)], label=lab)
-        if kind == "impact_u":
-            draw_corner_points(ax, d0)
+        if kind in ("impact_u", "winding", "section_v", "period"):
+            draw_corner_points(ax, d0, corner_line=kind == "impact_u")
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
         ax.set_ylabel(YLABELS[kind])

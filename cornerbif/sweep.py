@@ -76,7 +76,15 @@ def draw_initial(scene: Scene, flat_points: np.ndarray, z0: np.ndarray):
 
 # ------------------------------------------------------------------ packing
 def pack_points(scene: Scene, index_list):
-    """Packed parameter rows for a list of grid indices."""
+    """Packed parameter rows for a list of grid indices.
+
+    ``flow``: the kernel's parameter vector (``models.params``); ``map2d``: rows
+    [omega1, kappa1, r] with epsilon = 1 (omega1 = omega - 2, kappa1 = kappa).
+    """
+    if scene.model == "map2d":
+        vals = [scene.point(idx) for idx in index_list]
+        return np.array([[v["omega"] - 2.0, v["kappa"], v["r"]] for v in vals],
+                        dtype=float).reshape(len(index_list), 3)
     rows = []
     for idx in index_list:
         vals = scene.point(idx)
@@ -95,8 +103,38 @@ def int_settings(scene: Scene) -> np.ndarray:
     return ints
 
 
+def run_map_items(params: np.ndarray, ics: np.ndarray, scene: Scene):
+    """Iterate the local maps (56) on n items; outputs shaped like ``run_items``'.
+
+    The iterates x_n = (a_n, b_n) go to the section slots (su, sv), as the flow's
+    section values (u, v)(nT); a run is OK unless an iterate is not finite.
+    """
+    from .maps2d import detect_map_cycles, iterate_batch
+    n = params.shape[0]
+    rec = scene.record
+    a = np.empty((n, rec))
+    b = np.empty((n, rec))
+    reg = np.empty((n, rec), np.int8)
+    iterate_batch(np.ascontiguousarray(params), np.ascontiguousarray(ics), scene.transient, rec,
+                  a, b, reg)
+    period = np.zeros(n, np.int64)
+    sym = np.zeros((n, max(1, rec // 2)), np.uint8)
+    detect_map_cycles(reg, a, b, scene.period_tol, period, sym)
+    ipc = ((sym == ord("a")) * 2 + (sym == ord("b")) + (sym == ord("g"))).sum(axis=1)
+    ok = np.isfinite(b).all(axis=1) & np.isfinite(a).all(axis=1)
+    st = np.where(ok, S.OK, S.NONFINITE).astype(np.int8)
+    nan = np.full((n, rec), np.nan)
+    out = {"t": nan, "u": nan, "v_in": nan, "v_out": nan, "corner_offset": nan, "su": a, "sv": b}
+    final = np.stack([a[:, -1], b[:, -1]], axis=1)
+    sym_full = np.zeros((n, rec), np.uint8)
+    sym_full[:, :sym.shape[1]] = sym
+    return out, st, final, period, ipc, sym_full
+
+
 def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
-    """Run the flow kernel and the cycle analysis on n items (rows of params/ics)."""
+    """Run the model's kernel and the cycle analysis on n items (rows of params/ics)."""
+    if scene.model == "map2d":
+        return run_map_items(params, ics, scene)
     from .kernels.flow import run_batch
     n = params.shape[0]
     rec = scene.record
@@ -184,7 +222,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     import h5py
     import numba
 
-    if scene.model != "flow":
+    if scene.model not in ("flow", "map2d"):
         raise SceneError([f"scene.model: {scene.model!r} is not implemented yet"])
     partial = out_path + ".partial"
     lock_path = out_path + ".lock"
@@ -347,7 +385,10 @@ def _run_blocks(scene, f, progress, block_points=None):
             idx, sub = _indices(scene, blk)
             params = pack_points(scene, idx)
             flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
-            kap = params[:, P.KAPPA]
+            if scene.model == "map2d":
+                kap = np.full(len(idx), -np.inf)     # no obstacle: any (a0, b1) is a start
+            else:
+                kap = params[:, P.KAPPA]
             ics = draw_initial(scene, flat, kap)
             if carry is not None:
                 ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > kap[:, None])

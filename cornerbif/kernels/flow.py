@@ -145,6 +145,11 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     Impacts number ``transient`` and above are stored (time, height, v-, v+,
     signed offset to the nearest corner and that corner's index); the state at
     each Poincare section t = n T during the recording window is stored too.
+    With ``SECTION_AUTO`` (rectified_sine, default section period) the section
+    corners are those of the parity opposite to the last transient impact's
+    corner, t = nT + phase with phase 0 or pi/omega: the paper's section, with the
+    impacted corner t0 between two sections, on whichever shifted copy of the
+    orbit the run landed.
     ``final`` receives the state at the last section crossed (for ``follow``).
     Returns the status code.
     """
@@ -156,6 +161,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     chatter = p[P.CHATTER]
     escape = p[P.ESCAPE]
     pps = np.int64(p[P.SECTION_PIECES])
+    auto_phase = p[P.SECTION_AUTO] != 0.0
+    sec_phase = np.int64(0)
     transient = ints[P.I_TRANSIENT]
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
@@ -269,7 +276,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 stuck = False
             else:
                 tau_s = 0.0
-            if j % pps == 0:
+            if (j - sec_phase) % pps == 0:
                 if n_imp >= transient and n_sec < record:
                     o_su[n_sec] = z
                     o_sv[n_sec] = v_after
@@ -308,7 +315,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             vh_ref = vh
             s_start = 0.0
             skip = False
-            if j % pps == 0:
+            if (j - sec_phase) % pps == 0:
                 if n_imp >= transient and n_sec < record:
                     o_su[n_sec] = uh + up
                     o_sv[n_sec] = vh + vp
@@ -331,6 +338,12 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             o_off[i] = off
         n_imp += 1
         events += 1
+        if n_imp == transient and auto_phase:
+            # the paper's section (3.3.1) has the impacted corner t0 inside a period:
+            # take the section at the corners of the other parity, between the
+            # clusters, whichever of the shifted copies of the orbit (3.2) this is
+            c, _ = corner_of(p, d, j, tau)
+            sec_phase = (c + pps // 2) % pps
         if n_imp >= need:
             return S.OK
         if events > max_events:

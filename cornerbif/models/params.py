@@ -25,7 +25,8 @@ TOL = 12       # event-time tolerance
 CHATTER = 13   # relative velocity below which a chattering sequence is summed
 ESCAPE = 14    # amplitude bound beyond which a run is ESCAPED
 SECTION_PIECES = 15  # smooth pieces per Poincare section period
-NPARAM = 16
+SECTION_AUTO = 16    # 1: put the section corners between the impact clusters (see flow kernel)
+NPARAM = 17
 
 # --- obstacle codes -------------------------------------------------------------------
 SINE = 0            # kappa + beta sin(omega t), section 2.2 (smooth, no corners)
@@ -82,4 +83,5 @@ def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
     P = obstacle_period(obstacle, values["omega"])
     sp = 2.0 * math.pi / values["omega"] if section_period is None else section_period
     p[SECTION_PIECES] = max(1, round(sp / P)) * pieces_per_period(obstacle)
+    p[SECTION_AUTO] = 1.0 if (obstacle == "rectified_sine" and section_period is None) else 0.0
     return p
