@@ -72,6 +72,29 @@ def bench_flow(scene, threads, repeat=3):
             "impacts_per_second": n_imp / best, "ok_fraction": float(np.mean(st == 0))}
 
 
+def bench_map2d(n_items, steps, threads):
+    """Steps per second of the map2d kernel (eqs 56-60) at omega = 1.999, kappa in the corner range."""
+    import numba
+
+    from cornerbif import maps2d
+    params = maps2d.map_params(1.999, np.linspace(-0.0141, -0.004, n_items), 0.8)
+    x0 = maps2d.default_x0(params)
+    old = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        out = [np.empty((n_items, 1)), np.empty((n_items, 1)), np.empty((n_items, 1), np.int8)]
+        maps2d.iterate_batch(params[:2], x0[:2], 10, 1, out[0][:2], out[1][:2], out[2][:2])
+        best = math.inf
+        for _ in range(3):
+            t0 = time.perf_counter()
+            maps2d.iterate_batch(params, x0, steps, 1, *out)
+            best = min(best, time.perf_counter() - t0)
+    finally:
+        numba.set_num_threads(old)
+    return {"steps": n_items * (steps + 1), "seconds": best,
+            "steps_per_second": n_items * (steps + 1) / best}
+
+
 def bench_peer(n_omega, n_starts, n_impacts, method):
     import peer_scipy
     om = np.linspace(1.5, 2.5, n_omega)
@@ -179,6 +202,10 @@ def main(argv=None):
                              / res["flow_fig04c_2threads"]["seconds"])
     res["flow_fig06a_1thread"] = bench_flow(fig06a, 1, 1 if smoke else 3)
 
+    print("map2d ...", flush=True)
+    res["map2d_1thread"] = bench_map2d(64, 2000 if smoke else 200000, 1)
+    res["map2d_2threads"] = bench_map2d(64, 2000 if smoke else 200000, ncores)
+
     print("peers (solve_ivp) ...", flush=True)
     res["peer_dop853"] = bench_peer(3 if smoke else 20, 2, 20 if smoke else 150, "DOP853")
     res["peer_rk45"] = bench_peer(2 if smoke else 10, 2, 20 if smoke else 100, "RK45")
@@ -215,6 +242,8 @@ def render(r):
          f"| flow, Fig. 4(c) scene, 1 thread | {f['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
          f"| flow, Fig. 6(a) scene, 1 thread | "
          f"{r['flow_fig06a_1thread']['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
+         f"| map2d, 1 thread / 2 threads | {r['map2d_1thread']['steps_per_second'] / 1e6:.0f} M / "
+         f"{r['map2d_2threads']['steps_per_second'] / 1e6:.0f} M steps/s | >= 200 M per core |",
          f"| solve_ivp DOP853 loop (rtol 1e-9), same scene | "
          f"{r['peer_dop853']['impacts_per_second']:.0f} impacts/s, "
          f"{r['peer_dop853']['miss_fraction'] * 100:.2f} % misses | |",
