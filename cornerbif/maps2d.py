@@ -396,7 +396,7 @@ def iterate(params, x0=None, transient=2000, record=400):
     n = params.shape[0]
     if x0 is None:
         x0 = default_x0(params)
-    x0 = np.ascontiguousarray(np.broadcast_to(np.asarray(x0, np.float64), (n, 2)))
+    x0 = np.array(np.broadcast_to(np.asarray(x0, np.float64), (n, 2)), order="C")  # writable: one signature
     transient, record = int(transient), int(record)
     if transient < 0 or record < 1:
         raise ValueError(f"transient must be >= 0 and record >= 1, got {transient}, {record}")

@@ -300,6 +300,10 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                              -bu - zhi, bu - zlo, bu3 + zppp_bound, tol, skip)
         if code == FAIL:
             return S.STEP_LIMIT
+        if code == FOUND and s >= L - tau_ref:
+            # a root exactly at the corner belongs to the piece after it (right slope,
+            # offset +0: a beta impact), as at every corner rule of the package
+            code = NONE
         uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)
         tau = tau_ref + s
         t = piece_start(d, j) + tau
