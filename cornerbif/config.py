@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-MODELS = ("flow", "map2d")
-PLANNED_MODELS = ("two_particle",)
+MODELS = ("flow", "map2d", "two_particle")
+PLANNED_MODELS = ()
 OBSTACLES = ("sine", "rectified_sine", "triangle")
-KEEP = ("impacts", "section")
+KEEP = ("impacts", "section", "wall_impacts")
 FOLLOW = ("none", "up", "down")
 
 # system parameters of model 'flow': default (paper scenes), and the allowed range
@@ -45,9 +45,25 @@ MAP2D_PARAMS = {
     "kappa": (-0.01, "any finite number (kappa1 = kappa)"),
     "r": (0.8, "in (0, 1]"),
 }
-MODEL_PARAMS = {"flow": FLOW_PARAMS, "map2d": MAP2D_PARAMS}
+# model 'two_particle' (section 6): wall w = kappa + beta sin(omega0 t) (eq 72), heavy z and
+# light u harmonic with omega1, omega2 (eq 73), impacts by law (5) (r1) and eq (74) (r2, mu)
+TWO_PARTICLE_PARAMS = {
+    "omega0": (2.0, "> 0"),
+    "omega1": (1.001, "> 0"),
+    "omega2": (1.0, "> 0"),
+    "mu": (1000.0, "> 0 (inf allowed: law (74) becomes law (5))"),
+    "r1": (0.8, "in [0, 1]"),
+    "r2": (0.8, "in [0, 1]"),
+    "kappa": (0.0, "any finite number"),
+    "beta": (1.0, ">= 0"),
+}
+MODEL_PARAMS = {"flow": FLOW_PARAMS, "map2d": MAP2D_PARAMS, "two_particle": TWO_PARTICLE_PARAMS}
 MODEL_INITIAL = {"flow": {"u": [0.0, 20.0], "v": [-20.0, 20.0]},
-                 "map2d": {"u": [0.0, 20.0], "v": [-0.05, 0.05]}}
+                 "map2d": {"u": [0.0, 20.0], "v": [-0.05, 0.05]},
+                 "two_particle": {"z": [0.0, 2.0], "y": [-2.0, 2.0], "u": [0.0, 20.0],
+                                  "v": [-20.0, 20.0]}}
+MODEL_KEEP = {"flow": ("impacts", "section"), "map2d": ("section",),
+              "two_particle": ("impacts", "section", "wall_impacts")}
 
 RUN_DEFAULTS = {
     "transient": 500,
@@ -64,7 +80,7 @@ TABLES = {
     "scene": ("name", "title", "model"),
     "system": tuple(FLOW_PARAMS) + tuple(SYSTEM_OTHER),
     "sweep": None,  # parameter names + 'follow'
-    "initial": tuple(INITIAL_DEFAULTS),
+    "initial": tuple(INITIAL_DEFAULTS) + ("z", "y"),
     "run": tuple(RUN_DEFAULTS),
     "output": ("keep",),
     "plot": ("y", "xlim", "ylim", "marker_size", "title"),
@@ -104,6 +120,8 @@ class Scene:
     seed: int
     u_range: tuple
     v_range: tuple
+    z_range: tuple | None
+    y_range: tuple | None
     transient: int
     record: int
     tol: float
@@ -156,12 +174,15 @@ def _check_param(name, value, key, problems, model="flow"):
         problems.append(f"{key}: {_fmt(value)} is not a number; {name} must be {allowed}")
         return False
     v = float(value)
-    if not math.isfinite(v):
+    if not math.isfinite(v) and not (name == "mu" and v == math.inf):
         problems.append(f"{key}: {_fmt(value)} is not finite; {name} must be {allowed}")
         return False
-    bad = ((name in ("omega", "Omega", "theta1", "theta2") and v <= 0)
+    if name == "mu" and v == math.inf:
+        return True
+    bad = ((name in ("omega", "Omega", "theta1", "theta2", "omega0", "omega1", "omega2", "mu")
+            and v <= 0)
            or (name in ("beta", "sigma", "k") and v < 0)
-           or (name == "r" and not 0.0 <= v <= 1.0)
+           or (name in ("r", "r1", "r2") and not 0.0 <= v <= 1.0)
            or (name == "r" and model == "map2d" and v == 0.0))
     if bad:
         problems.append(f"{key}: {_fmt(value)} is out of range; {name} must be {allowed}")
@@ -312,8 +333,8 @@ def from_dict(raw) -> Scene:
     # [system]
     sy = table("system")
     mparams = MODEL_PARAMS.get(model, FLOW_PARAMS)
-    if model == "map2d":
-        unknown("system", tuple(MAP2D_PARAMS))
+    if model in ("map2d", "two_particle"):
+        unknown("system", tuple(mparams))
     else:
         unknown("system", TABLES["system"])
     obstacle = sy.get("obstacle", SYSTEM_OTHER["obstacle"])
@@ -414,7 +435,7 @@ def from_dict(raw) -> Scene:
     if section_period is not None and any(a.name == "omega" for a in axes):
         problems.append("system.section_period: cannot be fixed while omega is swept "
                         "(the default T = 2 pi / omega follows omega)")
-    if section_period is not None and model != "flow":
+    if section_period is not None and model == "map2d":
         problems.append(f"system.section_period: not a parameter of model {model!r}")
         section_period = None
     if section_period is not None and system.get("omega"):
@@ -436,7 +457,13 @@ def from_dict(raw) -> Scene:
         problems.append(f"initial.seed: {_fmt(seed)} must be an integer >= 0")
         seed = 0
     ranges = {}
-    for c in ("u", "v"):
+    coords = tuple(MODEL_INITIAL.get(model, INITIAL_DEFAULTS).keys() & {"z", "y", "u", "v"})
+    coords = tuple(c for c in ("z", "y", "u", "v") if c in coords)
+    for c in ("z", "y"):
+        if c in ini and c not in coords:
+            problems.append(f"initial.{c}: not an initial coordinate of model {model!r}; "
+                            f"allowed: {', '.join(coords)}")
+    for c in coords:
         rng = ini.get(c, MODEL_INITIAL.get(model, INITIAL_DEFAULTS)[c])
         if _is_number(rng):
             rng = [rng, rng]
@@ -471,7 +498,8 @@ def from_dict(raw) -> Scene:
             v = float(v)
         run[k] = v
     need = run["transient"] + run["record"]
-    max_events = run["max_events"] if run["max_events"] is not None else 10 * need + 1000
+    per_event = 40 if model == "two_particle" else 10
+    max_events = run["max_events"] if run["max_events"] is not None else per_event * need + 1000
     max_periods = run["max_periods"] if run["max_periods"] is not None else 50 * need + 1000
 
     # [output]
@@ -486,12 +514,14 @@ def from_dict(raw) -> Scene:
             problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, KEEP)}; "
                             f"allowed: {', '.join(KEEP)}")
     keep = tuple(x for x in KEEP if x in keep)
-    if model == "map2d" and "impacts" in keep:
-        if "keep" in outp:
-            problems.append("output.keep: 'impacts' is not an observable of model 'map2d' (the "
-                            "map's iterates are stored as section/u = a_n, section/v = b_n); "
-                            "allowed: section")
-        keep = tuple(x for x in keep if x != "impacts")
+    allowed_keep = MODEL_KEEP.get(model, KEEP)
+    for x in keep:
+        if x not in allowed_keep and "keep" in outp:
+            extra = (" (the map's iterates are stored as section/u = a_n, section/v = b_n)"
+                     if model == "map2d" else "")
+            problems.append(f"output.keep: {x!r} is not an observable of model {model!r}{extra}; "
+                            f"allowed: {', '.join(allowed_keep)}")
+    keep = tuple(x for x in keep if x in allowed_keep)
 
     # [plot]
     pl = table("plot")
@@ -515,6 +545,13 @@ def from_dict(raw) -> Scene:
         kap = [system["kappa"]]
     else:
         kap = list(next((a.values for a in axes if a.name == "kappa"), [system["kappa"]]))
+    if model == "two_particle" and "z" in ranges and "u" in ranges:
+        if ranges["z"][1] <= max(kap):
+            problems.append(f"initial.z: {list(ranges['z'])} lies on or below the wall at t = 0 "
+                            f"(w(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
+        if ranges["u"][1] <= ranges["z"][1]:
+            problems.append(f"initial.u: {list(ranges['u'])} must reach above initial.z "
+                            f"{list(ranges['z'])} (u >= z)")
     if model == "flow" and ranges.get("u") and kap and all(_is_number(x) for x in kap):
         if ranges["u"][1] <= max(kap):
             problems.append(f"initial.u: {list(ranges['u'])} lies on or below the obstacle at t = 0 "
@@ -528,7 +565,7 @@ def from_dict(raw) -> Scene:
         "system": ({"obstacle": obstacle} if model == "flow" else {})
         | {k: v for k, v in system.items() if v is not None},
         "sweep": {**{a.name: {"values": list(a.values)} for a in axes}, "follow": follow},
-        "initial": {"count": n_ic, "seed": seed, "u": list(ranges["u"]), "v": list(ranges["v"])},
+        "initial": {"count": n_ic, "seed": seed, **{c: list(ranges[c]) for c in coords}},
         "run": {**{k: v for k, v in run.items() if v is not None},
                 "max_events": max_events, "max_periods": max_periods},
         "output": {"keep": list(keep)},
@@ -541,7 +578,8 @@ def from_dict(raw) -> Scene:
         as_run["plot"] = plot
     return Scene(name=name, title=title, model=model, obstacle=obstacle, system=system,
                  section_period=section_period, axes=tuple(axes), follow=follow, n_ic=n_ic,
-                 seed=seed, u_range=ranges["u"], v_range=ranges["v"], transient=run["transient"],
+                 seed=seed, u_range=ranges["u"], v_range=ranges["v"],
+                 z_range=ranges.get("z"), y_range=ranges.get("y"), transient=run["transient"],
                  record=run["record"], tol=run["tol"], chatter=run["chatter"], escape=run["escape"],
                  period_tol=run["period_tol"], max_events=max_events, max_periods=max_periods,
                  keep=keep, plot=plot, text=dumps(as_run))

@@ -116,6 +116,23 @@ def create(path, scene, n_ic, command="", versions=None):
              long_name="u at the Poincare section t = nT")
         make("section/v", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
              long_name="v at the Poincare section t = nT")
+    if scene.model == "two_particle":
+        # section 6: the heavy particle z (velocity y) and the wall-particle impacts
+        make("initial/z", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="initial z(0)")
+        make("initial/y", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="initial y(0) = z'(0)")
+        make("final/z", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="z at the last section")
+        make("final/y", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="y at the last section")
+        if "section" in scene.keep:
+            make("section/z", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
+                 long_name="z at the Poincare section t = n 2 pi/omega0")
+            make("section/y", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
+                 long_name="y at the Poincare section")
+        if "wall_impacts" in scene.keep:
+            for fld, ln in (("t", "wall-particle impact time"), ("z", "impact height z = w"),
+                            ("y_in", "velocity of z before the impact"),
+                            ("y_out", "velocity of z after the impact (law 5, r1)")):
+                make(f"wall_impacts/{fld}", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
+                     long_name=ln)
     make("final/u", G + (n_ic,), "f8", np.nan, gsc + [ic],
          long_name="u at the last section crossed (the state a followed sweep carries on)")
     make("final/v", G + (n_ic,), "f8", np.nan, gsc + [ic],

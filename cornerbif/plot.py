@@ -19,6 +19,8 @@ LABELS = {
     "omega": r"$\omega$", "kappa": r"$\kappa$", "beta": r"$\beta$", "r": r"$r$",
     "sigma": r"$\sigma$", "k": r"$k$", "theta1": r"$\theta_1$", "theta2": r"$\theta_2$",
     "F": r"$F$", "Omega": r"$\Omega$", "phi": r"$\varphi$",
+    "omega0": r"$\omega_0$", "omega1": r"$\omega_1$", "omega2": r"$\omega_2$",
+    "mu": r"$\mu = M/m$", "r1": r"$r_1$", "r2": r"$r_2$",
 }
 YLABELS = {
     "impact_u": "impact height $u$", "impact_v": "impact velocity $v^-$",
@@ -126,6 +128,8 @@ def draw_plane(ax, data: PlotData):
         show = np.nanmax(per, axis=-1)
     x, y = data.values[a], data.values[b]
     im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap="viridis")
+    if b == "mu" and np.all(y > 0) and y.max() / y.min() > 20:
+        ax.set_yscale("log")
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
     sys_ = data.scene.get("system", {})

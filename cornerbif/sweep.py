@@ -56,21 +56,33 @@ def uniform(seed, point, ic, coord):
 
 
 def draw_initial(scene: Scene, flat_points: np.ndarray, z0: np.ndarray):
-    """Initial (u, v) at t = 0 for grid points ``flat_points`` (shape (n,)): (n, n_ic, 2).
+    """Initial state at t = 0 for grid points ``flat_points`` (shape (n,)).
 
-    u is uniform on the part of ``initial.u`` strictly above the obstacle z(0)
-    (the same law as drawing on the whole range and redrawing points below).
+    ``flow`` and ``map2d``: (n, n_ic, 2) = (u, v); u is uniform on the part of
+    ``initial.u`` strictly above the obstacle z(0) = ``z0`` (the same law as drawing
+    on the whole range and redrawing points below).  ``two_particle``:
+    (n, n_ic, 4) = (z, y, u, v) with w(0) < z <= u: z above the wall ``z0``, u above z.
     """
     n = flat_points.shape[0]
     pts = np.repeat(flat_points.astype(np.uint64), scene.n_ic)
     ics = np.tile(np.arange(scene.n_ic, dtype=np.uint64), n)
-    uu = uniform(scene.seed, pts, ics, 0).reshape(n, scene.n_ic)
-    uv = uniform(scene.seed, pts, ics, 1).reshape(n, scene.n_ic)
-    ulo, uhi = scene.u_range
-    lo = np.maximum(ulo, z0)[:, None]
-    u = uhi - (uhi - lo) * uu          # in (lo, uhi]
-    vlo, vhi = scene.v_range
-    v = vlo + (vhi - vlo) * uv
+
+    def draw(coord, rng, floor=None):
+        x = uniform(scene.seed, pts, ics, coord).reshape(n, scene.n_ic)
+        lo, hi = rng
+        if floor is None:
+            return lo + (hi - lo) * x
+        lo = np.maximum(lo, floor)
+        return hi - (hi - lo) * x          # in (floor, hi]
+
+    if scene.model == "two_particle":
+        z = draw(2, scene.z_range, z0[:, None])
+        y = draw(3, scene.y_range)
+        u = draw(0, scene.u_range, z)
+        v = draw(1, scene.v_range)
+        return np.stack([z, y, u, v], axis=-1)
+    u = draw(0, scene.u_range, z0[:, None])
+    v = draw(1, scene.v_range)
     return np.stack([u, v], axis=-1)
 
 
@@ -85,6 +97,11 @@ def pack_points(scene: Scene, index_list):
         vals = [scene.point(idx) for idx in index_list]
         return np.array([[v["omega"] - 2.0, v["kappa"], v["r"]] for v in vals],
                         dtype=float).reshape(len(index_list), 3)
+    if scene.model == "two_particle":
+        from .models import two_particle as TP
+        rows = [TP.pack(scene.point(idx), scene.tol, scene.chatter, scene.escape,
+                        scene.section_period) for idx in index_list]
+        return np.array(rows).reshape(len(index_list), TP.NPARAM)
     rows = []
     for idx in index_list:
         vals = scene.point(idx)
@@ -94,6 +111,14 @@ def pack_points(scene: Scene, index_list):
 
 
 def int_settings(scene: Scene) -> np.ndarray:
+    if scene.model == "two_particle":
+        from .models import two_particle as TP
+        ints = np.zeros(TP.NINT, np.int64)
+        ints[TP.I_TRANSIENT] = scene.transient
+        ints[TP.I_RECORD] = scene.record
+        ints[TP.I_MAX_EVENTS] = scene.max_events
+        ints[TP.I_MAX_PERIODS] = scene.max_periods
+        return ints
     ints = np.zeros(P.NINT, np.int64)
     ints[P.I_TRANSIENT] = scene.transient
     ints[P.I_RECORD] = scene.record
@@ -131,10 +156,47 @@ def run_map_items(params: np.ndarray, ics: np.ndarray, scene: Scene):
     return out, st, final, period, ipc, sym_full
 
 
+def run_two_particle_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
+    """The two-particle kernel (section 6) on n items; outputs shaped like ``run_items``'.
+
+    ``t, u, v_in, v_out, corner_offset`` are the u-z impacts (offset to the nearest
+    w-z impact, this system's corner); ``su, sv, sz, sy`` the sections; ``wz_*``
+    the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
+    """
+    from .kernels import two_particle as K
+    n = params.shape[0]
+    rec = scene.record
+    cap = 4 * rec + 8
+    o_zu = np.full((n, rec, K.NZU), np.nan)
+    corner = np.full((n, rec), -1, np.int64)
+    o_wz = np.full((n, cap, K.NWZ), np.nan)
+    o_sec = np.full((n, rec, K.NSEC), np.nan)
+    st = np.zeros(n, np.int8)
+    final = np.full((n, 4), np.nan)
+    K.run_batch(np.ascontiguousarray(params), ints, np.ascontiguousarray(ics), o_zu, corner, o_wz,
+                o_sec, st, final)
+    out = {"t": np.ascontiguousarray(o_zu[:, :, K.ZU_T]), "u": o_zu[:, :, K.ZU_U].copy(),
+           "v_in": np.ascontiguousarray(o_zu[:, :, K.ZU_VIN]), "v_out": o_zu[:, :, K.ZU_VOUT].copy(),
+           "corner_offset": np.ascontiguousarray(o_zu[:, :, K.ZU_OFF]),
+           "su": o_sec[:, :, K.SEC_U].copy(), "sv": o_sec[:, :, K.SEC_V].copy(),
+           "sz": o_sec[:, :, K.SEC_Z].copy(), "sy": o_sec[:, :, K.SEC_Y].copy(),
+           "wz_t": o_wz[:, :rec, K.WZ_T].copy(), "wz_z": o_wz[:, :rec, K.WZ_Z].copy(),
+           "wz_y_in": o_wz[:, :rec, K.WZ_YIN].copy(), "wz_y_out": o_wz[:, :rec, K.WZ_YOUT].copy()}
+    period = np.zeros(n, np.int64)
+    ipc = np.zeros(n, np.int64)
+    sym = np.zeros((n, rec), np.uint8)
+    t = np.where(np.isnan(out["corner_offset"]), np.nan, out["t"])
+    detect_cycles(t, out["v_in"], out["corner_offset"], corner, np.ones(n, np.bool_),
+                  scene.period_tol, period, ipc, sym)
+    return out, st, final, period, ipc, sym
+
+
 def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
     """Run the model's kernel and the cycle analysis on n items (rows of params/ics)."""
     if scene.model == "map2d":
         return run_map_items(params, ics, scene)
+    if scene.model == "two_particle":
+        return run_two_particle_items(params, ics, ints, scene)
     from .kernels.flow import run_batch
     n = params.shape[0]
     rec = scene.record
@@ -222,7 +284,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     import h5py
     import numba
 
-    if scene.model not in ("flow", "map2d"):
+    if scene.model not in ("flow", "map2d", "two_particle"):
         raise SceneError([f"scene.model: {scene.model!r} is not implemented yet"])
     partial = out_path + ".partial"
     lock_path = out_path + ".lock"
@@ -385,8 +447,12 @@ def _run_blocks(scene, f, progress, block_points=None):
             idx, sub = _indices(scene, blk)
             params = pack_points(scene, idx)
             flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
+            tp = scene.model == "two_particle"
             if scene.model == "map2d":
                 kap = np.full(len(idx), -np.inf)     # no obstacle: any (a0, b1) is a start
+            elif tp:
+                from .models import two_particle as TP
+                kap = params[:, TP.KAPPA]             # the wall at t = 0: w(0) = kappa
             else:
                 kap = params[:, P.KAPPA]
             ics = draw_initial(scene, flat, kap)
@@ -395,13 +461,28 @@ def _run_blocks(scene, f, progress, block_points=None):
                 ics = np.where(ok[..., None], carry, ics)
             n = len(idx) * scene.n_ic
             prm = np.repeat(params, scene.n_ic, axis=0)
-            out, st, final, period, ipc, sym = run_items(prm, ics.reshape(n, 2), ints, scene)
+            out, st, final, period, ipc, sym = run_items(prm, ics.reshape(n, ics.shape[-1]),
+                                                         ints, scene)
             shape = tuple(sub) + (scene.n_ic,)
-            block = {"initial/u": ics[..., 0].reshape(shape), "initial/v": ics[..., 1].reshape(shape),
+            iu = 2 if tp else 0
+            block = {"initial/u": ics[..., iu].reshape(shape),
+                     "initial/v": ics[..., iu + 1].reshape(shape),
                      "status": st.reshape(shape), "period": period.reshape(shape),
                      "impacts_per_cycle": ipc.reshape(shape),
                      "symbols": _symbol_bytes(sym, scene.record).reshape(shape),
-                     "final/u": final[:, 0].reshape(shape), "final/v": final[:, 1].reshape(shape)}
+                     "final/u": final[:, iu].reshape(shape),
+                     "final/v": final[:, iu + 1].reshape(shape)}
+            if tp:
+                block.update({"initial/z": ics[..., 0].reshape(shape),
+                              "initial/y": ics[..., 1].reshape(shape),
+                              "final/z": final[:, 0].reshape(shape),
+                              "final/y": final[:, 1].reshape(shape)})
+                if "section" in scene.keep:
+                    block["section/z"] = out["sz"].reshape(shape + (scene.record,))
+                    block["section/y"] = out["sy"].reshape(shape + (scene.record,))
+                if "wall_impacts" in scene.keep:
+                    for k in ("t", "z", "y_in", "y_out"):
+                        block[f"wall_impacts/{k}"] = out[f"wz_{k}"].reshape(shape + (scene.record,))
             if "impacts" in scene.keep:
                 for k in io.IMPACT_FIELDS:
                     block[f"impacts/{k}"] = out[k].reshape(shape + (scene.record,))
@@ -410,7 +491,7 @@ def _run_blocks(scene, f, progress, block_points=None):
                 block["section/v"] = out["sv"].reshape(shape + (scene.record,))
             io.write_block(f, blk, block)
             if scene.follow != "none":
-                carry = final.reshape(len(idx), scene.n_ic, 2)
+                carry = final.reshape(len(idx), scene.n_ic, final.shape[-1])
             if bar is not None:
                 bar.update(1)
     finally:
@@ -424,8 +505,10 @@ def _carry_from_file(scene, f, all_blocks, first_todo):
     if i == 0:
         return None
     prev = all_blocks[i - 1]
-    carry = np.stack([f["final/u"][prev], f["final/v"][prev]], -1)
-    return carry.reshape(-1, scene.n_ic, 2)
+    names = ["final/z", "final/y"] if scene.model == "two_particle" else []
+    names += ["final/u", "final/v"]
+    carry = np.stack([f[n][prev] for n in names], -1)
+    return carry.reshape(-1, scene.n_ic, len(names))
 
 
 # ------------------------------------------------------------------ one run, from Python

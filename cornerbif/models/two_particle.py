@@ -1,0 +1,116 @@
+"""The ``two_particle`` model of section 6: wall w, heavy particle z, light particle u.
+
+Equations (paper section 6.1)::
+
+    w(t)  = kappa + beta sin(omega0 t)                       (72)
+    z'' + omega1^2 z = 0,   u'' + omega2^2 u = 0  in flight   (73)
+    w <= z <= u at all times
+
+* w-z impacts (z = w): law (5) with restitution r1, the wall having infinite
+  mass: y+ = (1 + r1) w'(t) - r1 y-.
+* z-u impacts (u = z): law (74) with restitution r2 and mass ratio mu = M/m:
+  momentum M y + m v is conserved and the relative velocity is reversed and
+  scaled by r2; ``mu = inf`` gives exactly law (5) for u against z (y+ = y-).
+
+Parameters have names in Python and live in one packed float64 vector inside
+the kernels (STYLE example 4), indexed by the constants below.
+"""
+
+import math
+
+import numpy as np
+
+from .._jit import jit
+from .impact import restitution
+
+# --- indices into the packed vector --------------------------------------------------
+OMEGA0 = 0    # wall frequency omega0 (eq 72)
+OMEGA1 = 1    # natural frequency of the heavy particle z (eq 73)
+OMEGA2 = 2    # natural frequency of the light particle u (eq 73)
+MU = 3        # mass ratio mu = M/m (eq 74); inf allowed (law 5)
+R1 = 4        # restitution of w-z impacts (law 5)
+R2 = 5        # restitution of z-u impacts (law 74)
+KAPPA = 6     # wall offset kappa (eq 72)
+BETA = 7      # wall amplitude beta (eq 72)
+TOL = 8       # event-time tolerance
+CHATTER = 9   # relative velocity below which a chattering sequence is summed
+ESCAPE = 10   # amplitude bound beyond which a run is ESCAPED
+SECTION = 11  # Poincare section period in time (default 2 pi / omega0)
+NPARAM = 12
+
+NAMES = ("omega0", "omega1", "omega2", "mu", "r1", "r2", "kappa", "beta")
+INDEX = {"omega0": OMEGA0, "omega1": OMEGA1, "omega2": OMEGA2, "mu": MU, "r1": R1,
+         "r2": R2, "kappa": KAPPA, "beta": BETA}
+
+# --- integer run settings (a small int64 vector) --------------------------------------
+I_TRANSIENT = 0    # z-u impacts skipped before recording
+I_RECORD = 1       # z-u impacts recorded
+I_MAX_EVENTS = 2   # budget of events (impacts, stick and release)
+I_MAX_PERIODS = 3  # budget of section periods
+NINT = 4
+
+
+def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float = 1e6,
+         section_period: float | None = None) -> np.ndarray:
+    """Pack named parameters of one point into the kernel's float64 vector.
+
+    ``values`` holds omega0, omega1, omega2, mu, r1, r2, kappa, beta (all
+    required) and optionally ``section_period``.  Every value is checked here,
+    before any kernel runs: NaN or out-of-range values raise ``ValueError``
+    naming the key and the value.
+    """
+    unknown = set(values) - set(NAMES) - {"section_period"}
+    if unknown:
+        raise ValueError(f"two_particle: unknown parameter(s) {sorted(unknown)}; "
+                         f"allowed: {', '.join(NAMES)}, section_period")
+    p = np.zeros(NPARAM)
+    problems = []
+    for k in NAMES:
+        if k not in values:
+            problems.append(f"{k}: missing")
+            continue
+        v = float(values[k])
+        p[INDEX[k]] = v
+        if math.isnan(v):
+            problems.append(f"{k}: {v!r} is not a number")
+        elif k == "mu":
+            if not v > 0.0:
+                problems.append(f"mu: {v!r} must be > 0 (inf allowed)")
+        elif math.isinf(v):
+            problems.append(f"{k}: {v!r} must be finite")
+        elif k in ("omega0", "omega1", "omega2") and not v > 0.0:
+            problems.append(f"{k}: {v!r} must be > 0")
+        elif k in ("r1", "r2") and not 0.0 <= v <= 1.0:
+            problems.append(f"{k}: {v!r} must lie in [0, 1]")
+    sp = values.get("section_period", section_period)
+    if sp is None and p[OMEGA0] > 0.0:
+        sp = 2.0 * math.pi / p[OMEGA0]
+    if sp is None or not (math.isfinite(sp) and sp > 0.0):
+        problems.append(f"section_period: {sp!r} must be finite and > 0")
+    for name, v in (("tol", tol), ("chatter", chatter), ("escape", escape)):
+        if not (math.isfinite(v) and v > 0.0):
+            problems.append(f"{name}: {v!r} must be finite and > 0")
+    if problems:
+        raise ValueError("two_particle: " + "; ".join(problems))
+    p[TOL] = tol
+    p[CHATTER] = chatter
+    p[ESCAPE] = escape
+    p[SECTION] = sp
+    return p
+
+
+@jit
+def mass_ratio_impact(y_in, v_in, mu, r2):
+    """Law (74): velocities (y+, v+) of z (mass M) and u (mass m = M/mu) after u = z.
+
+    Written as increments, d = (1 + r2)(v- - y-):
+    y+ = y- + d/(1 + mu), v+ = v- - d + d/(1 + mu), which is the matrix of (74)
+    rearranged; it conserves mu y + v and gives v+ - y+ = -r2 (v- - y-) to
+    rounding.  ``mu = inf`` returns exactly law (5): y+ = y-,
+    v+ = (1 + r2) y- - r2 v-.
+    """
+    if mu == math.inf:
+        return y_in, restitution(v_in, y_in, r2)
+    d = (1.0 + r2) * (v_in - y_in)
+    a = d / (1.0 + mu)
+    return y_in + a, (v_in - d) + a
