@@ -62,7 +62,9 @@ def test_properties_of_every_recorded_impact(w, kap, r, u0, v0, obstacle):
     t = res["t"][0]
     ok = np.isfinite(t)
     t = t[ok]
-    assert (np.diff(t) >= 0).all()
+    # non-decreasing (the kernel orders events by piece and local time; absolute times are
+    # derived from them and may differ by rounding at a corner: 1e-15 relative)
+    assert (np.diff(t) >= -1e-15 * np.maximum(1.0, np.abs(t[1:]))).all()
     # law (5) with the one-sided slope on the impact's side
     for i in np.flatnonzero(ok):
         ti = res["t"][0, i]

@@ -139,6 +139,18 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
 
 
 @jit
+def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_off, o_corner):
+    """Record impact i: time, height, v-, v+ and the nearest corner with the signed offset."""
+    o_t[i] = t
+    o_u[i] = z
+    o_vin[i] = v_in
+    o_vout[i] = v_out
+    c, off = corner_of(p, d, j, tau)
+    o_corner[i] = c
+    o_off[i] = off
+
+
+@jit
 def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final):
     """Integrate one item from (t, u, v) = (0, u0, v0); fill its output rows.
 
@@ -242,14 +254,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 v_out = restitution(zb, za, r)
                 v_after = v_out
                 if n_imp >= transient:
-                    i = n_imp - transient
-                    o_t[i] = t
-                    o_u[i] = z
-                    o_vin[i] = zb
-                    o_vout[i] = v_out
-                    c, off = corner_of(p, d, j, 0.0)
-                    o_corner[i] = c
-                    o_off[i] = off
+                    store_impact(p, d, n_imp - transient, j, 0.0, t, z, zb, v_out,
+                                 o_t, o_u, o_vin, o_vout, o_off, o_corner)
                 n_imp += 1
                 if n_imp >= need:
                     return S.OK
@@ -332,14 +338,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
         v_in = vh + vp
         v_out = restitution(v_in, zp, r)
         if n_imp >= transient:
-            i = n_imp - transient
-            o_t[i] = t
-            o_u[i] = z
-            o_vin[i] = v_in
-            o_vout[i] = v_out
-            c, off = corner_of(p, d, j, tau)
-            o_corner[i] = c
-            o_off[i] = off
+            store_impact(p, d, n_imp - transient, j, tau, t, z, v_in, v_out,
+                         o_t, o_u, o_vin, o_vout, o_off, o_corner)
         n_imp += 1
         events += 1
         if n_imp == transient and auto_phase:
