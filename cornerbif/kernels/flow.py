@@ -32,7 +32,7 @@ from .. import status as S
 from .._jit import jit, pjit
 from ..models import params as P
 from ..models.impact import restitution
-from ..models.obstacle import (D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
+from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
                                zpp_range, zppp_max, z_state)
 from ..models.oscillator import amplitude, derive, forcing, homogeneous, particular, upp_bound
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
@@ -139,6 +139,52 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
 
 
 @jit
+def sturm_clear(p, d, j, g0, gp0, rest):
+    """Certified root-free length of a flight on piece j (sigma = 0, f = 0), eqs (4), (7)-(8).
+
+    With u'' = -k^2 u, the gap satisfies g'' + k^2 g = -k^2 z - z'' =: f(tau), and on
+    each piece f >= f_min (rectified_sine: -k^2 kappa + min(0, beta (omega^2 - k^2)); the
+    odd half periods of sine with the sign of beta reversed; triangle: -k^2 max z).  By
+    Sturm comparison g >= y on [0, pi/k], where y'' + k^2 y = f_min with y, y' = g, g'
+    at s = 0, so g has no root before the first root of the sinusoid y (closed form).
+    Returns that length (or ``rest`` when y stays positive over the piece); 0 when
+    g0 <= 0 (nothing can be certified).
+    """
+    k = p[P.K]
+    ob = p[P.OBSTACLE]
+    k2 = k * k
+    kap = p[P.KAPPA]
+    if ob == P.TRIANGLE:
+        fmin = -k2 * (kap + p[P.THETA2] * d[D_L0])
+    else:
+        a = p[P.BETA] * (p[P.OMEGA] * p[P.OMEGA] - k2)
+        if ob == P.SINE and j % 2 == 1:
+            a = -a
+        fmin = -k2 * kap + min(0.0, a)
+    if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
+        return 0.0
+    c = fmin / k2
+    x = g0 - c
+    yv = gp0 / k
+    amp = math.sqrt(x * x + yv * yv)
+    window = math.pi / k
+    if window > rest:
+        window = rest
+    if c >= amp:
+        return window          # y >= c - A >= 0: certified over the window
+    phi = math.atan2(yv, x)
+    # y(0) = g0 >= 0 gives |phi| <= acos(-c/A), so th >= 0; a negative th is rounding
+    # of a root at s = 0 (g0 ~ 0 and closing)
+    th = phi + math.acos(-c / amp)
+    if th < 0.0:
+        th = 0.0
+    s1 = th / k
+    if s1 >= window:
+        return window
+    return s1
+
+
+@jit
 def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_off, o_corner):
     """Record impact i: time, height, v-, v+ and the nearest corner with the signed offset."""
     o_t[i] = t
@@ -204,6 +250,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     pieces = 0
     wd = d[D_WD]
     zppp_bound = zppp_max(p)
+    sturm = p[P.SIGMA] == 0.0 and p[P.F_AMP] == 0.0 and p[P.K] > 0.0
     underdamped = d[D_REGIME] == 0.0
 
     while True:
@@ -302,8 +349,17 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             return S.ESCAPED
         bu, bu3 = upp_bound(p, d, uh_ref, vh_ref)
         zlo, zhi = zpp_range(p, j)
-        code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s_start, L - tau_ref,
-                             -bu - zhi, bu - zlo, bu3 + zppp_bound, tol, skip)
+        s0 = s_start
+        if sturm and s_start == 0.0:
+            # Sturm comparison: no root before the first root of the lower sinusoid
+            z0, zp0, _, _ = z_state(p, j, tau_ref)
+            s0 = sturm_clear(p, d, j, uh_ref - z0, vh_ref - zp0, L - tau_ref)
+        if s0 >= L - tau_ref:
+            code = NONE
+            s = L - tau_ref
+        else:
+            code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s0, L - tau_ref,
+                                 -bu - zhi, bu - zlo, bu3 + zppp_bound, tol, skip and s0 == 0.0)
         if code == FAIL:
             return S.STEP_LIMIT
         if code == FOUND and s >= L - tau_ref:
