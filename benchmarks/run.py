@@ -43,10 +43,15 @@ def _items(scene):
     idx = [tuple(i) for i in np.ndindex(*G)]
     params = sweep.pack_points(scene, idx)
     flat = np.arange(len(idx))
-    from cornerbif.models import params as P
-    ics = sweep.draw_initial(scene, flat, params[:, P.KAPPA])
+    if scene.model == "two_particle":
+        from cornerbif.models import two_particle as TP
+        kap = params[:, TP.KAPPA]
+    else:
+        from cornerbif.models import params as P
+        kap = params[:, P.KAPPA]
+    ics = sweep.draw_initial(scene, flat, kap)
     prm = np.repeat(params, scene.n_ic, axis=0)
-    return prm, ics.reshape(-1, 2)
+    return prm, ics.reshape(-1, ics.shape[-1])
 
 
 def bench_flow(scene, threads, repeat=3):
@@ -70,6 +75,11 @@ def bench_flow(scene, threads, repeat=3):
     n_imp = len(prm) * (scene.transient + scene.record)
     return {"items": len(prm), "impacts": n_imp, "seconds": best,
             "impacts_per_second": n_imp / best, "ok_fraction": float(np.mean(st == 0))}
+
+
+def bench_two_particle(scene, threads, repeat=3):
+    """u-z impacts per second of the two-particle kernel (+ cycle analysis) on a whole scene."""
+    return bench_flow(scene, threads, repeat)
 
 
 def bench_map2d(n_items, steps, threads):
@@ -202,6 +212,12 @@ def main(argv=None):
                              / res["flow_fig04c_2threads"]["seconds"])
     res["flow_fig06a_1thread"] = bench_flow(fig06a, 1, 1 if smoke else 3)
 
+    print("two_particle, Fig. 19(a) scene ...", flush=True)
+    fig19a = _scene("fig19a", **({"sweep.omega0.num": 10} if smoke else {"sweep.omega0.num": 200}))
+    res["two_particle_fig19a_1thread"] = bench_two_particle(fig19a, 1, 1 if smoke else 3)
+    res["ratio_flow_to_two_particle"] = (res["flow_fig04c_1thread"]["impacts_per_second"]
+                                         / res["two_particle_fig19a_1thread"]["impacts_per_second"])
+
     print("map2d ...", flush=True)
     res["map2d_1thread"] = bench_map2d(64, 2000 if smoke else 200000, 1)
     res["map2d_2threads"] = bench_map2d(64, 2000 if smoke else 200000, ncores)
@@ -242,6 +258,9 @@ def render(r):
          f"| flow, Fig. 4(c) scene, 1 thread | {f['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
          f"| flow, Fig. 6(a) scene, 1 thread | "
          f"{r['flow_fig06a_1thread']['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
+         f"| two_particle, Fig. 19(a) scene, 1 thread | "
+         f"{r['two_particle_fig19a_1thread']['impacts_per_second'] / 1e6:.2f} M u-z impacts/s "
+         f"(flow is {r['ratio_flow_to_two_particle']:.1f}x faster) | |",
          f"| map2d, 1 thread / 2 threads | {r['map2d_1thread']['steps_per_second'] / 1e6:.0f} M / "
          f"{r['map2d_2threads']['steps_per_second'] / 1e6:.0f} M steps/s | >= 200 M per core |",
          f"| solve_ivp DOP853 loop (rtol 1e-9), same scene | "

@@ -431,6 +431,12 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     Each item writes only its own rows; results do not depend on the thread count.
     """
     n = params.shape[0]
-    for i in prange(n):
+    # prange hands each thread a contiguous range; neighbouring items (neighbouring
+    # parameter values) cost alike, so spread them with a fixed permutation (a
+    # multiplicative stride coprime to n) to balance the threads.  Each item still
+    # writes only its own rows: results do not depend on the order.
+    stride = 7919 if n % 7919 != 0 else 1
+    for k in prange(n):
+        i = (k * stride) % n
         o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1], o_t[i], o_u[i], o_vin[i],
                               o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i])
