@@ -166,19 +166,23 @@ def sturm_clear(p, d, j, g0, gp0, rest):
     c = fmin / k2
     x = g0 - c
     yv = gp0 / k
-    amp = math.sqrt(x * x + yv * yv)
     window = math.pi / k
     if window > rest:
         window = rest
-    if c >= amp:
-        return window          # y >= c - A >= 0: certified over the window
-    phi = math.atan2(yv, x)
-    # y(0) = g0 >= 0 gives |phi| <= acos(-c/A), so th >= 0; a negative th is rounding
-    # of a root at s = 0 (g0 ~ 0 and closing)
-    th = phi + math.acos(-c / amp)
-    if th < 0.0:
-        th = 0.0
-    s1 = th / k
+    # y(s) = c + x cos(ks) + yv sin(ks); with t = tan(ks/2) its zeros solve
+    # (c - x) t^2 + 2 yv t + (c + x) = 0, and s in [0, pi/k) maps monotonically to t >= 0
+    # (stable for short flights, where acos(-c/A) would cancel; one square root, and an
+    # arctangent only when a root falls inside the window)
+    c2 = c + x          # = g0: y(0)
+    if c2 <= 0.0:
+        return 0.0
+    tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
+    if tr == math.inf:
+        return window
+    half = 0.5 * k * window
+    if half < 0.5 * math.pi and tr >= math.tan(half):
+        return window
+    s1 = 2.0 * math.atan(tr) / k
     if s1 >= window:
         return window
     return s1
