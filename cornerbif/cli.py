@@ -53,7 +53,7 @@ def main():
 def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, block_points):
     """Run SCENE.toml and write the diagram to HDF5."""
     scene = _load(scene_path, sets)
-    from .sweep import SweepError, SweepInterrupted, estimate_bytes, run_sweep
+    from .sweep import SweepError, SweepInterrupted, estimate_bytes, estimate_memory, run_sweep
     out = out or f"{scene.name}.h5"
     import numpy as np
     n_points = int(np.prod(scene.shape or (1,)))
@@ -62,6 +62,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         click.echo(f"scene {scene.name}: model {scene.model}, grid {scene.shape or '(single point)'}, "
                    f"{scene.n_ic} starts -> {n_items} runs of {scene.transient + scene.record} impacts")
         click.echo(f"output {out}: up to {estimate_bytes(scene) / 2**20:.1f} MiB (uncompressed)")
+        click.echo(f"working memory: about {estimate_memory(scene) / 2**20:.1f} MiB")
         return
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")

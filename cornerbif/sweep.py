@@ -268,12 +268,39 @@ def _indices(scene, blk):
 def estimate_bytes(scene: Scene) -> int:
     """Upper estimate of the output file size (uncompressed)."""
     n = int(np.prod(scene.shape or (1,))) * scene.n_ic
-    per = 2 * 8 + 1 + 4 + 4 + 16
+    per = 4 * 8 + 1 + 4 + 4 + max(1, scene.record // 2)
+    if scene.model == "two_particle":
+        per += 4 * 8
     if "impacts" in scene.keep:
         per += 5 * 8 * scene.record
     if "section" in scene.keep:
-        per += 2 * 8 * scene.record
+        per += (4 if scene.model == "two_particle" else 2) * 8 * scene.record
+    if "wall_impacts" in scene.keep:
+        per += 4 * 8 * scene.record
     return n * per
+
+
+def estimate_memory(scene: Scene) -> int:
+    """Upper estimate of the sweep's working memory: one block of kernel outputs (bounded
+    by BLOCK_BYTES, twice for the copies the writer makes) plus what grows with the grid
+    (the done mask and the block list, ~200 bytes a grid row)."""
+    points = int(np.prod(scene.shape or (1,)))
+    per_item = scene.record * ITEM_FIELDS * 8 + 64
+    block = min(BLOCK_BYTES, per_item * scene.n_ic * points)
+    rows = points if len(scene.shape) < 2 else scene.shape[0] * max(1, scene.shape[1] // max(
+        1, BLOCK_BYTES // (per_item * scene.n_ic)))
+    return 3 * block + points + 200 * rows
+
+
+def _available_memory():
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
 
 
 # ------------------------------------------------------------------ the sweep
@@ -312,11 +339,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
         else:
             f = None
         if f is None:
-            free = _free_bytes(os.path.dirname(os.path.abspath(out_path)))
-            need = estimate_bytes(scene)
-            if free is not None and need > free:
-                raise SweepError(f"the output needs up to {need / 2**30:.2f} GiB but only "
-                                 f"{free / 2**30:.2f} GiB are free; shrink the grid or keep less")
+            check_budget(scene, out_path)
             # set the file up under a temporary name: a partial file exists only once
             # every dataset is in place and single-writer/multiple-reader mode is on
             init = partial + ".init"
@@ -351,6 +374,22 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             os.remove(lock_path)
         except OSError:
             pass
+
+
+def check_budget(scene: Scene, out_path: str):
+    """Refuse, before any work, a grid whose output would not fit the disk or whose working
+    memory would not fit the machine; the message gives the estimate."""
+    free = _free_bytes(os.path.dirname(os.path.abspath(out_path)))
+    need = estimate_bytes(scene)
+    if free is not None and need > free:
+        raise SweepError(f"the output needs up to {need / 2**30:.2f} GiB but only "
+                         f"{free / 2**30:.2f} GiB are free on its disk; shrink the grid or "
+                         "keep less (output.keep)")
+    avail = _available_memory()
+    mem = estimate_memory(scene)
+    if avail is not None and mem > avail:
+        raise SweepError(f"the sweep needs about {mem / 2**30:.2f} GiB of memory but only "
+                         f"{avail / 2**30:.2f} GiB are available; shrink the grid")
 
 
 def _free_bytes(d):

@@ -223,3 +223,29 @@ def test_provenance_in_the_file(tmp_path):
                   "numpy_version", "numba_version", "h5py_version"):
             assert f.attrs[k], k
         assert "sweep" in f.attrs["command"]
+
+
+def test_grid_too_big_for_disk_or_memory_is_refused_before_any_work(tmp_path, monkeypatch):
+    out = tmp_path / "big.h5"
+    args = ["sweep", FIG06A, "-o", str(out), "--set", "sweep.kappa.num=50"]
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 1000)
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "GiB but only" in r.output and "free on its disk" in r.output
+    assert not os.path.exists(out) and not os.path.exists(str(out) + ".partial")
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: None)
+    monkeypatch.setattr(sweep_mod, "_available_memory", lambda: 1000)
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "of memory but only" in r.output
+    assert not os.path.exists(out) and not os.path.exists(str(out) + ".partial")
+    r = CliRunner().invoke(main, args + ["--dry-run"])
+    assert r.exit_code == 0 and "MiB (uncompressed)" in r.output and "working memory" in r.output
+
+
+def test_two_axes_naming_one_parameter_is_refused():
+    """TOML itself refuses a key twice in a table (line and column named); through --set the
+    same axis cannot appear twice either, since overrides address one key."""
+    text = open(FIG06A).read().replace("follow = \"none\"",
+                                        "kappa = { start = 0.0, stop = 1.0, num = 3 }\nfollow = \"none\"")
+    with pytest.raises(config.SceneError) as e:
+        config.loads(text)
+    assert "line" in str(e.value)

@@ -82,3 +82,14 @@ def test_corner_bifurcation_located_to_1e_minus_7():
     q = simulate_two_particle(*x0, transient=3000, record=200, omega0=lo - 2e-6)
     w = q["symbols"][0]
     assert w and w.endswith("g") and set(w[:-1]) == {"b"} and len(w) > 5, w
+
+
+def test_equal_masses_mu_1():
+    """mu = 1 (equal masses, the far end of the mass range): every z-u impact conserves
+    momentum y + v and reverses the relative velocity by r2 (eq 74), and the run ends OK."""
+    r = simulate_two_particle(1.0, 0.0, 6.0, -2.0, transient=50, record=80, omega0=2.0, mu=1.0)
+    assert r["status"][0] == 0
+    ok = np.isfinite(r["t"][0])
+    yi, yo, vi, vo = (r[k][0][ok] for k in ("y_in", "y_out", "v_in", "v_out"))
+    assert np.allclose(yi + vi, yo + vo, atol=1e-12 * (1 + np.abs(vi).max()))
+    assert np.allclose(vo - yo, -0.8 * (vi - yi), atol=1e-12 * (1 + np.abs(vi).max()))
