@@ -171,16 +171,13 @@ def sturm_clear(p, d, j, g0, gp0, rest):
         window = rest
     # y(s) = c + x cos(ks) + yv sin(ks); with t = tan(ks/2) its zeros solve
     # (c - x) t^2 + 2 yv t + (c + x) = 0, and s in [0, pi/k) maps monotonically to t >= 0
-    # (stable for short flights, where acos(-c/A) would cancel; one square root, and an
-    # arctangent only when a root falls inside the window)
+    # (stable for short flights, where acos(-c/A) would cancel; a square root and an
+    # arctangent)
     c2 = c + x          # = g0: y(0)
     if c2 <= 0.0:
         return 0.0
     tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
     if tr == math.inf:
-        return window
-    half = 0.5 * k * window
-    if half < 0.5 * math.pi and tr >= math.tan(half):
         return window
     s1 = 2.0 * math.atan(tr) / k
     if s1 >= window:
