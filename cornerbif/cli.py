@@ -126,7 +126,6 @@ def info(file):
 
     import numpy as np
 
-    from . import status as S
     from .io import FileFormatError, check_readable
     try:
         f = check_readable(file)
@@ -159,7 +158,6 @@ def info(file):
             top = sorted(zip(cnt, vals), reverse=True)[:8]
             click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
         click.echo(f"  datasets: {', '.join(sorted(_names(f)))}")
-        del S
 
 
 def _names(f):

@@ -23,14 +23,3 @@ NAMES = {
     STEP_LIMIT: "STEP_LIMIT",
     NONFINITE: "NONFINITE",
 }
-
-MEANING = {
-    "OK": "the requested transient and recorded impacts were all computed",
-    "NO_IMPACT": "the time budget ran out before the requested impacts happened",
-    "STUCK": "the particle stuck to the obstacle and did not leave within the time budget",
-    "MAX_EVENTS": "the event budget ran out (more impacts than budgeted, e.g. chattering)",
-    "ESCAPED": "the oscillation amplitude exceeded run.escape",
-    "BELOW_OBSTACLE": "the initial state lies below the obstacle",
-    "STEP_LIMIT": "an event search did not close within its step budget",
-    "NONFINITE": "a non-finite value appeared in the state",
-}

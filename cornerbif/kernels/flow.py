@@ -34,7 +34,7 @@ from ..models import params as P
 from ..models.impact import restitution
 from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
                                zpp_range, zppp_max, z_state)
-from ..models.oscillator import amplitude, derive, forcing, homogeneous, particular, upp_bound
+from ..models.oscillator import derive, forcing, homogeneous, particular, upp_bound
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
 
 GAP = 0       # f = u - z along the flight
@@ -343,12 +343,11 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             continue
 
         # ---- flight on piece j from tau_ref ----------------------------------------
-        amp = amplitude(p, d, uh_ref, vh_ref)
+        bu, bu3, amp = upp_bound(p, d, uh_ref, vh_ref)
         if not (amp == amp):
             return S.NONFINITE
         if amp > escape:
             return S.ESCAPED
-        bu, bu3 = upp_bound(p, d, uh_ref, vh_ref)
         zlo, zhi = zpp_range(p, j)
         s0 = s_start
         if sturm and s_start == 0.0:

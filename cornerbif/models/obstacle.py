@@ -83,17 +83,6 @@ def zppp_max(p):
 
 
 @jit
-def is_valley_corner(p, j):
-    """True when the start of piece j is a corner where the slope jumps up (Gamma_k)."""
-    ob = p[P.OBSTACLE]
-    if ob == P.RECTIFIED_SINE:
-        return True
-    if ob == P.TRIANGLE:
-        return j % 2 == 0
-    return False
-
-
-@jit
 def corner_of(p, d, j, tau):
     """Nearest valley corner to (j, tau): its index and the signed offset tau - t_corner.
 

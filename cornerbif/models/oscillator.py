@@ -117,7 +117,8 @@ def homogeneous(p, d, uh0, vh0, s):
 
 @jit
 def upp_bound(p, d, uh0, vh0):
-    """Bounds of |u''| and |u'''| over the whole future flight from (uh0, vh0).
+    """Bounds of |u''| and |u'''| over the whole future flight from (uh0, vh0), and its size
+    (the amplitude R under-damped, |u_h| + |v_h| otherwise) for the escape test.
 
     Under-damped: u_h = R e^{-sigma s} cos(w_d s - psi), and each derivative
     multiplies the envelope by at most k, so |u_h''| <= R k^2, |u_h'''| <= R k^3;
@@ -134,10 +135,12 @@ def upp_bound(p, d, uh0, vh0):
         k = p[P.K]
         hb = amp * k * k
         hb3 = hb * k
+        size = amp
     elif reg == 1.0:
         B = vh0 + sig * uh0
         hb = sig * sig * abs(uh0) + 2.0 * sig * abs(B)
         hb3 = sig * sig * sig * abs(uh0) + 3.0 * sig * sig * abs(B)
+        size = abs(uh0) + abs(vh0)
     else:
         l1 = d[D_LAM1]
         l2 = d[D_LAM2]
@@ -145,15 +148,6 @@ def upp_bound(p, d, uh0, vh0):
         c2 = uh0 - c1
         hb = abs(c1) * l1 * l1 + abs(c2) * l2 * l2
         hb3 = abs(c1) * abs(l1) ** 3 + abs(c2) * abs(l2) ** 3
+        size = abs(uh0) + abs(vh0)
     W = p[P.F_OMEGA]
-    return hb + d[D_UPP_PART], hb3 + d[D_UPP_PART] * W
-
-
-@jit
-def amplitude(p, d, uh0, vh0):
-    """Size of the homogeneous motion (for the escape test)."""
-    reg = d[D_REGIME]
-    if reg == 0.0:
-        B = (vh0 + p[P.SIGMA] * uh0) / d[D_WD]
-        return math.sqrt(uh0 * uh0 + B * B)
-    return abs(uh0) + abs(vh0)
+    return hb + d[D_UPP_PART], hb3 + d[D_UPP_PART] * W, size

@@ -40,8 +40,7 @@ I_TRANSIENT = 0
 I_RECORD = 1
 I_MAX_EVENTS = 2
 I_MAX_PIECES = 3
-I_STOP_ON_PERIOD = 4  # reserved: stop once the period is established (charts)
-NINT = 5
+NINT = 4
 
 
 def obstacle_period(obstacle: str, omega: float) -> float:
