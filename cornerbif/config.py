@@ -83,8 +83,9 @@ TABLES = {
     "initial": tuple(INITIAL_DEFAULTS) + ("z", "y"),
     "run": tuple(RUN_DEFAULTS),
     "output": ("keep",),
-    "plot": ("y", "xlim", "ylim", "marker_size", "title"),
+    "plot": ("kind", "y", "xlim", "ylim", "marker_size", "title"),
 }
+PLOT_KINDS = ("bifurcation", "regions", "return_map", "orbit")
 PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
 
 
@@ -527,6 +528,9 @@ def from_dict(raw) -> Scene:
     pl = table("plot")
     unknown("plot", TABLES["plot"])
     plot = dict(pl)
+    if "kind" in plot and plot["kind"] not in PLOT_KINDS:
+        problems.append(f"plot.kind: {_fmt(plot['kind'])} is not allowed; allowed: "
+                        f"{', '.join(PLOT_KINDS)}")
     if "y" in plot and plot["y"] not in PLOT_Y:
         problems.append(f"plot.y: {_fmt(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
     for lim in ("xlim", "ylim"):

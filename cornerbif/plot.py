@@ -12,7 +12,7 @@ import tomllib
 
 import numpy as np
 
-from . import theory
+from . import plot_normal_form, theory
 from .io import check_readable
 
 LABELS = {
@@ -44,8 +44,10 @@ class PlotData:
             self.symbols = f["symbols"][...].astype(str)
             self.model = self.scene.get("scene", {}).get("model", "flow")
             self.done = f["done"][...]
+            self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
             self.data = {}
-            for name in ("impacts/u", "impacts/v_in", "section/u", "section/v"):
+            for name in ("impacts/u", "impacts/v_in", "section/u", "section/v", "impacts/t",
+                         "impacts/corner_offset"):
                 if name in f:
                     self.data[name] = f[name][...]
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
@@ -194,6 +196,8 @@ def figure(paths, out, y=None, title=None):
     datas = [PlotData(p) for p in paths]
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {})
+    if plot_cfg.get("kind", "bifurcation") in plot_normal_form.KINDS:
+        return plot_normal_form.figure(datas, out, plot_cfg, title)
     models = {d.model for d in datas}
     if len(datas) == 2 and models == {"flow", "map2d"} and len(d0.axes) == 1:
         datas.sort(key=lambda d: d.model != "flow")

@@ -1,0 +1,278 @@
+"""Figures of the corner normal form in the (a0, b1) plane (paper section 4.5-5.4).
+
+Three plot kinds, chosen by ``[plot] kind`` in the scene of the first file:
+
+``regions`` (Fig. 9)
+    The starts x0 = (a0, b1) of a scene without sweep axes, coloured by the map
+    that acts on them.  A ``map2d`` file is coloured by the rule (56) itself
+    (:func:`cornerbif.maps2d.region`); a ``flow`` file by what the flow did in
+    its first period: the impacts of the cluster at the corner t0 = pi/omega
+    read as in section 4 (one just after t0: beta; one just before: gamma;
+    one on each side: alpha; anything else: x).  The lines Sigma_1 (C x =
+    kappa1, eqs 36/39) and Sigma_2 (a0 = 2 + 4/r, eq 41) are drawn from the
+    closed forms.
+``return_map`` (Fig. 10)
+    A0 (the section value u one period T = 2 pi/omega after the start) against
+    a0 = u(0), for starts on a line b1 = const.  It needs ``run.transient =
+    0``: a flow file's first section slot is then u(T); a map2d file's slot 0
+    is x0 itself and slot 1 is x1 = P(x0).
+``orbit`` (Fig. 11)
+    The recorded section points (a_n, b_n) of each start, coloured by region,
+    with Sigma_1, the beta fixed point x_beta* (64) and its image x** (section
+    5.4) marked: near kappa1 = kappa_beta the (beta^N gamma) / (beta^N alpha)
+    orbits approximate the homoclinic orbits (beta^inf gamma) / (beta^inf alpha).
+
+With epsilon = 1 the flow's section values at the paper's section are the
+map's x = (a0, b1) (see :mod:`cornerbif.maps2d`), so a flow file and a map2d
+file of the same scene draw on the same axes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import maps2d, theory
+
+KINDS = ("regions", "return_map", "orbit")
+REGION_COLORS = {"a": "tab:blue", "b": "tab:orange", "g": "tab:green", "x": "0.6"}
+REGION_NAMES = {"a": r"$S_\alpha$", "b": r"$S_\beta$", "g": r"$S_\gamma$", "x": "other"}
+
+
+def _system(data):
+    s = data.scene.get("system", {})
+    omega = s.get("omega", 2.0)
+    return omega, omega - 2.0, s.get("kappa", 0.0), s.get("r", 0.8)
+
+
+def map_regions(a, b, omega1, kappa1, r):
+    """Letter of the map (56) acting on each x = (a, b): 'a', 'b', 'g' (or 'x' for NaN)."""
+    code = np.array([maps2d.region(float(x), float(y), omega1, kappa1, r)
+                     for x, y in zip(np.ravel(a), np.ravel(b))], dtype=np.int64)
+    return np.array(["abgx"[c] if c >= 0 else "x" for c in code]).reshape(np.shape(a))
+
+
+def flow_regions(t, offset, omega):
+    """Letter of the first-period corner cluster of each flow start (section 4).
+
+    ``t`` and ``offset`` are the impacts (time, signed offset to the nearest
+    corner) of each start, shape (n, record).  Only impacts with t < T =
+    2 pi/omega whose nearest corner is t0 = pi/omega count.
+    """
+    T = 2.0 * math.pi / omega
+    t0 = math.pi / omega
+    out = np.full(t.shape[0], "x", dtype="<U1")
+    for i in range(t.shape[0]):
+        ok = np.isfinite(t[i]) & (t[i] < T) & (np.abs(t[i] - t0) < 0.5 * t0)
+        off = offset[i][ok]
+        before, after = int(np.sum(off < 0)), int(np.sum(off >= 0))
+        if before == 0 and after == 1:
+            out[i] = "b"
+        elif before == 1 and after == 0:
+            out[i] = "g"
+        elif before == 1 and after == 1:
+            out[i] = "a"
+    return out
+
+
+def draw_sigma(ax, omega1, kappa1, r, alim, blim):
+    """Sigma_1: b = kappa1 - (pi omega1/4) a (eqs 36, 39); Sigma_2: a = 2 + 4/r below it (41)."""
+    a = np.linspace(alim[0], alim[1], 200)
+    arts = ax.plot(a, kappa1 - 0.25 * math.pi * omega1 * a, "k-", lw=0.9,
+                   label=r"$\Sigma_1$: $\pi\omega_1 a_0/4 + b_1 = \kappa_1$")
+    e = 2.0 + 4.0 / r
+    if alim[0] <= e <= alim[1]:
+        top = kappa1 - 0.25 * math.pi * omega1 * e
+        arts += ax.plot([e, e], [min(blim[0], top), top], "k--", lw=0.9,
+                        label=r"$\Sigma_2$: $a_0 = 2 + 4/r$")
+    return arts
+
+
+def draw_regions(ax, data, ms=1.5):
+    """Fig. 9: starts coloured by the map that acts on them, with Sigma_1, Sigma_2."""
+    omega, omega1, kappa1, r = _system(data)
+    a0 = data.initial["u"].ravel()
+    b0 = data.initial["v"].ravel()
+    if data.model == "map2d":
+        lab = map_regions(a0, b0, omega1, kappa1, r)
+        source = "the map's rule (56)"
+    else:
+        if "impacts/t" not in data.data:
+            raise ValueError(f"{data.path}: plot kind 'regions' of a flow file needs "
+                             "output.keep = [\"impacts\", ...]")
+        n = a0.size
+        lab = flow_regions(data.data["impacts/t"].reshape(n, -1),
+                           data.data["impacts/corner_offset"].reshape(n, -1), omega)
+        source = "the flow's first impacts at $t_0 = \\pi/\\omega$"
+    for ch in "abgx":
+        m = lab == ch
+        if m.any():
+            ax.plot(a0[m], b0[m], ls="none", marker=".", mew=0, ms=ms, color=REGION_COLORS[ch],
+                    label=f"{REGION_NAMES[ch]} ({int(m.sum())})", rasterized=True)
+    alim = (float(a0.min()), float(a0.max()))
+    blim = (float(b0.min()), float(b0.max()))
+    draw_sigma(ax, omega1, kappa1, r, alim, blim)
+    ax.set_xlim(*alim)
+    ax.set_ylim(*blim)
+    ax.set_xlabel(r"$a_0 = u(0)$")
+    ax.set_ylabel(r"$b_1 = u'(0)$")
+    ax.set_title(f"{data.model}: coloured by {source}", fontsize=8, loc="left")
+    return lab
+
+
+def return_values(data):
+    """(a0, A0) of every start: A0 is the section value u one period after the start."""
+    if int(data.scene.get("run", {}).get("transient", 500)) != 0:
+        raise ValueError(f"{data.path}: plot kind 'return_map' needs run.transient = 0 "
+                         "(A0 is the first section after the start)")
+    su = data.data.get("section/u")
+    if su is None:
+        raise ValueError(f"{data.path}: plot kind 'return_map' needs output.keep = [\"section\"]")
+    a0 = data.initial["u"].ravel()
+    col = 1 if data.model == "map2d" else 0
+    A0 = su.reshape(a0.size, -1)[:, col]
+    order = np.argsort(a0)
+    return a0[order], A0[order]
+
+
+def map_return_line(omega1, kappa1, r, b1, a0):
+    """A0 of the linear maps (34), (37), (52) at x0 = (a0, b1), region by (56)."""
+    A0 = np.empty_like(a0)
+    for i, a in enumerate(a0):
+        A0[i] = maps2d.step(float(a), float(b1), omega1, kappa1, r)[0]
+    return A0
+
+
+def draw_return_map(ax, data, ms=1.5, color="k", label=None):
+    """Fig. 10: A0 against a0 on a line of starts b1 = const."""
+    a0, A0 = return_values(data)
+    arts = ax.plot(a0, A0, ls="none", marker=".", mew=0, ms=ms, color=color, label=label,
+                   rasterized=True)
+    ax.set_xlabel(r"$a_0$")
+    ax.set_ylabel(r"$A_0$ (section value after one period $T$)")
+    return arts
+
+
+def draw_orbit(ax, data, ms=4.0, marker="o", filled=True, label_prefix=""):
+    """Fig. 11: recorded section points (a_n, b_n) coloured by region, with x_beta*."""
+    omega, omega1, kappa1, r = _system(data)
+    su, sv = data.data.get("section/u"), data.data.get("section/v")
+    if su is None:
+        raise ValueError(f"{data.path}: plot kind 'orbit' needs output.keep = [\"section\"]")
+    a, b = su.ravel(), sv.ravel()
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = a[ok], b[ok]
+    lab = map_regions(a, b, omega1, kappa1, r)
+    for ch in "abg":
+        m = lab == ch
+        if m.any():
+            ax.plot(a[m], b[m], ls="none", marker=marker, ms=ms, mew=0.8,
+                    color=REGION_COLORS[ch],
+                    mfc=REGION_COLORS[ch] if filled else "none",
+                    label=f"{label_prefix}{data.model}: {int(m.sum())} in {REGION_NAMES[ch]}")
+    return a, b
+
+
+def draw_orbit_frame(ax, datas):
+    """Sigma_1, Sigma_2, x_beta* (64) and its image x** under gamma or alpha (section 5.4)."""
+    omega, omega1, kappa1, r = _system(datas[0])
+    xs = theory.fixed_point("beta", omega1, kappa1, r)
+    xss = np.array(maps2d.step(float(xs[0]), float(xs[1]) - 1e-12, omega1, kappa1, r)[:2])
+    pts = [d.data["section/u"].ravel() for d in datas] + [[xs[0], xss[0]]]
+    allpts = np.concatenate([np.asarray(p, float) for p in pts])
+    allpts = allpts[np.isfinite(allpts)]
+    pad = 0.08 * (allpts.max() - allpts.min() + 1e-9)
+    alim = (allpts.min() - pad, allpts.max() + pad)
+    bs = np.concatenate([d.data["section/v"].ravel() for d in datas] + [[xs[1], xss[1]]])
+    bs = bs[np.isfinite(bs)]
+    bpad = 0.1 * (bs.max() - bs.min() + 1e-12)
+    blim = (bs.min() - bpad, bs.max() + bpad)
+    draw_sigma(ax, omega1, kappa1, r, alim, blim)
+    ax.plot([xs[0]], [xs[1]], "k*", ms=9, label=r"$x_\beta^*$ (64)")
+    which = r"\gamma" if maps2d.region(float(xs[0]), float(xs[1]) - 1e-12, omega1, kappa1, r) == 2 \
+        else r"\alpha"
+    ax.plot([xss[0]], [xss[1]], "kP", ms=8, mfc="none",
+            label=rf"$x^{{**}} = {which}(x_\beta^*)$")
+    ax.set_xlim(*alim)
+    ax.set_ylim(*blim)
+    ax.set_xlabel(r"$a_n$ (flow: $u(nT)$)")
+    ax.set_ylabel(r"$b_n$ (flow: $u'(nT)$)")
+
+
+def figure(datas, out, plot_cfg, title=None):
+    """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d)."""
+    import textwrap
+
+    import matplotlib.pyplot as plt
+
+    kind = plot_cfg["kind"]
+    for d in datas:
+        if d.axes:
+            raise ValueError(f"{d.path}: plot kind {kind!r} draws a scene without sweep axes "
+                             f"(this one sweeps {', '.join(d.axes)})")
+    datas = sorted(datas, key=lambda d: d.model != "flow")
+    ms = plot_cfg.get("marker_size")
+    if kind == "regions":
+        fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.6), dpi=150,
+                                squeeze=False, sharex=True, sharey=True)
+        labs = [draw_regions(ax, d, ms=ms or 1.5) for ax, d in zip(axs[0], datas)]
+        if len(datas) == 2:
+            agree = float(np.mean(labs[0] == labs[1]))
+            axs[0][1].text(0.01, 0.01, f"same letter as the flow: {100 * agree:.2f} % of starts",
+                           transform=axs[0][1].transAxes, fontsize=7)
+        for ax in axs[0]:
+            ax.legend(loc="upper right", fontsize=6, markerscale=5)
+    elif kind == "return_map":
+        fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.4), dpi=150,
+                                squeeze=False, sharey=True)
+        for ax, d in zip(axs[0], datas):
+            draw_return_map(ax, d, ms=ms or 1.5)
+            omega, omega1, kappa1, r = _system(d)
+            b1 = float(np.nanmean(d.initial["v"]))
+            lo, hi = ax.get_xlim()
+            s1 = (kappa1 - b1) / (0.25 * math.pi * omega1) if omega1 else math.nan
+            for x, lab in ((s1, r"$\Sigma_1$"), (2.0 + 4.0 / r, r"$\Sigma_2$")):
+                if math.isfinite(x) and lo <= x <= hi:
+                    ax.axvline(x, color="0.5", lw=0.7, ls=":")
+                    ax.text(x, 1.0, lab, transform=ax.get_xaxis_transform(), ha="center",
+                            va="bottom", fontsize=7)
+            name = "(a) the impacting system (flow)" if d.model == "flow" else \
+                "(b) the linear maps (56)"
+            ax.set_title(name, fontsize=8, loc="left", pad=12)
+        if datas[0].model == "flow" and len(datas) == 2:
+            a0, A0 = return_values(datas[0])
+            a0m, A0m = return_values(datas[1])
+            ax = axs[0][0]
+            ax.plot(a0m, A0m, "-", color="tab:red", lw=0.6, alpha=0.7, label="linear maps")
+            ax.legend(loc="upper right", fontsize=7)
+            # inset: the grazing transition Sigma_2, where the flow has a square-root form
+            omega, omega1, kappa1, r = _system(datas[0])
+            e = 2.0 + 4.0 / r
+            ins = ax.inset_axes([0.07, 0.08, 0.34, 0.36])
+            m = np.abs(a0 - e) < 0.25
+            ins.plot(a0[m], A0[m], "k.", ms=1.5, mew=0)
+            mm = np.abs(a0m - e) < 0.25
+            ins.plot(a0m[mm], A0m[mm], "-", color="tab:red", lw=0.6)
+            ins.axvline(e, color="0.5", lw=0.6, ls=":")
+            ins.tick_params(labelsize=5)
+            ins.set_title(r"near $\Sigma_2$ (grazing)", fontsize=6)
+    elif kind == "orbit":
+        fig, ax = plt.subplots(figsize=(6.5, 4.8), dpi=150)
+        draw_orbit_frame(ax, datas)
+        for i, d in enumerate(datas):
+            draw_orbit(ax, d, ms=(ms or 4.0) * (1.0 if i == 0 else 1.8),
+                       marker="o" if i == 0 else "s", filled=i == 0)
+        ax.legend(loc="best", fontsize=6)
+        axs = [[ax]]
+    else:
+        raise ValueError(f"plot.kind: {kind!r} is not a normal-form kind; allowed: "
+                         f"{', '.join(KINDS)}")
+    sc = datas[-1].scene.get("scene", {})
+    fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title")
+                                         or sc.get("title", sc.get("name", "")), 90)),
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return out
