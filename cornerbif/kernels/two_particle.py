@@ -14,6 +14,19 @@ runs (DESIGN 2b).  Every flight is closed form (harmonic with omega1, omega2, or
 with the combined frequency below) from a reference state re-taken at every event
 and every section.
 
+Damping and forcing (beyond the paper; scene keys sigma1, sigma2, F1, Omega1, phi1,
+F2, Omega2, phi2, all 0 by default)
+-----------------------------------------------------------------------------------
+Each particle then obeys eq (4); every flight is the closed form of
+``models.oscillator`` (rows RZ, RU and, for a stuck pair, RP + RPB, see
+``oscillators``), forcing phases carried per section like the wall's.  The searches
+below then use f0 = 0 (F = f'', the quadratic bound of ``roots`` and DESIGN 2) with
+the second and third derivatives bounded over the whole flight by
+``oscillator.deriv_bound`` (every damping regime) plus the wall's and the forcings'
+derivative sizes; contact forces gain 2 sigma w' - f(t) (``wall_force``,
+``pair_force``), and the release windows end at pi/omega_d (``halfp``).  Undamped
+and unforced, the code runs exactly as before (C_SMOOTH), bit for bit.
+
 Event location (never miss an impact)
 -------------------------------------
 Each function searched (a gap, or a contact force) obeys f'' + f0^2 f = F(s) with
