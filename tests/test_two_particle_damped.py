@@ -277,7 +277,9 @@ def test_thread_count_does_not_change_damped_runs():
 
 def test_damping_keys_in_scenes_and_their_errors():
     """Scene keys sigma1..phi2 default to 0 (Omega to 1); bad values are rejected with the
-    key, the value and the allowed range; ``pack`` rejects them too."""
+    key, the value and the allowed range; ``pack`` rejects them too, and an undamped
+    resonant forcing (no bounded closed form: the particular solution of eq 4 divides
+    by k^2 - Omega^2)."""
     scene = open("configs/fig19a.toml").read()
     sc = config.loads(scene)
     assert sc.system["sigma1"] == 0.0 and sc.system["Omega2"] == 1.0
@@ -290,6 +292,7 @@ def test_damping_keys_in_scenes_and_their_errors():
             config.loads(scene.replace("beta = 1.0", "beta = 1.0\n" + bad))
         assert needle in str(e.value), str(e.value)
     base = dict(BASE)
-    for bad in (dict(sigma2=-1.0), dict(Omega1=0.0), dict(F2=math.nan)):
-        with pytest.raises(ValueError, match=list(bad)[0]):
+    for bad in (dict(sigma2=-1.0), dict(Omega1=0.0), dict(F2=math.nan),
+                dict(F2=0.1, Omega2=0.9)):                      # undamped resonance with omega2
+        with pytest.raises(ValueError, match=list(bad)[-1]):
             P.pack(dict(base, **bad))

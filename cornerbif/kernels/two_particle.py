@@ -509,8 +509,6 @@ def evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s):
     Undamped and unforced the frequency f0 is the one of ``kind_bounds`` (the Sturm
     comparison of the module docstring); otherwise f0 = 0 and F = f'' (``_evaluate_g``).
     """
-    if c[C_SMOOTH] != 1.0:
-        return _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
     if kind == K_GP:
         z, y = harm(a0, a1, p[P.OMEGA1], s)
         u, v = harm(a2, a3, p[P.OMEGA2], s)
@@ -569,26 +567,6 @@ def kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3):
     quadratic search of ``roots`` (DESIGN 2) with local third-order tightening.
     """
     w0 = p[P.OMEGA0]
-    if c[C_SMOOTH] != 1.0:
-        if kind == K_GP:
-            m2 = dbound(Q, D, RZ, tau_ref, a0, a1, 2) + dbound(Q, D, RU, tau_ref, a2, a3, 2)
-            m3 = dbound(Q, D, RZ, tau_ref, a0, a1, 3) + dbound(Q, D, RU, tau_ref, a2, a3, 3)
-        elif kind == K_WF:
-            m2, m3 = wall_force_bounds(p, Q, int(a3))
-        elif kind == K_HM:
-            r = int(a2)
-            ds = 2.0 * abs(p[P.SIGMA2] - p[P.SIGMA1])
-            d21 = abs(c[C_D21])
-            m2 = (ds * dbound(Q, D, r, tau_ref, a0, a1, 3)
-                  + d21 * dbound(Q, D, r, tau_ref, a0, a1, 2) + fsize(Q, RU, 2) + fsize(Q, RZ, 2))
-            m3 = (ds * dbound(Q, D, r, tau_ref, a0, a1, 4)
-                  + d21 * dbound(Q, D, r, tau_ref, a0, a1, 3) + fsize(Q, RU, 3) + fsize(Q, RZ, 3))
-        else:
-            b = abs(p[P.BETA])
-            r = int(a2)
-            m2 = dbound(Q, D, r, tau_ref, a0, a1, 2) + b * w0 * w0
-            m3 = dbound(Q, D, r, tau_ref, a0, a1, 3) + b * w0 * w0 * w0
-        return 0.0, -m2, m2, m3
     if kind == K_GP:
         w1 = p[P.OMEGA1]
         az = math.sqrt(a0 * a0 + (a1 / w1) ** 2)
@@ -603,6 +581,33 @@ def kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3):
     q = abs(p[P.BETA] * (f * f - w0 * w0))
     base = -f * f * p[P.KAPPA]
     return f, base - q, base + q, q * w0
+
+
+@jit
+def _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3):
+    """Bounds (0, -M2, M2, M3) with damping or forcing: M2, M3 bound the second and
+    third derivatives over the whole flight (``oscillator.deriv_bound``, wall and
+    forcing derivative sizes)."""
+    w0 = p[P.OMEGA0]
+    if kind == K_GP:
+        m2 = dbound(Q, D, RZ, tau_ref, a0, a1, 2) + dbound(Q, D, RU, tau_ref, a2, a3, 2)
+        m3 = dbound(Q, D, RZ, tau_ref, a0, a1, 3) + dbound(Q, D, RU, tau_ref, a2, a3, 3)
+    elif kind == K_WF:
+        m2, m3 = wall_force_bounds(p, Q, int(a3))
+    elif kind == K_HM:
+        r = int(a2)
+        ds = 2.0 * abs(p[P.SIGMA2] - p[P.SIGMA1])
+        d21 = abs(c[C_D21])
+        m2 = (ds * dbound(Q, D, r, tau_ref, a0, a1, 3)
+              + d21 * dbound(Q, D, r, tau_ref, a0, a1, 2) + fsize(Q, RU, 2) + fsize(Q, RZ, 2))
+        m3 = (ds * dbound(Q, D, r, tau_ref, a0, a1, 4)
+              + d21 * dbound(Q, D, r, tau_ref, a0, a1, 3) + fsize(Q, RU, 3) + fsize(Q, RZ, 3))
+    else:
+        b = abs(p[P.BETA])
+        r = int(a2)
+        m2 = dbound(Q, D, r, tau_ref, a0, a1, 2) + b * w0 * w0
+        m3 = dbound(Q, D, r, tau_ref, a0, a1, 3) + b * w0 * w0 * w0
+    return 0.0, -m2, m2, m3
 
 
 @jit
@@ -689,6 +694,80 @@ def first_root(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
         else:
             s = s + hlo
         g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+        if not (g == g and gp == gp):
+            return FAIL, s
+        if g <= 0.0:
+            return FOUND, s
+    return FAIL, s
+
+
+@jit
+def first_root_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
+    """``first_root`` with damping or forcing (``_evaluate_g``, ``_kind_bounds_g``), a
+    separate loop so that the undamped one stays small.  Otherwise the same:
+
+    Returns (code, s): FOUND with the root (lower end of a bracket narrower than
+    ``tol``), NONE with s_end, FAIL when the step budget ran out or a value is
+    not finite.  At s0 a value f <= 0 counts as a root only when f is moving
+    into the contact (f' < 0, or f' = 0 and f'' < 0); otherwise it is the point
+    just after an impact or a release and is skipped.
+    """
+    if s0 >= s_end:
+        return NONE, s_end
+    f0, Fmin, Fmax, m1 = _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    half = math.pi / f0 if f0 > 0.0 else math.inf
+    s = s0
+    g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+    if not (g == g and gp == gp and F == F):
+        return FAIL, s
+    if g <= 0.0:
+        gpp = F - f0 * f0 * g
+        if gp < 0.0 or (gp == 0.0 and gpp < 0.0):
+            return FOUND, s
+    local = m1 > 0.0
+    for _ in range(MAXIT):
+        rest = s_end - s
+        hlo = sturm_root(g, gp, f0, Fmin)
+        if hlo > half:
+            hlo = half
+        if hlo >= rest:
+            return NONE, s_end
+        hup = sturm_root(g, gp, f0, Fmax)
+        if local:
+            H = 1.25 * sturm_root(g, gp, f0, F)
+            if H > half:
+                H = half
+            if H > rest:
+                H = rest
+            if H > hlo:
+                Flo = F - m1 * H
+                if Flo < Fmin:
+                    Flo = Fmin
+                h1 = sturm_root(g, gp, f0, Flo)
+                if h1 >= H:
+                    h1 = H            # no root in [s, s + H]
+                    if H == rest:
+                        return NONE, s_end
+                if h1 > hlo:
+                    hlo = h1
+                Fhi = F + m1 * H
+                if Fhi > Fmax:
+                    Fhi = Fmax
+                h2 = sturm_root(g, gp, f0, Fhi)
+                if h2 <= H and h2 < hup:
+                    hup = h2
+        if hup - hlo <= tol and hup <= rest:
+            return FOUND, s + hlo
+        if hlo < tol:
+            gpp = F - f0 * f0 * g
+            if gp < 0.0 or (gpp < 0.0 and gp <= 0.0):
+                return FOUND, s + hlo
+            s = s + tol
+            if s >= s_end:
+                return NONE, s_end
+        else:
+            s = s + hlo
+        g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
         if not (g == g and gp == gp):
             return FAIL, s
         if g <= 0.0:
@@ -816,8 +895,12 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- a pending free-gap window (after a release or a slow separation) -------
         if win_target != 0:
-            code, sb = first_root(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2, win_a3,
-                                  0.0, win_end, tol)
+            if smooth:
+                code, sb = first_root(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
+                                      win_a3, 0.0, win_end, tol)
+            else:
+                code, sb = first_root_g(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
+                                        win_a3, 0.0, win_end, tol)
             if win_target == 1:
                 s1s = sb
             else:
@@ -844,11 +927,21 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         else:
             kA, A0, A1, A2, A3, sA = K_WF, c[C_N12A], c[C_N12B], 1.0, float(RP), 0.0
             kB, B0, B1, B2, B3, sB = K_WF, c[C_N2A], c[C_N2B], 1.0, float(RU), 0.0
-        codeA, tA = first_root(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest, tol)
+        if smooth:
+            codeA, tA = first_root(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
+                                         tol)
+        else:
+            codeA, tA = first_root_g(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
+                                         tol)
         limB = rest
         if codeA == FOUND:
             limB = min(tA + tol, rest) if mode == FREE else tA
-        codeB, tB = first_root(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB, tol)
+        if smooth:
+            codeB, tB = first_root(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
+                                         tol)
+        else:
+            codeB, tB = first_root_g(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
+                                         tol)
         fail = codeA == FAIL or codeB == FAIL
         if mode == FREE:
             if codeB == FOUND and (codeA != FOUND or tB < tA - tol):

@@ -105,6 +105,22 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
             problems.append(f"{k}: {v!r} must be >= 0")
         elif k in ("r1", "r2") and not 0.0 <= v <= 1.0:
             problems.append(f"{k}: {v!r} must lie in [0, 1]")
+    if not problems:
+        # the closed forms of models.oscillator need a non-resonant forcing when undamped
+        mu = p[MU]
+        mui = 0.0 if mu == math.inf else 1.0 / (1.0 + mu)
+        om_pair = math.sqrt(p[OMEGA1] ** 2 + (p[OMEGA2] ** 2 - p[OMEGA1] ** 2) * mui)
+        sig_pair = p[SIGMA1] + (p[SIGMA2] - p[SIGMA1]) * mui
+        muf = 1.0 if mu == math.inf else mu / (1.0 + mu)
+        for fk, amp, wk, sig, k, who in (
+                ("F1", p[F1], "Omega1", p[SIGMA1], p[OMEGA1], "omega1"),
+                ("F2", p[F2], "Omega2", p[SIGMA2], p[OMEGA2], "omega2"),
+                ("F1", p[F1] * muf, "Omega1", sig_pair, om_pair, "the stuck pair's Omega"),
+                ("F2", p[F2] * mui, "Omega2", sig_pair, om_pair, "the stuck pair's Omega")):
+            if amp != 0.0 and sig == 0.0 and p[INDEX[wk]] == k:
+                problems.append(f"{wk}: {float(p[INDEX[wk]])!r} equals {who} with no damping "
+                                f"(undamped resonance, unbounded flight); change {wk} or add "
+                                f"damping")
     sp = values.get("section_period", section_period)
     if sp is None and p[OMEGA0] > 0.0:
         sp = 2.0 * math.pi / p[OMEGA0]
