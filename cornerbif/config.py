@@ -56,6 +56,15 @@ TWO_PARTICLE_PARAMS = {
     "r2": (0.8, "in [0, 1]"),
     "kappa": (0.0, "any finite number"),
     "beta": (1.0, ">= 0"),
+    # beyond the paper: damping and forcing per particle as in 'flow' (eq 4)
+    "sigma1": (0.0, ">= 0"),
+    "sigma2": (0.0, ">= 0"),
+    "F1": (0.0, "any finite number"),
+    "Omega1": (1.0, "> 0"),
+    "phi1": (0.0, "any finite number"),
+    "F2": (0.0, "any finite number"),
+    "Omega2": (1.0, "> 0"),
+    "phi2": (0.0, "any finite number"),
 }
 MODEL_PARAMS = {"flow": FLOW_PARAMS, "map2d": MAP2D_PARAMS, "two_particle": TWO_PARTICLE_PARAMS}
 MODEL_INITIAL = {"flow": {"u": [0.0, 20.0], "v": [-20.0, 20.0]},
@@ -180,9 +189,9 @@ def _check_param(name, value, key, problems, model="flow"):
         return False
     if name == "mu" and v == math.inf:
         return True
-    bad = ((name in ("omega", "Omega", "theta1", "theta2", "omega0", "omega1", "omega2", "mu")
-            and v <= 0)
-           or (name in ("beta", "sigma", "k") and v < 0)
+    bad = ((name in ("omega", "Omega", "theta1", "theta2", "omega0", "omega1", "omega2", "mu",
+                     "Omega1", "Omega2") and v <= 0)
+           or (name in ("beta", "sigma", "k", "sigma1", "sigma2") and v < 0)
            or (name in ("r", "r1", "r2") and not 0.0 <= v <= 1.0)
            or (name == "r" and model == "map2d" and v == 0.0))
     if bad:

@@ -14,6 +14,19 @@ runs (DESIGN 2b).  Every flight is closed form (harmonic with omega1, omega2, or
 with the combined frequency below) from a reference state re-taken at every event
 and every section.
 
+Damping and forcing (beyond the paper; scene keys sigma1, sigma2, F1, Omega1, phi1,
+F2, Omega2, phi2, all 0 by default)
+-----------------------------------------------------------------------------------
+Each particle then obeys eq (4); every flight is the closed form of
+``models.oscillator`` (rows RZ, RU and, for a stuck pair, RP + RPB, see
+``oscillators``), forcing phases carried per section like the wall's.  The searches
+below then use f0 = 0 (F = f'', the quadratic bound of ``roots`` and DESIGN 2) with
+the second and third derivatives bounded over the whole flight by
+``oscillator.deriv_bound`` (every damping regime) plus the wall's and the forcings'
+derivative sizes; contact forces gain 2 sigma w' - f(t) (``wall_force``,
+``pair_force``), and the release windows end at pi/omega_d (``halfp``).  Undamped
+and unforced, the code runs exactly as before (C_SMOOTH), bit for bit.
+
 Event location (never miss an impact)
 -------------------------------------
 Each function searched (a gap, or a contact force) obeys f'' + f0^2 f = F(s) with
@@ -140,7 +153,11 @@ from .. import status as S
 from .._jit import jit, pjit
 from ..models import two_particle as P
 from ..models.two_particle import mass_ratio_impact
+from ..models import params as FP
 from ..models.impact import restitution
+from ..models.obstacle import D_REGIME, D_WD, D_X, D_Y, NDERIVED
+from ..models.oscillator import deriv_bound, homogeneous, particular
+from ..models.oscillator import derive as osc_derive
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
 
 # --- output columns -------------------------------------------------------------------
@@ -188,7 +205,16 @@ C_Q = 11      # wall periods per section
 C_EXACT = 12  # 1 when the section is a whole number of wall periods
 C_MUI = 13    # 1/(1 + mu)   (0 for mu = inf)
 C_MUF = 14    # mu/(1 + mu)  (1 for mu = inf)
-NC = 15
+C_SMOOTH = 15  # 1: no damping and no forcing (eq 73 exactly): the undamped fast path
+C_HZERO = 16   # 1: the pair's contact force lambda2 vanishes identically
+NC = 17
+
+# --- oscillator rows (``flow`` parameter vectors for ``models.oscillator``) -------------
+RZ = 0    # z: sigma1, omega1, F1 cos(Omega1 t + phi1)
+RU = 1    # u: sigma2, omega2, F2 cos(Omega2 t + phi2)
+RP = 2    # stuck pair: Sigma, Omega, forcing mu F1/(mu + 1) at Omega1
+RPB = 3   # the stuck pair's second forcing F2/(mu + 1) at Omega2
+NROW = 4
 
 
 @jit
@@ -220,7 +246,226 @@ def derive(p):
     qi = math.floor(q + 0.5)
     c[C_Q] = q
     c[C_EXACT] = 1.0 if (qi >= 1.0 and abs(q - qi) <= 1e-9 * q) else 0.0
+    smooth = (p[P.SIGMA1] == 0.0 and p[P.SIGMA2] == 0.0 and p[P.F1] == 0.0
+              and p[P.F2] == 0.0)
+    c[C_SMOOTH] = 1.0 if smooth else 0.0
+    same_f = (p[P.F1] == p[P.F2] and (p[P.F1] == 0.0 or (p[P.OMF1] == p[P.OMF2]
+                                                          and p[P.PHI1] == p[P.PHI2])))
+    c[C_HZERO] = 1.0 if (w1s == w2s and p[P.SIGMA1] == p[P.SIGMA2] and same_f) else 0.0
     return c
+
+
+@jit
+def oscillators(p, c):
+    """Rows of ``flow`` parameter vectors (and their derived constants) for z, u and the
+    stuck pair, so every flight is the closed form of ``models.oscillator`` (eq 4).
+
+    A stuck pair obeys (M + m) z'' = M (f1 - 2 sigma1 z' - omega1^2 z)
+    + m (f2 - 2 sigma2 z' - omega2^2 z): damping Sigma = (mu sigma1 + sigma2)/(mu + 1),
+    frequency Omega^2 = (mu omega1^2 + omega2^2)/(mu + 1), forcing mu f1/(mu + 1)
+    (row RP) plus f2/(mu + 1) (row RPB).  Q[RZ, K] = omega1, Q[RU, K] = omega2 and
+    Q[RP, K] = Omega exactly, so the undamped path is unchanged bit for bit.
+    """
+    Q = np.zeros((NROW, FP.NPARAM))
+    D = np.zeros((NROW, NDERIVED))
+    mui = c[C_MUI]
+    muf = c[C_MUF]
+    for r in range(NROW):
+        Q[r, FP.OMEGA] = p[P.OMEGA0]
+        Q[r, FP.OBSTACLE] = FP.SINE
+        Q[r, FP.F_OMEGA] = 1.0
+    Q[RZ, FP.SIGMA] = p[P.SIGMA1]
+    Q[RZ, FP.K] = p[P.OMEGA1]
+    Q[RZ, FP.F_AMP] = p[P.F1]
+    Q[RZ, FP.F_OMEGA] = p[P.OMF1]
+    Q[RU, FP.SIGMA] = p[P.SIGMA2]
+    Q[RU, FP.K] = p[P.OMEGA2]
+    Q[RU, FP.F_AMP] = p[P.F2]
+    Q[RU, FP.F_OMEGA] = p[P.OMF2]
+    sig_p = p[P.SIGMA1] + (p[P.SIGMA2] - p[P.SIGMA1]) * mui
+    Q[RP, FP.SIGMA] = sig_p
+    Q[RP, FP.K] = c[C_OM]
+    Q[RPB, FP.SIGMA] = sig_p
+    Q[RPB, FP.K] = c[C_OM]
+    Q[RP, FP.F_AMP] = p[P.F1] * muf
+    Q[RP, FP.F_OMEGA] = p[P.OMF1]
+    Q[RPB, FP.F_AMP] = p[P.F2] * mui
+    Q[RPB, FP.F_OMEGA] = p[P.OMF2]
+    forcing_phases(p, Q, np.int64(0))
+    for r in range(NROW):
+        D[r] = osc_derive(Q[r])
+    return Q, D
+
+
+@jit
+def forcing_phases(p, Q, n):
+    """Forcing phases phi + Omega n S (mod 2 pi) at the start of section n (time is local)."""
+    Sp = p[P.SECTION]
+    x = n * (p[P.OMF1] * Sp / (2.0 * math.pi))
+    a = p[P.PHI1] + 2.0 * math.pi * (x - math.floor(x))
+    x = n * (p[P.OMF2] * Sp / (2.0 * math.pi))
+    b = p[P.PHI2] + 2.0 * math.pi * (x - math.floor(x))
+    Q[RZ, FP.F_PHI] = a
+    Q[RP, FP.F_PHI] = a
+    Q[RU, FP.F_PHI] = b
+    Q[RPB, FP.F_PHI] = b
+
+
+@jit
+def _harmonic(Q, r, t):
+    F = Q[r, FP.F_AMP]
+    if F == 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    W = Q[r, FP.F_OMEGA]
+    th = W * t + Q[r, FP.F_PHI]
+    cs = math.cos(th)
+    sn = math.sin(th)
+    return F * cs, -F * W * sn, -F * W * W * cs, F * W * W * W * sn
+
+
+@jit
+def fdrv(Q, r, t):
+    """Forcing of row r (both harmonics for the pair) and its first three derivatives."""
+    f0, f1, f2, f3 = _harmonic(Q, r, t)
+    if r == RP:
+        g0, g1, g2, g3 = _harmonic(Q, RPB, t)
+        return f0 + g0, f1 + g1, f2 + g2, f3 + g3
+    return f0, f1, f2, f3
+
+
+@jit
+def fsize(Q, r, n):
+    """Bound of the n-th derivative of row r's forcing: the sum of |F| Omega^n."""
+    b = abs(Q[r, FP.F_AMP]) * Q[r, FP.F_OMEGA] ** n
+    if r == RP:
+        b += abs(Q[RPB, FP.F_AMP]) * Q[RPB, FP.F_OMEGA] ** n
+    return b
+
+
+@jit
+def part(Q, D, r, t):
+    """Particular solution of row r at local time t (both harmonics for the pair)."""
+    x, v = particular(Q[r], D[r], t)
+    if r == RP:
+        x2, v2 = particular(Q[RPB], D[RPB], t)
+        x += x2
+        v += v2
+    return x, v
+
+
+@jit
+def fly(c, Q, D, r, tau_ref, x0, v0, s):
+    """Closed-form flight of row r: (x, x') a time s after the state (x0, v0) at local
+    time tau_ref.  Undamped and unforced (eq 73) it is ``harm``; otherwise the closed
+    forms of ``models.oscillator`` (homogeneous part carried, particular part added)."""
+    if c[C_SMOOTH] == 1.0:
+        return harm(x0, v0, Q[r, FP.K], s)
+    xp0, vp0 = part(Q, D, r, tau_ref)
+    xh, vh = homogeneous(Q[r], D[r], x0 - xp0, v0 - vp0, s)
+    xp, vp = part(Q, D, r, tau_ref + s)
+    return xh + xp, vh + vp
+
+
+@jit
+def accel(Q, r, x, v, t):
+    """Second and third derivatives of row r at (x, v, t): a = -2 sigma v - k^2 x + f(t)
+    (eq 4), j = -2 sigma a - k^2 v + f'(t)."""
+    sig = Q[r, FP.SIGMA]
+    k2 = Q[r, FP.K] * Q[r, FP.K]
+    f0, f1, _, _ = fdrv(Q, r, t)
+    a = -2.0 * sig * v - k2 * x + f0
+    return a, -2.0 * sig * a - k2 * v + f1
+
+
+@jit
+def dbound(Q, D, r, tau_ref, x0, v0, n):
+    """Bound of the n-th derivative of row r over its whole flight from (x0, v0) at tau_ref
+    (``oscillator.deriv_bound``, plus the pair's second particular solution)."""
+    xp0, vp0 = part(Q, D, r, tau_ref)
+    b = deriv_bound(Q[r], D[r], x0 - xp0, v0 - vp0, n)
+    if r == RP and Q[RPB, FP.F_AMP] != 0.0:
+        b += math.sqrt(D[RPB, D_X] ** 2 + D[RPB, D_Y] ** 2) * Q[RPB, FP.F_OMEGA] ** n
+    return b
+
+
+@jit
+def wall_force(p, Q, r, tau, ph):
+    """Contact force per unit mass carrying a stuck row r along the wall, with two
+    derivatives: N = w'' + 2 sigma w' + k^2 w - f(t) (eq 4 with x = w, eq 72)."""
+    w0 = p[P.OMEGA0]
+    b = p[P.BETA]
+    th = w0 * tau + ph
+    sn = math.sin(th)
+    cs = math.cos(th)
+    sig = Q[r, FP.SIGMA]
+    k2 = Q[r, FP.K] * Q[r, FP.K]
+    f0, f1, f2, _ = fdrv(Q, r, tau)
+    w = p[P.KAPPA] + b * sn
+    w1 = b * w0 * cs
+    w2 = -b * w0 * w0 * sn
+    w3 = -w0 * w0 * w1
+    w4 = -w0 * w0 * w2
+    return (w2 + 2.0 * sig * w1 + k2 * w - f0, w3 + 2.0 * sig * w2 + k2 * w1 - f1,
+            w4 + 2.0 * sig * w3 + k2 * w2 - f2)
+
+
+@jit
+def wall_force_bounds(p, Q, r):
+    """Bounds of |N''| and |N'''| of ``wall_force`` (row r)."""
+    w0 = p[P.OMEGA0]
+    k2 = Q[r, FP.K] * Q[r, FP.K]
+    a = abs(p[P.BETA]) * (w0 * w0 + 2.0 * Q[r, FP.SIGMA] * w0 + k2)
+    return a * w0 * w0 + fsize(Q, r, 2), a * w0 * w0 * w0 + fsize(Q, r, 3)
+
+
+@jit
+def pair_force(c, p, Q, x, xv, xa, xj, tau):
+    """h = 2 (sigma2 - sigma1) z' + (omega2^2 - omega1^2) z + f1 - f2 and two derivatives,
+    at (z, z', z'', z''') and local time tau.
+
+    With u = z stuck, m u'' = -m (2 sigma2 u' + omega2^2 u - f2) + lambda2 and the pair's
+    equation (``oscillators``) give lambda2/m = mu/(mu + 1) h; undamped and unforced,
+    h = (omega2^2 - omega1^2) z (module docstring).  Along free flights h is also the
+    forcing of the gap: g2'' + 2 sigma2 g2' + omega2^2 g2 = -h.
+    """
+    ds = 2.0 * (p[P.SIGMA2] - p[P.SIGMA1])
+    d21 = c[C_D21]
+    g0, g1, g2, _ = fdrv(Q, RU, tau)
+    h0, h1, h2, _ = fdrv(Q, RZ, tau)
+    return (ds * xv + d21 * x + (h0 - g0), ds * xa + d21 * xv + (h1 - g1),
+            ds * xj + d21 * xa + (h2 - g2))
+
+
+@jit
+def forces_at(c, p, Q, tau, ph, sn):
+    """Wall-borne contact forces N1 (z), N2 (u), N12 (stuck pair) at local time tau."""
+    if c[C_SMOOTH] == 1.0:
+        return forces(c, sn)
+    n1, _, _ = wall_force(p, Q, RZ, tau, ph)
+    n2, _, _ = wall_force(p, Q, RU, tau, ph)
+    n12, _, _ = wall_force(p, Q, RP, tau, ph)
+    return n1, n2, n12
+
+
+@jit
+def pforce(c, p, Q, tau, z, y):
+    """Contact force of u on z (h of ``pair_force``) with the pair at (z, y)."""
+    if c[C_SMOOTH] == 1.0:
+        return c[C_D21] * z
+    a, j = accel(Q, RP, z, y, tau)
+    h, _, _ = pair_force(c, p, Q, z, y, a, j, tau)
+    return h
+
+
+@jit
+def halfp(c, Q, D, r):
+    """Window after a release of row r over which the freed gap stays >= 0 while the
+    force separating it keeps its sign: pi/omega_d, where the impulse response
+    e^{-sigma s} sin(omega_d s)/omega_d of g'' + 2 sigma g' + k^2 g is >= 0 (critical
+    or over-damping: >= 0 for all s; pi/k is used)."""
+    if c[C_SMOOTH] == 1.0 or D[r, D_REGIME] != 0.0:
+        return math.pi / Q[r, FP.K]
+    return math.pi / D[r, D_WD]
 
 
 @jit
@@ -258,14 +503,18 @@ def forces(c, sn):
 
 
 @jit
-def evaluate(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s):
-    """Value f, slope f' and forcing F = f'' + f0^2 f of the searched function at s."""
+def evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s):
+    """Value f, slope f' and forcing F = f'' + f0^2 f of the searched function at s.
+
+    Undamped and unforced the frequency f0 is the one of ``kind_bounds`` (the Sturm
+    comparison of the module docstring); otherwise f0 = 0 and F = f'' (``_evaluate_g``).
+    """
     if kind == K_GP:
         z, y = harm(a0, a1, p[P.OMEGA1], s)
         u, v = harm(a2, a3, p[P.OMEGA2], s)
         return u - z, v - y, -c[C_D21] * z
     if kind == K_HM:
-        x, v = harm(a0, a1, a2, s)
+        x, v = harm(a0, a1, Q[int(a2), FP.K], s)
         return a3 * x, a3 * v, 0.0
     w0 = p[P.OMEGA0]
     th = w0 * (tau_ref + s) + ph
@@ -274,7 +523,7 @@ def evaluate(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s):
     if kind == K_WF:
         return a2 * (a0 + a1 * sn), a2 * a1 * w0 * cs, a2 * a0 * w0 * w0
     # K_GW
-    f = a2
+    f = Q[int(a2), FP.K]
     x, v = harm(a0, a1, f, s)
     b = p[P.BETA]
     w = p[P.KAPPA] + b * sn
@@ -283,8 +532,40 @@ def evaluate(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s):
 
 
 @jit
-def kind_bounds(kind, p, c, a0, a1, a2, a3):
-    """(f0, F_min, F_max, m1) of the searched function over the whole flight."""
+def _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s):
+    """(f, f', f'') of the searched function with damping or forcing (eq 4 per row).
+
+    K_GW: x - w, x on row a2; K_GP: u - z; K_WF: a2 N of ``wall_force`` (row a3);
+    K_HM: a3 h of ``pair_force`` along the flight of row a2.
+    """
+    t = tau_ref + s
+    if kind == K_GP:
+        z, y = fly(c, Q, D, RZ, tau_ref, a0, a1, s)
+        u, v = fly(c, Q, D, RU, tau_ref, a2, a3, s)
+        az, _ = accel(Q, RZ, z, y, t)
+        au, _ = accel(Q, RU, u, v, t)
+        return u - z, v - y, au - az
+    if kind == K_WF:
+        n0, n1, n2 = wall_force(p, Q, int(a3), t, ph)
+        return a2 * n0, a2 * n1, a2 * n2
+    r = int(a2)
+    x, v = fly(c, Q, D, r, tau_ref, a0, a1, s)
+    a, j = accel(Q, r, x, v, t)
+    if kind == K_HM:
+        h0, h1, h2 = pair_force(c, p, Q, x, v, a, j, t)
+        return a3 * h0, a3 * h1, a3 * h2
+    w, wp, wpp, _ = wall(p, t, ph)
+    return x - w, v - wp, a - wpp
+
+
+@jit
+def kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3):
+    """(f0, F_min, F_max, m1) of the searched function over the whole flight.
+
+    With damping or forcing: f0 = 0, |F| = |f''| <= M2 and |F'| <= M3 from the
+    derivative bounds of every flight (``oscillator.deriv_bound``), i.e. the
+    quadratic search of ``roots`` (DESIGN 2) with local third-order tightening.
+    """
     w0 = p[P.OMEGA0]
     if kind == K_GP:
         w1 = p[P.OMEGA1]
@@ -292,24 +573,54 @@ def kind_bounds(kind, p, c, a0, a1, a2, a3):
         q = abs(c[C_D21]) * az
         return p[P.OMEGA2], -q, q, q * w1
     if kind == K_HM:
-        return a2, 0.0, 0.0, 0.0
+        return Q[int(a2), FP.K], 0.0, 0.0, 0.0
     if kind == K_WF:
         F = a2 * a0 * w0 * w0
         return w0, F, F, 0.0
-    f = a2
+    f = Q[int(a2), FP.K]
     q = abs(p[P.BETA] * (f * f - w0 * w0))
     base = -f * f * p[P.KAPPA]
     return f, base - q, base + q, q * w0
 
 
 @jit
+def _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3):
+    """Bounds (0, -M2, M2, M3) with damping or forcing: M2, M3 bound the second and
+    third derivatives over the whole flight (``oscillator.deriv_bound``, wall and
+    forcing derivative sizes)."""
+    w0 = p[P.OMEGA0]
+    if kind == K_GP:
+        m2 = dbound(Q, D, RZ, tau_ref, a0, a1, 2) + dbound(Q, D, RU, tau_ref, a2, a3, 2)
+        m3 = dbound(Q, D, RZ, tau_ref, a0, a1, 3) + dbound(Q, D, RU, tau_ref, a2, a3, 3)
+    elif kind == K_WF:
+        m2, m3 = wall_force_bounds(p, Q, int(a3))
+    elif kind == K_HM:
+        r = int(a2)
+        ds = 2.0 * abs(p[P.SIGMA2] - p[P.SIGMA1])
+        d21 = abs(c[C_D21])
+        m2 = (ds * dbound(Q, D, r, tau_ref, a0, a1, 3)
+              + d21 * dbound(Q, D, r, tau_ref, a0, a1, 2) + fsize(Q, RU, 2) + fsize(Q, RZ, 2))
+        m3 = (ds * dbound(Q, D, r, tau_ref, a0, a1, 4)
+              + d21 * dbound(Q, D, r, tau_ref, a0, a1, 3) + fsize(Q, RU, 3) + fsize(Q, RZ, 3))
+    else:
+        b = abs(p[P.BETA])
+        r = int(a2)
+        m2 = dbound(Q, D, r, tau_ref, a0, a1, 2) + b * w0 * w0
+        m3 = dbound(Q, D, r, tau_ref, a0, a1, 3) + b * w0 * w0 * w0
+    return 0.0, -m2, m2, m3
+
+
+@jit
 def sturm_root(g, gp, f, F):
     """First root in [0, pi/f) of y'' + f^2 y = F, y(0) = g >= 0, y'(0) = gp; inf if none.
 
-    With t = tan(f h/2): y (1 + t^2) = g + 2 (gp/f) t + (2 F/f^2 - g) t^2.
+    With t = tan(f h/2): y (1 + t^2) = g + 2 (gp/f) t + (2 F/f^2 - g) t^2.  For f = 0
+    the limit y = g + gp h + F h^2/2 (``roots.quad_first_root``).
     """
     if g < 0.0:
         g = 0.0
+    if f == 0.0:
+        return quad_first_root(g, gp, F)
     c = F / (f * f)
     t = quad_first_root(g, 2.0 * gp / f, 2.0 * (2.0 * c - g))
     if t == math.inf:
@@ -318,7 +629,7 @@ def sturm_root(g, gp, f, F):
 
 
 @jit
-def first_root(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
+def first_root(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
     """Certified first root of ``kind`` on [s0, s_end] (module docstring).
 
     Returns (code, s): FOUND with the root (lower end of a bracket narrower than
@@ -329,10 +640,10 @@ def first_root(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
     """
     if s0 >= s_end:
         return NONE, s_end
-    f0, Fmin, Fmax, m1 = kind_bounds(kind, p, c, a0, a1, a2, a3)
-    half = math.pi / f0
+    f0, Fmin, Fmax, m1 = kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    half = math.pi / f0 if f0 > 0.0 else math.inf
     s = s0
-    g, gp, F = evaluate(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s)
+    g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
     if not (g == g and gp == gp and F == F):
         return FAIL, s
     if g <= 0.0:
@@ -382,7 +693,7 @@ def first_root(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
                 return NONE, s_end
         else:
             s = s + hlo
-        g, gp, F = evaluate(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s)
+        g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
         if not (g == g and gp == gp):
             return FAIL, s
         if g <= 0.0:
@@ -391,18 +702,92 @@ def first_root(kind, p, c, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
 
 
 @jit
-def state_at(mode, p, c, ph, tau_ref, za, ya, ua, va, s):
+def first_root_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
+    """``first_root`` with damping or forcing (``_evaluate_g``, ``_kind_bounds_g``), a
+    separate loop so that the undamped one stays small.  Otherwise the same:
+
+    Returns (code, s): FOUND with the root (lower end of a bracket narrower than
+    ``tol``), NONE with s_end, FAIL when the step budget ran out or a value is
+    not finite.  At s0 a value f <= 0 counts as a root only when f is moving
+    into the contact (f' < 0, or f' = 0 and f'' < 0); otherwise it is the point
+    just after an impact or a release and is skipped.
+    """
+    if s0 >= s_end:
+        return NONE, s_end
+    f0, Fmin, Fmax, m1 = _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    half = math.pi / f0 if f0 > 0.0 else math.inf
+    s = s0
+    g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+    if not (g == g and gp == gp and F == F):
+        return FAIL, s
+    if g <= 0.0:
+        gpp = F - f0 * f0 * g
+        if gp < 0.0 or (gp == 0.0 and gpp < 0.0):
+            return FOUND, s
+    local = m1 > 0.0
+    for _ in range(MAXIT):
+        rest = s_end - s
+        hlo = sturm_root(g, gp, f0, Fmin)
+        if hlo > half:
+            hlo = half
+        if hlo >= rest:
+            return NONE, s_end
+        hup = sturm_root(g, gp, f0, Fmax)
+        if local:
+            H = 1.25 * sturm_root(g, gp, f0, F)
+            if H > half:
+                H = half
+            if H > rest:
+                H = rest
+            if H > hlo:
+                Flo = F - m1 * H
+                if Flo < Fmin:
+                    Flo = Fmin
+                h1 = sturm_root(g, gp, f0, Flo)
+                if h1 >= H:
+                    h1 = H            # no root in [s, s + H]
+                    if H == rest:
+                        return NONE, s_end
+                if h1 > hlo:
+                    hlo = h1
+                Fhi = F + m1 * H
+                if Fhi > Fmax:
+                    Fhi = Fmax
+                h2 = sturm_root(g, gp, f0, Fhi)
+                if h2 <= H and h2 < hup:
+                    hup = h2
+        if hup - hlo <= tol and hup <= rest:
+            return FOUND, s + hlo
+        if hlo < tol:
+            gpp = F - f0 * f0 * g
+            if gp < 0.0 or (gpp < 0.0 and gp <= 0.0):
+                return FOUND, s + hlo
+            s = s + tol
+            if s >= s_end:
+                return NONE, s_end
+        else:
+            s = s + hlo
+        g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+        if not (g == g and gp == gp):
+            return FAIL, s
+        if g <= 0.0:
+            return FOUND, s
+    return FAIL, s
+
+
+@jit
+def state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, s):
     """(z, y, u, v) a time s after the reference of the current mode."""
     if mode == FREE:
-        z, y = harm(za, ya, p[P.OMEGA1], s)
-        u, v = harm(ua, va, p[P.OMEGA2], s)
+        z, y = fly(c, Q, D, RZ, tau_ref, za, ya, s)
+        u, v = fly(c, Q, D, RU, tau_ref, ua, va, s)
         return z, y, u, v
     if mode == WALL:
         w, wp, _, _ = wall(p, tau_ref + s, ph)
-        u, v = harm(ua, va, p[P.OMEGA2], s)
+        u, v = fly(c, Q, D, RU, tau_ref, ua, va, s)
         return w, wp, u, v
     if mode == PAIR:
-        z, y = harm(za, ya, c[C_OM], s)
+        z, y = fly(c, Q, D, RP, tau_ref, za, ya, s)
         return z, y, z, y
     w, wp, _, _ = wall(p, tau_ref + s, ph)
     return w, wp, w, wp
@@ -425,6 +810,11 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     sticking rules.  Returns the status code.
     """
     c = derive(p)
+    Q, D = oscillators(p, c)
+    smooth = c[C_SMOOTH] == 1.0
+    # sign and vanishing of the pair's contact force h (``pair_force``)
+    hsgn = (1.0 if c[C_D21] > 0.0 else -1.0) if smooth else 1.0
+    hzero = c[C_D21] == 0.0 if smooth else c[C_HZERO] == 1.0
     tol = p[P.TOL]
     chatter = p[P.CHATTER]
     escape = p[P.ESCAPE]
@@ -435,8 +825,6 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     w1 = p[P.OMEGA1]
     w2 = p[P.OMEGA2]
     om = c[C_OM]
-    d21 = c[C_D21]
-    sgn21 = 1.0 if d21 > 0.0 else -1.0
     muf = c[C_MUF]
     mui = c[C_MUI]
     transient = ints[P.I_TRANSIENT]
@@ -507,8 +895,12 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- a pending free-gap window (after a release or a slow separation) -------
         if win_target != 0:
-            code, sb = first_root(win_kind, p, c, ph, tau_ref, win_a0, win_a1, win_a2, win_a3,
-                                  0.0, win_end, tol)
+            if smooth:
+                code, sb = first_root(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
+                                      win_a3, 0.0, win_end, tol)
+            else:
+                code, sb = first_root_g(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
+                                        win_a3, 0.0, win_end, tol)
             if win_target == 1:
                 s1s = sb
             else:
@@ -524,22 +916,32 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         se = rest
         simult = False
         if mode == FREE:
-            kA, A0, A1, A2, A3, sA = K_GW, za, ya, w1, 0.0, s1s
+            kA, A0, A1, A2, A3, sA = K_GW, za, ya, float(RZ), 0.0, s1s
             kB, B0, B1, B2, B3, sB = K_GP, za, ya, ua, va, s2s
         elif mode == WALL:
             kA, A0, A1, A2, A3, sA = K_WF, c[C_N1A], c[C_N1B], 1.0, 0.0, 0.0
-            kB, B0, B1, B2, B3, sB = K_GW, ua, va, w2, 0.0, s2s
+            kB, B0, B1, B2, B3, sB = K_GW, ua, va, float(RU), 0.0, s2s
         elif mode == PAIR:
-            kA, A0, A1, A2, A3, sA = K_HM, za, ya, om, sgn21, (0.0 if d21 != 0.0 else rest)
-            kB, B0, B1, B2, B3, sB = K_GW, za, ya, om, 0.0, s1s
+            kA, A0, A1, A2, A3, sA = K_HM, za, ya, float(RP), hsgn, (rest if hzero else 0.0)
+            kB, B0, B1, B2, B3, sB = K_GW, za, ya, float(RP), 0.0, s1s
         else:
-            kA, A0, A1, A2, A3, sA = K_WF, c[C_N12A], c[C_N12B], 1.0, 0.0, 0.0
-            kB, B0, B1, B2, B3, sB = K_WF, c[C_N2A], c[C_N2B], 1.0, 0.0, 0.0
-        codeA, tA = first_root(kA, p, c, ph, tau_ref, A0, A1, A2, A3, sA, rest, tol)
+            kA, A0, A1, A2, A3, sA = K_WF, c[C_N12A], c[C_N12B], 1.0, float(RP), 0.0
+            kB, B0, B1, B2, B3, sB = K_WF, c[C_N2A], c[C_N2B], 1.0, float(RU), 0.0
+        if smooth:
+            codeA, tA = first_root(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
+                                         tol)
+        else:
+            codeA, tA = first_root_g(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
+                                         tol)
         limB = rest
         if codeA == FOUND:
             limB = min(tA + tol, rest) if mode == FREE else tA
-        codeB, tB = first_root(kB, p, c, ph, tau_ref, B0, B1, B2, B3, sB, limB, tol)
+        if smooth:
+            codeB, tB = first_root(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
+                                         tol)
+        else:
+            codeB, tB = first_root_g(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
+                                         tol)
         fail = codeA == FAIL or codeB == FAIL
         if mode == FREE:
             if codeB == FOUND and (codeA != FOUND or tB < tA - tol):
@@ -563,11 +965,13 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- section crossing -------------------------------------------------------------
         if ev == EV_SECTION:
-            z, y, u, v = state_at(mode, p, c, ph, tau_ref, za, ya, ua, va, rest)
+            z, y, u, v = state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, rest)
             n += 1
             periods += 1
             tau_ref = 0.0
             ph = section_phase(c, n)
+            if not smooth:
+                forcing_phases(p, Q, n)
             za = z
             ya = y
             ua = u
@@ -606,30 +1010,30 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         if ev == EV_REL_Z:
             # z leaves the wall: g1 = z - w >= 0 while N1 < 0, for at most pi/omega1
             w, wp, _, _ = wall(p, tau, ph)
-            u, v = harm(ua, va, w2, se)
+            u, v = fly(c, Q, D, RU, tau_ref, ua, va, se)
             mode = FREE
             za = w
             ya = wp
             ua = u
             va = v
             tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N1A], c[C_N1B], -1.0, 0.0
-            win_end = math.pi / w1
+            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N1A], c[C_N1B], -1.0, float(RZ)
+            win_end = halfp(c, Q, D, RZ)
             win_target = 1
             s2s = 0.0
             continue
         if ev == EV_REL_PAIR:
             # u leaves z where (omega2^2 - omega1^2) z turns negative; afterwards
             # g2'' + omega2^2 g2 = -(omega2^2 - omega1^2) z_free >= 0 for a while
-            z, y = harm(za, ya, om, se)
+            z, y = fly(c, Q, D, RP, tau_ref, za, ya, se)
             mode = FREE
             za = z
             ya = y
             ua = z
             va = y
             tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_HM, z, y, w1, -sgn21
-            win_end = math.pi / w2
+            win_kind, win_a0, win_a1, win_a2, win_a3 = K_HM, z, y, float(RZ), -hsgn
+            win_end = halfp(c, Q, D, RU)
             win_target = 2
             s1s = 0.0
             continue
@@ -639,8 +1043,8 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             ua = w
             va = wp
             tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N2A], c[C_N2B], -1.0, 0.0
-            win_end = math.pi / w2
+            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N2A], c[C_N2B], -1.0, float(RU)
+            win_end = halfp(c, Q, D, RU)
             win_target = 2
             continue
         if ev == EV_REL_STACK:
@@ -649,14 +1053,14 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             za = w
             ya = wp
             tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N12A], c[C_N12B], -1.0, 0.0
-            win_end = math.pi / om
+            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N12A], c[C_N12B], -1.0, float(RP)
+            win_end = halfp(c, Q, D, RP)
             win_target = 1
             continue
 
         # ---- w-z impact (z free, or a stuck pair) -----------------------------------------
         if ev == EV_WZ:
-            z, y, u, v = state_at(mode, p, c, ph, tau_ref, za, ya, ua, va, se)
+            z, y, u, v = state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, se)
             w, wp, _, sn = wall(p, tau, ph)
             y_in = y
             y_out = restitution(y_in, wp, r1)
@@ -672,8 +1076,8 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     o_zu[i, ZU_OFF] = o_zu[i, ZU_T] - (n * Sper + tau)
                     o_corner[i] = n_wz
                 else:
-                    D = (n - n_w) * Sper + (tau - tau_w)
-                    dn = D - o_zu[i, ZU_OFF]
+                    Dw = (n - n_w) * Sper + (tau - tau_w)
+                    dn = Dw - o_zu[i, ZU_OFF]
                     if dn < o_zu[i, ZU_OFF]:
                         o_zu[i, ZU_OFF] = -dn
                         o_corner[i] = n_wz
@@ -697,7 +1101,7 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             s2s = 0.0
             slow_z = y_out - wp <= chatter
             zst = r1 < 1.0 and slow_z
-            N1, N2, N12 = forces(c, sn)
+            N1, N2, N12 = forces_at(c, p, Q, tau, ph, sn)
             if (u_near and slow_z and abs(v - wp) <= chatter and (r1 < 1.0 or r2 < 1.0)
                     and N12 > 0.0 and N2 > 0.0):
                 mode = ALL
@@ -732,14 +1136,14 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     # stays >= 0 while N1 < 0 (as after a release); search from there,
                     # not through the rounding noise of a gap that opens like s^2
                     win_kind, win_a0, win_a1, win_a2 = K_WF, c[C_N1A], c[C_N1B], -1.0
-                    win_a3 = 0.0
-                    win_end = math.pi / w1
+                    win_a3 = float(RZ)
+                    win_end = halfp(c, Q, D, RZ)
                     win_target = 1
                 continue
 
         # ---- z-u impact (z free, or z stuck on the wall) -------------------------------
         if ev == EV_ZU:
-            z, y, u, v = state_at(mode, p, c, ph, tau_ref, za, ya, ua, va, se)
+            z, y, u, v = state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, se)
             w, wp, _, sn = wall(p, tau, ph)
             y_in = y
             v_in = v
@@ -772,7 +1176,7 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             tau_ref = tau
             slow_u = v_out - y_out <= chatter
             u_stick = r2 < 1.0 and slow_u
-            N1, N2, N12 = forces(c, sn)
+            N1, N2, N12 = forces_at(c, p, Q, tau, ph, sn)
             if (mode == FREE and z - w <= chatter * chatter and abs(y_out - wp) <= chatter
                     and abs(v_out - wp) <= chatter and (r1 < 1.0 or r2 < 1.0)
                     and N12 > 0.0 and N2 > 0.0):
@@ -792,10 +1196,10 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     if slow_u and not N2 > 0.0:
                         # u leaves slowly while z does not push it: u - w >= 0 while N2 < 0
                         win_kind, win_a0, win_a1, win_a2 = K_WF, c[C_N2A], c[C_N2B], -1.0
-                        win_a3 = 0.0
-                        win_end = math.pi / w2
+                        win_a3 = float(RU)
+                        win_end = halfp(c, Q, D, RU)
                         win_target = 2
-                elif u_stick and d21 * z > 0.0:
+                elif u_stick and pforce(c, p, Q, tau, z, muf * y_out + mui * v_out) > 0.0:
                     mode = PAIR
                     za = z
                     ya = muf * y_out + mui * v_out
@@ -806,7 +1210,7 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     ua = z
                     va = v_out
             else:
-                if u_stick and d21 * z > 0.0:
+                if u_stick and pforce(c, p, Q, tau, z, muf * y_out + mui * v_out) > 0.0:
                     mode = PAIR
                     za = z
                     ya = muf * y_out + mui * v_out
@@ -816,15 +1220,15 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     ya = y_out
                     ua = z
                     va = v_out
-                    if slow_u and not d21 * z > 0.0:
+                    if slow_u and not pforce(c, p, Q, tau, z, y_out) > 0.0:
                         # u leaves slowly while z does not push it: g2'' + omega2^2 g2 =
                         # -(omega2^2 - omega1^2) z >= 0 keeps g2 >= 0 for a while
-                        if d21 == 0.0:
-                            s2s = math.pi / w2
+                        if hzero:
+                            s2s = halfp(c, Q, D, RU)
                         else:
-                            win_kind, win_a0, win_a1, win_a2 = K_HM, z, y_out, w1
-                            win_a3 = -sgn21
-                            win_end = math.pi / w2
+                            win_kind, win_a0, win_a1, win_a2 = K_HM, z, y_out, float(RZ)
+                            win_a3 = -hsgn
+                            win_end = halfp(c, Q, D, RU)
                             win_target = 2
             continue
 
@@ -849,7 +1253,8 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
 
     ``params`` are omega0, omega1, omega2, mu, r1, r2, kappa, beta (defaults: the
     paper's Fig. 19 values omega1 = 1.001, omega2 = 1, mu = 1000, r1 = r2 = 0.8,
-    kappa = 0, beta = 1; omega0 is required), each a scalar or an array broadcast
+    kappa = 0, beta = 1; omega0 is required) and the damping and forcing of each
+    particle sigma1, sigma2, F1, Omega1, phi1, F2, Omega2, phi2 (default 0, Omega 1), each a scalar or an array broadcast
     against the initial states.  Returns a dict of arrays with shape
     ``shape + (record,)`` for the z-u impacts (t, u, v_in, v_out, y_in, y_out,
     corner_offset, corner), ``shape + (record_wz,)`` for the w-z impacts
@@ -862,6 +1267,7 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
 
     defaults = {"omega1": 1.001, "omega2": 1.0, "mu": 1000.0, "r1": 0.8, "r2": 0.8,
                 "kappa": 0.0, "beta": 1.0}
+    defaults.update(P.OPTIONAL)
     unknown = set(params) - set(P.NAMES)
     if unknown:
         raise TypeError(f"simulate_two_particle() got unknown parameter(s) {sorted(unknown)}")

@@ -151,3 +151,38 @@ def upp_bound(p, d, uh0, vh0):
         size = abs(uh0) + abs(vh0)
     W = p[P.F_OMEGA]
     return hb + d[D_UPP_PART], hb3 + d[D_UPP_PART] * W, size
+
+
+@jit
+def deriv_bound(p, d, uh0, vh0, n):
+    """Bound of |u^(n)| (n >= 0) over the whole future flight from the homogeneous state
+    (uh0, vh0), harmonic forcing included (eq 4; used by ``two_particle``).
+
+    Under-damped: u_h = R e^{-sigma s} cos(w_d s - psi) and each derivative multiplies
+    the envelope by at most k: |u_h^(n)| <= R k^n.  Critically damped,
+    u_h^(n) = (-sigma)^n e^{-x} (A + (B/sigma)(x - n)) with x = sigma s, and
+    max_x |x - n| e^{-x} is n for n >= 1 (at x = 0) and 1/e for n = 0:
+    |u_h^(n)| <= sigma^n |A| + n sigma^(n-1) |B| (n >= 1), |A| + |B|/(e sigma) (n = 0).
+    Over-damped: sum of |c_i| |l_i|^n.  The particular solution adds Omega^n |(X, Y)|.
+    """
+    sig = p[P.SIGMA]
+    reg = d[D_REGIME]
+    if reg == 0.0:
+        wd = d[D_WD]
+        B = (vh0 + sig * uh0) / wd
+        hb = math.sqrt(uh0 * uh0 + B * B) * p[P.K] ** n
+    elif reg == 1.0:
+        B = vh0 + sig * uh0
+        if n == 0:
+            hb = abs(uh0) + abs(B) / (math.e * sig)
+        else:
+            hb = sig ** n * abs(uh0) + n * sig ** (n - 1) * abs(B)
+    else:
+        l1 = d[D_LAM1]
+        l2 = d[D_LAM2]
+        c1 = (vh0 - l2 * uh0) / (l1 - l2)
+        c2 = uh0 - c1
+        hb = abs(c1) * abs(l1) ** n + abs(c2) * abs(l2) ** n
+    if p[P.F_AMP] == 0.0:
+        return hb
+    return hb + math.sqrt(d[D_X] ** 2 + d[D_Y] ** 2) * p[P.F_OMEGA] ** n

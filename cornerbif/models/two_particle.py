@@ -6,6 +6,13 @@ Equations (paper section 6.1)::
     z'' + omega1^2 z = 0,   u'' + omega2^2 u = 0  in flight   (73)
     w <= z <= u at all times
 
+Beyond the paper, each particle may carry damping and harmonic forcing per unit
+mass as the ``flow`` oscillator (eq 4):
+z'' + 2 sigma1 z' + omega1^2 z = F1 cos(Omega1 t + phi1) and
+u'' + 2 sigma2 u' + omega2^2 u = F2 cos(Omega2 t + phi2); all default to 0
+(Omega to 1), which is (73) exactly.  Flights reuse the closed forms of
+``models.oscillator``.
+
 * w-z impacts (z = w): law (5) with restitution r1, the wall having infinite
   mass: y+ = (1 + r1) w'(t) - r1 y-.
 * z-u impacts (u = z): law (74) with restitution r2 and mass ratio mu = M/m:
@@ -36,11 +43,24 @@ TOL = 8       # event-time tolerance
 CHATTER = 9   # relative velocity below which a chattering sequence is summed
 ESCAPE = 10   # amplitude bound beyond which a run is ESCAPED
 SECTION = 11  # Poincare section period in time (default 2 pi / omega0)
-NPARAM = 12
+SIGMA1 = 12   # damping of z (eq 4 applied to z)
+SIGMA2 = 13   # damping of u
+F1 = 14       # forcing of z per unit mass: F1 cos(Omega1 t + phi1)
+OMF1 = 15
+PHI1 = 16
+F2 = 17       # forcing of u per unit mass: F2 cos(Omega2 t + phi2)
+OMF2 = 18
+PHI2 = 19
+NPARAM = 20
 
-NAMES = ("omega0", "omega1", "omega2", "mu", "r1", "r2", "kappa", "beta")
+NAMES = ("omega0", "omega1", "omega2", "mu", "r1", "r2", "kappa", "beta",
+         "sigma1", "sigma2", "F1", "Omega1", "phi1", "F2", "Omega2", "phi2")
 INDEX = {"omega0": OMEGA0, "omega1": OMEGA1, "omega2": OMEGA2, "mu": MU, "r1": R1,
-         "r2": R2, "kappa": KAPPA, "beta": BETA}
+         "r2": R2, "kappa": KAPPA, "beta": BETA, "sigma1": SIGMA1, "sigma2": SIGMA2,
+         "F1": F1, "Omega1": OMF1, "phi1": PHI1, "F2": F2, "Omega2": OMF2, "phi2": PHI2}
+# optional keys (damping and forcing beyond the paper) and their defaults
+OPTIONAL = {"sigma1": 0.0, "sigma2": 0.0, "F1": 0.0, "Omega1": 1.0, "phi1": 0.0,
+            "F2": 0.0, "Omega2": 1.0, "phi2": 0.0}
 
 # --- integer run settings (a small int64 vector) --------------------------------------
 I_TRANSIENT = 0    # z-u impacts skipped before recording
@@ -55,7 +75,8 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
     """Pack named parameters of one point into the kernel's float64 vector.
 
     ``values`` holds omega0, omega1, omega2, mu, r1, r2, kappa, beta (all
-    required) and optionally ``section_period``.  Every value is checked here,
+    required), optionally the damping and forcing keys of ``OPTIONAL`` and
+    ``section_period``.  Every value is checked here,
     before any kernel runs: NaN or out-of-range values raise ``ValueError``
     naming the key and the value.
     """
@@ -66,10 +87,10 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
     p = np.zeros(NPARAM)
     problems = []
     for k in NAMES:
-        if k not in values:
+        if k not in values and k not in OPTIONAL:
             problems.append(f"{k}: missing")
             continue
-        v = float(values[k])
+        v = float(values.get(k, OPTIONAL.get(k)))
         p[INDEX[k]] = v
         if math.isnan(v):
             problems.append(f"{k}: {v!r} is not a number")
@@ -78,10 +99,28 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
                 problems.append(f"mu: {v!r} must be > 0 (inf allowed)")
         elif math.isinf(v):
             problems.append(f"{k}: {v!r} must be finite")
-        elif k in ("omega0", "omega1", "omega2") and not v > 0.0:
+        elif k in ("omega0", "omega1", "omega2", "Omega1", "Omega2") and not v > 0.0:
             problems.append(f"{k}: {v!r} must be > 0")
+        elif k in ("sigma1", "sigma2") and not v >= 0.0:
+            problems.append(f"{k}: {v!r} must be >= 0")
         elif k in ("r1", "r2") and not 0.0 <= v <= 1.0:
             problems.append(f"{k}: {v!r} must lie in [0, 1]")
+    if not problems:
+        # the closed forms of models.oscillator need a non-resonant forcing when undamped
+        mu = p[MU]
+        mui = 0.0 if mu == math.inf else 1.0 / (1.0 + mu)
+        om_pair = math.sqrt(p[OMEGA1] ** 2 + (p[OMEGA2] ** 2 - p[OMEGA1] ** 2) * mui)
+        sig_pair = p[SIGMA1] + (p[SIGMA2] - p[SIGMA1]) * mui
+        muf = 1.0 if mu == math.inf else mu / (1.0 + mu)
+        for fk, amp, wk, sig, k, who in (
+                ("F1", p[F1], "Omega1", p[SIGMA1], p[OMEGA1], "omega1"),
+                ("F2", p[F2], "Omega2", p[SIGMA2], p[OMEGA2], "omega2"),
+                ("F1", p[F1] * muf, "Omega1", sig_pair, om_pair, "the stuck pair's Omega"),
+                ("F2", p[F2] * mui, "Omega2", sig_pair, om_pair, "the stuck pair's Omega")):
+            if amp != 0.0 and sig == 0.0 and p[INDEX[wk]] == k:
+                problems.append(f"{wk}: {float(p[INDEX[wk]])!r} equals {who} with no damping "
+                                f"(undamped resonance, unbounded flight); change {wk} or add "
+                                f"damping")
     sp = values.get("section_period", section_period)
     if sp is None and p[OMEGA0] > 0.0:
         sp = 2.0 * math.pi / p[OMEGA0]
