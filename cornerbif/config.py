@@ -565,6 +565,15 @@ def from_dict(raw) -> Scene:
         if ranges["u"][1] <= ranges["z"][1]:
             problems.append(f"initial.u: {list(ranges['u'])} must reach above initial.z "
                             f"{list(ranges['z'])} (u >= z)")
+    if model == "flow" and not problems:
+        # models.oscillator's particular solution divides by k^2 - Omega^2 when undamped
+        def vals(n):
+            return set(next((a.values for a in axes if a.name == n), [system.get(n)]))
+        res = vals("Omega") & vals("k")
+        if any(x not in (0, 0.0, None) for x in vals("F")) and 0.0 in vals("sigma") and res:
+            problems.append(f"system.Omega: {_fmt(sorted(res)[0])} equals system.k with sigma = 0 "
+                            "and F != 0 (undamped exact resonance: no bounded closed-form "
+                            "flight); change Omega or k, or add damping sigma > 0")
     if model == "flow" and ranges.get("u") and kap and all(_is_number(x) for x in kap):
         if ranges["u"][1] <= max(kap):
             problems.append(f"initial.u: {list(ranges['u'])} lies on or below the obstacle at t = 0 "
