@@ -240,6 +240,10 @@ def main(argv=None):
                "numba": numba.__version__}
     now = time.strftime("%Y-%m-%d %H:%M:%S")
     runs = res.setdefault("section_runs", {})
+    for sec, key in (("speed", "flow_fig04c_1thread"), ("tolerance", "tolerance")):
+        if key in res and sec not in runs:      # a results.json from before --only
+            runs[sec] = {"date": res.get("date", "?"), "smoke": res.get("smoke", False),
+                         "command": "python benchmarks/run.py"}
     for sec in only:
         runs[sec] = {"date": now, "smoke": smoke, "command": "python benchmarks/run.py "
                      + " ".join(argv if argv is not None else sys.argv[1:])}

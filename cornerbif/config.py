@@ -82,9 +82,9 @@ RUN_DEFAULTS = {
 # benchmarks/README.md): what each preset costs and how far its diagram is from one drawn
 # with a very long transient.
 PRESETS = {
-    "fast": {"transient": 100, "tol": 1e-8, "chatter": 1e-4},
+    "fast": {"transient": 300, "tol": 1e-8, "chatter": 1e-4},
     "paper": {"transient": 500, "tol": 1e-12, "chatter": 1e-6},
-    "precise": {"transient": 3000, "tol": 1e-14, "chatter": 1e-9},
+    "precise": {"transient": 3000, "tol": 1e-14, "chatter": 1e-6},
 }
 DEFAULT_PRESET = "paper"
 INITIAL_DEFAULTS = {"count": 8, "seed": 1, "u": [0.0, 20.0], "v": [-20.0, 20.0]}

@@ -38,8 +38,8 @@ def test_default_is_the_paper_settings_and_leaves_the_scene_text_unchanged():
     assert _scene('preset = "paper"').transient == 500
 
 
-@pytest.mark.parametrize("name, expect", [("fast", (100, 1e-8, 1e-4)),
-                                          ("precise", (3000, 1e-14, 1e-9))])
+@pytest.mark.parametrize("name, expect", [("fast", (300, 1e-8, 1e-4)),
+                                          ("precise", (3000, 1e-14, 1e-6))])
 def test_preset_resolves_to_its_values(name, expect):
     s = _scene(f'preset = "{name}"')
     assert s.preset == name
@@ -57,7 +57,7 @@ def test_explicit_keys_override_the_preset():
     s2 = config.loads(BASE.format(run='preset = "precise"'), ["run.tol=1e-10"])
     assert (s2.transient, s2.tol) == (3000, 1e-10)
     s3 = config.loads(BASE.format(run=""), ["run.preset=fast"])
-    assert (s3.preset, s3.transient) == ("fast", 100)
+    assert (s3.preset, s3.transient) == ("fast", 300)
 
 
 @pytest.mark.parametrize("value, words", [('"fsat"', ["run.preset", "'fsat'", "did you mean 'fast'",
@@ -76,13 +76,13 @@ def test_validate_and_info_show_what_the_preset_resolved_to(tmp_path):
     scene.write_text(BASE.format(run='preset = "fast"\nrecord = 20'))
     r = CliRunner().invoke(main, ["validate", str(scene)])
     assert r.exit_code == 0, r.output
-    assert "run.preset 'fast' -> transient 100, tol 1e-08, chatter 0.0001" in r.output
+    assert "run.preset 'fast' -> transient 300, tol 1e-08, chatter 0.0001" in r.output
     out = tmp_path / "p.h5"
     r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress"])
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(main, ["info", str(out)])
     assert r.exit_code == 0, r.output
-    assert "run: preset fast -> transient 100, record 20, tol 1e-08, chatter 0.0001" in r.output
+    assert "run: preset fast -> transient 300, record 20, tol 1e-08, chatter 0.0001" in r.output
     r = CliRunner().invoke(main, ["validate", str(scene), "--set", "run.preset=slow"])
     assert r.exit_code == 2
     assert "run.preset: 'slow' is not a preset" in r.output
