@@ -2,7 +2,9 @@
 
     python benchmarks/run.py [--smoke] [--out DIR]
 
-writes DIR/results.json, DIR/report.md and DIR/tolerance.png.  ``--smoke`` runs
+writes DIR/results.json, DIR/report.md and the curves DIR/{tolerance,transient,
+map_vs_flow,chatter,profile}.png; ``--only SECTION,...`` runs some sections and keeps
+the others from DIR/results.json.  ``--smoke`` runs
 tiny sizes (CI runs it so the suite cannot rot); the numbers in the README come
 from a full run on the machine named in the report.
 
@@ -189,20 +191,104 @@ def bench_tolerance(n_runs, n_impacts, tols):
     return rows
 
 
+SECTIONS = ("speed", "siconos", "tolerance", "transient", "map_vs_flow", "chatter", "profile")
+
+
+def bench_siconos(smoke, tmp):
+    """The Siconos peer (``benchmarks/peer_siconos.py``, run by the system interpreter that
+    has Debian's python3-siconos); ``{"available": False, ...}`` when it cannot run."""
+    script = os.path.join(HERE, "peer_siconos.py")
+    if not os.path.exists(script):
+        return {"available": False, "reason": "benchmarks/peer_siconos.py is not there"}
+    py = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else sys.executable
+    out = os.path.join(tmp, "siconos.json")
+    cmd = [py, script, "--json", out] + (["--smoke"] if smoke else [])
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, cwd=ROOT)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return {"available": False, "reason": f"{' '.join(cmd)}: {e}"}
+    if not os.path.exists(out):
+        return {"available": False, "reason": f"{' '.join(cmd)} wrote no JSON (exit "
+                f"{p.returncode}): {p.stderr[-500:]}"}
+    with open(out) as fh:
+        return json.load(fh)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes (CI)")
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    ap.add_argument("--only", default="",
+                    help="comma-separated sections to run (" + ", ".join(SECTIONS) + "); the "
+                    "others are kept from DIR/results.json if it exists")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     smoke = a.smoke
-    res = {"machine": {"platform": platform.platform(), "processor": platform.processor(),
-                       "cpus": os.cpu_count(), "python": sys.version.split()[0]},
-           "smoke": smoke, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+    only = [x.strip() for x in a.only.split(",") if x.strip()] or list(SECTIONS)
+    bad = [x for x in only if x not in SECTIONS]
+    if bad:
+        ap.error(f"--only: {', '.join(map(repr, bad))} is not a section; allowed: "
+                 + ", ".join(SECTIONS))
+    res = {}
+    path = os.path.join(a.out, "results.json")
+    if a.only and os.path.exists(path):
+        with open(path) as fh:
+            res = json.load(fh)
     import numba
-    res["machine"]["numba"] = numba.__version__
+    machine = {"platform": platform.platform(), "processor": platform.processor(),
+               "cpus": os.cpu_count(), "python": sys.version.split()[0],
+               "numba": numba.__version__}
+    now = time.strftime("%Y-%m-%d %H:%M:%S")
+    runs = res.setdefault("section_runs", {})
+    for sec, key in (("speed", "flow_fig04c_1thread"), ("tolerance", "tolerance")):
+        if key in res and sec not in runs:      # a results.json from before --only
+            runs[sec] = {"date": res.get("date", "?"), "smoke": res.get("smoke", False),
+                         "command": "python benchmarks/run.py"}
+    for sec in only:
+        runs[sec] = {"date": now, "smoke": smoke, "command": "python benchmarks/run.py "
+                     + " ".join(argv if argv is not None else sys.argv[1:])}
+    res.update({"machine": machine, "smoke": smoke and not a.only, "date": now})
+    if smoke and a.only:
+        res["smoke"] = True
     ncores = min(2, os.cpu_count() or 1)
 
+    if "speed" in only:
+        speed(res, smoke, ncores)
+    import trade
+    with tempfile.TemporaryDirectory() as tmp:
+        if "speed" in only:
+            print("start-up ...", flush=True)
+            res["startup"] = bench_startup(tmp)
+            print("memory ...", flush=True)
+            res["memory"] = bench_memory(tmp, 5 if smoke else 200)
+        if "siconos" in only:
+            print("peer (Siconos) ...", flush=True)
+            res["peer_siconos"] = bench_siconos(smoke, tmp)
+
+    if "tolerance" in only:
+        print("tolerance trade ...", flush=True)
+        tols = [1e-6, 1e-10, 1e-14] if smoke else [1e-6, 1e-8, 1e-10, 1e-12, 1e-14]
+        res["tolerance"] = bench_tolerance(3 if smoke else 40, 10, tols)
+    for sec, fn in (("transient", trade.bench_transient), ("map_vs_flow", trade.bench_map_vs_flow),
+                    ("chatter", trade.bench_chatter), ("profile", trade.bench_profile)):
+        if sec in only:
+            print(f"{sec} ...", flush=True)
+            res[sec] = fn(smoke)
+
+    with open(path, "w") as fh:
+        json.dump(res, fh, indent=2)
+    report = render(res)
+    with open(os.path.join(a.out, "report.md"), "w") as fh:
+        fh.write(report)
+    if "tolerance" in res:
+        plot_tolerance(res, os.path.join(a.out, "tolerance.png"))
+    for sec in ("transient", "map_vs_flow", "chatter", "profile"):
+        if sec in res:
+            getattr(trade, f"plot_{sec}")(res[sec], os.path.join(a.out, f"{sec}.png"))
+    print(report)
+
+
+def speed(res, smoke, ncores):
     fig04c = _scene("fig04c", **({"sweep.omega.num": 20} if smoke else {}))
     fig06a = _scene("fig06a", **({"sweep.kappa.num": 20} if smoke else {}))
     print("flow, Fig. 4(c) scene ...", flush=True)
@@ -229,62 +315,91 @@ def main(argv=None):
     res["ratio_vs_dop853"] = per_core / res["peer_dop853"]["impacts_per_second"]
     res["ratio_vs_rk45"] = per_core / res["peer_rk45"]["impacts_per_second"]
 
-    with tempfile.TemporaryDirectory() as tmp:
-        print("start-up ...", flush=True)
-        res["startup"] = bench_startup(tmp)
-        print("memory ...", flush=True)
-        res["memory"] = bench_memory(tmp, 5 if smoke else 200)
-
-    print("tolerance trade ...", flush=True)
-    tols = [1e-6, 1e-10, 1e-14] if smoke else [1e-6, 1e-8, 1e-10, 1e-12, 1e-14]
-    res["tolerance"] = bench_tolerance(3 if smoke else 40, 10, tols)
-
-    with open(os.path.join(a.out, "results.json"), "w") as fh:
-        json.dump(res, fh, indent=2)
-    report = render(res)
-    with open(os.path.join(a.out, "report.md"), "w") as fh:
-        fh.write(report)
-    plot_tolerance(res, os.path.join(a.out, "tolerance.png"))
-    print(report)
-
 
 def render(r):
-    f = r["flow_fig04c_1thread"]
     L = [f"# Benchmark report{' (SMOKE: tiny sizes, numbers meaningless)' if r['smoke'] else ''}",
          "", f"Machine: {r['machine']['platform']}, {r['machine']['cpus']} CPUs, Python "
          f"{r['machine']['python']}, numba {r['machine']['numba']}; {r['date']}.",
-         "Command: `python benchmarks/run.py`", "",
-         "| quantity | value | target |", "|---|---|---|",
-         f"| flow, Fig. 4(c) scene, 1 thread | {f['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
-         f"| flow, Fig. 6(a) scene, 1 thread | "
-         f"{r['flow_fig06a_1thread']['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
-         f"| two_particle, Fig. 19(a) scene, 1 thread | "
-         f"{r['two_particle_fig19a_1thread']['impacts_per_second'] / 1e6:.2f} M u-z impacts/s "
-         f"(flow is {r['ratio_flow_to_two_particle']:.1f}x faster) | |",
-         f"| map2d, 1 thread / 2 threads | {r['map2d_1thread']['steps_per_second'] / 1e6:.0f} M / "
-         f"{r['map2d_2threads']['steps_per_second'] / 1e6:.0f} M steps/s | >= 200 M per core |",
-         f"| solve_ivp DOP853 loop (rtol 1e-9), same scene | "
-         f"{r['peer_dop853']['impacts_per_second']:.0f} impacts/s, "
-         f"{r['peer_dop853']['miss_fraction'] * 100:.2f} % misses | |",
-         f"| solve_ivp RK45 loop | {r['peer_rk45']['impacts_per_second']:.0f} impacts/s | |",
-         f"| flow per core / DOP853 loop | {r['ratio_vs_dop853']:.0f}x | >= 3000x |",
-         f"| flow per core / RK45 loop | {r['ratio_vs_rk45']:.0f}x | |",
-         f"| speed-up on 2 cores | {r['speedup_2cores']:.2f}x | >= 1.8x |",
-         f"| `cornerbif sweep` cold (empty cache) | {r['startup']['cold_seconds']:.1f} s | |",
-         f"| `cornerbif sweep` cached start-up | {r['startup']['cached_seconds']:.2f} s | < 1.5 s |",
-         f"| `import cornerbif.cli` | {r['startup']['import_seconds']:.2f} s | |",
-         f"| peak memory, grid 1x / 10x / 100x | "
-         f"{r['memory']['x1']['peak_rss_mib']:.0f} / {r['memory']['x10']['peak_rss_mib']:.0f} / "
-         f"{r['memory']['x100']['peak_rss_mib']:.0f} MiB | flat within 20 % |",
-         "", "## Event tolerance against impact-time error and throughput", "",
-         "Error: first five impacts of random flights (omega in [1.5, 2.5]) against "
-         "tests/naive.py (exhaustive search, brentq to 1e-15).", "",
-         "| tol | median error | max error | impacts/s (2 threads) |", "|---|---|---|---|"]
-    for row in r["tolerance"]:
-        L.append(f"| {row['tol']:.0e} | {row['median_error']:.1e} | {row['max_error']:.1e} | "
-                 f"{row['impacts_per_second'] / 1e6:.2f} M |")
+         "Command: `python benchmarks/run.py` (all sections; `--only` runs some and keeps the "
+         "others). Sections and when they ran:", ""]
+    for sec, info in r.get("section_runs", {}).items():
+        L.append(f"- {sec}: {info['date']}{' (smoke sizes)' if info['smoke'] else ''}, "
+                 f"`{info['command'].strip()}`")
     L.append("")
+    if "flow_fig04c_1thread" in r:
+        L += render_speed(r)
+    L += render_siconos(r)
+    if "tolerance" in r:
+        L += ["## Event tolerance against impact-time error and throughput", "",
+              "Error: first five impacts of random flights (omega in [1.5, 2.5]) against "
+              "tests/naive.py (exhaustive search, brentq to 1e-15).", "",
+              "| tol | median error | max error | impacts/s (2 threads) |", "|---|---|---|---|"]
+        for row in r["tolerance"]:
+            L.append(f"| {row['tol']:.0e} | {row['median_error']:.1e} | {row['max_error']:.1e} | "
+                     f"{row['impacts_per_second'] / 1e6:.2f} M |")
+        L.append("")
+    import trade
+    for sec in ("transient", "map_vs_flow", "chatter", "profile"):
+        if sec in r:
+            L += getattr(trade, f"render_{sec}")(r[sec], r)
     return "\n".join(L)
+
+
+def render_siconos(r):
+    sc = r.get("peer_siconos")
+    if sc is None:
+        return []
+    L = ["## Peer: Siconos", ""]
+    if not sc.get("available"):
+        return L + [f"Unavailable: {sc.get('reason', 'no reason given')}.", ""]
+    if sc.get("error"):
+        L.append(f"The peer stopped with an error: {sc['error']}.")
+    L += [f"Siconos {sc.get('siconos_version')} (Debian package "
+          f"{sc.get('siconos_debian_package')}), `benchmarks/peer_siconos.py`.", "",
+          "| scheme | scene | impacts/s | max impact-time error | grazing missed |",
+          "|---|---|---|---|---|"]
+    for row in sc.get("rows", []):
+        err = row.get("max_impact_time_error")
+        L.append(f"| {row['scheme']} | {row['scene'].split(':')[0]} | "
+                 f"{row.get('impacts_per_second') or 0:.0f} | "
+                 f"{'n/a' if err is None else f'{err:.1e}'} | "
+                 f"{row.get('grazing_missed', 'n/a')} of {row.get('grazing_family_size', 'n/a')} |")
+    ed = next((x for x in sc.get("rows", []) if x["scene"].startswith("fig4c")
+               and x["scheme"].startswith("event")), None)
+    if ed and ed.get("impacts_per_second") and "flow_fig04c_1thread" in r:
+        ratio = r["flow_fig04c_1thread"]["impacts_per_second"] / ed["impacts_per_second"]
+        L += ["", f"flow per core (this run's Fig. 4(c), 1 thread) / Siconos event-driven: "
+              f"**{ratio:.0f}x** (target >= 2000x)."]
+    if "ratio_cornerbif_per_core_to_siconos_ed" in sc:
+        L.append(f"The peer's own session ratio (cornerbif measured beside it): "
+                 f"{sc['ratio_cornerbif_per_core_to_siconos_ed']:.0f}x.")
+    return L + [""]
+
+
+def render_speed(r):
+    f = r["flow_fig04c_1thread"]
+    return ["| quantity | value | target |", "|---|---|---|",
+            f"| flow, Fig. 4(c) scene, 1 thread | {f['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
+            f"| flow, Fig. 6(a) scene, 1 thread | "
+            f"{r['flow_fig06a_1thread']['impacts_per_second'] / 1e6:.2f} M impacts/s | |",
+            f"| two_particle, Fig. 19(a) scene, 1 thread | "
+            f"{r['two_particle_fig19a_1thread']['impacts_per_second'] / 1e6:.2f} M u-z impacts/s "
+            f"(flow is {r['ratio_flow_to_two_particle']:.1f}x faster) | |",
+            f"| map2d, 1 thread / 2 threads | {r['map2d_1thread']['steps_per_second'] / 1e6:.0f} M / "
+            f"{r['map2d_2threads']['steps_per_second'] / 1e6:.0f} M steps/s | >= 200 M per core |",
+            f"| solve_ivp DOP853 loop (rtol 1e-9), same scene | "
+            f"{r['peer_dop853']['impacts_per_second']:.0f} impacts/s, "
+            f"{r['peer_dop853']['miss_fraction'] * 100:.2f} % misses | |",
+            f"| solve_ivp RK45 loop | {r['peer_rk45']['impacts_per_second']:.0f} impacts/s | |",
+            f"| flow per core / DOP853 loop | {r['ratio_vs_dop853']:.0f}x | >= 3000x |",
+            f"| flow per core / RK45 loop | {r['ratio_vs_rk45']:.0f}x | |",
+            f"| speed-up on 2 cores | {r['speedup_2cores']:.2f}x | >= 1.8x |",
+            f"| `cornerbif sweep` cold (empty cache) | {r['startup']['cold_seconds']:.1f} s | |",
+            f"| `cornerbif sweep` cached start-up | {r['startup']['cached_seconds']:.2f} s | < 1.5 s |",
+            f"| `import cornerbif.cli` | {r['startup']['import_seconds']:.2f} s | |",
+            f"| peak memory, grid 1x / 10x / 100x | "
+            f"{r['memory']['x1']['peak_rss_mib']:.0f} / {r['memory']['x10']['peak_rss_mib']:.0f} / "
+            f"{r['memory']['x100']['peak_rss_mib']:.0f} MiB | flat within 20 % |", ""]
 
 
 def plot_tolerance(r, path):

@@ -140,6 +140,9 @@ def info(file):
         sc = tomllib.loads(a["scene"])
         click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
         click.echo(f"  model {sc['scene']['model']}, obstacle {sc['system'].get('obstacle')}")
+        rn = sc.get("run", {})
+        click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
+                   f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
         for k, v in sc.get("sweep", {}).items():
             if k != "follow":
                 vals = v["values"]
@@ -171,8 +174,10 @@ def _names(f):
 @click.argument("scene_path", metavar="SCENE.toml", type=click.Path(dir_okay=False))
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE")
 def validate(scene_path, sets):
-    """Check a scene and print it as it would run."""
+    """Check a scene and print it as it would run (run.preset resolved to its values)."""
     scene = _load(scene_path, sets)
+    click.echo(f"# run.preset {scene.preset!r} -> transient {scene.transient}, tol {scene.tol!r}, "
+               f"chatter {scene.chatter!r} (explicit [run] keys override the preset)")
     click.echo(scene.text)
 
 

@@ -84,13 +84,25 @@ RUN_DEFAULTS = {
     "max_events": None,
     "max_periods": None,
 }
+# Accuracy presets (``run.preset``): the speed-accuracy trade made explicit.  Keys given
+# explicitly in [run] override the preset.  "paper" is the default and holds the values
+# every paper scene was drawn with.  The numbers behind each preset are measured by
+# ``benchmarks/run.py`` (sections "transient", "chatter", "tolerance"; see
+# benchmarks/README.md): what each preset costs and how far its diagram is from one drawn
+# with a very long transient.
+PRESETS = {
+    "fast": {"transient": 300, "tol": 1e-8, "chatter": 1e-4},
+    "paper": {"transient": 500, "tol": 1e-12, "chatter": 1e-6},
+    "precise": {"transient": 3000, "tol": 1e-14, "chatter": 1e-6},
+}
+DEFAULT_PRESET = "paper"
 INITIAL_DEFAULTS = {"count": 8, "seed": 1, "u": [0.0, 20.0], "v": [-20.0, 20.0]}
 TABLES = {
     "scene": ("name", "title", "model"),
     "system": tuple(FLOW_PARAMS) + tuple(SYSTEM_OTHER),
     "sweep": None,  # parameter names + 'follow'
     "initial": tuple(INITIAL_DEFAULTS) + ("z", "y"),
-    "run": tuple(RUN_DEFAULTS),
+    "run": ("preset",) + tuple(RUN_DEFAULTS),
     "output": ("keep",),
     "plot": ("kind", "y", "xlim", "ylim", "marker_size", "title"),
 }
@@ -143,6 +155,7 @@ class Scene:
     keep: tuple
     plot: dict = field(default_factory=dict)
     text: str = ""          # the TOML text as run (overrides applied)
+    preset: str = DEFAULT_PRESET   # run.preset the run settings were resolved from
 
     @property
     def shape(self) -> tuple:
@@ -488,8 +501,14 @@ def from_dict(raw) -> Scene:
     # [run]
     rn = table("run")
     unknown("run", TABLES["run"])
+    preset = rn.get("preset", DEFAULT_PRESET)
+    if not isinstance(preset, str) or preset not in PRESETS:
+        problems.append(f"run.preset: {_fmt(preset)} is not a preset"
+                        f"{_suggest(str(preset), PRESETS)}; allowed: {', '.join(PRESETS)}")
+        preset = DEFAULT_PRESET
     run = {}
     for k, default in RUN_DEFAULTS.items():
+        default = PRESETS[preset].get(k, default)
         v = rn.get(k, default)
         if k in ("transient", "record", "max_events", "max_periods"):
             if v is None:
@@ -588,7 +607,8 @@ def from_dict(raw) -> Scene:
         | {k: v for k, v in system.items() if v is not None},
         "sweep": {**{a.name: {"values": list(a.values)} for a in axes}, "follow": follow},
         "initial": {"count": n_ic, "seed": seed, **{c: list(ranges[c]) for c in coords}},
-        "run": {**{k: v for k, v in run.items() if v is not None},
+        "run": {**({"preset": preset} if "preset" in rn else {}),
+                **{k: v for k, v in run.items() if v is not None},
                 "max_events": max_events, "max_periods": max_periods},
         "output": {"keep": list(keep)},
     }
@@ -604,4 +624,4 @@ def from_dict(raw) -> Scene:
                  z_range=ranges.get("z"), y_range=ranges.get("y"), transient=run["transient"],
                  record=run["record"], tol=run["tol"], chatter=run["chatter"], escape=run["escape"],
                  period_tol=run["period_tol"], max_events=max_events, max_periods=max_periods,
-                 keep=keep, plot=plot, text=dumps(as_run))
+                 keep=keep, plot=plot, text=dumps(as_run), preset=preset)
