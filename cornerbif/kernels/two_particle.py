@@ -629,7 +629,7 @@ def sturm_root(g, gp, f, F):
 
 
 @jit
-def first_root(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
+def first_root(kind, smooth, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
     """Certified first root of ``kind`` on [s0, s_end] (module docstring).
 
     Returns (code, s): FOUND with the root (lower end of a bracket narrower than
@@ -637,87 +637,21 @@ def first_root(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
     not finite.  At s0 a value f <= 0 counts as a root only when f is moving
     into the contact (f' < 0, or f' = 0 and f'' < 0); otherwise it is the point
     just after an impact or a release and is skipped.
+    ``smooth`` (no damping, no forcing) selects the undamped closed forms
+    (``evaluate``, ``kind_bounds``); otherwise ``_evaluate_g``, ``_kind_bounds_g``.
     """
     if s0 >= s_end:
         return NONE, s_end
-    f0, Fmin, Fmax, m1 = kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    if smooth:
+        f0, Fmin, Fmax, m1 = kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    else:
+        f0, Fmin, Fmax, m1 = _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
     half = math.pi / f0 if f0 > 0.0 else math.inf
     s = s0
-    g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
-    if not (g == g and gp == gp and F == F):
-        return FAIL, s
-    if g <= 0.0:
-        gpp = F - f0 * f0 * g
-        if gp < 0.0 or (gp == 0.0 and gpp < 0.0):
-            return FOUND, s
-    local = m1 > 0.0
-    for _ in range(MAXIT):
-        rest = s_end - s
-        hlo = sturm_root(g, gp, f0, Fmin)
-        if hlo > half:
-            hlo = half
-        if hlo >= rest:
-            return NONE, s_end
-        hup = sturm_root(g, gp, f0, Fmax)
-        if local:
-            H = 1.25 * sturm_root(g, gp, f0, F)
-            if H > half:
-                H = half
-            if H > rest:
-                H = rest
-            if H > hlo:
-                Flo = F - m1 * H
-                if Flo < Fmin:
-                    Flo = Fmin
-                h1 = sturm_root(g, gp, f0, Flo)
-                if h1 >= H:
-                    h1 = H            # no root in [s, s + H]
-                    if H == rest:
-                        return NONE, s_end
-                if h1 > hlo:
-                    hlo = h1
-                Fhi = F + m1 * H
-                if Fhi > Fmax:
-                    Fhi = Fmax
-                h2 = sturm_root(g, gp, f0, Fhi)
-                if h2 <= H and h2 < hup:
-                    hup = h2
-        if hup - hlo <= tol and hup <= rest:
-            return FOUND, s + hlo
-        if hlo < tol:
-            gpp = F - f0 * f0 * g
-            if gp < 0.0 or (gpp < 0.0 and gp <= 0.0):
-                return FOUND, s + hlo
-            s = s + tol
-            if s >= s_end:
-                return NONE, s_end
-        else:
-            s = s + hlo
+    if smooth:
         g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
-        if not (g == g and gp == gp):
-            return FAIL, s
-        if g <= 0.0:
-            return FOUND, s
-    return FAIL, s
-
-
-@jit
-def first_root_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
-    """``first_root`` with damping or forcing (``_evaluate_g``, ``_kind_bounds_g``), a
-    separate loop so that the undamped one stays small.  Otherwise the same:
-
-    Returns (code, s): FOUND with the root (lower end of a bracket narrower than
-    ``tol``), NONE with s_end, FAIL when the step budget ran out or a value is
-    not finite.  At s0 a value f <= 0 counts as a root only when f is moving
-    into the contact (f' < 0, or f' = 0 and f'' < 0); otherwise it is the point
-    just after an impact or a release and is skipped.
-    """
-    if s0 >= s_end:
-        return NONE, s_end
-    f0, Fmin, Fmax, m1 = _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
-    half = math.pi / f0 if f0 > 0.0 else math.inf
-    s = s0
-    g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+    else:
+        g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
     if not (g == g and gp == gp and F == F):
         return FAIL, s
     if g <= 0.0:
@@ -767,7 +701,10 @@ def first_root_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
                 return NONE, s_end
         else:
             s = s + hlo
-        g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+        if smooth:
+            g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+        else:
+            g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
         if not (g == g and gp == gp):
             return FAIL, s
         if g <= 0.0:
@@ -895,12 +832,8 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- a pending free-gap window (after a release or a slow separation) -------
         if win_target != 0:
-            if smooth:
-                code, sb = first_root(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
-                                      win_a3, 0.0, win_end, tol)
-            else:
-                code, sb = first_root_g(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
-                                        win_a3, 0.0, win_end, tol)
+            code, sb = first_root(win_kind, smooth, p, c, Q, D, ph, tau_ref, win_a0, win_a1,
+                                  win_a2, win_a3, 0.0, win_end, tol)
             if win_target == 1:
                 s1s = sb
             else:
@@ -927,21 +860,13 @@ def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         else:
             kA, A0, A1, A2, A3, sA = K_WF, c[C_N12A], c[C_N12B], 1.0, float(RP), 0.0
             kB, B0, B1, B2, B3, sB = K_WF, c[C_N2A], c[C_N2B], 1.0, float(RU), 0.0
-        if smooth:
-            codeA, tA = first_root(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
-                                         tol)
-        else:
-            codeA, tA = first_root_g(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
-                                         tol)
+        codeA, tA = first_root(kA, smooth, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
+                               tol)
         limB = rest
         if codeA == FOUND:
             limB = min(tA + tol, rest) if mode == FREE else tA
-        if smooth:
-            codeB, tB = first_root(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
-                                         tol)
-        else:
-            codeB, tB = first_root_g(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
-                                         tol)
+        codeB, tB = first_root(kB, smooth, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
+                               tol)
         fail = codeA == FAIL or codeB == FAIL
         if mode == FREE:
             if codeB == FOUND and (codeA != FOUND or tB < tA - tol):
