@@ -359,8 +359,14 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
                                 block_points=block_points, numba_threads=threads)
             else:
                 _run_blocks(scene, f, progress, block_points)
-        except SweepError:
+        except SweepError as e:
             f.close()
+            if getattr(e, "failures", None):
+                # the failed chunks, with their errors, on the file --resume will complete
+                # (attributes cannot be added in single-writer/multiple-reader mode)
+                import json
+                with h5py.File(partial, "r+") as g:
+                    g.attrs["failed_chunks"] = json.dumps(e.failures)
             raise
         except KeyboardInterrupt:
             f.close()
