@@ -306,13 +306,15 @@ def _available_memory():
 # ------------------------------------------------------------------ the sweep
 def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
               overwrite: bool = False, progress: bool = False, command: str = "",
-              block_points: int | None = None, scheduler: str | None = None) -> str:
+              block_points: int | None = None, scheduler: str | None = None,
+              stats: dict | None = None) -> str:
     """Run a scene to ``out_path``; return the path of the finished file.
 
     ``scheduler``: None runs the blocks here (numba threads); a Dask scheduler address
     or ``local:N`` runs them on a Dask cluster (``cornerbif.distributed``), with this
     process the only writer of the file either way.  ``threads`` is then the numba
-    threads of each worker.
+    threads of each worker; ``stats`` (a dict) receives what the Dask backend did
+    (chunks submitted, failures, compute seconds per chunk).
     """
     import h5py
     import numba
@@ -356,7 +358,8 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             if scheduler:
                 from .distributed import run_blocks_dask
                 run_blocks_dask(scene, f, scheduler, progress=progress,
-                                block_points=block_points, numba_threads=threads)
+                                block_points=block_points, numba_threads=threads,
+                                stats=stats)
             else:
                 _run_blocks(scene, f, progress, block_points)
         except SweepError as e:
