@@ -18,7 +18,8 @@ the best of ``--repeat`` runs, the JIT warm (a first untimed sweep of each kind)
    of T_dask - T_local against the number of chunks over all sizes: its slope is
    the cost of one more chunk (scheduling, transfer of the block to the driver),
    its intercept the fixed cost of a run on a running cluster (connecting, setting
-   up and warming the workers).  ``compute`` is the workers' own kernel time.
+   up and warming the workers).  ``compute`` is the workers' own kernel time per
+   chunk, ``write`` the driver's time to write and mark one chunk (HDF5, gzip).
 """
 
 from __future__ import annotations
@@ -124,7 +125,8 @@ def main(argv=None):
                 res["overhead"].append({
                     "chunk_points": b, "chunks": n, "local_s": tl, "dask_s": td,
                     "overhead_ms_per_chunk": 1e3 * (td - tl) / n,
-                    "compute_ms_per_chunk": 1e3 * sum(st["compute_seconds"]) / n})
+                    "compute_ms_per_chunk": 1e3 * sum(st["compute_seconds"]) / n,
+                    "driver_write_ms_per_chunk": 1e3 * sum(st["write_seconds"]) / n})
         finally:
             lc.close()
         import numpy as np
@@ -150,10 +152,11 @@ def main(argv=None):
     print(f"\noverhead per chunk: 1 worker x 1 numba thread vs local 1 thread, fig06a "
           f"{ovh['num']} points x {ovh['count']} x {ovh['transient'] + ovh['record']}")
     print(f"{'points/chunk':>12s} {'chunks':>7s} {'local s':>8s} {'dask s':>8s} "
-          f"{'overhead ms':>12s} {'compute ms':>11s}")
+          f"{'overhead ms':>12s} {'compute ms':>11s} {'write ms':>9s}")
     for r in res["overhead"]:
         print(f"{r['chunk_points']:12d} {r['chunks']:7d} {r['local_s']:8.2f} {r['dask_s']:8.2f} "
-              f"{r['overhead_ms_per_chunk']:12.1f} {r['compute_ms_per_chunk']:11.1f}")
+              f"{r['overhead_ms_per_chunk']:12.1f} {r['compute_ms_per_chunk']:11.1f} "
+              f"{r['driver_write_ms_per_chunk']:9.1f}")
     fit = res["overhead_fit"]
     print(f"fit T_dask - T_local = fixed + per_chunk * chunks: per chunk "
           f"{fit['ms_per_chunk']:.1f} ms, fixed {fit['fixed_s_per_run']:.2f} s per run")

@@ -237,7 +237,8 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
 
     ``max_in_flight``: chunks submitted and not yet written (default twice the
     cluster's Dask threads, at least 2; 1 for a followed scene).  ``stats``: a dict
-    filled with what happened (submitted, failed, compute seconds per chunk).
+    filled with what happened (chunks submitted, failures, the workers' compute
+    seconds and the driver's write seconds per chunk).
     """
     require_dask()
     from distributed import as_completed
@@ -246,7 +247,8 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
     done = f["done"][...]
     todo = [(i, b) for i, b in enumerate(every) if not np.all(done[b])]
     stats = {} if stats is None else stats
-    stats.update(chunks=len(every), submitted=0, failed=[], compute_seconds=[])
+    stats.update(chunks=len(every), submitted=0, failed=[], compute_seconds=[],
+                 write_seconds=[])
     if not todo:
         return stats
     if kind == "local" and not numba_threads:
@@ -278,7 +280,9 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
 
         def written(blk, result):
             block, secs, _ = result
+            t0 = time.perf_counter()
             io.write_block(f, blk, block)
+            stats["write_seconds"].append(time.perf_counter() - t0)
             stats["compute_seconds"].append(secs)
             if bar is not None:
                 bar.update(1)
