@@ -45,7 +45,6 @@ appended to ``DIR/attempts-<i>``; ``hold`` holding ``h`` makes every chunk
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import threading
