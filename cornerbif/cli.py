@@ -50,9 +50,22 @@ def main():
               help="Progress bar on stderr (default: when stderr is a terminal).")
 @click.option("--block-points", type=click.IntRange(min=1), default=None,
               help="Grid points per block (the unit that is written and marked done).")
-def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, block_points):
+@click.option("--scheduler", metavar="ADDRESS|local:N", default=None,
+              help="Run the blocks on a Dask cluster: a scheduler address (tcp://host:8786) "
+                   "or local:N for N local worker processes; --threads is then the numba "
+                   'threads of each worker. Needs pip install "cornerbif[dask]".')
+def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, block_points,
+          scheduler):
     """Run SCENE.toml and write the diagram to HDF5."""
     scene = _load(scene_path, sets)
+    if scheduler is not None:
+        from .distributed import parse_scheduler, require_dask
+        from .sweep import SweepError as _SE
+        try:
+            parse_scheduler(scheduler)
+            require_dask()
+        except _SE as e:
+            _fail(str(e))
     from .sweep import SweepError, SweepInterrupted, estimate_bytes, estimate_memory, run_sweep
     out = out or f"{scene.name}.h5"
     import numpy as np
@@ -69,16 +82,19 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     try:
         path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
                          progress=progress, command=_command_line(scene_path, out, sets, threads,
-                                                                  resume, overwrite, block_points),
-                         block_points=block_points)
+                                                                  resume, overwrite, block_points,
+                                                                  scheduler),
+                         block_points=block_points, scheduler=scheduler)
     except SweepInterrupted as e:
         _fail(str(e), 130)
     except SweepError as e:
-        _fail(str(e))
+        # failed chunks on a cluster: a run-time failure (1), not bad input (2)
+        _fail(str(e), 1 if getattr(e, "failures", None) else 2)
     click.echo(f"wrote {path}")
 
 
-def _command_line(scene_path, out, sets, threads, resume, overwrite, block_points):
+def _command_line(scene_path, out, sets, threads, resume, overwrite, block_points,
+                  scheduler=None):
     """The sweep command as run, for the file's provenance."""
     import shlex
     parts = ["cornerbif", "sweep", scene_path, "-o", out]
@@ -88,6 +104,8 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
         parts += ["--threads", str(threads)]
     if block_points:
         parts += ["--block-points", str(block_points)]
+    if scheduler:
+        parts += ["--scheduler", scheduler]
     parts += ["--resume"] if resume else []
     parts += ["--overwrite"] if overwrite else []
     return " ".join(shlex.quote(str(p)) for p in parts)

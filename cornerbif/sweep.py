@@ -306,8 +306,16 @@ def _available_memory():
 # ------------------------------------------------------------------ the sweep
 def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
               overwrite: bool = False, progress: bool = False, command: str = "",
-              block_points: int | None = None) -> str:
-    """Run a scene to ``out_path``; return the path of the finished file."""
+              block_points: int | None = None, scheduler: str | None = None,
+              stats: dict | None = None) -> str:
+    """Run a scene to ``out_path``; return the path of the finished file.
+
+    ``scheduler``: None runs the blocks here (numba threads); a Dask scheduler address
+    or ``local:N`` runs them on a Dask cluster (``cornerbif.distributed``), with this
+    process the only writer of the file either way.  ``threads`` is then the numba
+    threads of each worker; ``stats`` (a dict) receives what the Dask backend did
+    (chunks submitted, failures, compute seconds per chunk).
+    """
     import h5py
     import numba
 
@@ -325,7 +333,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
         raise SweepError(f"{out_path}: another sweep is writing this output (lock {lock_path} "
                          "is held)") from None
     try:
-        if threads:
+        if threads and not scheduler:
             numba.set_num_threads(int(threads))
         if os.path.exists(partial):
             if resume:
@@ -347,7 +355,22 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             f.swmr_mode = True
             os.replace(init, partial)
         try:
-            _run_blocks(scene, f, progress, block_points)
+            if scheduler:
+                from .distributed import run_blocks_dask
+                run_blocks_dask(scene, f, scheduler, progress=progress,
+                                block_points=block_points, numba_threads=threads,
+                                stats=stats)
+            else:
+                _run_blocks(scene, f, progress, block_points)
+        except SweepError as e:
+            f.close()
+            if getattr(e, "failures", None):
+                # the failed chunks, with their errors, on the file --resume will complete
+                # (attributes cannot be added in single-writer/multiple-reader mode)
+                import json
+                with h5py.File(partial, "r+") as g:
+                    g.attrs["failed_chunks"] = json.dumps(e.failures)
+            raise
         except KeyboardInterrupt:
             f.close()
             raise SweepInterrupted(f"interrupted; finished points are kept in {partial}; "
@@ -362,6 +385,8 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
         f.close()
         with h5py.File(partial, "r+") as g:
             g.attrs["completed"] = io._now()
+            if "failed_chunks" in g.attrs:        # left by an earlier distributed run
+                del g.attrs["failed_chunks"]
             counts = np.bincount(g["status"][...].ravel().astype(np.int64) + 1, minlength=9)
             g.attrs["status_counts"] = str({S.NAMES.get(i - 1, "NOT_RUN"): int(c)
                                             for i, c in enumerate(counts) if c})
@@ -464,73 +489,111 @@ def _copy_done(src, partial, scene):
     return h5py.File(partial, "r+", libver="latest")
 
 
-def _run_blocks(scene, f, progress, block_points=None):
-    ints = int_settings(scene)
+def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
+    """The one unit of work of every backend: a grid slab in, its datasets out.
+
+    Pure (no I/O, no global state): packs the slab's parameters, draws its initial
+    conditions (``draw_initial``; a followed sweep replaces them by ``carry``, the
+    previous slab's final states, where those lie above the obstacle), runs the
+    model's kernels and the cycle analysis (``run_items``), and returns a dict from
+    dataset name (``io`` schema) to an array shaped ``slab shape + (n_ic, ...)``,
+    ready for ``io.write_block``.  The local loop and the Dask workers
+    (``cornerbif.distributed``) both call it, so both write the same bytes.
+    """
+    if ints is None:
+        ints = int_settings(scene)
     G = scene.shape
+    idx, sub = _indices(scene, blk)
+    params = pack_points(scene, idx)
+    flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
+    tp = scene.model == "two_particle"
+    if scene.model == "map2d":
+        kap = np.full(len(idx), -np.inf)     # no obstacle: any (a0, b1) is a start
+    elif tp:
+        from .models import two_particle as TP
+        kap = params[:, TP.KAPPA]             # the wall at t = 0: w(0) = kappa
+    else:
+        kap = params[:, P.KAPPA]
+    ics = draw_initial(scene, flat, kap)
+    if carry is not None:
+        ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > kap[:, None])
+        ics = np.where(ok[..., None], carry, ics)
+    n = len(idx) * scene.n_ic
+    prm = np.repeat(params, scene.n_ic, axis=0)
+    out, st, final, period, ipc, sym = run_items(prm, ics.reshape(n, ics.shape[-1]),
+                                                 ints, scene)
+    shape = tuple(sub) + (scene.n_ic,)
+    iu = 2 if tp else 0
+    block = {"initial/u": ics[..., iu].reshape(shape),
+             "initial/v": ics[..., iu + 1].reshape(shape),
+             "status": st.reshape(shape), "period": period.reshape(shape),
+             "impacts_per_cycle": ipc.reshape(shape),
+             "symbols": _symbol_bytes(sym, scene.record).reshape(shape),
+             "final/u": final[:, iu].reshape(shape),
+             "final/v": final[:, iu + 1].reshape(shape)}
+    if tp:
+        block.update({"initial/z": ics[..., 0].reshape(shape),
+                      "initial/y": ics[..., 1].reshape(shape),
+                      "final/z": final[:, 0].reshape(shape),
+                      "final/y": final[:, 1].reshape(shape)})
+        if "section" in scene.keep:
+            block["section/z"] = out["sz"].reshape(shape + (scene.record,))
+            block["section/y"] = out["sy"].reshape(shape + (scene.record,))
+        if "wall_impacts" in scene.keep:
+            for k in ("t", "z", "y_in", "y_out"):
+                block[f"wall_impacts/{k}"] = out[f"wz_{k}"].reshape(shape + (scene.record,))
+    if "impacts" in scene.keep:
+        for k in io.IMPACT_FIELDS:
+            block[f"impacts/{k}"] = out[k].reshape(shape + (scene.record,))
+    if "section" in scene.keep:
+        block["section/u"] = out["su"].reshape(shape + (scene.record,))
+        block["section/v"] = out["sv"].reshape(shape + (scene.record,))
+    return block
+
+
+def _carry_names(scene):
+    names = ["final/z", "final/y"] if scene.model == "two_particle" else []
+    return names + ["final/u", "final/v"]
+
+
+def block_carry(scene: Scene, block: dict) -> np.ndarray:
+    """What a followed sweep carries to the next slab: the slab's final states,
+    shape (points, n_ic, state size), in the kernel's state order."""
+    names = _carry_names(scene)
+    return np.stack([block[n] for n in names], -1).reshape(-1, scene.n_ic, len(names))
+
+
+def progress_bar(scene, total, already):
+    """The sweep's progress bar on stderr (click), advanced past the finished blocks."""
+    import click
+    bar = click.progressbar(length=total, label=f"sweep {scene.name}", file=sys.stderr,
+                            show_pos=True, show_eta=True)
+    bar.__enter__()
+    bar.update(already)
+    return bar
+
+
+def todo_blocks(scene, f, block_points=None):
+    """(every block in execution order, the ones not yet marked done in ``f``)."""
     done = f["done"][...]
     every = blocks(scene, block_points)
-    todo = [b for b in every if not np.all(done[b])]
-    total = len(every)
-    bar = None
-    if progress:
-        import click
-        bar = click.progressbar(length=total, label=f"sweep {scene.name}", file=sys.stderr,
-                                show_pos=True, show_eta=True)
-        bar.__enter__()
-        bar.update(total - len(todo))
+    return every, [b for b in every if not np.all(done[b])]
+
+
+def _run_blocks(scene, f, progress, block_points=None):
+    """The local backend: every unfinished block in order, computed here and written."""
+    ints = int_settings(scene)
+    every, todo = todo_blocks(scene, f, block_points)
+    bar = progress_bar(scene, len(every), len(every) - len(todo)) if progress else None
     carry = None  # follow: final states of the previous grid slab
     if scene.follow != "none" and todo:
         carry = _carry_from_file(scene, f, every, todo[0])
     try:
         for blk in todo:
-            idx, sub = _indices(scene, blk)
-            params = pack_points(scene, idx)
-            flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
-            tp = scene.model == "two_particle"
-            if scene.model == "map2d":
-                kap = np.full(len(idx), -np.inf)     # no obstacle: any (a0, b1) is a start
-            elif tp:
-                from .models import two_particle as TP
-                kap = params[:, TP.KAPPA]             # the wall at t = 0: w(0) = kappa
-            else:
-                kap = params[:, P.KAPPA]
-            ics = draw_initial(scene, flat, kap)
-            if carry is not None:
-                ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > kap[:, None])
-                ics = np.where(ok[..., None], carry, ics)
-            n = len(idx) * scene.n_ic
-            prm = np.repeat(params, scene.n_ic, axis=0)
-            out, st, final, period, ipc, sym = run_items(prm, ics.reshape(n, ics.shape[-1]),
-                                                         ints, scene)
-            shape = tuple(sub) + (scene.n_ic,)
-            iu = 2 if tp else 0
-            block = {"initial/u": ics[..., iu].reshape(shape),
-                     "initial/v": ics[..., iu + 1].reshape(shape),
-                     "status": st.reshape(shape), "period": period.reshape(shape),
-                     "impacts_per_cycle": ipc.reshape(shape),
-                     "symbols": _symbol_bytes(sym, scene.record).reshape(shape),
-                     "final/u": final[:, iu].reshape(shape),
-                     "final/v": final[:, iu + 1].reshape(shape)}
-            if tp:
-                block.update({"initial/z": ics[..., 0].reshape(shape),
-                              "initial/y": ics[..., 1].reshape(shape),
-                              "final/z": final[:, 0].reshape(shape),
-                              "final/y": final[:, 1].reshape(shape)})
-                if "section" in scene.keep:
-                    block["section/z"] = out["sz"].reshape(shape + (scene.record,))
-                    block["section/y"] = out["sy"].reshape(shape + (scene.record,))
-                if "wall_impacts" in scene.keep:
-                    for k in ("t", "z", "y_in", "y_out"):
-                        block[f"wall_impacts/{k}"] = out[f"wz_{k}"].reshape(shape + (scene.record,))
-            if "impacts" in scene.keep:
-                for k in io.IMPACT_FIELDS:
-                    block[f"impacts/{k}"] = out[k].reshape(shape + (scene.record,))
-            if "section" in scene.keep:
-                block["section/u"] = out["su"].reshape(shape + (scene.record,))
-                block["section/v"] = out["sv"].reshape(shape + (scene.record,))
+            block = compute_block(scene, blk, carry, ints)
             io.write_block(f, blk, block)
             if scene.follow != "none":
-                carry = final.reshape(len(idx), scene.n_ic, final.shape[-1])
+                carry = block_carry(scene, block)
             if bar is not None:
                 bar.update(1)
     finally:
@@ -544,8 +607,7 @@ def _carry_from_file(scene, f, all_blocks, first_todo):
     if i == 0:
         return None
     prev = all_blocks[i - 1]
-    names = ["final/z", "final/y"] if scene.model == "two_particle" else []
-    names += ["final/u", "final/v"]
+    names = _carry_names(scene)
     carry = np.stack([f[n][prev] for n in names], -1)
     return carry.reshape(-1, scene.n_ic, len(names))
 
