@@ -20,6 +20,8 @@ import os
 import time
 import tomllib
 
+import numpy as np
+
 from . import config as C
 
 # figures drawn from several scenes: name -> scenes (overlaid, or flow against map)
@@ -147,6 +149,71 @@ def run(config_dir="configs", out="docs/gallery", data="gallery_data", only=(), 
         figure(files, png, plot_cfg=plot_cfg)
         rec["png"] = png
         rec["plot_seconds"] = round(time.perf_counter() - t, 2)
+        rec["facts"] = {s: facts(f) for s, f in zip(names, files)}
         echo(f"  -> {png} ({rec['plot_seconds']:.1f} s)")
         records.append(rec)
     return records
+
+
+# ------------------------------------------------------------------ numbers for the notes
+def _rle(word: str) -> str:
+    """'bbbg' -> 'b^3 g' (run-length form of a cycle word)."""
+    if not word:
+        return "-"
+    out, i = [], 0
+    while i < len(word):
+        j = i
+        while j < len(word) and word[j] == word[i]:
+            j += 1
+        out.append(word[i] + (f"^{j - i}" if j - i > 1 else ""))
+        i = j
+    return " ".join(out)
+
+
+def facts(h5: str) -> dict:
+    """What the gallery notes quote, read from one file.
+
+    * every file: the status counts, the attractor summary (``plot.attractor_summary``);
+    * one swept axis: ``runs``, the parameter intervals over which the set of
+      distinct cycle words found at each point stays the same (longest first,
+      the end points are grid values: the change lies between a run's end and
+      the next grid value), and the largest number of coexisting attractors;
+    * a single point: each distinct attractor's period, impacts per cycle and word.
+    """
+    from .plot import PlotData, attractor_summary
+    d = PlotData(h5)
+    labels, count = d.attractors()
+    st, cnt = np.unique(d.status, return_counts=True)
+    out = {"scene": d.scene["scene"]["name"], "status": {int(a): int(b) for a, b in zip(st, cnt)},
+           "attractors": attractor_summary(d), "max_attractors": int(count.max()) if count.size else 0}
+    if len(d.axes) == 1:
+        a = d.axes[0]
+        x = d.values[a]
+        sets = []
+        for g in range(len(x)):
+            ws = sorted({str(d.symbols[g, i]) for i in range(d.symbols.shape[-1])
+                         if labels[g, i] >= 0})
+            sets.append(tuple(ws))
+        runs, start = [], 0
+        for g in range(1, len(x) + 1):
+            if g == len(x) or sets[g] != sets[start]:
+                runs.append({"from": float(x[start]), "to": float(x[g - 1]), "points": g - start,
+                             "words": [_rle(w) for w in sets[start]] or ["no cycle"],
+                             "periods": sorted({len(w) for w in sets[start]})})
+                start = g
+        out["axis"] = a
+        out["runs"] = sorted(runs, key=lambda r: -r["points"])[:12]
+        out["n_runs"] = len(runs)
+    elif not d.axes:
+        reps = []
+        for k in range(int(count.max()) if count.size else 0):
+            i = int(np.nonzero(labels == k)[0][0])
+            reps.append({"start": i, "period": int(d.period[i]), "impacts_per_cycle": int(d.ipc[i]),
+                         "word": _rle(str(d.symbols[i])), "starts": int((labels == k).sum())})
+        out["orbits"] = reps
+    else:
+        per = d.period[d.period > 0]
+        vals, c = np.unique(per, return_counts=True)
+        top = sorted(zip(c.tolist(), vals.tolist()), reverse=True)[:10]
+        out["periods"] = {int(v): int(n) for n, v in top}
+    return out

@@ -145,6 +145,8 @@ def attractor_summary(data: PlotData) -> str:
         return ""
     n = count.size
     k = int(count.max())
+    if k == 0:
+        return "no start reached a cycle (chaos, or a period too long for the record)"
     parts = [f"coexisting attractors: up to {k}"]
     if k >= 2 and data.axes:
         a = data.axes[0]
