@@ -198,9 +198,19 @@ def gallery(config_dir, out, data, only, smoke, threads):
     total = time.perf_counter() - t
     swept = sum(1 for r in recs for s in r["scenes"].values() if s["action"] != "reused")
     click.echo(f"{len(recs)} figures in {out}; {swept} scenes swept; {total:.1f} s in all")
-    with open(os.path.join(out, "gallery_run.json"), "w") as fh:
-        json.dump({"total_seconds": round(total, 1), "smoke": smoke, "threads": threads,
-                   "figures": recs}, fh, indent=1)
+    # the record of the last run of each figure: an --only run updates its figures only
+    path = os.path.join(out, "gallery_run.json")
+    old = {}
+    if only and os.path.exists(path):
+        with open(path) as fh:
+            old = json.load(fh)
+    figs = {r["figure"]: r for r in old.get("figures", [])}
+    figs.update({r["figure"]: r for r in recs})
+    run = {"total_seconds": round(total, 1), "smoke": smoke, "threads": threads, "only": list(only)}
+    doc = {"figures": [figs[k] for k in sorted(figs)],
+           "runs": ([run] + old.get("runs", []))[:5] if only else [run]}
+    with open(path, "w") as fh:
+        json.dump(doc, fh, indent=1)
 
 
 @main.command()

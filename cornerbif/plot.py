@@ -326,6 +326,16 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
         ax.set_ylabel(YLABELS[kind])
+        from matplotlib.ticker import MaxNLocator
+        ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
+        ax.ticklabel_format(axis="x", useOffset=False)
+        if "ylim" in plot_cfg and len(datas) == 1:
+            yv = d0.y(kind)
+            n_out = int(np.sum(np.isfinite(yv) & ((yv < plot_cfg["ylim"][0]) | (yv > plot_cfg["ylim"][1]))))
+            if n_out:
+                ax.text(0.99, 0.99, f"{n_out} of {int(np.isfinite(yv).sum())} values outside the "
+                        "y window", transform=ax.transAxes, ha="right", va="top", fontsize=6,
+                        color="0.3")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="best", fontsize=7, markerscale=8)
     else:
@@ -521,11 +531,14 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
         if lo < wx < hi:
             ax.axvline(wx, color="0.3", lw=0.6, ls=":")
             ax.text(wx, y1, f" {wx}", fontsize=6, va="top", rotation=90)
-            for fn, c, dx in ((theory.kappa_C, "tab:red", -1), (theory.kappa_CC, "tab:blue", 1)):
-                kx = fn(wx, r, beta)
-                ax.plot([wx], [kx], "o", color=c, ms=3.5)
-                ax.annotate(f"{kx:.6f}", (wx, kx), xytext=(4 * dx - (28 if dx < 0 else 0), 6 * dx),
-                            textcoords="offset points", fontsize=6, color=c)
+            for fn, c in ((theory.kappa_C, "tab:red"), (theory.kappa_CC, "tab:blue")):
+                ax.plot([wx], [fn(wx, r, beta)], "o", color=c, ms=3.5)
+    vals = [f"$\\omega$ = {wx}: $\\kappa_C$ = {theory.kappa_C(wx, r, beta):.6f}, "
+            f"$\\kappa_{{CC}}$ = {theory.kappa_CC(wx, r, beta):.6f}"
+            for wx in (1.999, 2.001) if lo < wx < hi]
+    if vals:
+        ax.text(0.98, 0.30, "\n".join(vals), transform=ax.transAxes, ha="right", va="bottom",
+                fontsize=7, bbox=dict(fc="white", ec="0.7", lw=0.5))
     ax.set_xlabel(LABELS["omega"])
     ax.set_ylabel(LABELS["kappa"])
     ax.set_xlim(lo, hi)

@@ -170,7 +170,7 @@ def test_gallery_cli(tmp_path):
     assert r.exit_code == 0, r.output
     assert (tmp_path / "g" / "fig07a.png").exists()
     run = json.loads((tmp_path / "g" / "gallery_run.json").read_text())
-    assert run["smoke"] and run["figures"][0]["figure"] == "fig07a"
+    assert run["runs"][0]["smoke"] and run["figures"][0]["figure"] == "fig07a"
     r = CliRunner().invoke(main, ["gallery", "--configs", str(cfg), "--out", str(tmp_path / "g"),
                                   "--data", str(tmp_path / "d"), "--only", "fig99"])
     assert r.exit_code == 2 and "fig99" in r.output
