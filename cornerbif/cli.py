@@ -159,7 +159,7 @@ def info(file):
             click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
         click.echo(f"  datasets: {', '.join(sorted(_names(f)))}")
     from .plot import PlotData, attractor_summary
-    click.echo(f"  {attractor_summary(PlotData(file))}")
+    click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
 
 
 def _names(f):

@@ -138,7 +138,7 @@ def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=
     return arts
 
 
-def attractor_summary(data: PlotData) -> str:
+def attractor_summary(data: PlotData, tex: bool = True) -> str:
     """One line: how many attractors coexist, and where (for the figure and ``cornerbif info``)."""
     labels, count = data.attractors()
     if count.size == 0:
@@ -153,7 +153,7 @@ def attractor_summary(data: PlotData) -> str:
         where = np.nonzero(count.reshape(len(data.values[a]), -1).max(axis=1) >= 2)[0]
         vals = data.values[a][where]
         parts.append(f"{int((count >= 2).sum())} of {n} points have 2 or more "
-                     f"({LABELS.get(a, a)} in [{vals.min():.6g}, {vals.max():.6g}])")
+                     f"({LABELS.get(a, a) if tex else a} in [{vals.min():.6g}, {vals.max():.6g}])")
     none = int((labels < 0).all(axis=-1).sum())
     if none:
         parts.append(f"{none} points without a cycle")
