@@ -124,3 +124,82 @@ def winding_number(word: str) -> float:
     if not word:
         return float("nan")
     return word.count("g") / len(word)
+
+
+# ------------------------------------------------------------ coexisting attractors
+def cycle_signature(period, ipc, values):
+    """The recorded values of one cycle, sorted (so any shift of the cycle gives the same).
+
+    ``values`` is a list of 1-D arrays over the record (e.g. impact heights and
+    velocities, or the section values of a map); the last complete cycle is
+    taken: ``ipc`` entries for impacts, ``period`` for section values (the caller
+    passes the matching count).  Returns a 1-D array, or None when too short.
+    """
+    out = []
+    for v, n in values:
+        v = v[np.isfinite(v)]
+        if n <= 0 or v.size < n:
+            return None
+        out.append(np.sort(v[-n:]))
+    return np.concatenate(out)
+
+
+def distinct_attractors(period, ipc, symbols, series, tol):
+    """Label the distinct cycles among the starts of every grid point.
+
+    Two starts reach the same attractor when their cycles have the same word,
+    the same period and impacts per cycle, and the same recorded values over
+    one cycle to ``tol`` (relative to 1 + |value|), up to a shift along the
+    cycle.  Impact values and the corner offsets are unchanged by a time shift
+    of one obstacle period, so the shifted copies of an orbit (the paper's 2n
+    equivalent solutions, section 3.2) count as one attractor: they coincide in
+    every diagram.
+
+    Parameters
+    ----------
+    period, ipc : int arrays, shape G + (n_ic,)
+    symbols : str array, shape G + (n_ic,)
+    series : list of (array G + (n_ic, record), "impacts" | "section")
+        the recorded values compared; impacts take ``ipc`` entries per cycle,
+        section values ``period``.  An empty list compares words only.
+    tol : float
+
+    Returns
+    -------
+    labels : int array G + (n_ic,)
+        0, 1, ... ranks of the distinct attractors at each point, ordered by
+        (period, word, mean of the first series); -1 for a start without a cycle.
+    count : int array G
+        number of distinct attractors (cycles) at each point.
+    """
+    G = period.shape[:-1]
+    n_ic = period.shape[-1]
+    per = period.reshape(-1, n_ic)
+    ip = ipc.reshape(-1, n_ic)
+    sy = symbols.reshape(-1, n_ic)
+    ser = [(s.reshape(-1, n_ic, s.shape[-1]), kind) for s, kind in series]
+    labels = np.full(per.shape, -1, np.int64)
+    count = np.zeros(per.shape[0], np.int64)
+    for g in range(per.shape[0]):
+        reps = []   # (key, signature, [ics])
+        for i in range(n_ic):
+            if per[g, i] <= 0:
+                continue
+            vals = [(s[g, i], ip[g, i] if kind == "impacts" else per[g, i]) for s, kind in ser]
+            sig = cycle_signature(per[g, i], ip[g, i], vals) if vals else np.zeros(0)
+            if sig is None:
+                continue
+            key = (int(per[g, i]), int(ip[g, i]), str(sy[g, i]))
+            for r in reps:
+                if r[0] == key and r[1].shape == sig.shape and np.all(
+                        np.abs(r[1] - sig) <= tol * (1.0 + np.abs(r[1]))):
+                    r[2].append(i)
+                    break
+            else:
+                reps.append((key, sig, [i]))
+        order = sorted(range(len(reps)), key=lambda k: (reps[k][0][0], reps[k][0][2],
+                                                          float(np.mean(reps[k][1])) if reps[k][1].size else 0.0))
+        for rank, k in enumerate(order):
+            labels[g, reps[k][2]] = rank
+        count[g] = len(reps)
+    return labels.reshape(G + (n_ic,)), count.reshape(G)

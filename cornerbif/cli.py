@@ -179,6 +179,8 @@ def info(file):
             top = sorted(zip(cnt, vals), reverse=True)[:8]
             click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
         click.echo(f"  datasets: {', '.join(sorted(_names(f)))}")
+    from .plot import PlotData, attractor_summary
+    click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
 
 
 def _names(f):
@@ -186,6 +188,50 @@ def _names(f):
     out = []
     f.visititems(lambda n, o: out.append(n) if isinstance(o, h5py.Dataset) else None)
     return out
+
+
+@main.command()
+@click.option("--configs", "config_dir", default="configs", show_default=True,
+              type=click.Path(file_okay=False), help="Folder of scenes (every *.toml).")
+@click.option("--out", "out", default="docs/gallery", show_default=True,
+              type=click.Path(file_okay=False), help="Folder of the figures (FIG.png).")
+@click.option("--data", "data", default="gallery_data", show_default=True,
+              type=click.Path(file_okay=False), help="Folder of the sweeps (NAME.h5), reused.")
+@click.option("--only", "only", multiple=True, metavar="NAME",
+              help="Only this figure or scene (repeatable), e.g. --only fig05 --only fig07b.")
+@click.option("--smoke", is_flag=True,
+              help="Tiny version of every scene (3 grid values, 3 starts, 40 + 40 impacts).")
+@click.option("--threads", type=click.IntRange(min=1), help="Numba threads (default: all cores).")
+def gallery(config_dir, out, data, only, smoke, threads):
+    """Sweep every scene whose file is missing or stale, then draw every figure."""
+    import json
+    import time
+
+    from . import gallery as G
+    from .sweep import SweepError
+    t = time.perf_counter()
+    try:
+        recs = G.run(config_dir, out, data, only=only, smoke=smoke, threads=threads, echo=click.echo)
+    except SceneError as e:
+        _fail("a scene cannot be run:\n  " + "\n  ".join(e.problems))
+    except (SweepError, ValueError) as e:
+        _fail(str(e))
+    total = time.perf_counter() - t
+    swept = sum(1 for r in recs for s in r["scenes"].values() if s["action"] != "reused")
+    click.echo(f"{len(recs)} figures in {out}; {swept} scenes swept; {total:.1f} s in all")
+    # the record of the last run of each figure: an --only run updates its figures only
+    path = os.path.join(out, "gallery_run.json")
+    old = {}
+    if only and os.path.exists(path):
+        with open(path) as fh:
+            old = json.load(fh)
+    figs = {r["figure"]: r for r in old.get("figures", [])}
+    figs.update({r["figure"]: r for r in recs})
+    run = {"total_seconds": round(total, 1), "smoke": smoke, "threads": threads, "only": list(only)}
+    doc = {"figures": [figs[k] for k in sorted(figs)],
+           "runs": ([run] + old.get("runs", []))[:5] if only else [run]}
+    with open(path, "w") as fh:
+        json.dump(doc, fh, indent=1)
 
 
 @main.command()

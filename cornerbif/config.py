@@ -104,10 +104,12 @@ TABLES = {
     "initial": tuple(INITIAL_DEFAULTS) + ("z", "y"),
     "run": ("preset",) + tuple(RUN_DEFAULTS),
     "output": ("keep",),
-    "plot": ("kind", "y", "xlim", "ylim", "marker_size", "title"),
+    "plot": ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
+             "max_panels"),
 }
-PLOT_KINDS = ("bifurcation", "regions", "return_map", "orbit")
 PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
+# [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
+PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit")
 
 
 class SceneError(ValueError):
@@ -556,9 +558,6 @@ def from_dict(raw) -> Scene:
     pl = table("plot")
     unknown("plot", TABLES["plot"])
     plot = dict(pl)
-    if "kind" in plot and plot["kind"] not in PLOT_KINDS:
-        problems.append(f"plot.kind: {_fmt(plot['kind'])} is not allowed; allowed: "
-                        f"{', '.join(PLOT_KINDS)}")
     if "y" in plot and plot["y"] not in PLOT_Y:
         problems.append(f"plot.y: {_fmt(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
     for lim in ("xlim", "ylim"):
@@ -566,6 +565,33 @@ def from_dict(raw) -> Scene:
             v = plot[lim]
             if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v) and v[0] < v[1]):
                 problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
+
+    kind = plot.get("kind", "diagram")
+    if kind not in PLOT_KINDS:
+        problems.append(f"plot.kind: {_fmt(kind)} is not a plot kind{_suggest(str(kind), PLOT_KINDS)}; "
+                        f"allowed: {', '.join(PLOT_KINDS)}")
+    if kind == "timeseries":
+        if model != "flow":
+            problems.append(f"plot.kind: 'timeseries' needs model 'flow' (the scene's model is {model!r})")
+        if "impacts" not in keep:
+            problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
+                            "output.keep must contain \"impacts\"")
+    if "ic" in plot:
+        v = plot["ic"]
+        if not (v == "distinct" or (isinstance(v, list) and v and all(_is_int(i) and 0 <= i < n_ic
+                                                                       for i in v))):
+            problems.append(f"plot.ic: {_fmt(v)} must be \"distinct\" or a list of start indices "
+                            f"in 0..{n_ic - 1}")
+    if "point" in plot:
+        v = plot["point"]
+        shape = [len(a.values) for a in axes]
+        if not (isinstance(v, list) and len(v) == len(shape)
+                and all(_is_int(i) and 0 <= i < n for i, n in zip(v, shape))):
+            problems.append(f"plot.point: {_fmt(v)} must be a grid index with one entry per swept "
+                            f"axis ({len(shape)}), each in 0..len-1 (grid {tuple(shape)})")
+    for k, lo in (("cycles", 0), ("max_panels", 1)):
+        if k in plot and not (_is_number(plot[k]) and plot[k] > lo and math.isfinite(plot[k])):
+            problems.append(f"plot.{k}: {_fmt(plot[k])} must be a number > {lo}")
 
     # cross checks
     names = [a.name for a in axes]

@@ -41,6 +41,7 @@ class PlotData:
             self.values = {a: f[a][...] for a in self.axes}
             self.status = f["status"][...]
             self.period = f["period"][...]
+            self.ipc = f["impacts_per_cycle"][...]
             self.symbols = f["symbols"][...].astype(str)
             self.model = self.scene.get("scene", {}).get("model", "flow")
             self.done = f["done"][...]
@@ -52,6 +53,28 @@ class PlotData:
                     self.data[name] = f[name][...]
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
             self.complete = bool(f.attrs.get("completed", ""))
+            self.period_tol = float(self.scene.get("run", {}).get("period_tol", 1e-6))
+        self._attractors = None
+
+    def attractors(self):
+        """Distinct attractors among the starts of each grid point (``analysis.distinct_attractors``).
+
+        Compared on one cycle of impact heights and velocities when impacts are
+        stored, else on the section values, else on the cycle's word alone; to
+        100 ``run.period_tol`` (two starts on one cycle agree to the detection
+        tolerance of each).  Returns (labels G + (n_ic,), count G).
+        """
+        if self._attractors is None:
+            from .analysis import distinct_attractors
+            if "impacts/u" in self.data:
+                series = [(self.data["impacts/u"], "impacts"), (self.data["impacts/v_in"], "impacts")]
+            elif "section/u" in self.data:
+                series = [(self.data["section/u"], "section"), (self.data["section/v"], "section")]
+            else:
+                series = []
+            self._attractors = distinct_attractors(self.period, self.ipc, self.symbols, series,
+                                                   100.0 * self.period_tol)
+        return self._attractors
 
     def y(self, kind):
         if kind == "winding":
@@ -80,12 +103,63 @@ def points(x, y):
     return xs[ok], ys[ok]
 
 
-def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=None):
-    """Parameter against impact height (or section values), small markers (paper Figs 1, 4, 6, 7)."""
+ATTRACTOR_COLORS = ("tab:red", "tab:blue", "tab:green", "tab:orange", "tab:purple", "tab:brown")
+
+
+def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=None,
+                     by_attractor=False):
+    """Parameter against impact height (or section values), small markers (paper Figs 1, 4, 6, 7).
+
+    ``by_attractor``: where two or more distinct attractors coexist at a
+    parameter value (``PlotData.attractors``), each is drawn in its own colour,
+    ranked by (period, word); points with a single attractor stay black.
+    """
     a = data.axes[0]
-    xs, ys = points(data.values[a], data.y(y))
-    return ax.plot(xs, ys, ls="none", marker=".", mew=0, ms=ms, color=color, label=label,
-                   rasterized=True)
+    yv = data.y(y)
+    if not by_attractor or yv is None or yv.ndim != 3:
+        xs, ys = points(data.values[a], yv)
+        return ax.plot(xs, ys, ls="none", marker=".", mew=0, ms=ms, color=color, label=label,
+                       rasterized=True)
+    labels, count = data.attractors()
+    x = data.values[a]
+    many = count >= 2
+    arts = []
+    single = np.where(many[:, None, None] & (labels[..., None] >= 0), np.nan, yv)
+    xs, ys = points(x, single)
+    lab1 = label or ("one attractor (or no cycle)" if many.any() else None)
+    arts += ax.plot(xs, ys, ls="none", marker=".", mew=0, ms=ms, color=color, label=lab1,
+                    rasterized=True)
+    for rank in range(int(count.max()) if count.size else 0):
+        sel = many[:, None, None] & (labels[..., None] == rank)
+        if not sel.any():
+            continue
+        xs, ys = points(x, np.where(sel, yv, np.nan))
+        c = ATTRACTOR_COLORS[rank] if rank < len(ATTRACTOR_COLORS) else "0.5"
+        arts += ax.plot(xs, ys, ls="none", marker=".", mew=0, ms=ms * 1.3, color=c,
+                        label=f"attractor {rank + 1} where $\\geq$2 coexist", rasterized=True)
+    return arts
+
+
+def attractor_summary(data: PlotData, tex: bool = True) -> str:
+    """One line: how many attractors coexist, and where (for the figure and ``cornerbif info``)."""
+    labels, count = data.attractors()
+    if count.size == 0:
+        return ""
+    n = count.size
+    k = int(count.max())
+    if k == 0:
+        return "no start reached a cycle (chaos, or a period too long for the record)"
+    parts = [f"coexisting attractors: up to {k}"]
+    if k >= 2 and data.axes:
+        a = data.axes[0]
+        where = np.nonzero(count.reshape(len(data.values[a]), -1).max(axis=1) >= 2)[0]
+        vals = data.values[a][where]
+        parts.append(f"{int((count >= 2).sum())} of {n} points have 2 or more "
+                     f"({LABELS.get(a, a) if tex else a} in [{vals.min():.6g}, {vals.max():.6g}])")
+    none = int((labels < 0).all(axis=-1).sum())
+    if none:
+        parts.append(f"{none} points without a cycle")
+    return "; ".join(parts)
 
 
 def draw_corner_points(ax, data: PlotData, corner_line=True):
@@ -126,7 +200,9 @@ def draw_plane(ax, data: PlotData):
     per = data.period.astype(float)
     per[per <= 0] = np.nan
     # the most common period over the starts
-    with np.errstate(all="ignore"):
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # points where no start found a cycle
         show = np.nanmax(per, axis=-1)
     x, y = data.values[a], data.values[b]
     im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap="viridis")
@@ -187,17 +263,34 @@ def draw_comparison(fig, datas, kind, plot_cfg):
     return axs
 
 
-def figure(paths, out, y=None, title=None):
-    """Draw one or more files of the same kind into ``out`` (png, pdf or svg)."""
+def figure(paths, out, y=None, title=None, plot_cfg=None):
+    """Draw one or more files of the same kind into ``out`` (png, pdf or svg).
+
+    ``plot_cfg`` replaces the file's ``[plot]`` table (the gallery passes the
+    committed scene's, so a figure setting never forces a new sweep).
+    ``[plot] kind``: "diagram" (default: bifurcation diagram or parameter plane),
+    "timeseries" (Figs 1b, 5, 6d, 17) or "corner_curves" (Fig. 7a).
+    """
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     datas = [PlotData(p) for p in paths]
     d0 = datas[0]
-    plot_cfg = d0.scene.get("plot", {})
-    if plot_cfg.get("kind", "bifurcation") in plot_normal_form.KINDS:
+    plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    kind_ = plot_cfg.get("kind", "diagram")
+    if kind_ in plot_normal_form.KINDS:
         return plot_normal_form.figure(datas, out, plot_cfg, title)
+    if kind_ in ("timeseries", "corner_curves"):
+        if len(datas) > 1:
+            raise ValueError(f"plot kind {kind_!r} draws one file, got {len(datas)}")
+        if kind_ == "timeseries":
+            fig, _ = figure_timeseries(plt, d0, plot_cfg, title)
+        else:
+            fig = figure_corner_curves(plt, d0, plot_cfg, title)
+        fig.savefig(out)
+        plt.close(fig)
+        return out
     models = {d.model for d in datas}
     if len(datas) == 2 and models == {"flow", "map2d"} and len(d0.axes) == 1:
         datas.sort(key=lambda d: d.model != "flow")
@@ -227,12 +320,26 @@ def figure(paths, out, y=None, title=None):
             if len(datas) > 1:
                 lab = f"follow {d.follow}" if d.follow != "none" else d.scene["scene"]["name"]
             draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6),
-                             color=colors[i % len(colors)], label=lab)
+                             color=colors[i % len(colors)], label=lab,
+                             by_attractor=len(datas) == 1 and kind not in ("winding", "period"))
+        if len(datas) == 1:
+            ax.text(0.01, 0.01, attractor_summary(d0), transform=ax.transAxes, fontsize=6,
+                    va="bottom", ha="left", color="0.2")
         if kind in ("impact_u", "winding", "section_v", "period"):
             draw_corner_points(ax, d0, corner_line=kind == "impact_u")
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
         ax.set_ylabel(YLABELS[kind])
+        from matplotlib.ticker import MaxNLocator
+        ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
+        ax.ticklabel_format(axis="x", useOffset=False)
+        if "ylim" in plot_cfg and len(datas) == 1:
+            yv = d0.y(kind)
+            n_out = int(np.sum(np.isfinite(yv) & ((yv < plot_cfg["ylim"][0]) | (yv > plot_cfg["ylim"][1]))))
+            if n_out:
+                ax.text(0.99, 0.99, f"{n_out} of {int(np.isfinite(yv).sum())} values outside the "
+                        "y window", transform=ax.transAxes, ha="right", va="top", fontsize=6,
+                        color="0.3")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="best", fontsize=7, markerscale=8)
     else:
@@ -253,3 +360,196 @@ def figure(paths, out, y=None, title=None):
     fig.savefig(out)
     plt.close(fig)
     return out
+
+
+# ------------------------------------------------------------------ time series (Figs 1b, 5, 6d, 17)
+ROMAN = ("I", "II", "III", "IV", "V", "VI", "VII", "VIII")
+
+
+def timeseries_choice(data: PlotData, plot_cfg: dict):
+    """Grid point and starts a time-series figure shows.
+
+    ``[plot] point`` is the grid index (default: the first point); ``ic`` a list
+    of start indices or "distinct" (default): the first start of each distinct
+    attractor at that point (``PlotData.attractors``), in rank order.  At most
+    ``max_panels`` (default 4) panels.
+    """
+    point = tuple(plot_cfg.get("point", [0] * len(data.axes)))
+    labels, _ = data.attractors()
+    lab = labels[point]
+    ic = plot_cfg.get("ic", "distinct")
+    if ic == "distinct":
+        chosen = []
+        for rank in range(int(lab.max()) + 1 if lab.size else 0):
+            chosen.append(int(np.nonzero(lab == rank)[0][0]))
+        if not chosen:   # no cycle anywhere: the first start
+            chosen = [0]
+    else:
+        chosen = [int(i) for i in ic]
+    n = lab.shape[-1]
+    bad = [i for i in chosen if not 0 <= i < n]
+    if bad:
+        raise ValueError(f"{data.path}: plot.ic: {bad} out of range; the file has starts 0..{n - 1}")
+    return point, chosen[: int(plot_cfg.get("max_panels", 4))], lab
+
+
+def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
+    """u(t) and z(t) over ``cycles`` cycles of the attractor reached by start ``ic``.
+
+    Rebuilt from the stored impacts by exact free flight (``cornerbif.trajectory``);
+    impacts are marked.  Time is counted from the section t0 = nT (T = 2 pi/omega)
+    before the first recorded impact.  Returns a dict of what was drawn and measured.
+    """
+    from . import config as C
+    from . import trajectory as TR
+    with check_readable(path) as f:
+        scene = C.loads(f.attrs["scene"])
+        if scene.model != "flow":
+            raise ValueError(f"{path}: a time series needs a 'flow' scene, not {scene.model!r}")
+        if "impacts/t" not in f:
+            raise ValueError(f"{path}: a time series needs the impacts: set output.keep = [\"impacts\"]")
+        idx = tuple(point) + (ic,)
+        t, u, vo, off = (f[f"impacts/{k}"][idx] for k in ("t", "u", "v_out", "corner_offset"))
+        per = int(f["period"][idx])
+        ipc = int(f["impacts_per_cycle"][idx])
+        word = f["symbols"][idx]
+        word = word.decode() if isinstance(word, bytes) else str(word)
+        st = int(f["status"][idx])
+    vals = scene.point(tuple(point))
+    p, d = TR.pack(vals, scene.obstacle, scene.section_period)
+    ok = np.isfinite(t)
+    t, u, vo, off = t[ok], u[ok], vo[ok], off[ok]
+    if t.size < 2:
+        raise ValueError(f"{path}: start {ic} at point {tuple(point)} recorded fewer than two "
+                         f"impacts (status {st})")
+    T = 2.0 * math.pi / vals["omega"]
+    t0 = math.floor(t[0] / T + 1e-9) * T   # an impact on a section belongs to it
+    if ipc > 0 and ipc < t.size:
+        span = cycles * (t[ipc] - t[0]) + (t[0] - t0)
+    else:
+        span = t[min(10, t.size - 1)] - t0
+    t1 = min(t0 + span, t[-1])
+    s, us, zs = TR.rebuild(p, d, t, u, vo, t0, t1)
+    err = TR.meet_error(p, d, t, u, vo)
+    arts = {}
+    arts["z"] = ax.plot(s - t0, zs, color="0.45", lw=0.9, label="obstacle $z(t)$")
+    arts["u"] = ax.plot(s - t0, us, color=color, lw=1.0, label=label or "particle $u(t)$")
+    shown = (t >= t0) & (t <= t1)
+    before = shown & (off < 0)          # NaN offsets (no corners) count as "after"
+    after = shown & ~(off < 0)
+    arts["impacts"] = ax.plot(t[after] - t0, u[after], ls="none", marker="o", ms=3.5, mfc="none",
+                              mec=color, mew=0.9,
+                              label="impact after a corner" if np.isfinite(off).any() else "impact")
+    if before.any():
+        arts["impacts"] += ax.plot(t[before] - t0, u[before], ls="none", marker="v", ms=4.0,
+                                   color=color, label="impact before a corner")
+    ax.set_ylabel("$u$, $z$")
+    lo, hi = np.nanmin(zs), max(np.nanmax(us), np.nanmax(zs))
+    ax.set_ylim(lo - 0.05 * (hi - lo), hi + 0.3 * (hi - lo))   # room for the legend
+    return dict(period=per, ipc=ipc, word=word, status=st, meet=float(np.nanmax(err)),
+                t0=t0, t1=t1, u=u, t=t, p=p, d=d, vals=vals, artists=arts)
+
+
+def _word_text(word):
+    """'bbbbbbbbbbbg' -> 'b^11 g' (run-length form for titles)."""
+    if not word:
+        return "no cycle"
+    out, i = [], 0
+    while i < len(word):
+        j = i
+        while j < len(word) and word[j] == word[i]:
+            j += 1
+        n = j - i
+        out.append(word[i] + (f"$^{{{n}}}$" if n > 1 else ""))
+        i = j
+    return " ".join(out)
+
+
+def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
+    """One panel per chosen attractor, stacked (paper Figs 1b, 5, 6d, 17)."""
+    point, chosen, lab = timeseries_choice(data, plot_cfg)
+    n = len(chosen)
+    fig, axs = plt.subplots(n, 1, figsize=(7, 1.2 + 2.0 * n), dpi=150, squeeze=False)
+    info = []
+    for k, (ax, ic) in enumerate(zip(axs[:, 0], chosen)):
+        rank = int(lab[ic])
+        color = "k" if n == 1 else ATTRACTOR_COLORS[k % len(ATTRACTOR_COLORS)]
+        r = draw_timeseries(ax, data.path, point, ic, cycles=float(plot_cfg.get("cycles", 2)),
+                            color=color)
+        name = (ROMAN[rank] + ": ") if (n > 1 and 0 <= rank < len(ROMAN)) else ""
+        ax.set_title(f"{name}start {ic}: period {r['period']} (map iterates), impacts per cycle "
+                     f"{r['ipc']}, word {_word_text(r['word'])}; the rebuilt flight meets $z$ at "
+                     f"the next impact to {r['meet']:.1e}", fontsize=7, loc="left")
+        v = r["vals"]
+        if (data.scene["system"].get("obstacle") == "sine" and v["omega"] == 2.0 and v["kappa"] == 0.0
+                and v.get("sigma", 0.0) == 0.0 and v.get("k", 1.0) == 1.0 and v.get("F", 0.0) == 0.0):
+            # the resonant orbit u = 2 beta (1 + r)/(1 - r) |sin t| of eq (6)
+            b = theory.resonant_amplitude(v["r"], v["beta"])
+            ss = np.linspace(r["t"][r["t"] >= r["t0"]][0], r["t1"], 2000)
+            ax.plot(ss - r["t0"], b * np.abs(np.sin(ss)), "--", color="tab:red", lw=0.9,
+                    label=f"eq (6): ${b:.6g}\\,|\\sin t|$")
+        info.append(r)
+        if k == 0:
+            ax.legend(loc="upper right", fontsize=7, ncol=4)
+    axs[-1, 0].set_xlabel(r"$t - t_0$  ($t_0 = nT$, $T = 2\pi/\omega$, the section before the first recorded impact)")
+    sc = data.scene.get("scene", {})
+    import textwrap
+    fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""), 90)),
+                 fontsize=9)
+    fig.tight_layout()
+    return fig, info
+
+
+# ------------------------------------------------------------------ corner curves (Fig. 7a)
+def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
+    """The curves kappa_C(omega) (eq 11) and kappa_CC(omega) (eq 17) near omega = 2 (Fig. 7a).
+
+    Theory only: the scene gives r, beta and the omega range ``[plot] xlim``.
+    The regions are labelled with what section 3.3 says exists there: the
+    single-impact orbit below kappa_C (eq 13), the double-impact orbit above
+    kappa_CC (eq 19).
+    """
+    sys_ = data.scene.get("system", {})
+    r, beta = sys_.get("r", 0.8), sys_.get("beta", 1.0)
+    lo, hi = plot_cfg.get("xlim", [1.99, 2.01])
+    w = np.linspace(lo, hi, 801)
+    kc = np.array([theory.kappa_C(x, r, beta) for x in w])
+    kcc = np.array([theory.kappa_CC(x, r, beta) for x in w])
+    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=150)
+    ax.plot(w, kc, "-", color="tab:red", lw=1.2, label=r"$\kappa_C(\omega)$, eq (11)")
+    ax.plot(w, kcc, "-", color="tab:blue", lw=1.2, label=r"$\kappa_{CC}(\omega)$, eq (17)")
+    ax.axvline(2.0, color="0.6", lw=0.6)
+    ax.axhline(0.0, color="0.6", lw=0.6)
+    ax.plot([2.0], [0.0], "ko", ms=4)
+    ax.annotate(r"$(\omega, \kappa) = (2, 0)$: both curves cross", (2.0, 0.0), xytext=(10, -25),
+                textcoords="offset points", fontsize=7, arrowprops=dict(arrowstyle="-", lw=0.5))
+    if "ylim" in plot_cfg:
+        ax.set_ylim(*plot_cfg["ylim"])
+    y0, y1 = ax.get_ylim()
+    ax.text(lo + 0.05 * (hi - lo), y0 + 0.08 * (y1 - y0),
+            r"below $\kappa_C$: single-impact period-$T$ orbit (13)", fontsize=7, color="tab:red")
+    ax.text(lo + 0.05 * (hi - lo), y1 - 0.12 * (y1 - y0),
+            r"above $\kappa_{CC}$: double-impact period-$T$ orbit (19)", fontsize=7, color="tab:blue")
+    # the paper's scene lines: omega = 1.999 (Fig. 6) and 2.001 (Fig. 7b)
+    for wx in (1.999, 2.001):
+        if lo < wx < hi:
+            ax.axvline(wx, color="0.3", lw=0.6, ls=":")
+            ax.text(wx, y1, f" {wx}", fontsize=6, va="top", rotation=90)
+            for fn, c in ((theory.kappa_C, "tab:red"), (theory.kappa_CC, "tab:blue")):
+                ax.plot([wx], [fn(wx, r, beta)], "o", color=c, ms=3.5)
+    vals = [f"$\\omega$ = {wx}: $\\kappa_C$ = {theory.kappa_C(wx, r, beta):.6f}, "
+            f"$\\kappa_{{CC}}$ = {theory.kappa_CC(wx, r, beta):.6f}"
+            for wx in (1.999, 2.001) if lo < wx < hi]
+    if vals:
+        ax.text(0.98, 0.30, "\n".join(vals), transform=ax.transAxes, ha="right", va="bottom",
+                fontsize=7, bbox=dict(fc="white", ec="0.7", lw=0.5))
+    ax.set_xlabel(LABELS["omega"])
+    ax.set_ylabel(LABELS["kappa"])
+    ax.set_xlim(lo, hi)
+    ax.legend(loc="lower right", fontsize=7)
+    sc = data.scene.get("scene", {})
+    import textwrap
+    ax.set_title("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""), 80)),
+                 fontsize=9)
+    fig.tight_layout()
+    return fig
