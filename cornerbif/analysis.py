@@ -203,3 +203,18 @@ def distinct_attractors(period, ipc, symbols, series, tol):
             labels[g, reps[k][2]] = rank
         count[g] = len(reps)
     return labels.reshape(G + (n_ic,)), count.reshape(G)
+
+
+def run_length(word: str, tex: bool = False, empty: str = "-") -> str:
+    """A cycle word in run-length form: 'bbbg' -> 'b^3 g' (tex: 'b$^{3}$ g')."""
+    if not word:
+        return empty
+    out, i = [], 0
+    while i < len(word):
+        j = i
+        while j < len(word) and word[j] == word[i]:
+            j += 1
+        n = j - i
+        out.append(word[i] + ((f"$^{{{n}}}$" if tex else f"^{n}") if n > 1 else ""))
+        i = j
+    return " ".join(out)

@@ -23,6 +23,7 @@ import tomllib
 import numpy as np
 
 from . import config as C
+from .analysis import run_length
 
 # figures drawn from several scenes: name -> scenes (overlaid, or flow against map)
 GROUPS = {
@@ -162,16 +163,7 @@ def run(config_dir="configs", out="docs/gallery", data="gallery_data", only=(), 
 # ------------------------------------------------------------------ numbers for the notes
 def _rle(word: str) -> str:
     """'bbbg' -> 'b^3 g' (run-length form of a cycle word)."""
-    if not word:
-        return "-"
-    out, i = [], 0
-    while i < len(word):
-        j = i
-        while j < len(word) and word[j] == word[i]:
-            j += 1
-        out.append(word[i] + (f"^{j - i}" if j - i > 1 else ""))
-        i = j
-    return " ".join(out)
+    return run_length(word)
 
 
 def facts(h5: str) -> dict:

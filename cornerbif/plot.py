@@ -13,6 +13,7 @@ import tomllib
 import numpy as np
 
 from . import plot_normal_form, theory
+from .analysis import run_length
 from .io import check_readable
 
 LABELS = {
@@ -452,17 +453,7 @@ def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
 
 def _word_text(word):
     """'bbbbbbbbbbbg' -> 'b^11 g' (run-length form for titles)."""
-    if not word:
-        return "no cycle"
-    out, i = [], 0
-    while i < len(word):
-        j = i
-        while j < len(word) and word[j] == word[i]:
-            j += 1
-        n = j - i
-        out.append(word[i] + (f"$^{{{n}}}$" if n > 1 else ""))
-        i = j
-    return " ".join(out)
+    return run_length(word, tex=True, empty="no cycle")
 
 
 def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):

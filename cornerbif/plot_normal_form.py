@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from . import maps2d, theory
+from .analysis import run_length
 
 KINDS = ("regions", "return_map", "orbit")
 REGION_COLORS = {"a": "tab:blue", "b": "tab:orange", "g": "tab:green", "x": "0.6"}
@@ -154,8 +155,18 @@ def draw_return_map(ax, data, ms=1.5, color="k", label=None):
     return arts
 
 
-def draw_orbit(ax, data, ms=4.0, marker="o", filled=True, label_prefix=""):
-    """Fig. 11: recorded section points (a_n, b_n) coloured by region, with x_beta*."""
+def _word(data):
+    w = [str(x) for x in np.ravel(data.symbols) if str(x)]
+    return run_length(w[0], tex=True) if w else "none found"
+
+
+def draw_orbit(ax, data, ms=4.0):
+    """Fig. 11: recorded section points (a_n, b_n).
+
+    A map2d file's points are coloured by the region that maps them (56); a flow
+    file's points are drawn as black crosses: the flow has no regions, only its
+    word (read from its impacts), which the label states.
+    """
     omega, omega1, kappa1, r = _system(data)
     su, sv = data.data.get("section/u"), data.data.get("section/v")
     if su is None:
@@ -163,14 +174,17 @@ def draw_orbit(ax, data, ms=4.0, marker="o", filled=True, label_prefix=""):
     a, b = su.ravel(), sv.ravel()
     ok = np.isfinite(a) & np.isfinite(b)
     a, b = a[ok], b[ok]
+    if data.model == "flow":
+        ax.plot(a, b, ls="none", marker="x", ms=1.6 * ms, mew=0.9, color="k",
+                label=f"flow: $(u, u')(nT)$, word {_word(data)}")
+        return a, b
     lab = map_regions(a, b, omega1, kappa1, r)
     for ch in "abg":
         m = lab == ch
         if m.any():
-            ax.plot(a[m], b[m], ls="none", marker=marker, ms=ms, mew=0.8,
-                    color=REGION_COLORS[ch],
-                    mfc=REGION_COLORS[ch] if filled else "none",
-                    label=f"{label_prefix}{data.model}: {int(m.sum())} in {REGION_NAMES[ch]}")
+            ax.plot(a[m], b[m], ls="none", marker="o", ms=ms, mew=0, color=REGION_COLORS[ch],
+                    label=f"map2d: {int(m.sum())} iterates in {REGION_NAMES[ch]}")
+    ax.plot([], [], ls="none", label=f"map2d word {_word(data)}")
     return a, b
 
 
@@ -258,13 +272,34 @@ def figure(datas, out, plot_cfg, title=None):
             ins.tick_params(labelsize=5)
             ins.set_title(r"near $\Sigma_2$ (grazing)", fontsize=6)
     elif kind == "orbit":
-        fig, ax = plt.subplots(figsize=(6.5, 4.8), dpi=150)
+        fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 4.8), dpi=150,
+                                       gridspec_kw={"width_ratios": [3, 2]})
         draw_orbit_frame(ax, datas)
-        for i, d in enumerate(datas):
-            draw_orbit(ax, d, ms=(ms or 4.0) * (1.0 if i == 0 else 1.8),
-                       marker="o" if i == 0 else "s", filled=i == 0)
-        ax.legend(loc="best", fontsize=6)
-        axs = [[ax]]
+        for d in sorted(datas, key=lambda d: d.model == "flow"):
+            draw_orbit(ax, d, ms=ms or 4.0)
+        ax.legend(loc="lower center", fontsize=6)
+        # right: the approach to x_beta* along (0, 1) and the switching iterate there
+        omega, omega1, kappa1, r = _system(datas[0])
+        xs = theory.fixed_point("beta", omega1, kappa1, r)
+        a_all = np.concatenate([d.data["section/u"].ravel() for d in datas])
+        b_all = np.concatenate([d.data["section/v"].ravel() for d in datas])
+        near = np.isfinite(a_all) & (np.abs(a_all - xs[0]) < 0.02 * abs(xs[0]))
+        for d in sorted(datas, key=lambda d: d.model == "flow"):
+            draw_orbit(zoom, d, ms=ms or 4.0)
+        zoom.plot([xs[0]], [xs[1]], "k*", ms=9)
+        if near.sum() > 3:
+            bl = np.quantile(b_all[near], [0.0, 0.6])
+            pad = 0.15 * (bl[1] - bl[0] + 1e-12)
+            zoom.set_ylim(bl[0] - pad, bl[1] + pad)
+            al = (a_all[near].min(), a_all[near].max())
+            apad = 0.1 * (al[1] - al[0] + 1e-9)
+            zoom.set_xlim(al[0] - apad, al[1] + apad)
+        aa = np.linspace(*zoom.get_xlim(), 50)
+        zoom.plot(aa, kappa1 - 0.25 * math.pi * omega1 * aa, "k-", lw=0.8)
+        zoom.set_title(r"near $x_\beta^*$: the approach along $(0, 1)^T$ (section 5.1)", fontsize=8,
+                       loc="left")
+        zoom.set_xlabel(r"$a_n$")
+        axs = [[ax, zoom]]
     else:
         raise ValueError(f"plot.kind: {kind!r} is not a normal-form kind; allowed: "
                          f"{', '.join(KINDS)}")
