@@ -211,6 +211,14 @@ def draw_plane(ax, data: PlotData):
         ax.set_yscale("log")
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
+    draw_plane_curves(ax, data)
+    return im
+
+
+def draw_plane_curves(ax, data: PlotData):
+    """The corner curves kappa_C (11) and kappa_CC (17) over an (omega, kappa) plane."""
+    a, b = data.axes[:2]
+    x, y = data.values[a], data.values[b]
     sys_ = data.scene.get("system", {})
     if {a, b} == {"omega", "kappa"} and sys_.get("obstacle", "rectified_sine") == "rectified_sine":
         r = sys_.get("r", 0.8)
@@ -227,6 +235,35 @@ def draw_plane(ax, data: PlotData):
             ax.plot(kcc, w, "b-", lw=0.8, label=r"$\kappa_{CC}$ (17)")
             ax.set_xlim(x.min(), x.max())
         ax.legend(loc="upper left", fontsize=7)
+
+
+def coexisting_words(symbols):
+    """Number of distinct non-empty cycle words among the starts of each grid point.
+
+    A lower bound on the number of coexisting attractors (the starts are random;
+    two attractors with one word count once); 0 where no start found a cycle.
+    """
+    flat = symbols.reshape(-1, symbols.shape[-1])
+    n = np.array([len({w for w in row if w}) for row in flat])
+    return n.reshape(symbols.shape[:-1])
+
+
+def draw_plane_count(ax, data: PlotData):
+    """Two-axis sweep: how many distinct attractors (cycle words) the starts found."""
+    a, b = data.axes[:2]
+    n = coexisting_words(data.symbols).astype(float)
+    x, y = data.values[a], data.values[b]
+    top = max(int(n.max()), 1)
+    import matplotlib.colors as mcolors
+    cmap = mcolors.ListedColormap(["0.85", "k", "tab:orange", "tab:red", "tab:purple",
+                                   "tab:blue"][: top + 1])
+    im = ax.pcolormesh(x, y, n.T, shading="nearest", cmap=cmap, vmin=-0.5, vmax=top + 0.5)
+    ax.set_xlabel(LABELS.get(a, a))
+    ax.set_ylabel(LABELS.get(b, b))
+    ax.set_title(f"coexisting attractors found (max {top}; grey: none)", fontsize=8, loc="left")
+    draw_plane_curves(ax, data)
+    if b == "mu" and np.all(y > 0) and y.max() / y.min() > 20:
+        ax.set_yscale("log")
     return im
 
 
@@ -305,11 +342,16 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
         fig.savefig(out)
         plt.close(fig)
         return out
-    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=150)
     if len(d0.axes) == 2:
+        fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), dpi=150)
         im = draw_plane(ax, d0)
         fig.colorbar(im, ax=ax, label="period (clusters per cycle; max over starts)")
-    elif len(d0.axes) == 1:
+        im2 = draw_plane_count(ax2, d0)
+        fig.colorbar(im2, ax=ax2, label="distinct cycle words among the starts",
+                     ticks=range(int(im2.norm.vmax + 0.5)))
+    else:
+        fig, ax = plt.subplots(figsize=(7, 4.5), dpi=150)
+    if len(d0.axes) == 1:
         kind = y or plot_cfg.get("y") or d0.default_y()
         if kind is None or d0.y(kind) is None:
             plt.close(fig)
@@ -343,7 +385,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
                         color="0.3")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(loc="best", fontsize=7, markerscale=8)
-    else:
+    elif len(d0.axes) != 2:
         plt.close(fig)
         raise ValueError(f"{d0.path}: a scene without a sweep axis has nothing to draw")
     if "xlim" in plot_cfg:

@@ -85,3 +85,25 @@ def test_fig11_flow_and_map_share_the_near_homoclinic_orbit(tmp_path, name, lett
     d = np.min(np.linalg.norm(pts_f[:, None] - pts_m[None], axis=-1), axis=1)
     assert d.max() < 1e-2
     figure([pm, pf], str(tmp_path / f"{name}.png"))
+
+
+def test_chart_counts_the_coexisting_fixed_points_of_the_hysteresis_wedge(tmp_path):
+    # omega = 2.001: for kappa_CC < kappa < kappa_C (eqs 17, 11: 0.0031 < kappa < 0.0141) both
+    # fixed points x_alpha* and x_beta* are admissible (section 5.2: c_alpha < 0 < c_beta), so
+    # the chart must count 2 attractors there; below kappa_CC only beta's: 1.
+    from cornerbif import theory as th
+    from cornerbif.plot import coexisting_words
+    text = (CONFIGS / "chart_map2d.toml").read_text()
+    scene = config.loads(text, overrides=["sweep.omega.start=2.001", "sweep.omega.stop=2.001",
+                                          "sweep.omega.num=1", "sweep.kappa.start=-0.01",
+                                          "sweep.kappa.stop=0.008", "sweep.kappa.num=2",
+                                          "initial.count=16"])
+    out = str(tmp_path / "c.h5")
+    run_sweep(scene, out)
+    d = PlotData(out)
+    n = coexisting_words(d.symbols)
+    assert th.c_alpha(0.001, 0.008, 0.8) < 0 < th.c_beta(0.001, 0.008, 0.8)
+    assert th.c_alpha(0.001, -0.01, 0.8) > 0 < th.c_beta(0.001, -0.01, 0.8)
+    assert n[0, 1] == 2 and set(d.symbols[0, 1]) - {""} == {"a", "b"}
+    assert n[0, 0] == 1 and set(d.symbols[0, 0]) == {"b"}
+    figure([out], str(tmp_path / "c.png"))
