@@ -15,6 +15,7 @@ import fcntl
 import math
 import os
 import sys
+import time
 
 import numpy as np
 
@@ -580,6 +581,9 @@ def todo_blocks(scene, f, block_points=None):
     return every, [b for b in every if not np.all(done[b])]
 
 
+FOLLOW_BATCH = 256   # followed slabs written together at most
+
+
 def _run_blocks(scene, f, progress, block_points=None):
     """The local backend: every unfinished block in order, computed here and written."""
     ints = int_settings(scene)
@@ -588,17 +592,50 @@ def _run_blocks(scene, f, progress, block_points=None):
     carry = None  # follow: final states of the previous grid slab
     if scene.follow != "none" and todo:
         carry = _carry_from_file(scene, f, every, todo[0])
+    # a followed sweep computes one thin slab at a time; writing each alone costs more
+    # than computing it, so consecutive slabs are written together, at least once a second
+    pending = []
+    last = time.monotonic()
     try:
         for blk in todo:
             block = compute_block(scene, blk, carry, ints)
-            io.write_block(f, blk, block)
+            pending.append((blk, block))
             if scene.follow != "none":
                 carry = block_carry(scene, block)
+            if (scene.follow == "none" or len(pending) >= FOLLOW_BATCH
+                    or time.monotonic() - last > 1.0):
+                _write_pending(f, pending)
+                last = time.monotonic()
             if bar is not None:
                 bar.update(1)
     finally:
-        if bar is not None:
-            bar.__exit__(None, None, None)
+        try:
+            _write_pending(f, pending)       # finished slabs are kept on an interrupt too
+        finally:
+            if bar is not None:
+                bar.__exit__(None, None, None)
+
+
+def _write_pending(f, pending):
+    """Write finished slabs, merged into one write where they are neighbours on axis 0.
+
+    The slabs are taken off ``pending`` before writing, so a write that fails (or is
+    interrupted) is not attempted again by the caller's clean-up.
+    """
+    items = sorted(pending, key=lambda item: item[0][0].start if item[0] else 0)
+    pending.clear()
+    if not items:
+        return
+    idx = [blk for blk, _ in items]
+    contiguous = len(items) > 1 and all(a[0].stop == b[0].start and a[1:] == b[1:]
+                                        for a, b in zip(idx, idx[1:]))
+    if contiguous:
+        blk = (slice(idx[0][0].start, idx[-1][0].stop),) + tuple(idx[0][1:])
+        io.write_block(f, blk, {n: np.concatenate([block[n] for _, block in items], axis=0)
+                                for n in items[0][1]})
+    else:
+        for item in items:
+            io.write_block(f, *item)
 
 
 def _carry_from_file(scene, f, all_blocks, first_todo):
