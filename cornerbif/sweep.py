@@ -205,9 +205,14 @@ def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scen
     from .kernels.flow import run_batch
     n = params.shape[0]
     rec = scene.record
-    out = {k: np.full((n, rec), np.nan) for k in ("t", "u", "v_in", "v_out", "corner_offset",
-                                                   "su", "sv")}
-    corner = np.zeros((n, rec), np.int64)
+    # NaN marks "no impact" in what is stored and in t, where the analysis reads the end of
+    # the recorded window; what is neither is left unfilled (a summary-only chart then
+    # touches only the few rows' entries its early-stopped runs write)
+    stored = {"impacts": ("u", "v_in", "v_out", "corner_offset"), "section": ("su", "sv")}
+    fill = {"t"} | {k for x in scene.keep for k in stored.get(x, ())}
+    out = {k: np.full((n, rec), np.nan) if k in fill else np.empty((n, rec))
+           for k in ("t", "u", "v_in", "v_out", "corner_offset", "su", "sv")}
+    corner = np.empty((n, rec), np.int64)
     st = np.zeros(n, np.int8)
     final = np.zeros((n, 2))
     rec0 = np.zeros(n, np.int64)
