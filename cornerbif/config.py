@@ -83,6 +83,7 @@ RUN_DEFAULTS = {
     "period_tol": 1e-6,
     "max_events": None,
     "max_periods": None,
+    "stop": None,
 }
 # Accuracy presets (``run.preset``): the speed-accuracy trade made explicit.  Keys given
 # explicitly in [run] override the preset.  "paper" is the default and holds the values
@@ -96,6 +97,10 @@ PRESETS = {
     "precise": {"transient": 3000, "tol": 1e-14, "chatter": 1e-6},
 }
 DEFAULT_PRESET = "paper"
+# run.stop: "period" ends each run of the flow once its attractor's period is established
+# (the kernel's early stop, cornerbif.kernels.flow); the default is "period" for a flow scene
+# that keeps only the summary (output.keep = []) and "none" otherwise
+STOPS = ("none", "period")
 INITIAL_DEFAULTS = {"count": 8, "seed": 1, "u": [0.0, 20.0], "v": [-20.0, 20.0]}
 TABLES = {
     "scene": ("name", "title", "model"),
@@ -158,6 +163,7 @@ class Scene:
     plot: dict = field(default_factory=dict)
     text: str = ""          # the TOML text as run (overrides applied)
     preset: str = DEFAULT_PRESET   # run.preset the run settings were resolved from
+    stop: str = "none"      # run.stop: "period" (early stop, flow only) or "none"
 
     @property
     def shape(self) -> tuple:
@@ -512,6 +518,16 @@ def from_dict(raw) -> Scene:
     for k, default in RUN_DEFAULTS.items():
         default = PRESETS[preset].get(k, default)
         v = rn.get(k, default)
+        if k == "stop":
+            if v is not None and v not in STOPS:
+                problems.append(f"run.stop: {_fmt(v)} is not allowed; allowed: {', '.join(STOPS)}")
+                v = None
+            elif v == "period" and model != "flow":
+                problems.append(f"run.stop: 'period' is implemented for model 'flow' only, "
+                                f"not {model!r}; allowed here: none")
+                v = None
+            run[k] = v
+            continue
         if k in ("transient", "record", "max_events", "max_periods"):
             if v is None:
                 run[k] = None
@@ -553,6 +569,8 @@ def from_dict(raw) -> Scene:
             problems.append(f"output.keep: {x!r} is not an observable of model {model!r}{extra}; "
                             f"allowed: {', '.join(allowed_keep)}")
     keep = tuple(x for x in keep if x in allowed_keep)
+    if run["stop"] is None:
+        run["stop"] = "period" if (model == "flow" and not keep) else "none"
 
     # [plot]
     pl = table("plot")
@@ -634,8 +652,8 @@ def from_dict(raw) -> Scene:
         "sweep": {**{a.name: {"values": list(a.values)} for a in axes}, "follow": follow},
         "initial": {"count": n_ic, "seed": seed, **{c: list(ranges[c]) for c in coords}},
         "run": {**({"preset": preset} if "preset" in rn else {}),
-                **{k: v for k, v in run.items() if v is not None},
-                "max_events": max_events, "max_periods": max_periods},
+                **{k: v for k, v in run.items() if v is not None and k != "stop"},
+                "max_events": max_events, "max_periods": max_periods, "stop": run["stop"]},
         "output": {"keep": list(keep)},
     }
     if not axes:
@@ -650,4 +668,5 @@ def from_dict(raw) -> Scene:
                  z_range=ranges.get("z"), y_range=ranges.get("y"), transient=run["transient"],
                  record=run["record"], tol=run["tol"], chatter=run["chatter"], escape=run["escape"],
                  period_tol=run["period_tol"], max_events=max_events, max_periods=max_periods,
-                 keep=keep, plot=plot, text=dumps(as_run), preset=preset)
+                 keep=keep, plot=plot, text=dumps(as_run), preset=preset,
+                 stop=run["stop"])

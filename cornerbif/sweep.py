@@ -26,6 +26,10 @@ from .config import Scene, SceneError
 from .models import params as P
 
 BLOCK_BYTES = 48 * 2**20     # working memory per block (kernel outputs)
+# run.stop = "period": the kernel stops once the state at the corners repeats to this share of
+# run.period_tol (relative), tighter than the analysis so that the orbit has converged well
+# beyond what the period test reads (see kernels.flow.cycle_watch)
+STOP_TOL_FACTOR = 1e-3
 ITEM_FIELDS = 7              # t, u, v_in, v_out, offset, section u, v (+ corner index)
 
 
@@ -104,10 +108,11 @@ def pack_points(scene: Scene, index_list):
                         scene.section_period) for idx in index_list]
         return np.array(rows).reshape(len(index_list), TP.NPARAM)
     rows = []
+    stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
     for idx in index_list:
         vals = scene.point(idx)
         rows.append(P.pack(vals, scene.obstacle, scene.tol, scene.chatter, scene.escape,
-                           scene.section_period))
+                           scene.section_period, stop_tol))
     return np.array(rows).reshape(len(index_list), P.NPARAM)
 
 
@@ -201,19 +206,47 @@ def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scen
     from .kernels.flow import run_batch
     n = params.shape[0]
     rec = scene.record
-    out = {k: np.full((n, rec), np.nan) for k in ("t", "u", "v_in", "v_out", "corner_offset",
-                                                   "su", "sv")}
-    corner = np.zeros((n, rec), np.int64)
+    # NaN marks "no impact" in what is stored and in t, where the analysis reads the end of
+    # the recorded window; what is neither is left unfilled (a summary-only chart then
+    # touches only the few rows' entries its early-stopped runs write)
+    stored = {"impacts": ("u", "v_in", "v_out", "corner_offset"), "section": ("su", "sv")}
+    fill = {"t"} | {k for x in scene.keep for k in stored.get(x, ())}
+    out = {k: np.full((n, rec), np.nan) if k in fill else np.empty((n, rec))
+           for k in ("t", "u", "v_in", "v_out", "corner_offset", "su", "sv")}
+    corner = np.empty((n, rec), np.int64)
     st = np.zeros(n, np.int8)
     final = np.zeros((n, 2))
+    rec0 = np.zeros(n, np.int64)
     run_batch(params, ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
-              out["corner_offset"], corner, out["su"], out["sv"], st, final)
+              out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)
     sym = np.zeros((n, rec), np.uint8)
     cornered = params[:, P.OBSTACLE] != P.SINE
     detect_cycles(out["t"], out["v_in"], out["corner_offset"], corner, cornered,
                   scene.period_tol, period, ipc, sym)
+    # early stop: a run stopped on a cycle the analysis does not confirm (e.g. a near-grazing
+    # impact magnifies the last 1e-9 of the transient beyond period_tol) runs again without it
+    redo = np.flatnonzero((rec0 < ints[P.I_TRANSIENT]) & (period == 0))
+    if redo.size:
+        prm = np.ascontiguousarray(params[redo])
+        prm[:, P.STOP_TOL] = 0.0
+        sub = {k: np.full((redo.size, rec), np.nan) for k in out}
+        c2 = np.zeros((redo.size, rec), np.int64)
+        st2 = np.zeros(redo.size, np.int8)
+        f2 = np.zeros((redo.size, 2))
+        r2 = np.zeros(redo.size, np.int64)
+        run_batch(prm, ints, np.ascontiguousarray(ics[redo]), sub["t"], sub["u"], sub["v_in"],
+                  sub["v_out"], sub["corner_offset"], c2, sub["su"], sub["sv"], st2, f2, r2)
+        p2 = np.zeros(redo.size, np.int64)
+        i2 = np.zeros(redo.size, np.int64)
+        s2 = np.zeros((redo.size, rec), np.uint8)
+        detect_cycles(sub["t"], sub["v_in"], sub["corner_offset"], c2, cornered[redo],
+                      scene.period_tol, p2, i2, s2)
+        for k in out:
+            out[k][redo] = sub[k]
+        corner[redo], st[redo], final[redo], rec0[redo] = c2, st2, f2, r2
+        period[redo], ipc[redo], sym[redo] = p2, i2, s2
     if not cornered.all():
         out["corner_offset"][~cornered] = np.nan
     return out, st, final, period, ipc, sym
@@ -652,7 +685,7 @@ def _carry_from_file(scene, f, all_blocks, first_todo):
 # ------------------------------------------------------------------ one run, from Python
 def simulate(u0, v0, transient=0, record=100, obstacle="rectified_sine", tol=1e-12,
              chatter=1e-6, escape=1e6, period_tol=1e-6, section_period=None,
-             max_events=None, max_periods=None, **system):
+             max_events=None, max_periods=None, stop="none", **system):
     """Run the flow model for one or many initial states (u0, v0) at t = 0.
 
     ``system`` takes the names of ``[system]`` (omega, kappa, beta, r, sigma, k,
@@ -664,7 +697,8 @@ def simulate(u0, v0, transient=0, record=100, obstacle="rectified_sine", tol=1e-
     from .config import FLOW_PARAMS, from_dict
     raw = {"system": {"obstacle": obstacle}, "run": {"transient": transient, "record": record,
                                                      "tol": tol, "chatter": chatter,
-                                                     "escape": escape, "period_tol": period_tol}}
+                                                     "escape": escape, "period_tol": period_tol,
+                                                     "stop": stop}}
     if max_events is not None:
         raw["run"]["max_events"] = max_events
     if max_periods is not None:
@@ -688,7 +722,8 @@ def simulate(u0, v0, transient=0, record=100, obstacle="rectified_sine", tol=1e-
             if k not in FLOW_PARAMS:
                 raise TypeError(f"simulate() got an unknown parameter {k!r}")
             vals[k] = float(a[i])
-        params[i] = P.pack(vals, obstacle, tol, chatter, escape, section_period)
+        params[i] = P.pack(vals, obstacle, tol, chatter, escape, section_period,
+                           STOP_TOL_FACTOR * period_tol if stop == "period" else 0.0)
     ics = np.stack([np.broadcast_to(u0, shape).ravel(), np.broadcast_to(v0, shape).ravel()], -1)
     out, st, final, period, ipc, sym = run_items(params, np.ascontiguousarray(ics),
                                                  int_settings(scene), scene)

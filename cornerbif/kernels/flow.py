@@ -20,6 +20,19 @@ The run is a sequence of phases:
   obstacle kicks the particle by law (5) (recorded as an impact just after the
   corner); where it jumps down the particle leaves with its velocity.
 
+Early stop (``run.stop = "period"``, packed as ``STOP_TOL`` > 0): a chart needs
+only each point's attractor, so during the transient the state (u, v) at every
+corner is kept in a ring of the last 2 Q corners (Q = 2 record + 2).  Every
+``WATCH_EVERY`` corners ``cycle_watch`` looks for the smallest lag q <= Q (a
+multiple of the obstacle's pieces per period) at which the state repeats to
+``STOP_TOL`` (relative) and confirms it over the whole last cycle, which must
+hold an impact: the run is then on a cycle of q pieces (the system is
+periodic with the piece length, so the state at a corner fixes the future).
+Recording starts at once, and the run ends after 4 q + 2 more pieces, enough for
+``analysis.detect_cycle`` to see two whole cycles besides the clusters it
+drops at both ends.  A run without a confirmed cycle before impact
+``transient`` records exactly as without early stop.
+
 Every run ends with a status from ``cornerbif.status``; nothing raises.
 """
 
@@ -185,6 +198,61 @@ def sturm_clear(p, d, j, g0, gp0, rest):
     return s1
 
 
+WATCH_EVERY = 32   # corners between two searches for a cycle (early stop)
+
+
+@jit
+def cycle_watch(ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck, lag_step, qmax, tol):
+    """Keep the state at corner j; every WATCH_EVERY corners return the lag of a cycle.
+
+    ``ring_*`` hold (u, v, impacts so far, stuck) at the last ``ring_u.shape[0]``
+    corners (>= 2 qmax + 1).  Returns the smallest lag q (a multiple of ``lag_step``,
+    q <= qmax) such that the states at corners j - k and j - k - q agree for
+    k = 0 .. q - 1 (|du| <= tol (1 + |u|), |dv| <= tol (1 + |v|), same phase of
+    sticking) with the same number (> 0) of impacts in both cycles; 0 if none.
+    """
+    nr = ring_u.shape[0]
+    pos = j % nr
+    ring_u[pos] = u
+    ring_v[pos] = v
+    ring_n[pos] = n_imp
+    ring_s[pos] = stuck
+    if j % WATCH_EVERY != 0:
+        return 0
+    hmax = min(qmax, j // 2)
+    tu = tol * (1.0 + abs(u))
+    tv = tol * (1.0 + abs(v))
+    for q in range(lag_step, hmax + 1, lag_step):
+        b = pos - q
+        if b < 0:
+            b += nr
+        if abs(ring_u[b] - u) > tu or abs(ring_v[b] - v) > tv or ring_s[b] != stuck:
+            continue
+        c = b - q
+        if c < 0:
+            c += nr
+        m = n_imp - ring_n[b]
+        if m <= 0 or ring_n[b] - ring_n[c] != m:
+            continue
+        ok = True
+        for k in range(1, q):
+            a = pos - k
+            if a < 0:
+                a += nr
+            e = a - q
+            if e < 0:
+                e += nr
+            ua = ring_u[a]
+            va = ring_v[a]
+            if (abs(ua - ring_u[e]) > tol * (1.0 + abs(ua))
+                    or abs(va - ring_v[e]) > tol * (1.0 + abs(va)) or ring_s[a] != ring_s[e]):
+                ok = False
+                break
+        if ok:
+            return q
+    return 0
+
+
 @jit
 def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_off, o_corner):
     """Record impact i: time, height, v-, v+ and the nearest corner with the signed offset."""
@@ -198,8 +266,12 @@ def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_
 
 
 @jit
-def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final):
+def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final, info):
     """Integrate one item from (t, u, v) = (0, u0, v0); fill its output rows.
+
+    With early stop (``STOP_TOL`` > 0, see the module docstring) the recording
+    starts where a cycle is confirmed and ``info[0]`` receives the number of the
+    first recorded impact (``transient`` when no cycle was confirmed earlier).
 
     Impacts number ``transient`` and above are stored (time, height, v-, v+,
     signed offset to the nearest corner and that corner's index); the state at
@@ -226,9 +298,24 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
     max_pieces = ints[P.I_MAX_PIECES]
-    need = transient + record
+    rec0 = transient          # number of the first recorded impact
+    need = rec0 + record
     final[0] = math.nan
     final[1] = math.nan
+    info[0] = rec0
+    # early stop: watch the state at the corners for a cycle during the transient
+    stop_tol = p[P.STOP_TOL]
+    watch = stop_tol > 0.0 and p[P.F_AMP] == 0.0 and transient > 0
+    qmax = 2 * record + 2
+    nring = 2 * qmax + 1 if watch else 1
+    ring_u = np.empty(nring)
+    ring_v = np.empty(nring)
+    ring_n = np.empty(nring, np.int64)
+    ring_s = np.empty(nring, np.bool_)
+    lag_step = 1 if p[P.OBSTACLE] == P.RECTIFIED_SINE else 2
+    j_end = np.int64(np.iinfo(np.int64).max)
+    last_j = np.int64(0)
+    last_tau = 0.0
 
     if not (u0 == u0 and v0 == v0):
         return S.NONFINITE
@@ -301,9 +388,11 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 # corner kick by law (5): an impact just after the corner
                 v_out = restitution(zb, za, r)
                 v_after = v_out
-                if n_imp >= transient:
-                    store_impact(p, d, n_imp - transient, j, 0.0, t, z, zb, v_out,
+                if n_imp >= rec0:
+                    store_impact(p, d, n_imp - rec0, j, 0.0, t, z, zb, v_out,
                                  o_t, o_u, o_vin, o_vout, o_off, o_corner)
+                last_j = j
+                last_tau = 0.0
                 n_imp += 1
                 if n_imp >= need:
                     return S.OK
@@ -331,12 +420,26 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             else:
                 tau_s = 0.0
             if (j - sec_phase) % pps == 0:
-                if n_imp >= transient and n_sec < record:
+                if n_imp >= rec0 and n_sec < record:
                     o_su[n_sec] = z
                     o_sv[n_sec] = v_after
                     n_sec += 1
                 final[0] = z
                 final[1] = v_after
+            if watch and n_imp < rec0:
+                q = cycle_watch(ring_u, ring_v, ring_n, ring_s, j, z, v_after, n_imp, stuck,
+                                lag_step, qmax, stop_tol)
+                if q > 0:
+                    watch = False
+                    rec0 = n_imp
+                    need = rec0 + record
+                    info[0] = rec0
+                    j_end = j + 4 * q + 2
+                    if auto_phase and n_imp > 0:
+                        c, _ = corner_of(p, d, last_j, last_tau)
+                        sec_phase = (c + pps // 2) % pps
+            if j >= j_end:
+                return S.OK
             events += 1
             if events > max_events:
                 return S.MAX_EVENTS
@@ -382,23 +485,39 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             s_start = 0.0
             skip = False
             if (j - sec_phase) % pps == 0:
-                if n_imp >= transient and n_sec < record:
+                if n_imp >= rec0 and n_sec < record:
                     o_su[n_sec] = uh + up
                     o_sv[n_sec] = vh + vp
                     n_sec += 1
                 final[0] = uh + up
                 final[1] = vh + vp
+            if watch and n_imp < rec0:
+                q = cycle_watch(ring_u, ring_v, ring_n, ring_s, j, uh + up, vh + vp, n_imp,
+                                False, lag_step, qmax, stop_tol)
+                if q > 0:
+                    watch = False
+                    rec0 = n_imp
+                    need = rec0 + record
+                    info[0] = rec0
+                    j_end = j + 4 * q + 2
+                    if auto_phase and n_imp > 0:
+                        c, _ = corner_of(p, d, last_j, last_tau)
+                        sec_phase = (c + pps // 2) % pps
+            if j >= j_end:
+                return S.OK
             continue
         # ---- impact at (j, tau) -----------------------------------------------------
         z, zp, zpp, _ = z_state(p, j, tau)
         v_in = vh + vp
         v_out = restitution(v_in, zp, r)
-        if n_imp >= transient:
-            store_impact(p, d, n_imp - transient, j, tau, t, z, v_in, v_out,
+        if n_imp >= rec0:
+            store_impact(p, d, n_imp - rec0, j, tau, t, z, v_in, v_out,
                          o_t, o_u, o_vin, o_vout, o_off, o_corner)
+        last_j = j
+        last_tau = tau
         n_imp += 1
         events += 1
-        if n_imp == transient and auto_phase:
+        if n_imp == rec0 and auto_phase:
             # the paper's section (3.3.1) has the impacted corner t0 inside a period:
             # take the section at the corners of the other parity, between the
             # clusters, whichever of the shifted copies of the orbit (3.2) this is
@@ -425,8 +544,10 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
 
 @pjit
 def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
-              o_status, o_final):
+              o_status, o_final, o_rec0):
     """Run every item i = (parameter row params[i], initial state ics[i]) in parallel.
+
+    ``o_rec0[i]`` receives the number of item i's first recorded impact (early stop).
 
     Each item writes only its own rows; results do not depend on the thread count.
     """
@@ -439,4 +560,5 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     for k in prange(n):
         i = (k * stride) % n
         o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1], o_t[i], o_u[i], o_vin[i],
-                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i])
+                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i],
+                              o_rec0[i:i + 1])

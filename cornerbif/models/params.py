@@ -26,7 +26,9 @@ CHATTER = 13   # relative velocity below which a chattering sequence is summed
 ESCAPE = 14    # amplitude bound beyond which a run is ESCAPED
 SECTION_PIECES = 15  # smooth pieces per Poincare section period
 SECTION_AUTO = 16    # 1: put the section corners between the impact clusters (see flow kernel)
-NPARAM = 17
+STOP_TOL = 17        # > 0: stop once the attractor's period is established (run.stop = "period"),
+                     # with this relative tolerance on the state at the corners; 0: never
+NPARAM = 18
 
 # --- obstacle codes -------------------------------------------------------------------
 SINE = 0            # kappa + beta sin(omega t), section 2.2 (smooth, no corners)
@@ -59,8 +61,11 @@ def pieces_per_period(obstacle: str) -> int:
 
 
 def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
-         section_period: float | None) -> np.ndarray:
-    """Pack named parameters of one grid point into the kernel's float64 vector."""
+         section_period: float | None, stop_tol: float = 0.0) -> np.ndarray:
+    """Pack named parameters of one grid point into the kernel's float64 vector.
+
+    ``stop_tol`` > 0 turns the kernel's early stop on (``run.stop = "period"``).
+    """
     p = np.zeros(NPARAM)
     p[OMEGA] = values["omega"]
     p[KAPPA] = values["kappa"]
@@ -83,4 +88,5 @@ def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
     sp = 2.0 * math.pi / values["omega"] if section_period is None else section_period
     p[SECTION_PIECES] = max(1, round(sp / P)) * pieces_per_period(obstacle)
     p[SECTION_AUTO] = 1.0 if (obstacle == "rectified_sine" and section_period is None) else 0.0
+    p[STOP_TOL] = stop_tol
     return p
