@@ -96,10 +96,11 @@ def _time_kernel(params, ics, record, transient=0, repeat=3):
     su, sv = np.full((n, record), np.nan), np.full((n, record), np.nan)
     st = np.zeros(n, np.int8)
     final = np.zeros((n, 2))
+    rec0 = np.zeros(n, np.int64)        # number of the first recorded impact (early stop)
     best = math.inf
     for _ in range(repeat):
         t0 = time.perf_counter()
-        run_batch(params, ints, ics, *o, corner, su, sv, st, final)
+        run_batch(params, ints, ics, *o, corner, su, sv, st, final, rec0)
         best = min(best, time.perf_counter() - t0)
     return best
 
