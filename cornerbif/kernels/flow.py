@@ -47,7 +47,7 @@ from ..models import params as P
 from ..models.impact import restitution
 from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
                                zpp_range, zppp_max, z_state)
-from ..models.oscillator import derive, forcing, homogeneous, particular, upp_bound
+from ..models.oscillator import derive, forcing, homogeneous, particular, rotate, upp_bound
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
 
 GAP = 0       # f = u - z along the flight
@@ -152,7 +152,7 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
 
 
 @jit
-def sturm_clear(p, d, j, g0, gp0, rest):
+def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     """Certified root-free length of a flight on piece j (sigma = 0, f = 0), eqs (4), (7)-(8).
 
     With u'' = -k^2 u, the gap satisfies g'' + k^2 g = -k^2 z - z'' =: f(tau), and on
@@ -160,8 +160,13 @@ def sturm_clear(p, d, j, g0, gp0, rest):
     odd half periods of sine with the sign of beta reversed; triangle: -k^2 max z).  By
     Sturm comparison g >= y on [0, pi/k], where y'' + k^2 y = f_min with y, y' = g, g'
     at s = 0, so g has no root before the first root of the sinusoid y (closed form).
-    Returns that length (or ``rest`` when y stays positive over the piece); 0 when
-    g0 <= 0 (nothing can be certified).
+
+    Returns (length, cr, sr, have_rot): the length (``rest`` when y stays positive over
+    the rest of the piece; 0 when g0 <= 0, nothing can be certified) and the rotation
+    (cr, sr) = (cos, sin)(k rest) of the flight to the end of the piece, which the
+    caller passes in when it has it (``have_rot``, e.g. precomputed for whole pieces)
+    and which is computed here when the test needs it, so that the caller can carry
+    the flight over the corner without trigonometry.
     """
     k = p[P.K]
     ob = p[P.OBSTACLE]
@@ -175,7 +180,7 @@ def sturm_clear(p, d, j, g0, gp0, rest):
             a = -a
         fmin = -k2 * kap + min(0.0, a)
     if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
-        return 0.0
+        return 0.0, cr, sr, have_rot
     c = fmin / k2
     x = g0 - c
     yv = gp0 / k
@@ -188,14 +193,27 @@ def sturm_clear(p, d, j, g0, gp0, rest):
     # arctangent)
     c2 = c + x          # = g0: y(0)
     if c2 <= 0.0:
-        return 0.0
+        return 0.0, cr, sr, have_rot
     tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
     if tr == math.inf:
-        return window
+        return window, cr, sr, have_rot
+    if window == rest:
+        # the root lies beyond the piece iff tr >= tan(k rest / 2) = sin / (1 + cos) of
+        # k rest: no arctangent, and the same rotation carries the flight over the
+        # corner; a margin of 1e-12 (and 1 + cos away from 0) keeps the shortcut strictly
+        # inside the exact test
+        if not have_rot:
+            ang = d[D_WD] * rest
+            cr = math.cos(ang)
+            sr = math.sin(ang)
+            have_rot = True
+        den = 1.0 + cr
+        if den > 1e-3 and tr > sr / den * (1.0 + 1e-12):
+            return window, cr, sr, have_rot
     s1 = 2.0 * math.atan(tr) / k
     if s1 >= window:
-        return window
-    return s1
+        return window, cr, sr, have_rot
+    return s1, cr, sr, have_rot
 
 
 WATCH_EVERY = 32   # corners between two searches for a cycle (early stop)
@@ -340,6 +358,17 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     zppp_bound = zppp_max(p)
     sturm = p[P.SIGMA] == 0.0 and p[P.F_AMP] == 0.0 and p[P.K] > 0.0
     underdamped = d[D_REGIME] == 0.0
+    # the obstacle at the start of each piece (it depends on the parity of j only) and,
+    # for the Sturm test, the free rotation over a whole piece: no trigonometry for a
+    # flight from corner to corner (DESIGN 2b)
+    zs0, zps0, _, _ = z_state(p, 0, 0.0)
+    zs1, zps1, _, _ = z_state(p, 1, 0.0)
+    c_l0 = math.cos(wd * piece_length(d, 0))
+    s_l0 = math.sin(wd * piece_length(d, 0))
+    c_l1 = math.cos(wd * piece_length(d, 1))
+    s_l1 = math.sin(wd * piece_length(d, 1))
+    z_ref = zs0            # obstacle height and slope at (j, tau_ref)
+    zp_ref = zps0
 
     while True:
         L = piece_length(d, j)
@@ -360,6 +389,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 uh_ref = z - up
                 vh_ref = zp - vp
                 tau_ref = tau_rel
+                z_ref = z
+                zp_ref = zp
                 code2, sb = first_root(NEGFORCE, p, d, j, tau_rel, 0.0, 0.0, 0.0, L - tau_rel,
                                        -d[D_NPP], d[D_NPP], math.inf, tol, True)
                 if code2 == FAIL:
@@ -397,6 +428,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 if n_imp >= need:
                     return S.OK
                 tau_ref = 0.0
+                z_ref = z
+                zp_ref = za
                 uh_ref = z - up
                 vh_ref = v_out - vp
                 s_start = 0.0
@@ -412,6 +445,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 # the obstacle turns down under the particle: it leaves with zb
                 v_after = zb
                 tau_ref = 0.0
+                z_ref = z
+                zp_ref = za
                 uh_ref = z - up
                 vh_ref = zb - vp
                 s_start = 0.0
@@ -453,10 +488,22 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             return S.ESCAPED
         zlo, zhi = zpp_range(p, j)
         s0 = s_start
+        rest = L - tau_ref
+        have_rot = False
+        cr = 1.0
+        sr = 0.0
         if sturm and s_start == 0.0:
             # Sturm comparison: no root before the first root of the lower sinusoid
-            z0, zp0, _, _ = z_state(p, j, tau_ref)
-            s0 = sturm_clear(p, d, j, uh_ref - z0, vh_ref - zp0, L - tau_ref)
+            if tau_ref == 0.0:
+                have_rot = True
+                if j % 2 == 0:
+                    cr = c_l0
+                    sr = s_l0
+                else:
+                    cr = c_l1
+                    sr = s_l1
+            s0, cr, sr, have_rot = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref, rest,
+                                               cr, sr, have_rot)
         if s0 >= L - tau_ref:
             code = NONE
             s = L - tau_ref
@@ -469,7 +516,10 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             # a root exactly at the corner belongs to the piece after it (right slope,
             # offset +0: a beta impact), as at every corner rule of the package
             code = NONE
-        uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)
+        if have_rot and s == rest:
+            uh, vh = rotate(p, d, uh_ref, vh_ref, cr, sr)      # sigma = 0: no decay
+        else:
+            uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)
         tau = tau_ref + s
         t = piece_start(d, j) + tau
         up, vp = particular(p, d, t)
@@ -480,6 +530,12 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
             if pieces > max_pieces:
                 return S.NO_IMPACT
             tau_ref = 0.0
+            if j % 2 == 0:
+                z_ref = zs0
+                zp_ref = zps0
+            else:
+                z_ref = zs1
+                zp_ref = zps1
             uh_ref = uh
             vh_ref = vh
             s_start = 0.0
@@ -528,6 +584,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
         if events > max_events:
             return S.MAX_EVENTS
         tau_ref = tau
+        z_ref = z
+        zp_ref = zp
         uh_ref = z - up
         vh_ref = v_out - vp
         s_start = 0.0

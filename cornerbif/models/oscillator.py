@@ -84,18 +84,24 @@ def forcing(p, t):
 
 
 @jit
+def rotate(p, d, uh0, vh0, c, sn):
+    """Under-damped flight without its decay factor: (u_h, u_h') e^{sigma s} a time s after
+    (uh0, vh0), given c = cos(w_d s) and sn = sin(w_d s) (exact for sigma = 0)."""
+    sig = p[P.SIGMA]
+    wd = d[D_WD]
+    A = uh0
+    B = (vh0 + sig * uh0) / wd
+    return A * c + B * sn, (B * wd - sig * A) * c - (A * wd + sig * B) * sn
+
+
+@jit
 def homogeneous(p, d, uh0, vh0, s):
     """Homogeneous flight: (u_h, u_h') a time s after the state (uh0, vh0)."""
     sig = p[P.SIGMA]
     reg = d[D_REGIME]
     if reg == 0.0:
         wd = d[D_WD]
-        A = uh0
-        B = (vh0 + sig * uh0) / wd
-        c = math.cos(wd * s)
-        sn = math.sin(wd * s)
-        u = A * c + B * sn
-        v = (B * wd - sig * A) * c - (A * wd + sig * B) * sn
+        u, v = rotate(p, d, uh0, vh0, math.cos(wd * s), math.sin(wd * s))
         if sig != 0.0:
             e = math.exp(-sig * s)
             u *= e
