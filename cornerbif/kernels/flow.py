@@ -272,6 +272,21 @@ def cycle_watch(ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck, lag_step,
 
 
 @jit
+def recording_from(p, d, q, j, n_imp, last_j, last_tau, auto_phase, pps, sec_phase):
+    """A cycle of q pieces confirmed at corner j: the last piece to run and the section phase.
+
+    Recording runs 4 q + 2 more pieces (two whole cycles for ``analysis.detect_cycle``
+    besides the clusters it drops at both ends); with ``SECTION_AUTO`` the section
+    moves to the corners of the parity opposite to the last impact's corner, as at
+    the end of a full transient.
+    """
+    if auto_phase and n_imp > 0:
+        c, _ = corner_of(p, d, last_j, last_tau)
+        sec_phase = (c + pps // 2) % pps
+    return j + 4 * q + 2, sec_phase
+
+
+@jit
 def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_off, o_corner):
     """Record impact i: time, height, v-, v+ and the nearest corner with the signed offset."""
     o_t[i] = t
@@ -469,10 +484,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                     rec0 = n_imp
                     need = rec0 + record
                     info[0] = rec0
-                    j_end = j + 4 * q + 2
-                    if auto_phase and n_imp > 0:
-                        c, _ = corner_of(p, d, last_j, last_tau)
-                        sec_phase = (c + pps // 2) % pps
+                    j_end, sec_phase = recording_from(p, d, q, j, n_imp, last_j, last_tau,
+                                                      auto_phase, pps, sec_phase)
             if j >= j_end:
                 return S.OK
             events += 1
@@ -555,10 +568,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                     rec0 = n_imp
                     need = rec0 + record
                     info[0] = rec0
-                    j_end = j + 4 * q + 2
-                    if auto_phase and n_imp > 0:
-                        c, _ = corner_of(p, d, last_j, last_tau)
-                        sec_phase = (c + pps // 2) % pps
+                    j_end, sec_phase = recording_from(p, d, q, j, n_imp, last_j, last_tau,
+                                                      auto_phase, pps, sec_phase)
             if j >= j_end:
                 return S.OK
             continue
