@@ -489,11 +489,11 @@ def first_root(kind, *a):
         c["calls_" + key] += 1
         c["evals_" + key] += n
     return code, s
-def sturm_clear(p, d, j, g0, gp0, rest):
-    s = _st(p, d, j, g0, gp0, rest)
+def sturm_clear(p, d, j, g0, gp0, rest, *rot):
+    res = _st(p, d, j, g0, gp0, rest, *rot)
     c["sturm"] += 1
-    c["sturm_whole_piece"] += int(s >= rest)
-    return s
+    c["sturm_whole_piece"] += int(res[0] >= rest)
+    return res
 def store_impact(*a):
     c["impacts"] += 1
     return _si(*a)
@@ -536,7 +536,8 @@ def _unit_costs(n=200000):
     def loop_sturm(p, d, n, dep):
         acc = 0.0
         for i in range(n):
-            x = sturm_clear(p, d, 0, 2.0 + 1e-12 * (acc if dep else i), -0.5, 1.4)
+            x = sturm_clear(p, d, 0, 2.0 + 1e-12 * (acc if dep else i), -0.5, 1.4,
+                            1.0, 0.0, False)[0]
             acc = x if dep else acc + x
         return acc
 
