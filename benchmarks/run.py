@@ -292,10 +292,18 @@ def speed(res, smoke, ncores):
     fig04c = _scene("fig04c", **({"sweep.omega.num": 20} if smoke else {}))
     fig06a = _scene("fig06a", **({"sweep.kappa.num": 20} if smoke else {}))
     print("flow, Fig. 4(c) scene ...", flush=True)
-    res["flow_fig04c_1thread"] = bench_flow(fig04c, 1, 1 if smoke else 3)
-    res["flow_fig04c_2threads"] = bench_flow(fig04c, ncores, 1 if smoke else 3)
-    res["speedup_2cores"] = (res["flow_fig04c_1thread"]["seconds"]
-                             / res["flow_fig04c_2threads"]["seconds"])
+    # 1 and 2 threads alternate: the machine's second core is shared with other tenants
+    # and is taken away for seconds at a time, so the speed-up is the median of the ratios
+    # of neighbouring 1- and 2-thread runs (every round's ratio is kept in the results)
+    rounds = {1: [], ncores: []}
+    for _ in range(1 if smoke else 5):
+        for th in (1, ncores):
+            rounds[th].append(bench_flow(fig04c, th, 1))
+    res["flow_fig04c_1thread"] = min(rounds[1], key=lambda b: b["seconds"])
+    res["flow_fig04c_2threads"] = min(rounds[ncores], key=lambda b: b["seconds"])
+    res["speedup_2cores_rounds"] = [a["seconds"] / b["seconds"]
+                                    for a, b in zip(rounds[1], rounds[ncores])]
+    res["speedup_2cores"] = float(np.median(res["speedup_2cores_rounds"]))
     res["flow_fig06a_1thread"] = bench_flow(fig06a, 1, 1 if smoke else 3)
 
     print("two_particle, Fig. 19(a) scene ...", flush=True)
@@ -393,7 +401,10 @@ def render_speed(r):
             f"| solve_ivp RK45 loop | {r['peer_rk45']['impacts_per_second']:.0f} impacts/s | |",
             f"| flow per core / DOP853 loop | {r['ratio_vs_dop853']:.0f}x | >= 3000x |",
             f"| flow per core / RK45 loop | {r['ratio_vs_rk45']:.0f}x | |",
-            f"| speed-up on 2 cores | {r['speedup_2cores']:.2f}x | >= 1.8x |",
+            f"| speed-up on 2 cores (median of {len(r.get('speedup_2cores_rounds', [0]))} "
+            f"alternating rounds: "
+            f"{', '.join(f'{x:.2f}' for x in r.get('speedup_2cores_rounds', []))}) | "
+            f"{r['speedup_2cores']:.2f}x | >= 1.8x |",
             f"| `cornerbif sweep` cold (empty cache) | {r['startup']['cold_seconds']:.1f} s | |",
             f"| `cornerbif sweep` cached start-up | {r['startup']['cached_seconds']:.2f} s | < 1.5 s |",
             f"| `import cornerbif.cli` | {r['startup']['import_seconds']:.2f} s | |",
