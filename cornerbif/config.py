@@ -585,6 +585,19 @@ def from_dict(raw) -> Scene:
                 problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
 
     kind = plot.get("kind", "diagram")
+    if kind in ("regions", "return_map", "orbit"):
+        # the (a0, b1)-plane figures of the rectified-sine normal form (sections 4-5)
+        if model not in ("map2d", "flow") or (model == "flow" and obstacle != "rectified_sine"):
+            problems.append(f"plot.kind: {kind!r} draws the corner normal form of z = kappa + "
+                            f"beta |sin omega t| (sections 4-5): it needs model 'map2d' or 'flow' "
+                            f"with obstacle 'rectified_sine' (this scene: model {model!r}"
+                            + (f", obstacle {obstacle!r}" if model == "flow" else "") + ")")
+        if axes:
+            problems.append(f"plot.kind: {kind!r} draws a scene without sweep axes; this one "
+                            f"sweeps {', '.join(a.name for a in axes)}")
+        if kind == "return_map" and rn.get("transient", PRESETS[preset]["transient"]) != 0:
+            problems.append("plot.kind: 'return_map' needs run.transient = 0 (A0 is the first "
+                            "section value after the start)")
     if kind not in PLOT_KINDS:
         problems.append(f"plot.kind: {_fmt(kind)} is not a plot kind{_suggest(str(kind), PLOT_KINDS)}; "
                         f"allowed: {', '.join(PLOT_KINDS)}")
@@ -628,15 +641,36 @@ def from_dict(raw) -> Scene:
         if ranges["u"][1] <= ranges["z"][1]:
             problems.append(f"initial.u: {list(ranges['u'])} must reach above initial.z "
                             f"{list(ranges['z'])} (u >= z)")
+    if model == "two_particle" and not problems:
+        # undamped exact resonance of a particle or of the stuck pair (models.two_particle.pack
+        # refuses it per point): checked here over every combination of the values of the
+        # parameters it involves, so that a sweep is refused before any kernel runs
+        from .models import two_particle as TP
+        involved = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
+        swept = [a for a in axes if a.name in involved]
+        n_comb = math.prod(len(set(a.values)) for a in swept) if swept else 1
+        if n_comb <= 200_000:
+            import itertools
+            for combo in itertools.product(*[sorted(set(a.values)) for a in swept]):
+                vals = dict(system) | {a.name: v for a, v in zip(swept, combo)}
+                try:
+                    TP.pack({k: v for k, v in vals.items() if v is not None})
+                except ValueError as e:
+                    if "resonance" in str(e):
+                        where = ", ".join(f"sweep.{a.name} = {v!r}" for a, v in zip(swept, combo))
+                        problems.append(f"system/sweep: {e}" + (f" (at {where})" if where else ""))
+                        break
     if model == "flow" and not problems:
         # models.oscillator's particular solution divides by k^2 - Omega^2 when undamped
         def vals(n):
             return set(next((a.values for a in axes if a.name == n), [system.get(n)]))
         res = vals("Omega") & vals("k")
         if any(x not in (0, 0.0, None) for x in vals("F")) and 0.0 in vals("sigma") and res:
-            problems.append(f"system.Omega: {_fmt(sorted(res)[0])} equals system.k with sigma = 0 "
-                            "and F != 0 (undamped exact resonance: no bounded closed-form "
-                            "flight); change Omega or k, or add damping sigma > 0")
+            def key(n):
+                return f"sweep.{n}" if any(a.name == n for a in axes) else f"system.{n}"
+            problems.append(f"{key('Omega')}: {_fmt(sorted(res)[0])} equals {key('k')} with "
+                            f"sigma = 0 and F != 0 (undamped exact resonance: no bounded "
+                            "closed-form flight); change Omega or k, or add damping sigma > 0")
     if model == "flow" and ranges.get("u") and kap and all(_is_number(x) for x in kap):
         if ranges["u"][1] <= max(kap):
             problems.append(f"initial.u: {list(ranges['u'])} lies on or below the obstacle at t = 0 "

@@ -107,3 +107,14 @@ def test_chart_counts_the_coexisting_fixed_points_of_the_hysteresis_wedge(tmp_pa
     assert n[0, 1] == 2 and set(d.symbols[0, 1]) - {""} == {"a", "b"}
     assert n[0, 0] == 1 and set(d.symbols[0, 0]) == {"b"}
     figure([out], str(tmp_path / "c.png"))
+
+
+@pytest.mark.parametrize("edit, needle", [
+    (["run.transient=5"], "run.transient = 0"),
+    (["system.obstacle=\"sine\""], "obstacle 'rectified_sine'"),
+    (["sweep.kappa.values=[-0.01, -0.009]"], "without sweep axes"),
+])
+def test_normal_form_plot_kinds_refuse_scenes_they_cannot_draw(edit, needle):
+    with pytest.raises(config.SceneError) as e:
+        config.loads((CONFIGS / "fig10a.toml").read_text(), overrides=edit)
+    assert needle in str(e.value)

@@ -296,3 +296,18 @@ def test_damping_keys_in_scenes_and_their_errors():
                 dict(F2=0.1, Omega2=0.9)):                      # undamped resonance with omega2
         with pytest.raises(ValueError, match=list(bad)[-1]):
             P.pack(dict(base, **bad))
+
+
+def test_undamped_resonance_on_a_swept_axis_is_refused_before_any_kernel_runs():
+    """Omega1 = omega1 with sigma1 = 0 and F1 != 0 (eq 4's particular solution divides by
+    omega1^2 - Omega1^2) reached only at one value of a swept axis: the scene is refused by
+    the config, naming the axis value, not half-way through the sweep by ``pack``."""
+    scene = open("configs/fig19a.toml").read().replace("beta = 1.0", "beta = 1.0\nF1 = 0.1")
+    base = config.loads(scene)
+    assert base.system["Omega1"] == 1.0
+    sw = scene.split("[sweep]")[1].split("\n[")[0]
+    bad = scene.replace(sw, sw + "\nomega1 = { values = [0.9, 1.0, 1.1] }\n")
+    with pytest.raises(config.SceneError) as e:
+        config.loads(bad)
+    assert "Omega1: 1.0 equals omega1" in str(e.value) and "sweep.omega1 = 1.0" in str(e.value)
+    config.loads(scene.replace(sw, sw + "\nomega1 = { values = [0.9, 1.1] }\n"))   # no resonance

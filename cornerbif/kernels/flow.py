@@ -237,7 +237,7 @@ def cycle_watch(ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck, lag_step,
     ring_s[pos] = stuck
     if j % WATCH_EVERY != 0:
         return 0
-    hmax = min(qmax, j // 2)
+    hmax = min(qmax, (j - 1) // 2)    # corners 1 .. j are stored (corner 0 is the start)
     tu = tol * (1.0 + abs(u))
     tv = tol * (1.0 + abs(v))
     for q in range(lag_step, hmax + 1, lag_step):
