@@ -715,6 +715,21 @@ def simulate(u0, v0, transient=0, record=100, obstacle="rectified_sine", tol=1e-
         raw["system"]["section_period"] = section_period
     raw["initial"] = {"u": [float(u0.max()) + 1.0, float(u0.max()) + 2.0]}
     scene = from_dict(raw)
+    # every value is checked as a scene's would be, not only the first of each array:
+    # ranges per distinct value (their extremes when there are many), undamped exact
+    # resonance (F != 0, sigma = 0, Omega = k) element by element
+    for k, a in flat.items():
+        vals = np.unique(a)
+        for v in (vals if vals.size <= 2000 else vals[[0, -1]]):
+            from_dict({**raw, "system": {**raw["system"], k: float(v)}})
+    get = {k: flat.get(k, np.full(n, float(scene.system.get(k) or 0.0))) for k in
+           ("F", "sigma", "Omega", "k")}
+    res = (get["F"] != 0.0) & (get["sigma"] == 0.0) & (get["Omega"] == get["k"])
+    if res.any():
+        i = int(np.argmax(res))
+        raise SceneError([f"system.Omega: {get['Omega'][i]!r} equals system.k at element {i} with "
+                          "sigma = 0 and F != 0 (undamped exact resonance: no bounded "
+                          "closed-form flight); change Omega or k, or add damping sigma > 0"])
     params = np.empty((n, P.NPARAM))
     for i in range(n):
         vals = dict(scene.system)

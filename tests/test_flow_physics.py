@@ -225,3 +225,17 @@ def test_results_identical_with_one_and_two_threads():
     for k in ("t", "u", "v_in", "v_out", "corner_offset", "su", "sv", "status", "period"):
         assert np.array_equal(a[k], b[k], equal_nan=True), k
     assert (a["symbols"] == b["symbols"]).all()
+
+
+def test_simulate_checks_every_element_of_an_array_parameter():
+    """simulate() broadcasts arrays of parameters; each value is validated as a scene's would
+    be (r in [0, 1]; no undamped exact resonance F != 0, sigma = 0, Omega = k of eq 4), not
+    only the first."""
+    from cornerbif.config import SceneError
+    from cornerbif.sweep import simulate
+    with pytest.raises(SceneError, match="system.r: 1.5"):
+        simulate(u0=[5.0, 5.0], v0=[1.0, 1.0], transient=2, record=2, omega=1.999, kappa=-2.0,
+                 r=[0.5, 1.5])
+    with pytest.raises(SceneError, match="resonance"):
+        simulate(u0=[5.0, 5.0], v0=[1.0, 1.0], transient=2, record=2, omega=1.999, kappa=-2.0,
+                 F=0.5, Omega=[0.9, 1.0])
