@@ -337,7 +337,8 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
         axs = draw_comparison(fig, datas, kind, plot_cfg)
         import textwrap
         sc = datas[1].scene.get("scene", {})
-        fig.suptitle("\n".join(textwrap.wrap(title or sc.get("title", ""), 80)), fontsize=9)
+        fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""),
+                                              80)), fontsize=9)
         fig.tight_layout()
         fig.savefig(out)
         plt.close(fig)
