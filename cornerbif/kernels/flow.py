@@ -272,18 +272,24 @@ def cycle_watch(ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck, lag_step,
 
 
 @jit
-def recording_from(p, d, q, j, n_imp, last_j, last_tau, auto_phase, pps, sec_phase):
-    """A cycle of q pieces confirmed at corner j: the last piece to run and the section phase.
+def watch_for_cycle(p, d, ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck, lag_step, qmax,
+                    tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0, j_end):
+    """Early stop at corner j: keep the state, and once a cycle of q pieces is confirmed
+    (``cycle_watch``) start recording here.
 
-    Recording runs 4 q + 2 more pieces (two whole cycles for ``analysis.detect_cycle``
-    besides the clusters it drops at both ends); with ``SECTION_AUTO`` the section
-    moves to the corners of the parity opposite to the last impact's corner, as at
-    the end of a full transient.
+    Returns (still watching, number of the first recorded impact, last piece to run,
+    section phase).  Recording runs 4 q + 2 more pieces (two whole cycles for
+    ``analysis.detect_cycle`` besides the clusters it drops at both ends); with
+    ``SECTION_AUTO`` the section moves to the corners of the parity opposite to the
+    last impact's corner, as at the end of a full transient.
     """
+    q = cycle_watch(ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck, lag_step, qmax, tol)
+    if q == 0:
+        return True, rec0, j_end, sec_phase
     if auto_phase and n_imp > 0:
         c, _ = corner_of(p, d, last_j, last_tau)
         sec_phase = (c + pps // 2) % pps
-    return j + 4 * q + 2, sec_phase
+    return False, n_imp, j + 4 * q + 2, sec_phase
 
 
 @jit
@@ -477,15 +483,11 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 final[0] = z
                 final[1] = v_after
             if watch and n_imp < rec0:
-                q = cycle_watch(ring_u, ring_v, ring_n, ring_s, j, z, v_after, n_imp, stuck,
-                                lag_step, qmax, stop_tol)
-                if q > 0:
-                    watch = False
-                    rec0 = n_imp
-                    need = rec0 + record
-                    info[0] = rec0
-                    j_end, sec_phase = recording_from(p, d, q, j, n_imp, last_j, last_tau,
-                                                      auto_phase, pps, sec_phase)
+                watch, rec0, j_end, sec_phase = watch_for_cycle(
+                    p, d, ring_u, ring_v, ring_n, ring_s, j, z, v_after, n_imp, stuck, lag_step,
+                    qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0, j_end)
+                need = rec0 + record
+                info[0] = rec0
             if j >= j_end:
                 return S.OK
             events += 1
@@ -561,15 +563,12 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 final[0] = uh + up
                 final[1] = vh + vp
             if watch and n_imp < rec0:
-                q = cycle_watch(ring_u, ring_v, ring_n, ring_s, j, uh + up, vh + vp, n_imp,
-                                False, lag_step, qmax, stop_tol)
-                if q > 0:
-                    watch = False
-                    rec0 = n_imp
-                    need = rec0 + record
-                    info[0] = rec0
-                    j_end, sec_phase = recording_from(p, d, q, j, n_imp, last_j, last_tau,
-                                                      auto_phase, pps, sec_phase)
+                watch, rec0, j_end, sec_phase = watch_for_cycle(
+                    p, d, ring_u, ring_v, ring_n, ring_s, j, uh + up, vh + vp, n_imp, False,
+                    lag_step, qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0,
+                    j_end)
+                need = rec0 + record
+                info[0] = rec0
             if j >= j_end:
                 return S.OK
             continue
