@@ -197,20 +197,13 @@ def run_two_particle_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray
     return out, st, final, period, ipc, sym
 
 
-def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
-    """Run the model's kernel and the cycle analysis on n items (rows of params/ics)."""
-    if scene.model == "map2d":
-        return run_map_items(params, ics, scene)
-    if scene.model == "two_particle":
-        return run_two_particle_items(params, ics, ints, scene)
+def _run_flow(params, ics, ints, scene, fill, cornered):
+    """The flow kernel and the cycle analysis on n items; outputs not in ``fill`` start
+    unfilled.  Returns (out, status, final, period, impacts per cycle, symbols, first
+    recorded impact)."""
     from .kernels.flow import run_batch
     n = params.shape[0]
     rec = scene.record
-    # NaN marks "no impact" in what is stored and in t, where the analysis reads the end of
-    # the recorded window; what is neither is left unfilled (a summary-only chart then
-    # touches only the few rows' entries its early-stopped runs write)
-    stored = {"impacts": ("u", "v_in", "v_out", "corner_offset"), "section": ("su", "sv")}
-    fill = {"t"} | {k for x in scene.keep for k in stored.get(x, ())}
     out = {k: np.full((n, rec), np.nan) if k in fill else np.empty((n, rec))
            for k in ("t", "u", "v_in", "v_out", "corner_offset", "su", "sv")}
     corner = np.empty((n, rec), np.int64)
@@ -222,31 +215,37 @@ def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scen
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)
     sym = np.zeros((n, rec), np.uint8)
-    cornered = params[:, P.OBSTACLE] != P.SINE
     detect_cycles(out["t"], out["v_in"], out["corner_offset"], corner, cornered,
                   scene.period_tol, period, ipc, sym)
+    return out, st, final, period, ipc, sym, rec0
+
+
+def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
+    """Run the model's kernel and the cycle analysis on n items (rows of params/ics)."""
+    if scene.model == "map2d":
+        return run_map_items(params, ics, scene)
+    if scene.model == "two_particle":
+        return run_two_particle_items(params, ics, ints, scene)
+    # NaN marks "no impact" in what is stored and in t, where the analysis reads the end of
+    # the recorded window; what is neither is left unfilled (a summary-only chart then
+    # touches only the few rows' entries its early-stopped runs write)
+    stored = {"impacts": ("u", "v_in", "v_out", "corner_offset"), "section": ("su", "sv")}
+    fill = {"t"} | {k for x in scene.keep for k in stored.get(x, ())}
+    cornered = params[:, P.OBSTACLE] != P.SINE
+    res = _run_flow(params, ics, ints, scene, fill, cornered)
+    out, st, final, period, ipc, sym, rec0 = res
     # early stop: a run stopped on a cycle the analysis does not confirm (e.g. a near-grazing
     # impact magnifies the last 1e-9 of the transient beyond period_tol) runs again without it
     redo = np.flatnonzero((rec0 < ints[P.I_TRANSIENT]) & (period == 0))
     if redo.size:
         prm = np.ascontiguousarray(params[redo])
         prm[:, P.STOP_TOL] = 0.0
-        sub = {k: np.full((redo.size, rec), np.nan) for k in out}
-        c2 = np.zeros((redo.size, rec), np.int64)
-        st2 = np.zeros(redo.size, np.int8)
-        f2 = np.zeros((redo.size, 2))
-        r2 = np.zeros(redo.size, np.int64)
-        run_batch(prm, ints, np.ascontiguousarray(ics[redo]), sub["t"], sub["u"], sub["v_in"],
-                  sub["v_out"], sub["corner_offset"], c2, sub["su"], sub["sv"], st2, f2, r2)
-        p2 = np.zeros(redo.size, np.int64)
-        i2 = np.zeros(redo.size, np.int64)
-        s2 = np.zeros((redo.size, rec), np.uint8)
-        detect_cycles(sub["t"], sub["v_in"], sub["corner_offset"], c2, cornered[redo],
-                      scene.period_tol, p2, i2, s2)
+        again = _run_flow(prm, np.ascontiguousarray(ics[redo]), ints, scene, set(out),
+                          cornered[redo])
         for k in out:
-            out[k][redo] = sub[k]
-        corner[redo], st[redo], final[redo], rec0[redo] = c2, st2, f2, r2
-        period[redo], ipc[redo], sym[redo] = p2, i2, s2
+            out[k][redo] = again[0][k]
+        for whole, part in zip(res[1:], again[1:]):
+            whole[redo] = part
     if not cornered.all():
         out["corner_offset"][~cornered] = np.nan
     return out, st, final, period, ipc, sym
@@ -677,9 +676,7 @@ def _carry_from_file(scene, f, all_blocks, first_todo):
     if i == 0:
         return None
     prev = all_blocks[i - 1]
-    names = _carry_names(scene)
-    carry = np.stack([f[n][prev] for n in names], -1)
-    return carry.reshape(-1, scene.n_ic, len(names))
+    return block_carry(scene, {n: f[n][prev] for n in _carry_names(scene)})
 
 
 # ------------------------------------------------------------------ one run, from Python
