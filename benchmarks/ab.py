@@ -1,16 +1,15 @@
 """A/B throughput of the flow kernel: two source trees, alternated in one run.
 
-    python benchmarks/ab.py TREE_A TREE_B [--rounds 5] [--num 200] [--scene fig04c]
+    python benchmarks/ab.py TREE_A TREE_B [--rounds 41] [--num 50] [--scene fig04c]
 
-Each round times ``run_items`` (kernel + cycle analysis, as benchmarks/run.py's
-``bench_flow``, one thread, best of 3 by process CPU time, which the other users
-of this shared machine disturb less than wall time) on the scene in a fresh
-process for tree A, then for tree B,
-with each tree first on ``sys.path``; the numba cache of each tree is warmed
-first.  Alternating the two in one run exposes both to the same machine load
-(this machine is shared); the report gives each round's ratio B / A and the
-median.  TREE may be a git commit (exported with ``git archive`` to a temporary
-folder) or a directory.
+Two worker processes, one per tree (each with its tree first on ``sys.path``, its
+numba cache warmed), take turns: each round times ``run_items`` (kernel + cycle
+analysis, as benchmarks/run.py's ``bench_flow``, one thread, by process CPU time)
+on the scene once in A, then once in B, and records B / A.  Short alternating
+turns expose both trees to the same machine load: this machine is shared, and
+the load of its other users moves throughput by +-30 % within minutes, so the
+report gives the median ratio with its quartiles.  TREE may be a git commit
+(exported with ``git archive`` to a temporary folder) or a directory.
 """
 
 from __future__ import annotations
@@ -41,13 +40,12 @@ numba.set_num_threads(1)
 prm, ics = R._items(sc)
 ints = sweep.int_settings(sc)
 sweep.run_items(prm[:8], ics[:8], ints, sc)
-best = float("inf")
-for _ in range(3):
+n_imp = len(prm) * (sc.transient + sc.record)
+print("ready", flush=True)
+for line in sys.stdin:
     c0 = time.process_time()
     sweep.run_items(prm, ics, ints, sc)
-    best = min(best, time.process_time() - c0)
-n_imp = len(prm) * (sc.transient + sc.record)
-print(json.dumps({{"impacts_per_second": n_imp / best, "cpu_seconds": best}}))
+    print(json.dumps({{"impacts": n_imp, "cpu_seconds": time.process_time() - c0}}), flush=True)
 """
 
 
@@ -61,36 +59,51 @@ def _tree(spec, tmp):
     return out
 
 
-def _bench(tree, scene, num):
+def _child(tree, scene, num):
+    """A process that has imported ``tree`` and warmed its kernels; each line sent to it
+    runs the scene once and answers with the CPU time."""
     code = CHILD.format(tree=tree, bench=os.path.join(ROOT, "benchmarks"), scene=scene, num=num)
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                       env=dict(os.environ, PYTHONPATH=tree))
-    if p.returncode != 0:
-        raise RuntimeError(p.stderr)
-    return json.loads(p.stdout.strip().splitlines()[-1])
+    p = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
+                         stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=tree))
+    if p.stdout.readline().strip() != "ready":
+        raise RuntimeError(f"the child for {tree} did not start")
+    return p
+
+
+def _once(child):
+    child.stdin.write("go\n")
+    child.stdin.flush()
+    r = json.loads(child.stdout.readline())
+    return r["impacts"] / r["cpu_seconds"]
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("a")
     ap.add_argument("b")
-    ap.add_argument("--rounds", type=int, default=5)
-    ap.add_argument("--num", type=int, default=200)
+    ap.add_argument("--rounds", type=int, default=41)
+    ap.add_argument("--num", type=int, default=50)
     ap.add_argument("--scene", default="fig04c")
     a = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         ta, tb = _tree(a.a, tmp), _tree(a.b, tmp)
-        _bench(ta, a.scene, 4)
-        _bench(tb, a.scene, 4)          # warm both numba caches
+        ca, cb = _child(ta, a.scene, a.num), _child(tb, a.scene, a.num)
         ratios = []
-        for k in range(a.rounds):
-            ra = _bench(ta, a.scene, a.num)
-            rb = _bench(tb, a.scene, a.num)
-            ratios.append(rb["impacts_per_second"] / ra["impacts_per_second"])
-            print(f"round {k}: A {ra['impacts_per_second'] / 1e6:.3f} M/s, "
-                  f"B {rb['impacts_per_second'] / 1e6:.3f} M/s, B/A {ratios[-1]:.3f}", flush=True)
+        try:
+            for k in range(a.rounds):
+                ra = _once(ca)
+                rb = _once(cb)
+                ratios.append(rb / ra)
+                print(f"round {k}: A {ra / 1e6:.3f} M/s, B {rb / 1e6:.3f} M/s, "
+                      f"B/A {ratios[-1]:.3f}", flush=True)
+        finally:
+            ca.stdin.close()
+            cb.stdin.close()
+            ca.wait()
+            cb.wait()
+    q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else ratios * 3
     print(f"median B/A over {a.rounds} rounds: {statistics.median(ratios):.3f} "
-          f"(min {min(ratios):.3f}, max {max(ratios):.3f})")
+          f"(quartiles {q[0]:.3f} - {q[2]:.3f}; min {min(ratios):.3f}, max {max(ratios):.3f})")
 
 
 if __name__ == "__main__":
