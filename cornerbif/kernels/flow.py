@@ -45,7 +45,7 @@ from .. import status as S
 from .._jit import jit, pjit
 from ..models import params as P
 from ..models.impact import restitution
-from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
+from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, derived_tuple, corner_of, piece_length, piece_start,
                                zpp_range, zppp_max, z_state)
 from ..models.oscillator import derive, forcing, homogeneous, particular, rotate, upp_bound
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
@@ -305,7 +305,8 @@ def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_
 
 
 @jit
-def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final, info):
+def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final,
+            info):
     """Integrate one item from (t, u, v) = (0, u0, v0); fill its output rows.
 
     With early stop (``STOP_TOL`` > 0, see the module docstring) the recording
@@ -323,7 +324,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     ``final`` receives the state at the last section crossed (for ``follow``).
     Returns the status code.
     """
-    d = derive(p)
+    p = P.as_tuple(p_row)            # values, not arrays: no reference counting in calls
+    d = derived_tuple(derive(p_row))
     tol = p[P.TOL]
     r = p[P.R]
     sig = p[P.SIGMA]

@@ -34,6 +34,13 @@ NDERIVED = 11
 
 
 @jit
+def derived_tuple(d):
+    """The derived constants as a tuple of NDERIVED floats (a value: no reference counting
+    in the kernels' calls, see ``params.as_tuple``)."""
+    return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10])
+
+
+@jit
 def piece_start(d, j):
     """Absolute time of the start of piece j."""
     return (j // 2) * d[D_PERIOD] + (j % 2) * d[D_L0]
