@@ -26,6 +26,7 @@ from .._jit import jit
 NONE = 0
 FOUND = 1
 FAIL = -1
+STEP = 2      # ``bracket``: no decision yet, move on
 MAXIT = 400
 
 
@@ -50,3 +51,48 @@ def quad_first_root(f, fp, a):
     if disc < 0.0:
         return math.inf
     return 2.0 * f / (math.sqrt(disc) - fp)
+
+
+@jit
+def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
+    """One step of the certified search from a point with f, f', f'' (module docstring).
+
+    ``lo2 <= f'' <= hi2`` on the whole rest of the piece (length ``rest``); ``m3 >=
+    |f'''|`` (inf if unknown) tightens those bounds locally: on [s, s + H], f'' lies
+    within f''(s) +- m3 H.  H is 1.25 times the root predicted with the exact
+    curvature, so near a transversal root the bracket closes at third order.
+    ``first`` ignores f <= 0 here (the point just after an impact, g = 0, g' > 0).
+
+    Returns (code, h): FOUND with the root at +h, NONE (no root in the rest), FAIL
+    (f is not a number), or STEP with the certified step h to the next point.
+    """
+    if not (f == f):
+        return FAIL, 0.0
+    if not first and f <= 0.0:
+        return FOUND, 0.0
+    hlo = quad_first_root(f, fp, lo2)
+    if hlo >= rest:
+        return NONE, rest
+    hup = quad_first_root(f, fp, hi2)
+    if m3 < math.inf:
+        H = 1.25 * quad_first_root(f, fp, fpp)
+        if H > rest:
+            H = rest
+        if H > hlo:
+            h1 = quad_first_root(f, fp, max(lo2, fpp - m3 * H))
+            if h1 >= H:
+                h1 = H            # no root in [s, s + H]
+                if H == rest:
+                    return NONE, rest
+            if h1 > hlo:
+                hlo = h1
+            h2 = quad_first_root(f, fp, min(hi2, fpp + m3 * H))
+            if h2 <= H and h2 < hup:
+                hup = h2
+    if hup - hlo <= tol and hup <= rest:
+        return FOUND, hlo
+    if hlo < tol:
+        if fp < 0.0 or (fpp < 0.0 and fp <= 0.0):
+            return FOUND, hlo
+        return STEP, tol
+    return STEP, hlo
