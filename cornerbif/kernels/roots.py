@@ -54,6 +54,19 @@ def quad_first_root(f, fp, a):
 
 
 @jit
+def quad_positive(f, fp, a, L):
+    """Whether f + fp h + a h^2 / 2 (f >= 0; f < 0 read as 0) stays >= 0 on [0, L]: the
+    test ``quad_first_root(f, fp, a) >= L`` without a square root or a division."""
+    if f < 0.0:
+        f = 0.0
+    if f + L * (fp + 0.5 * a * L) < 0.0:
+        return False
+    if a <= 0.0 or fp >= 0.0 or fp <= -a * L:
+        return True       # the minimum over [0, L] is at an end
+    return fp * fp - 2.0 * a * f < 0.0     # the vertex inside: it must stay above 0
+
+
+@jit
 def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
     """One step of the certified search from a point with f, f', f'' (module docstring).
 
@@ -70,10 +83,11 @@ def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
         return FAIL, 0.0
     if not first and f <= 0.0:
         return FOUND, 0.0
-    hlo = quad_first_root(f, fp, lo2)
-    if hlo >= rest:
+    if quad_positive(f, fp, lo2, rest):
         return NONE, rest
-    hup = quad_first_root(f, fp, hi2)
+    hlo = quad_first_root(f, fp, lo2)
+    hup = math.inf
+    have_hup = False
     if m3 < math.inf:
         H = 1.25 * quad_first_root(f, fp, fpp)
         if H > rest:
@@ -87,8 +101,13 @@ def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
             if h1 > hlo:
                 hlo = h1
             h2 = quad_first_root(f, fp, min(hi2, fpp + m3 * H))
-            if h2 <= H and h2 < hup:
+            if h2 <= H:
+                # a curvature bound below hi2 puts the upper quadratic's root no later
+                # than that of hi2: the global one is not needed
                 hup = h2
+                have_hup = True
+    if not have_hup:
+        hup = quad_first_root(f, fp, hi2)
     if hup - hlo <= tol and hup <= rest:
         return FOUND, hlo
     if hlo < tol:
