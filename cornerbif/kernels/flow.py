@@ -195,7 +195,8 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     at s = 0, so g has no root before the first root of the sinusoid y (closed form).
 
     Returns (length, cr, sr, have_rot): the length (``rest`` when y stays positive over
-    the rest of the piece; 0 when g0 <= 0, nothing can be certified) and the rotation
+    the rest of the piece; 0 when g0 < 0, or g0 = 0 with g0' <= 0: nothing can be
+    certified; right after an impact, g0 = 0 < g0', y starts positive) and the rotation
     (cr, sr) = (cos, sin)(k rest) of the flight to the end of the piece, which the
     caller passes in when it has it (``have_rot``, e.g. precomputed for whole pieces)
     and which is computed here when the test needs it, so that the caller can carry
@@ -225,7 +226,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     # (stable for short flights, where acos(-c/A) would cancel; a square root and an
     # arctangent)
     c2 = c + x          # = g0: y(0)
-    if c2 <= 0.0:
+    if c2 < 0.0 or (c2 == 0.0 and yv <= 0.0):
         return 0.0, cr, sr, have_rot
     tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
     if tr == math.inf:
