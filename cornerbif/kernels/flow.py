@@ -45,10 +45,11 @@ from .. import status as S
 from .._jit import jit, pjit
 from ..models import params as P
 from ..models.impact import restitution
-from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, piece_length, piece_start,
-                               zpp_range, zppp_max, z_state)
-from ..models.oscillator import derive, forcing, homogeneous, particular, rotate, upp_bound
-from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
+from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, derived_tuple, piece_length,
+                               piece_start, sine_part, zpp_range, zppp_max, z_state)
+from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
+                                 small_sincos, upp_bound)
+from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root
 
 GAP = 0       # f = u - z along the flight
 FORCE = 1     # f = N, the contact force needed to stay on the obstacle
@@ -96,12 +97,8 @@ def evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s):
 
 @jit
 def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, tol, skip_first):
-    """First root of the function ``kind`` on [s0, s_end]; see ``roots``.
-
-    ``lo2 <= f'' <= hi2`` on the whole rest of the piece; ``m3 >= |f'''|`` (inf if
-    unknown) tightens those bounds locally: on [s, s + H], f'' lies within
-    f''(s) +- m3 H.  H is 1.25 times the root predicted with the exact curvature,
-    so near a transversal root the bracket closes at third order.
+    """First root of the function ``kind`` on [s0, s_end]: the certified steps of
+    ``roots.bracket``, whose docstring says what the bounds lo2, hi2, m3 are.
 
     Returns (code, s): code FOUND with the root, NONE with s_end, FAIL when the
     step budget ran out.  ``skip_first`` ignores f <= 0 at s0 (the point just
@@ -110,45 +107,81 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
     s = s0
     f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     first = skip_first
-    local = m3 < math.inf
     for _ in range(MAXIT):
-        if not (f == f):
-            return FAIL, s
-        if not first and f <= 0.0:
-            return FOUND, s
+        code, h = bracket(f, fp, fpp, first, s_end - s, lo2, hi2, m3, tol)
         first = False
-        rest = s_end - s
-        hlo = quad_first_root(f, fp, lo2)
-        if hlo >= rest:
+        if code == NONE:
             return NONE, s_end
-        hup = quad_first_root(f, fp, hi2)
-        if local:
-            H = 1.25 * quad_first_root(f, fp, fpp)
-            if H > rest:
-                H = rest
-            if H > hlo:
-                h1 = quad_first_root(f, fp, max(lo2, fpp - m3 * H))
-                if h1 >= H:
-                    h1 = H            # no root in [s, s + H]
-                    if H == rest:
-                        return NONE, s_end
-                if h1 > hlo:
-                    hlo = h1
-                h2 = quad_first_root(f, fp, min(hi2, fpp + m3 * H))
-                if h2 <= H and h2 < hup:
-                    hup = h2
-        if hup - hlo <= tol and hup <= rest:
-            return FOUND, s + hlo
-        if hlo < tol:
-            if fp < 0.0 or (fpp < 0.0 and fp <= 0.0):
-                return FOUND, s + hlo
-            s = s + tol
-            if s >= s_end:
-                return NONE, s_end
-        else:
-            s = s + hlo
+        if code != STEP:
+            return code, s + h
+        s = s + h
+        if s >= s_end:
+            return NONE, s_end
         f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     return FAIL, s
+
+
+@jit
+def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, va, za, zpa):
+    """State of a free undamped flight (sigma = 0, f = 0) against a sinusoidal piece at s.
+
+    Returns (u, u', z - kappa, z') at tau_ref + s and the anchor (sa, ua, va, za, zpa):
+    the last point where these were evaluated by the closed forms (eqs 4, 8).  Within
+    ``SMALL_ANGLE`` of the anchor (in k x and omega x, x = s - sa) the state is the
+    anchor's, rotated: (u, u'/k) turns at rate k and (z - kappa, z'/omega) at rate
+    omega, with the small angles' sine and cosine from ``small_sincos`` (no libm call);
+    farther away it is evaluated afresh and becomes the anchor.
+    """
+    x = s - sa
+    k = p[P.K]
+    w = p[P.OMEGA]
+    if abs(x) * max(k, w) <= SMALL_ANGLE:
+        s1, c1 = small_sincos(k * x)
+        s2, c2 = small_sincos(w * x)
+        return (ua * c1 + va / k * s1, va * c1 - k * ua * s1,
+                za * c2 + zpa / w * s2, zpa * c2 - w * za * s2, sa, ua, va, za, zpa)
+    u, v = homogeneous(p, d, uh_ref, vh_ref, s)
+    zr, zp = sine_part(p, j, tau_ref + s)
+    return u, v, zr, zp, s, u, v, zr, zp
+
+
+@jit
+def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, tol,
+                      skip_first):
+    """``first_root`` of the gap g = u - z for a free undamped flight (sigma = 0, f = 0)
+    against a sinusoidal piece, with the state carried by ``free_state``: after the
+    first point, points of the search near each other cost no trigonometry.
+
+    Returns (code, s, u, u', z, z', z''): the state at s is the one at the root for
+    FOUND (otherwise the last one evaluated).
+    """
+    kap = p[P.KAPPA]
+    k2 = p[P.K] * p[P.K]
+    w2 = p[P.OMEGA] * p[P.OMEGA]
+    s = s0
+    u, v, zr, zp, sa, ua, va, za, zpa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
+                                                    math.inf, 0.0, 0.0, 0.0, 0.0)
+    first = skip_first
+    for _ in range(MAXIT):
+        z = kap + zr
+        code, h = bracket(u - z, v - zp, w2 * zr - k2 * u, first, s_end - s, lo2, hi2, m3,
+                          tol)
+        first = False
+        if code == NONE:
+            return NONE, s_end, u, v, z, zp, -w2 * zr
+        if code == FOUND and h > 0.0:
+            s = s + h
+            u, v, zr, zp, sa, ua, va, za, zpa = free_state(p, d, j, tau_ref, uh_ref, vh_ref,
+                                                            s, sa, ua, va, za, zpa)
+            z = kap + zr
+        if code != STEP:
+            return code, s, u, v, z, zp, -w2 * zr
+        s = s + h
+        if s >= s_end:
+            return NONE, s_end, u, v, z, zp, -w2 * zr
+        u, v, zr, zp, sa, ua, va, za, zpa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
+                                                        sa, ua, va, za, zpa)
+    return FAIL, s, u, v, kap + zr, zp, -w2 * zr
 
 
 @jit
@@ -162,7 +195,8 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     at s = 0, so g has no root before the first root of the sinusoid y (closed form).
 
     Returns (length, cr, sr, have_rot): the length (``rest`` when y stays positive over
-    the rest of the piece; 0 when g0 <= 0, nothing can be certified) and the rotation
+    the rest of the piece; 0 when g0 < 0, or g0 = 0 with g0' <= 0: nothing can be
+    certified; right after an impact, g0 = 0 < g0', y starts positive) and the rotation
     (cr, sr) = (cos, sin)(k rest) of the flight to the end of the piece, which the
     caller passes in when it has it (``have_rot``, e.g. precomputed for whole pieces)
     and which is computed here when the test needs it, so that the caller can carry
@@ -192,7 +226,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     # (stable for short flights, where acos(-c/A) would cancel; a square root and an
     # arctangent)
     c2 = c + x          # = g0: y(0)
-    if c2 <= 0.0:
+    if c2 < 0.0 or (c2 == 0.0 and yv <= 0.0):
         return 0.0, cr, sr, have_rot
     tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
     if tr == math.inf:
@@ -305,7 +339,8 @@ def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_
 
 
 @jit
-def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final, info):
+def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final,
+            info):
     """Integrate one item from (t, u, v) = (0, u0, v0); fill its output rows.
 
     With early stop (``STOP_TOL`` > 0, see the module docstring) the recording
@@ -323,7 +358,8 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     ``final`` receives the state at the last section crossed (for ``follow``).
     Returns the status code.
     """
-    d = derive(p)
+    p = P.as_tuple(p_row)            # values, not arrays: no reference counting in calls
+    d = derived_tuple(derive(p_row))
     tol = p[P.TOL]
     r = p[P.R]
     sig = p[P.SIGMA]
@@ -378,6 +414,7 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
     wd = d[D_WD]
     zppp_bound = zppp_max(p)
     sturm = p[P.SIGMA] == 0.0 and p[P.F_AMP] == 0.0 and p[P.K] > 0.0
+    free_sine = sturm and p[P.OBSTACLE] != P.TRIANGLE     # see first_impact_free
     underdamped = d[D_REGIME] == 0.0
     # the obstacle at the start of each piece (it depends on the parity of j only) and,
     # for the Sturm test, the free rotation over a whole piece: no trigonometry for a
@@ -519,19 +556,29 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                     sr = s_l1
             s0, cr, sr, have_rot = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref, rest,
                                                cr, sr, have_rot)
-        if s0 >= L - tau_ref:
+        at_root = False      # the search returned the state at the impact
+        if s0 >= rest:
             code = NONE
-            s = L - tau_ref
+            s = rest
+        elif free_sine:
+            code, s, u_i, v_i, z_i, zp_i, zpp_i = first_impact_free(
+                p, d, j, tau_ref, uh_ref, vh_ref, s0, rest, -bu - zhi, bu - zlo,
+                bu3 + zppp_bound, tol, skip and s0 == 0.0)
+            at_root = True
         else:
-            code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s0, L - tau_ref,
+            code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s0, rest,
                                  -bu - zhi, bu - zlo, bu3 + zppp_bound, tol, skip and s0 == 0.0)
         if code == FAIL:
             return S.STEP_LIMIT
-        if code == FOUND and s >= L - tau_ref:
+        if code == FOUND and s >= rest:
             # a root exactly at the corner belongs to the piece after it (right slope,
             # offset +0: a beta impact), as at every corner rule of the package
             code = NONE
-        if have_rot and s == rest:
+        at_root = at_root and code == FOUND
+        if at_root:
+            uh = u_i       # sigma = 0, f = 0: no particular solution
+            vh = v_i
+        elif have_rot and s == rest:
             uh, vh = rotate(p, d, uh_ref, vh_ref, cr, sr)      # sigma = 0: no decay
         else:
             uh, vh = homogeneous(p, d, uh_ref, vh_ref, s)
@@ -573,7 +620,12 @@ def run_one(p, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_s
                 return S.OK
             continue
         # ---- impact at (j, tau) -----------------------------------------------------
-        z, zp, zpp, _ = z_state(p, j, tau)
+        if at_root:
+            z = z_i
+            zp = zp_i
+            zpp = zpp_i
+        else:
+            z, zp, zpp, _ = z_state(p, j, tau)
         v_in = vh + vp
         v_out = restitution(v_in, zp, r)
         if n_imp >= rec0:

@@ -26,6 +26,7 @@ from .._jit import jit
 NONE = 0
 FOUND = 1
 FAIL = -1
+STEP = 2      # ``bracket``: no decision yet, move on
 MAXIT = 400
 
 
@@ -50,3 +51,67 @@ def quad_first_root(f, fp, a):
     if disc < 0.0:
         return math.inf
     return 2.0 * f / (math.sqrt(disc) - fp)
+
+
+@jit
+def quad_positive(f, fp, a, L):
+    """Whether f + fp h + a h^2 / 2 (f >= 0; f < 0 read as 0) stays >= 0 on [0, L]: the
+    test ``quad_first_root(f, fp, a) >= L`` without a square root or a division."""
+    if f < 0.0:
+        f = 0.0
+    if f + L * (fp + 0.5 * a * L) < 0.0:
+        return False
+    if a <= 0.0 or fp >= 0.0 or fp <= -a * L:
+        return True       # the minimum over [0, L] is at an end
+    return fp * fp - 2.0 * a * f < 0.0     # the vertex inside: it must stay above 0
+
+
+@jit
+def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
+    """One step of the certified search from a point with f, f', f'' (module docstring).
+
+    ``lo2 <= f'' <= hi2`` on the whole rest of the piece (length ``rest``); ``m3 >=
+    |f'''|`` (inf if unknown) tightens those bounds locally: on [s, s + H], f'' lies
+    within f''(s) +- m3 H.  H is 1.25 times the root predicted with the exact
+    curvature, so near a transversal root the bracket closes at third order.
+    ``first`` ignores f <= 0 here (the point just after an impact, g = 0, g' > 0).
+
+    Returns (code, h): FOUND with the root at +h, NONE (no root in the rest), FAIL
+    (f is not a number), or STEP with the certified step h to the next point.
+    """
+    if not (f == f):
+        return FAIL, 0.0
+    if not first and f <= 0.0:
+        return FOUND, 0.0
+    if quad_positive(f, fp, lo2, rest):
+        return NONE, rest
+    hlo = quad_first_root(f, fp, lo2)
+    hup = math.inf
+    have_hup = False
+    if m3 < math.inf:
+        H = 1.25 * quad_first_root(f, fp, fpp)
+        if H > rest:
+            H = rest
+        if H > hlo:
+            h1 = quad_first_root(f, fp, max(lo2, fpp - m3 * H))
+            if h1 >= H:
+                h1 = H            # no root in [s, s + H]
+                if H == rest:
+                    return NONE, rest
+            if h1 > hlo:
+                hlo = h1
+            h2 = quad_first_root(f, fp, min(hi2, fpp + m3 * H))
+            if h2 <= H:
+                # a curvature bound below hi2 puts the upper quadratic's root no later
+                # than that of hi2: the global one is not needed
+                hup = h2
+                have_hup = True
+    if not have_hup:
+        hup = quad_first_root(f, fp, hi2)
+    if hup - hlo <= tol and hup <= rest:
+        return FOUND, hlo
+    if hlo < tol:
+        if fp < 0.0 or (fpp < 0.0 and fp <= 0.0):
+            return FOUND, hlo
+        return STEP, tol
+    return STEP, hlo

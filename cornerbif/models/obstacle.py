@@ -34,6 +34,13 @@ NDERIVED = 11
 
 
 @jit
+def derived_tuple(d):
+    """The derived constants as a tuple of NDERIVED floats (a value: no reference counting
+    in the kernels' calls, see ``params.as_tuple``)."""
+    return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10])
+
+
+@jit
 def piece_start(d, j):
     """Absolute time of the start of piece j."""
     return (j // 2) * d[D_PERIOD] + (j % 2) * d[D_L0]
@@ -53,13 +60,19 @@ def z_state(p, j, tau):
             return p[P.KAPPA] + p[P.THETA2] * tau, p[P.THETA2], 0.0, 0.0
         L1 = p[P.THETA2] * math.pi / p[P.OMEGA] / (p[P.THETA1] + p[P.THETA2])
         return p[P.KAPPA] + p[P.THETA1] * (L1 - tau), -p[P.THETA1], 0.0, 0.0
+    zr, zp = sine_part(p, j, tau)
+    w2 = p[P.OMEGA] * p[P.OMEGA]
+    return p[P.KAPPA] + zr, zp, -w2 * zr, -w2 * zp
+
+
+@jit
+def sine_part(p, j, tau):
+    """z - kappa and z' on piece j of a sinusoidal obstacle (sine, rectified_sine) at tau."""
     w = p[P.OMEGA]
     b = p[P.BETA]
-    if ob == P.SINE and j % 2 == 1:
+    if p[P.OBSTACLE] == P.SINE and j % 2 == 1:
         b = -b
-    s = math.sin(w * tau)
-    c = math.cos(w * tau)
-    return p[P.KAPPA] + b * s, b * w * c, -b * w * w * s, -b * w * w * w * c
+    return b * math.sin(w * tau), b * w * math.cos(w * tau)
 
 
 @jit

@@ -83,6 +83,24 @@ def forcing(p, t):
     return p[P.F_AMP] * math.cos(p[P.F_OMEGA] * t + p[P.F_PHI])
 
 
+SMALL_ANGLE = 0.25   # |x| up to which small_sincos is used: its remainder is below 1e-21
+
+
+@jit
+def small_sincos(x):
+    """(sin x, cos x) for |x| <= SMALL_ANGLE: Taylor series to x^13 and x^14.
+
+    The remainders are below x^15/15! < 7.2e-22 and x^16/16! < 1.2e-23, far below the
+    rounding of the result; a few multiply-adds instead of a libm call (DESIGN 2b).
+    """
+    t = x * x
+    sn = x * (1.0 + t * (-1.0 / 6.0 + t * (1.0 / 120.0 + t * (-1.0 / 5040.0 + t * (
+        1.0 / 362880.0 + t * (-1.0 / 39916800.0 + t * (1.0 / 6227020800.0)))))))
+    c = 1.0 + t * (-0.5 + t * (1.0 / 24.0 + t * (-1.0 / 720.0 + t * (1.0 / 40320.0 + t * (
+        -1.0 / 3628800.0 + t * (1.0 / 479001600.0 + t * (-1.0 / 87178291200.0)))))))
+    return sn, c
+
+
 @jit
 def rotate(p, d, uh0, vh0, c, sn):
     """Under-damped flight without its decay factor: (u_h, u_h') e^{sigma s} a time s after
