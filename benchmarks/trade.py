@@ -474,21 +474,50 @@ from cornerbif import config, sweep
 import cornerbif.kernels.flow as F
 from cornerbif.kernels.roots import FOUND, NONE
 
-c = {{"eval_gap": 0, "eval_force": 0, "calls_found": 0, "calls_none": 0, "evals_found": 0,
-      "evals_none": 0, "sturm": 0, "sturm_whole_piece": 0, "impacts": 0}}
-_ev, _fr, _st, _si = F.evaluate, F.first_root, F.sturm_clear, F.store_impact
+KEYS = ("eval_gap", "eval_gap_free", "rotations", "steps", "eval_force", "steps_force",
+        "calls_found", "calls_none", "evals_found", "evals_none", "steps_found",
+        "steps_none", "sturm", "sturm_whole_piece", "impacts")
+c = dict.fromkeys(KEYS, 0)
+gap_search = [False]      # inside a search of the gap (first_root(GAP), first_impact_free)
+sines = [0]               # sine_part calls at flow level: free_state's closed-form branch
+_ev, _fr, _fif, _fs, _sp, _br, _st, _si = (F.evaluate, F.first_root, F.first_impact_free,
+    F.free_state, F.sine_part, F.bracket, F.sturm_clear, F.store_impact)
 def evaluate(kind, *a):
     c["eval_gap" if kind == F.GAP else "eval_force"] += 1
     return _ev(kind, *a)
+def sine_part(*a):
+    sines[0] += 1
+    return _sp(*a)
+def free_state(*a):
+    before = sines[0]
+    res = _fs(*a)
+    if sines[0] > before:
+        c["eval_gap"] += 1
+        c["eval_gap_free"] += 1
+    else:
+        c["rotations"] += 1
+    return res
+def bracket(*a):
+    c["steps" if gap_search[0] else "steps_force"] += 1
+    return _br(*a)
+def _search(fn, *a):
+    before = c["eval_gap"], c["steps"]
+    gap_search[0] = True
+    try:
+        res = fn(*a)
+    finally:
+        gap_search[0] = False
+    key = "found" if res[0] == FOUND else "none"
+    c["calls_" + key] += 1
+    c["evals_" + key] += c["eval_gap"] - before[0]
+    c["steps_" + key] += c["steps"] - before[1]
+    return res
 def first_root(kind, *a):
-    before = c["eval_gap"] + c["eval_force"]
-    code, s = _fr(kind, *a)
-    n = c["eval_gap"] + c["eval_force"] - before
     if kind == F.GAP:
-        key = "found" if code == FOUND else "none"
-        c["calls_" + key] += 1
-        c["evals_" + key] += n
-    return code, s
+        return _search(_fr, kind, *a)
+    return _fr(kind, *a)
+def first_impact_free(*a):
+    return _search(_fif, *a)
 def sturm_clear(p, d, j, g0, gp0, rest, *rot):
     res = _st(p, d, j, g0, gp0, rest, *rot)
     c["sturm"] += 1
@@ -497,7 +526,9 @@ def sturm_clear(p, d, j, g0, gp0, rest, *rot):
 def store_impact(*a):
     c["impacts"] += 1
     return _si(*a)
-F.evaluate, F.first_root, F.sturm_clear, F.store_impact = evaluate, first_root, sturm_clear, store_impact
+(F.evaluate, F.first_root, F.first_impact_free, F.free_state, F.sine_part, F.bracket,
+ F.sturm_clear, F.store_impact) = (evaluate, first_root, first_impact_free, free_state,
+                                   sine_part, bracket, sturm_clear, store_impact)
 out = {{}}
 for tol in {tols!r}:
     for k in c: c[k] = 0
@@ -514,22 +545,60 @@ print("COUNTS", json.dumps(out))
 
 
 def _unit_costs(n=200000):
-    """Seconds per call of the kernel's pieces, each timed in a jitted loop of dependent calls
-    (latency, as in the kernel; Fig. 4(c)-like point omega = 2.1, kappa = 0): a gap evaluation (closed-form flight and obstacle), the
-    Sturm certificate, and one quadratic step bound (roots.quad_first_root)."""
+    """Seconds per call of the kernel's pieces, each timed in a jitted loop with the tuples
+    the kernel passes (``P.as_tuple``, ``derived_tuple``; Fig. 4(c)-like point omega = 2.1,
+    kappa = 0), as throughput (independent calls) and as latency (each call depends on the
+    last, as in the kernel's search):
+
+    * ``exact``: a closed-form evaluation of a free flight's state (``flow.free_state``
+      forced to its exact branch by an anchor at infinity: eqs (4), (8));
+    * ``rotation``: the same state by small-angle rotation from an anchor 0.05 away;
+    * ``evaluate``: a gap evaluation of the general path (``flow.evaluate(GAP)``);
+    * ``bracket``: one certified search step (``roots.bracket``) from a point with g > 0,
+      g' < 0 and a finite bound on g''';
+    * ``sturm``: the Sturm certificate (``flow.sturm_clear``).
+    """
     import numba
 
-    from cornerbif.kernels.flow import GAP, evaluate, sturm_clear
-    from cornerbif.kernels.roots import quad_first_root
+    from cornerbif.kernels.flow import GAP, evaluate, free_state, sturm_clear
+    from cornerbif.kernels.roots import bracket
     from cornerbif.models import params as P
+    from cornerbif.models.obstacle import derived_tuple
     from cornerbif.models.oscillator import derive
 
     @numba.njit
-    def loop_eval(p, d, n, dep):
+    def loop_exact(p, d, n, dep):
         acc = 0.0
         for i in range(n):     # dep: each call depends on the last (latency)
+            u = free_state(p, d, 0, 0.1, 3.0, 0.5, 0.2 + 1e-12 * (acc if dep else i),
+                           math.inf, 0.0, 0.0, 0.0, 0.0)[0]
+            acc = u if dep else acc + u
+        return acc
+
+    @numba.njit
+    def loop_rotation(p, d, n, dep):
+        acc = 0.0
+        for i in range(n):
+            u = free_state(p, d, 0, 0.1, 3.0, 0.5, 0.2 + 1e-12 * (acc if dep else i),
+                           0.15, 2.9, 0.8, 0.5, 1.9)[0]
+            acc = u if dep else acc + u
+        return acc
+
+    @numba.njit
+    def loop_evaluate(p, d, n, dep):
+        acc = 0.0
+        for i in range(n):
             f, fp, fpp = evaluate(GAP, p, d, 0, 0.1, 3.0, 0.5, 0.2 + 1e-12 * (acc if dep else i))
             acc = f if dep else acc + f
+        return acc
+
+    @numba.njit
+    def loop_bracket(p, d, n, dep):
+        acc = 0.0
+        for i in range(n):     # the bounds of a flight of amplitude 3 on a Fig. 4(c) piece
+            h = bracket(0.3 + 1e-12 * (acc if dep else i), -1.0, -0.5, False, 1.2, -3.0, 7.4,
+                        12.3, 1e-12)[1]
+            acc = h if dep else acc + h
         return acc
 
     @numba.njit
@@ -541,20 +610,15 @@ def _unit_costs(n=200000):
             acc = x if dep else acc + x
         return acc
 
-    @numba.njit
-    def loop_quad(p, d, n, dep):
-        acc = 0.0
-        for i in range(n):
-            x = quad_first_root(1.0 + 1e-12 * (acc if dep else i), -0.3, -2.0)
-            acc = x if dep else acc + x
-        return acc
-
-    p = P.pack({"omega": 2.1, "kappa": 0.0, "beta": 1.0, "r": 0.8}, "rectified_sine", 1e-12,
-               1e-6, 1e6, None)
-    d = derive(p)
+    row = P.pack({"omega": 2.1, "kappa": 0.0, "beta": 1.0, "r": 0.8}, "rectified_sine", 1e-12,
+                 1e-6, 1e6, None)
+    p = P.as_tuple(row)
+    d = derived_tuple(derive(row))
     out = {}
     for dep, flavour in ((False, "throughput"), (True, "latency")):
-        for name, fn in (("eval", loop_eval), ("sturm", loop_sturm), ("quad", loop_quad)):
+        for name, fn in (("exact", loop_exact), ("rotation", loop_rotation),
+                         ("evaluate", loop_evaluate), ("bracket", loop_bracket),
+                         ("sturm", loop_sturm)):
             fn(p, d, 10, dep)
             best = math.inf
             for _ in range(3):
@@ -574,13 +638,17 @@ def bench_profile(smoke=False):
 
     Inside the kernel (counted, not timed: a timer per event would cost more than the
     event): a ``NUMBA_DISABLE_JIT=1`` run of the same kernel on a sample of the scene
-    counts gap evaluations, root searches and Sturm certificates per impact at
-    tol = 1e-12 and at tol = 1e-4.  Root bracketing = the search steps needed at
-    tol = 1e-4, refinement = the extra steps at 1e-12, Sturm exclusion = the certificates
-    per impact, each priced with
-    unit costs measured in jitted loops (``_unit_costs``; one search step = one evaluation
-    + 5 quadratic step bounds) both as throughput (independent calls: a lower bound) and
-    as latency (dependent calls: an upper bound); the share quoted is their mean.
+    counts, per impact at tol = 1e-12 and at tol = 1e-4, what the gap searches do: exact
+    gap evaluations (``flow.evaluate(GAP)`` on the general path, and the closed-form
+    branch of ``flow.free_state`` on the free undamped flights of this scene, seen by its
+    call of ``sine_part``), small-angle rotations (the other branch of ``free_state``),
+    certified search steps (``roots.bracket`` inside ``first_root(GAP)`` and
+    ``first_impact_free``), searches that found an impact or none, and Sturm
+    certificates.  Root bracketing = the searches' work at tol = 1e-4, refinement = the
+    extra work at 1e-12, Sturm exclusion = the certificates, each priced with unit costs
+    measured in jitted loops (``_unit_costs``: exact evaluation, rotation, search step,
+    certificate) both as throughput (independent calls: a lower bound) and as latency
+    (dependent calls: an upper bound); the share quoted is their mean.
     Bookkeeping = the rest of the kernel time (flight set-up, carrying the flight across
     pieces, impact law, recording).  As a check, the refinement is also timed as a variant
     run (kernel time at tol 1e-12 against 1e-4, same scene; ``refinement_timed``).
@@ -669,11 +737,17 @@ def bench_profile(smoke=False):
     inner = {"kernel_ns_per_impact": 1e9 * k_imp, "kernel_ns_per_impact_tol_1e-4":
              1e9 * ts["1e-4"] / impacts,
              "refinement_timed": 1.0 - ts["1e-4"] / ts["1e-12"]}
-    extra = max(per_imp(fine, "eval_gap") - per_imp(coarse, "eval_gap"), 0.0)
+
+    def search(c, flavour):
+        """Seconds per impact of the gap searches: exact evaluations, rotations, steps."""
+        u = lambda k: units[f"{k}_{flavour}"]                               # noqa: E731
+        return (per_imp(c, "eval_gap_free") * u("exact") + per_imp(c, "rotations")
+                * u("rotation") + (per_imp(c, "eval_gap") - per_imp(c, "eval_gap_free"))
+                * u("evaluate") + per_imp(c, "steps") * u("bracket"))
     for flavour in ("throughput", "latency"):
-        step = units[f"eval_{flavour}"] + 5 * units[f"quad_{flavour}"]
-        inner[f"bracketing_{flavour}"] = per_imp(coarse, "eval_gap") * step / k_imp
-        inner[f"refinement_{flavour}"] = extra * step / k_imp
+        inner[f"bracketing_{flavour}"] = search(coarse, flavour) / k_imp
+        inner[f"refinement_{flavour}"] = max(search(fine, flavour) - search(coarse, flavour),
+                                             0.0) / k_imp
         inner[f"sturm_{flavour}"] = per_imp(fine, "sturm") * units[f"sturm_{flavour}"] / k_imp
     # point estimate: the mean of the two pricings; bookkeeping = what is left
     for part in ("bracketing", "refinement", "sturm"):
@@ -798,42 +872,54 @@ def render_profile(res, r):
     sh, k = res["shares"], res["kernel"]
     c12 = res["counts_per_impact"][repr(1e-12)]
     c4 = res["counts_per_impact"][repr(1e-4)]
+    un = res["unit_ns"]
     ks = sh["kernel"]
-    return ["## Profile of a Fig. 4(c) sweep (one thread)", "",
-            f"Scene: {res['scene']}; {res['impacts'] / 1e6:.1f} M impacts, whole "
-            f"`run_sweep` {res['sweep_seconds']:.2f} s, file {res['file_bytes'] / 2**20:.1f} MiB. "
-            "Stages timed directly (best of 3; HDF5 write = the whole sweep minus the other "
-            "stages); inside the kernel: operations counted in a "
-            f"NUMBA_DISABLE_JIT run ({res['count_sample']}) x unit costs from jitted loops "
-            "(mean of throughput and latency pricing, range in brackets), bracketing = the "
-            "search steps needed at tol 1e-4, refinement = the extra ones at 1e-12, "
-            "bookkeeping = the rest. Bar: `profile.png`.", "",
-            "| part | share of the sweep |", "|---|---|",
-            f"| set-up (parameters, starts) | {100 * sh['setup']:.1f} % |",
-            f"| kernel: root bracketing | {100 * ks * k['bracketing']:.1f} % "
-            f"({_rng(ks, k, 'bracketing')}) |",
-            f"| kernel: refinement (tol 1e-4 -> 1e-12) | {100 * ks * k['refinement']:.1f} % "
-            f"({_rng(ks, k, 'refinement')}) |",
-            f"| kernel: Sturm exclusion | {100 * ks * k['sturm']:.1f} % "
-            f"({_rng(ks, k, 'sturm')}) |",
-            f"| kernel: bookkeeping (flight set-up, piece crossing, impact law, recording) | "
-            f"{100 * ks * k['bookkeeping']:.1f} % |",
-            f"| analysis (detect_cycles) | {100 * sh['analysis']:.2f} % |",
-            f"| HDF5 write and file handling | {100 * sh['write_and_file']:.1f} % |", "",
-            f"Per impact at tol 1e-12 (1e-4): {c12['eval_gap']:.2f} ({c4['eval_gap']:.2f}) gap "
-            f"evaluations, of which {c12['evals_none']:.2f} in searches that proved a piece "
-            f"root-free; {c12['sturm']:.2f} Sturm certificates ({c12['sturm_whole_piece']:.2f} "
-            f"clearing a whole piece). Unit costs (ns, throughput / latency): evaluation "
-            f"{res['unit_ns']['eval_throughput']:.0f} / {res['unit_ns']['eval_latency']:.0f}, "
-            f"Sturm {res['unit_ns']['sturm_throughput']:.0f} / "
-            f"{res['unit_ns']['sturm_latency']:.0f}, step bound "
-            f"{res['unit_ns']['quad_throughput']:.1f} / {res['unit_ns']['quad_latency']:.1f}; "
-            f"kernel {k['kernel_ns_per_impact']:.0f} ns per impact; variant runs: "
-            f"{1e9 * res['kernel_variant_seconds']['1e-12'] / res['impacts']:.0f} ns at tol 1e-12, "
-            f"{k['kernel_ns_per_impact_tol_1e-4']:.0f} at 1e-4 (timed variant: refinement "
-            f"{100 * k['refinement_timed']:+.0f} % of the kernel; on this shared machine "
-            "that difference is within the noise)."
-            + (f" The priced parts summed to {100 * k['priced_sum_before_scaling']:.0f} % of the "
-               "kernel time (unit costs measured while the machine was busier) and were scaled "
-               "to 100 %: bookkeeping is then below the resolution of this method."
-               if k.get("priced_sum_before_scaling", 0) > 1 else ""), ""]
+    L = ["## Profile of a Fig. 4(c) sweep (one thread)", "",
+         f"Scene: {res['scene']}; {res['impacts'] / 1e6:.1f} M impacts, whole "
+         f"`run_sweep` {res['sweep_seconds']:.2f} s, file {res['file_bytes'] / 2**20:.1f} MiB. "
+         "Stages timed directly (best of 3; HDF5 write = the whole sweep minus the other "
+         "stages); inside the kernel: operations counted in a "
+         f"NUMBA_DISABLE_JIT run ({res['count_sample']}) x unit costs from jitted loops "
+         "(mean of throughput and latency pricing, range in brackets), bracketing = the gap "
+         "searches' work (exact evaluations, small-angle rotations, certified steps) at tol "
+         "1e-4, refinement = the extra work at 1e-12, bookkeeping = the rest. "
+         "Bar: `profile.png`.", ""]
+    if "steps" not in c12:
+        return L + ["(These counts predate the free-flight search `flow.first_impact_free` "
+                    "and are not shown: run `python benchmarks/run.py --only profile`.)", ""]
+    general = c12["eval_gap"] - c12["eval_gap_free"]
+    return L + [
+        "| part | share of the sweep |", "|---|---|",
+        f"| set-up (parameters, starts) | {100 * sh['setup']:.1f} % |",
+        f"| kernel: root bracketing | {100 * ks * k['bracketing']:.1f} % "
+        f"({_rng(ks, k, 'bracketing')}) |",
+        f"| kernel: refinement (tol 1e-4 -> 1e-12) | {100 * ks * k['refinement']:.1f} % "
+        f"({_rng(ks, k, 'refinement')}) |",
+        f"| kernel: Sturm exclusion | {100 * ks * k['sturm']:.1f} % "
+        f"({_rng(ks, k, 'sturm')}) |",
+        f"| kernel: bookkeeping (flight set-up, piece crossing, impact law, recording) | "
+        f"{100 * ks * k['bookkeeping']:.1f} % |",
+        f"| analysis (detect_cycles) | {100 * sh['analysis']:.2f} % |",
+        f"| HDF5 write and file handling | {100 * sh['write_and_file']:.1f} % |", "",
+        f"Per impact at tol 1e-12 (1e-4): {c12['calls_found'] + c12['calls_none']:.2f} gap "
+        f"searches, {c12['calls_none']:.2f} of them proving a piece impact-free; "
+        f"{c12['steps']:.2f} ({c4['steps']:.2f}) certified search steps; "
+        f"{c12['eval_gap']:.2f} ({c4['eval_gap']:.2f}) exact gap evaluations"
+        + (f" ({general:.2f} on the general path, `flow.evaluate`)" if general > 0 else "")
+        + f" and {c12['rotations']:.2f} ({c4['rotations']:.2f}) small-angle rotations from "
+        f"the last exact point; {c12['sturm']:.2f} Sturm certificates "
+        f"({c12['sturm_whole_piece']:.2f} clearing a whole piece). Unit costs (ns, "
+        f"throughput / latency): exact evaluation {un['exact_throughput']:.0f} / "
+        f"{un['exact_latency']:.0f}, rotation {un['rotation_throughput']:.0f} / "
+        f"{un['rotation_latency']:.0f}, search step {un['bracket_throughput']:.0f} / "
+        f"{un['bracket_latency']:.0f}, Sturm {un['sturm_throughput']:.0f} / "
+        f"{un['sturm_latency']:.0f}; "
+        f"kernel {k['kernel_ns_per_impact']:.0f} ns per impact; variant runs: "
+        f"{1e9 * res['kernel_variant_seconds']['1e-12'] / res['impacts']:.0f} ns at tol 1e-12, "
+        f"{k['kernel_ns_per_impact_tol_1e-4']:.0f} at 1e-4 (timed variant: refinement "
+        f"{100 * k['refinement_timed']:+.0f} % of the kernel; on this shared machine "
+        "that difference is within the noise)."
+        + (f" The priced parts summed to {100 * k['priced_sum_before_scaling']:.0f} % of the "
+           "kernel time (unit costs measured while the machine was busier) and were scaled "
+           "to 100 %: bookkeeping is then below the resolution of this method."
+           if k.get("priced_sum_before_scaling", 0) > 1 else ""), ""]
