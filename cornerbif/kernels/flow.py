@@ -45,8 +45,9 @@ from .. import status as S
 from .._jit import jit, pjit
 from ..models import params as P
 from ..models.impact import restitution
-from ..models.obstacle import (D_L0, D_NPP, D_REGIME, D_WD, corner_of, derived_tuple, piece_length,
-                               piece_start, sine_part, zpp_range, zppp_max, z_state)
+from ..models.obstacle import (D_HALF, D_IK, D_L0, D_NPP, D_REGIME, D_STURM0, D_STURM1, D_WD,
+                               corner_of, derived_tuple, piece_length, piece_start, sine_part,
+                               zpp_range, zppp_max, z_state)
 from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
                                  small_sincos, upp_bound)
 from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root
@@ -202,23 +203,12 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     and which is computed here when the test needs it, so that the caller can carry
     the flight over the corner without trigonometry.
     """
-    k = p[P.K]
-    ob = p[P.OBSTACLE]
-    k2 = k * k
-    kap = p[P.KAPPA]
-    if ob == P.TRIANGLE:
-        fmin = -k2 * (kap + p[P.THETA2] * d[D_L0])
-    else:
-        a = p[P.BETA] * (p[P.OMEGA] * p[P.OMEGA] - k2)
-        if ob == P.SINE and j % 2 == 1:
-            a = -a
-        fmin = -k2 * kap + min(0.0, a)
     if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
         return 0.0, cr, sr, have_rot
-    c = fmin / k2
+    c = d[D_STURM0] if j % 2 == 0 else d[D_STURM1]      # f_min / k^2 (``derive``)
     x = g0 - c
-    yv = gp0 / k
-    window = math.pi / k
+    yv = gp0 * d[D_IK]
+    window = d[D_HALF]
     if window > rest:
         window = rest
     # y(s) = c + x cos(ks) + yv sin(ks); with t = tan(ks/2) its zeros solve
@@ -242,9 +232,9 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
             sr = math.sin(ang)
             have_rot = True
         den = 1.0 + cr
-        if den > 1e-3 and tr > sr / den * (1.0 + 1e-12):
+        if den > 1e-3 and tr * den > sr * (1.0 + 1e-12):
             return window, cr, sr, have_rot
-    s1 = 2.0 * math.atan(tr) / k
+    s1 = 2.0 * math.atan(tr) * d[D_IK]
     if s1 >= window:
         return window, cr, sr, have_rot
     return s1, cr, sr, have_rot

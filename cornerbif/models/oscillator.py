@@ -12,8 +12,8 @@ import numpy as np
 
 from .._jit import jit
 from . import params as P
-from .obstacle import (D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD, D_REGIME, D_UPP_PART,
-                       D_WD, D_X, D_Y, NDERIVED)
+from .obstacle import (D_HALF, D_IK, D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD, D_REGIME,
+                       D_STURM0, D_STURM1, D_UPP_PART, D_WD, D_X, D_Y, NDERIVED)
 
 
 @jit
@@ -60,6 +60,20 @@ def derive(p):
     else:
         be = p[P.BETA]
         d[D_NPP] = w * w * be * (abs(k * k - w * w) + 2.0 * sig * w) + abs(F) * W * W
+    # Sturm comparison of the free undamped gap (flow.sturm_clear): g'' + k^2 g = f(tau) >=
+    # f_min on each piece; stored as f_min / k^2 (rectified_sine: -k^2 kappa + min(0,
+    # beta (omega^2 - k^2)); sine: the same with beta reversed on odd pieces; triangle:
+    # -k^2 max z)
+    if k > 0.0:
+        kap = p[P.KAPPA]
+        if ob == P.TRIANGLE:
+            d[D_STURM0] = d[D_STURM1] = -(kap + p[P.THETA2] * d[D_L0])
+        else:
+            a = p[P.BETA] * (w * w - k * k) / (k * k)
+            d[D_STURM0] = -kap + min(0.0, a)
+            d[D_STURM1] = -kap + min(0.0, -a if ob == P.SINE else a)
+        d[D_IK] = 1.0 / k
+        d[D_HALF] = math.pi / k
     return d
 
 
