@@ -45,7 +45,7 @@ from .. import status as S
 from .._jit import jit, pjit
 from ..models import params as P
 from ..models.impact import restitution
-from ..models.obstacle import (D_HALF, D_IK, D_L0, D_NPP, D_REGIME, D_STURM0, D_STURM1, D_WD,
+from ..models.obstacle import (D_HALF, D_IK, D_NPP, D_REGIME, D_STURM0, D_STURM1, D_WD,
                                corner_of, derived_tuple, piece_length, piece_start, sine_part,
                                zpp_range, zppp_max, z_state)
 from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
@@ -123,15 +123,16 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
 
 
 @jit
-def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, va, za, zpa):
+def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
     """State of a free undamped flight (sigma = 0, f = 0) against a sinusoidal piece at s.
 
-    Returns (u, u', z - kappa, z') at tau_ref + s and the anchor (sa, ua, va, za, zpa):
-    the last point where these were evaluated by the closed forms (eqs 4, 8).  Within
-    ``SMALL_ANGLE`` of the anchor (in k x and omega x, x = s - sa) the state is the
-    anchor's, rotated: (u, u'/k) turns at rate k and (z - kappa, z'/omega) at rate
-    omega, with the small angles' sine and cosine from ``small_sincos`` (no libm call);
-    farther away it is evaluated afresh and becomes the anchor.
+    Returns (u, u', z - kappa, z') at tau_ref + s and the anchor (sa, ua, vka, za, zwa):
+    the last point where the state was evaluated by the closed forms (eqs 4, 8), kept as
+    (u, u'/k, z - kappa, z'/omega).  Within ``SMALL_ANGLE`` of the anchor (in k x and
+    omega x, x = s - sa) the state is the anchor's, rotated: (u, u'/k) turns at rate k
+    and (z - kappa, z'/omega) at rate omega, with the small angles' sine and cosine from
+    ``small_sincos`` (no libm call, no division); farther away it is evaluated afresh
+    and becomes the anchor.
     """
     x = s - sa
     k = p[P.K]
@@ -139,11 +140,11 @@ def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, va, za, zpa):
     if abs(x) * max(k, w) <= SMALL_ANGLE:
         s1, c1 = small_sincos(k * x)
         s2, c2 = small_sincos(w * x)
-        return (ua * c1 + va / k * s1, va * c1 - k * ua * s1,
-                za * c2 + zpa / w * s2, zpa * c2 - w * za * s2, sa, ua, va, za, zpa)
+        return (ua * c1 + vka * s1, k * (vka * c1 - ua * s1),
+                za * c2 + zwa * s2, w * (zwa * c2 - za * s2), sa, ua, vka, za, zwa)
     u, v = homogeneous(p, d, uh_ref, vh_ref, s)
     zr, zp = sine_part(p, j, tau_ref + s)
-    return u, v, zr, zp, s, u, v, zr, zp
+    return u, v, zr, zp, s, u, v * d[D_IK], zr, zp / w
 
 
 @jit
@@ -160,7 +161,7 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3,
     k2 = p[P.K] * p[P.K]
     w2 = p[P.OMEGA] * p[P.OMEGA]
     s = s0
-    u, v, zr, zp, sa, ua, va, za, zpa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
+    u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
                                                     math.inf, 0.0, 0.0, 0.0, 0.0)
     first = skip_first
     for _ in range(MAXIT):
@@ -172,16 +173,16 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3,
             return NONE, s_end, u, v, z, zp, -w2 * zr
         if code == FOUND and h > 0.0:
             s = s + h
-            u, v, zr, zp, sa, ua, va, za, zpa = free_state(p, d, j, tau_ref, uh_ref, vh_ref,
-                                                            s, sa, ua, va, za, zpa)
+            u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref,
+                                                            s, sa, ua, vka, za, zwa)
             z = kap + zr
         if code != STEP:
             return code, s, u, v, z, zp, -w2 * zr
         s = s + h
         if s >= s_end:
             return NONE, s_end, u, v, z, zp, -w2 * zr
-        u, v, zr, zp, sa, ua, va, za, zpa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
-                                                        sa, ua, va, za, zpa)
+        u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
+                                                        sa, ua, vka, za, zwa)
     return FAIL, s, u, v, kap + zr, zp, -w2 * zr
 
 
