@@ -15,3 +15,10 @@ jit = numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True)
 def pjit(fn):
     """Parallel kernel: ``prange`` over independent items only."""
     return numba.njit(cache=True, error_model="numpy", fastmath=False, parallel=True, nogil=True)(fn)
+
+
+def jit_inline(fn):
+    """A small function of the hot path inlined into its callers at numba's IR level:
+    arguments such as the parameter tuples are then not copied at every call."""
+    return numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True,
+                      inline="always")(fn)

@@ -42,7 +42,7 @@ import numpy as np
 from numba import prange
 
 from .. import status as S
-from .._jit import jit, pjit
+from .._jit import jit, jit_inline, pjit
 from ..models import params as P
 from ..models.impact import restitution
 from ..models.obstacle import (D_HALF, D_IK, D_NPP, D_REGIME, D_STURM0, D_STURM1, D_WD,
@@ -122,7 +122,7 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
     return FAIL, s
 
 
-@jit
+@jit_inline
 def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
     """State of a free undamped flight (sigma = 0, f = 0) against a sinusoidal piece at s.
 
