@@ -147,7 +147,7 @@ def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
     return u, v, zr, zp, s, u, v * d[D_IK], zr, zp / w
 
 
-@jit
+@jit_inline
 def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, tol,
                       skip_first):
     """``first_root`` of the gap g = u - z for a free undamped flight (sigma = 0, f = 0)
