@@ -82,7 +82,7 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
     p, d = _point(omega, kappa)
     rng = np.random.default_rng(11)
     tol = 1e-12
-    found = 0
+    found = sturm_starts = 0
     for _ in range(400):
         tau, uh, vh = _flight(p, d, rng)
         rest = d[0] - tau
@@ -90,7 +90,7 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
         zlo, zhi = zpp_range(p, 0)
         args = (p, d, 0, tau, uh, vh, 0.0, rest, -bu - zhi, bu - zlo, bu3 + zppp_max(p), tol,
                 False)
-        c1, s1, u, v, z, zp, zpp = F.first_impact_free(*args)
+        c1, s1, u, v, z, zp, zpp = F.first_impact_free(*args[:7], math.nan, *args[7:])
         c2, s2 = F.first_root(F.GAP, *args)
         assert c1 == c2
         if c1 == FOUND:
@@ -104,7 +104,23 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
             assert abs(zp - zpe) <= 1e-13 * (1 + abs(zpe))
         else:
             assert c1 == NONE and s1 == rest
+        # from the Sturm root, the first point's rotation from its half-angle tangent
+        zr, zpr = F.sine_part(p, 0, tau)
+        s0, _, _, _, t0 = F.sturm_clear(p, d, 0, uh - p[P.KAPPA] - zr, vh - zpr, rest, 1.0,
+                                        0.0, False)
+        if t0 == t0:
+            sturm_starts += 1
+            a0 = args[:6] + (s0,)
+            c3, s3, u3, v3, *_ = F.first_impact_free(*a0, t0, *args[7:])
+            c4, s4 = F.first_root(F.GAP, *a0, *args[7:])
+            assert c3 == c4 == c1
+            if c3 == FOUND:
+                assert abs(s3 - s4) <= tol and abs(s3 - s1) <= tol
+                ue, ve = F.homogeneous(p, d, uh, vh, s3)
+                assert abs(u3 - ue) <= 1e-13 * (1 + abs(ue))
+                assert abs(v3 - ve) <= 1e-13 * (1 + abs(ve))
     assert found >= 40
+    assert sturm_starts >= 20
 
 
 @pytest.mark.parametrize("omega,kappa", [(2.1, 0.0), (1.5, -0.3), (1.0, 0.0), (3.0, -2.0),

@@ -148,11 +148,14 @@ def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
 
 
 @jit_inline
-def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, tol,
+def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2, m3, tol,
                       skip_first):
     """``first_root`` of the gap g = u - z for a free undamped flight (sigma = 0, f = 0)
     against a sinusoidal piece, with the state carried by ``free_state``: after the
     first point, points of the search near each other cost no trigonometry.
+
+    ``t0`` = tan(k s0 / 2) when s0 is the Sturm root (``sturm_clear``), else NaN: the
+    flight's rotation to s0 then needs no libm call.
 
     Returns (code, s, u, u', z, z', z''): the state at s is the one at the root for
     FOUND (otherwise the last one evaluated).
@@ -161,8 +164,14 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3,
     k2 = p[P.K] * p[P.K]
     w2 = p[P.OMEGA] * p[P.OMEGA]
     s = s0
-    u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
-                                                    math.inf, 0.0, 0.0, 0.0, 0.0)
+    if t0 == t0:
+        q = 1.0 / (1.0 + t0 * t0)
+        u, v = rotate(p, d, uh_ref, vh_ref, (1.0 - t0 * t0) * q, 2.0 * t0 * q)   # sigma = 0
+        zr, zp = sine_part(p, j, tau_ref + s)
+        sa, ua, vka, za, zwa = s, u, v * d[D_IK], zr, zp / p[P.OMEGA]
+    else:
+        u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
+                                                        math.inf, 0.0, 0.0, 0.0, 0.0)
     first = skip_first
     for _ in range(MAXIT):
         z = kap + zr
@@ -196,16 +205,18 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     Sturm comparison g >= y on [0, pi/k], where y'' + k^2 y = f_min with y, y' = g, g'
     at s = 0, so g has no root before the first root of the sinusoid y (closed form).
 
-    Returns (length, cr, sr, have_rot): the length (``rest`` when y stays positive over
+    Returns (length, cr, sr, have_rot, t): the length (``rest`` when y stays positive over
     the rest of the piece; 0 when g0 < 0, or g0 = 0 with g0' <= 0: nothing can be
     certified; right after an impact, g0 = 0 < g0', y starts positive) and the rotation
     (cr, sr) = (cos, sin)(k rest) of the flight to the end of the piece, which the
     caller passes in when it has it (``have_rot``, e.g. precomputed for whole pieces)
     and which is computed here when the test needs it, so that the caller can carry
-    the flight over the corner without trigonometry.
+    the flight over the corner without trigonometry; t = tan(k length / 2) when the
+    length is the root of y (NaN otherwise), from which the search's first point gets
+    its rotation (cos, sin)(k length) = ((1 - t^2), 2 t) / (1 + t^2) without libm.
     """
     if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
-        return 0.0, cr, sr, have_rot
+        return 0.0, cr, sr, have_rot, math.nan
     c = d[D_STURM0] if j % 2 == 0 else d[D_STURM1]      # f_min / k^2 (``derive``)
     x = g0 - c
     yv = gp0 * d[D_IK]
@@ -218,10 +229,10 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     # arctangent)
     c2 = c + x          # = g0: y(0)
     if c2 < 0.0 or (c2 == 0.0 and yv <= 0.0):
-        return 0.0, cr, sr, have_rot
+        return 0.0, cr, sr, have_rot, math.nan
     tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
     if tr == math.inf:
-        return window, cr, sr, have_rot
+        return window, cr, sr, have_rot, math.nan
     if window == rest:
         # the root lies beyond the piece iff tr >= tan(k rest / 2) = sin / (1 + cos) of
         # k rest: no arctangent, and the same rotation carries the flight over the
@@ -234,11 +245,11 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
             have_rot = True
         den = 1.0 + cr
         if den > 1e-3 and tr * den > sr * (1.0 + 1e-12):
-            return window, cr, sr, have_rot
+            return window, cr, sr, have_rot, math.nan
     s1 = 2.0 * math.atan(tr) * d[D_IK]
     if s1 >= window:
-        return window, cr, sr, have_rot
-    return s1, cr, sr, have_rot
+        return window, cr, sr, have_rot, math.nan
+    return s1, cr, sr, have_rot, tr
 
 
 WATCH_EVERY = 32   # corners between two searches for a cycle (early stop)
@@ -535,6 +546,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
         have_rot = False
         cr = 1.0
         sr = 0.0
+        t0 = math.nan
         if sturm and s_start == 0.0:
             # Sturm comparison: no root before the first root of the lower sinusoid
             if tau_ref == 0.0:
@@ -545,15 +557,15 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 else:
                     cr = c_l1
                     sr = s_l1
-            s0, cr, sr, have_rot = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref, rest,
-                                               cr, sr, have_rot)
+            s0, cr, sr, have_rot, t0 = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref,
+                                                   rest, cr, sr, have_rot)
         at_root = False      # the search returned the state at the impact
         if s0 >= rest:
             code = NONE
             s = rest
         elif free_sine:
             code, s, u_i, v_i, z_i, zp_i, zpp_i = first_impact_free(
-                p, d, j, tau_ref, uh_ref, vh_ref, s0, rest, -bu - zhi, bu - zlo,
+                p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, rest, -bu - zhi, bu - zlo,
                 bu3 + zppp_bound, tol, skip and s0 == 0.0)
             at_root = True
         else:
