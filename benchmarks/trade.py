@@ -479,7 +479,9 @@ KEYS = ("eval_gap", "eval_gap_free", "rotations", "steps", "eval_force", "steps_
         "steps_none", "sturm", "sturm_whole_piece", "impacts")
 c = dict.fromkeys(KEYS, 0)
 gap_search = [False]      # inside a search of the gap (first_root(GAP), first_impact_free)
-sines = [0]               # sine_part calls at flow level: free_state's closed-form branch
+sines = [0]               # sine_part calls at flow level: the closed-form evaluations of a
+                          # free search (free_state's branch, and its first point after a
+                          # Sturm root)
 _ev, _fr, _fif, _fs, _sp, _br, _st, _si = (F.evaluate, F.first_root, F.first_impact_free,
     F.free_state, F.sine_part, F.bracket, F.sturm_clear, F.store_impact)
 def evaluate(kind, *a):
@@ -487,14 +489,14 @@ def evaluate(kind, *a):
     return _ev(kind, *a)
 def sine_part(*a):
     sines[0] += 1
+    if gap_search[0]:
+        c["eval_gap"] += 1
+        c["eval_gap_free"] += 1
     return _sp(*a)
 def free_state(*a):
     before = sines[0]
     res = _fs(*a)
-    if sines[0] > before:
-        c["eval_gap"] += 1
-        c["eval_gap_free"] += 1
-    else:
+    if sines[0] == before:
         c["rotations"] += 1
     return res
 def bracket(*a):
