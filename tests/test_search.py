@@ -90,7 +90,9 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
         zlo, zhi = zpp_range(p, 0)
         args = (p, d, 0, tau, uh, vh, 0.0, rest, -bu - zhi, bu - zlo, bu3 + zppp_max(p), tol,
                 False)
-        c1, s1, u, v, z, zp, zpp = F.first_impact_free(*args[:7], math.nan, *args[7:])
+        m4 = bu3 * p[P.K] + zppp_max(p) * p[P.OMEGA]       # bound of |g''''|
+        fargs = args[:7] + (math.nan,) + args[7:11] + (m4,) + args[11:]
+        c1, s1, u, v, z, zp, zpp = F.first_impact_free(*fargs)
         c2, s2 = F.first_root(F.GAP, *args)
         assert c1 == c2
         if c1 == FOUND:
@@ -111,7 +113,7 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
         if t0 == t0:
             sturm_starts += 1
             a0 = args[:6] + (s0,)
-            c3, s3, u3, v3, *_ = F.first_impact_free(*a0, t0, *args[7:])
+            c3, s3, u3, v3, *_ = F.first_impact_free(*a0, t0, *fargs[8:])
             c4, s4 = F.first_root(F.GAP, *a0, *args[7:])
             assert c3 == c4 == c1
             if c3 == FOUND:

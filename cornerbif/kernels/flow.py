@@ -109,7 +109,7 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
     f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     first = skip_first
     for _ in range(MAXIT):
-        code, h = bracket(f, fp, fpp, first, s_end - s, lo2, hi2, m3, tol)
+        code, h = bracket(f, fp, fpp, 0.0, first, s_end - s, lo2, hi2, m3, math.inf, tol)
         first = False
         if code == NONE:
             return NONE, s_end
@@ -148,13 +148,14 @@ def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
 
 
 @jit_inline
-def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2, m3, tol,
-                      skip_first):
+def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2, m3, m4,
+                      tol, skip_first):
     """``first_root`` of the gap g = u - z for a free undamped flight (sigma = 0, f = 0)
     against a sinusoidal piece, with the state carried by ``free_state``: after the
     first point, points of the search near each other cost no trigonometry.
 
-    ``t0`` = tan(k s0 / 2) when s0 is the Sturm root (``sturm_clear``), else NaN: the
+    ``m4`` bounds |g''''| over the flight; the search also uses g''' = omega^2 z' -
+    k^2 u' at each point (``roots.bracket``).  ``t0`` = tan(k s0 / 2) when s0 is the Sturm root (``sturm_clear``), else NaN: the
     flight's rotation to s0 then needs no libm call.
 
     Returns (code, s, u, u', z, z', z''): the state at s is the one at the root for
@@ -175,8 +176,8 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2,
     first = skip_first
     for _ in range(MAXIT):
         z = kap + zr
-        code, h = bracket(u - z, v - zp, w2 * zr - k2 * u, first, s_end - s, lo2, hi2, m3,
-                          tol)
+        code, h = bracket(u - z, v - zp, w2 * zr - k2 * u, w2 * zp - k2 * v, first,
+                          s_end - s, lo2, hi2, m3, m4, tol)
         first = False
         if code == NONE:
             return NONE, s_end, u, v, z, zp, -w2 * zr
@@ -566,7 +567,8 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
         elif free_sine:
             code, s, u_i, v_i, z_i, zp_i, zpp_i = first_impact_free(
                 p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, rest, -bu - zhi, bu - zlo,
-                bu3 + zppp_bound, tol, skip and s0 == 0.0)
+                bu3 + zppp_bound, bu3 * p[P.K] + zppp_bound * p[P.OMEGA], tol,
+                skip and s0 == 0.0)
             at_root = True
         else:
             code, s = first_root(GAP, p, d, j, tau_ref, uh_ref, vh_ref, s0, rest,

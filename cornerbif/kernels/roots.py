@@ -67,13 +67,15 @@ def quad_positive(f, fp, a, L):
 
 
 @jit
-def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
+def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol):
     """One step of the certified search from a point with f, f', f'' (module docstring).
 
     ``lo2 <= f'' <= hi2`` on the whole rest of the piece (length ``rest``); ``m3 >=
     |f'''|`` (inf if unknown) tightens those bounds locally: on [s, s + H], f'' lies
     within f''(s) +- m3 H.  H is 1.25 times the root predicted with the exact
-    curvature, so near a transversal root the bracket closes at third order.
+    curvature, so near a transversal root the bracket closes at third order.  With
+    f''' = ``fppp`` here and ``m4 >= |f''''|`` (inf if unknown), f'' also lies
+    within f''(s) + f''' x +- m4 x^2 / 2: tighter where f''' is small.
     ``first`` ignores f <= 0 here (the point just after an impact, g = 0, g' > 0).
 
     Returns (code, h): FOUND with the root at +h, NONE (no root in the rest), FAIL
@@ -93,14 +95,20 @@ def bracket(f, fp, fpp, first, rest, lo2, hi2, m3, tol):
         if H > rest:
             H = rest
         if H > hlo:
-            h1 = quad_first_root(f, fp, max(lo2, fpp - m3 * H))
+            lo_loc = max(lo2, fpp - m3 * H)
+            hi_loc = min(hi2, fpp + m3 * H)
+            if m4 < math.inf:
+                e = 0.5 * m4 * H * H
+                lo_loc = max(lo_loc, fpp + min(0.0, fppp * H) - e)
+                hi_loc = min(hi_loc, fpp + max(0.0, fppp * H) + e)
+            h1 = quad_first_root(f, fp, lo_loc)
             if h1 >= H:
                 h1 = H            # no root in [s, s + H]
                 if H == rest:
                     return NONE, rest
             if h1 > hlo:
                 hlo = h1
-            h2 = quad_first_root(f, fp, min(hi2, fpp + m3 * H))
+            h2 = quad_first_root(f, fp, hi_loc)
             if h2 <= H:
                 # a curvature bound below hi2 puts the upper quadratic's root no later
                 # than that of hi2: the global one is not needed
