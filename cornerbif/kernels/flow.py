@@ -536,12 +536,20 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             continue
 
         # ---- flight on piece j from tau_ref ----------------------------------------
-        bu, bu3, amp = upp_bound(p, d, uh_ref, vh_ref)
-        if not (amp == amp):
-            return S.NONFINITE
-        if amp > escape:
-            return S.ESCAPED
-        zlo, zhi = zpp_range(p, j)
+        if sturm:
+            # sigma = 0: the amplitude R of the flight, R^2 = u_h^2 + (u_h'/k)^2, without a
+            # square root; the bounds of the search (upp_bound) only where one runs
+            amp2 = uh_ref * uh_ref + (vh_ref * d[D_IK]) ** 2
+            if not (amp2 == amp2):
+                return S.NONFINITE
+            if amp2 > escape * escape:
+                return S.ESCAPED
+        else:
+            bu, bu3, amp = upp_bound(p, d, uh_ref, vh_ref)
+            if not (amp == amp):
+                return S.NONFINITE
+            if amp > escape:
+                return S.ESCAPED
         s0 = s_start
         rest = L - tau_ref
         have_rot = False
@@ -561,6 +569,10 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             s0, cr, sr, have_rot, t0 = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref,
                                                    rest, cr, sr, have_rot)
         at_root = False      # the search returned the state at the impact
+        if s0 < rest:
+            if sturm:
+                bu, bu3, _ = upp_bound(p, d, uh_ref, vh_ref)
+            zlo, zhi = zpp_range(p, j)
         if s0 >= rest:
             code = NONE
             s = rest
