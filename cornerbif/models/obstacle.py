@@ -34,7 +34,8 @@ D_STURM0 = 11   # f_min / k^2 on even pieces (Sturm comparison, see flow.sturm_c
 D_STURM1 = 12   # f_min / k^2 on odd pieces
 D_IK = 13       # 1 / k
 D_HALF = 14     # pi / k: how far the Sturm comparison reaches
-NDERIVED = 15
+D_IWD = 15      # 1 / w_d (under-damped)
+NDERIVED = 16
 
 
 @jit
@@ -42,7 +43,7 @@ def derived_tuple(d):
     """The derived constants as a tuple of NDERIVED floats (a value: no reference counting
     in the kernels' calls, see ``params.as_tuple``)."""
     return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11], d[12],
-            d[13], d[14])
+            d[13], d[14], d[15])
 
 
 @jit

@@ -12,8 +12,8 @@ import numpy as np
 
 from .._jit import jit
 from . import params as P
-from .obstacle import (D_HALF, D_IK, D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD, D_REGIME,
-                       D_STURM0, D_STURM1, D_UPP_PART, D_WD, D_X, D_Y, NDERIVED)
+from .obstacle import (D_HALF, D_IK, D_IWD, D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD,
+                       D_REGIME, D_STURM0, D_STURM1, D_UPP_PART, D_WD, D_X, D_Y, NDERIVED)
 
 
 @jit
@@ -38,6 +38,7 @@ def derive(p):
     if sig < k:
         d[D_REGIME] = 0.0
         d[D_WD] = math.sqrt(k * k - sig * sig)
+        d[D_IWD] = 1.0 / d[D_WD]
     elif sig == k:
         d[D_REGIME] = 1.0
     else:
@@ -127,7 +128,7 @@ def rotate(p, d, uh0, vh0, c, sn):
     sig = p[P.SIGMA]
     wd = d[D_WD]
     A = uh0
-    B = (vh0 + sig * uh0) / wd
+    B = (vh0 + sig * uh0) * d[D_IWD]
     return A * c + B * sn, (B * wd - sig * A) * c - (A * wd + sig * B) * sn
 
 
@@ -173,7 +174,7 @@ def upp_bound(p, d, uh0, vh0):
     reg = d[D_REGIME]
     if reg == 0.0:
         wd = d[D_WD]
-        B = (vh0 + sig * uh0) / wd
+        B = (vh0 + sig * uh0) * d[D_IWD]
         amp = math.sqrt(uh0 * uh0 + B * B)
         k = p[P.K]
         hb = amp * k * k
@@ -212,7 +213,7 @@ def deriv_bound(p, d, uh0, vh0, n):
     reg = d[D_REGIME]
     if reg == 0.0:
         wd = d[D_WD]
-        B = (vh0 + sig * uh0) / wd
+        B = (vh0 + sig * uh0) * d[D_IWD]
         hb = math.sqrt(uh0 * uh0 + B * B) * p[P.K] ** n
     elif reg == 1.0:
         B = vh0 + sig * uh0
