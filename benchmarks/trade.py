@@ -599,7 +599,7 @@ def _unit_costs(n=200000):
         acc = 0.0
         for i in range(n):     # the bounds of a flight of amplitude 3 on a Fig. 4(c) piece
             h = bracket(0.3 + 1e-12 * (acc if dep else i), -1.0, -0.5, 1.0, False, 1.2, -3.0,
-                        7.4, 12.3, 20.0, 1e-12)[1]
+                        7.4, 12.3, 20.0, 1e-12, -1.0)[1]
             acc = h if dep else acc + h
         return acc
 

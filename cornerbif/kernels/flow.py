@@ -52,6 +52,8 @@ from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, part
                                  small_sincos, upp_bound)
 from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root
 
+HINT_MARGIN = 1.25   # the next step's window: this times the certified bracket's rest
+
 GAP = 0       # f = u - z along the flight
 FORCE = 1     # f = N, the contact force needed to stay on the obstacle
 NEGFORCE = 2  # f = -N
@@ -109,7 +111,8 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
     f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     first = skip_first
     for _ in range(MAXIT):
-        code, h = bracket(f, fp, fpp, 0.0, first, s_end - s, lo2, hi2, m3, math.inf, tol)
+        code, h, _ = bracket(f, fp, fpp, 0.0, first, s_end - s, lo2, hi2, m3, math.inf, tol,
+                             -1.0)
         first = False
         if code == NONE:
             return NONE, s_end
@@ -174,10 +177,11 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2,
         u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
                                                         math.inf, 0.0, 0.0, 0.0, 0.0)
     first = skip_first
+    hint = -1.0
     for _ in range(MAXIT):
         z = kap + zr
-        code, h = bracket(u - z, v - zp, w2 * zr - k2 * u, w2 * zp - k2 * v, first,
-                          s_end - s, lo2, hi2, m3, m4, tol)
+        code, h, hup = bracket(u - z, v - zp, w2 * zr - k2 * u, w2 * zp - k2 * v, first,
+                               s_end - s, lo2, hi2, m3, m4, tol, hint)
         first = False
         if code == NONE:
             return NONE, s_end, u, v, z, zp, -w2 * zr
@@ -191,6 +195,9 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2,
         s = s + h
         if s >= s_end:
             return NONE, s_end, u, v, z, zp, -w2 * zr
+        # the step's certified bracket holds the root: the next point's window, known
+        # before its evaluation (keeps a square root off the chain of dependent steps)
+        hint = HINT_MARGIN * (hup - h) if hup < math.inf else -1.0
         u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
                                                         sa, ua, vka, za, zwa)
     return FAIL, s, u, v, kap + zr, zp, -w2 * zr

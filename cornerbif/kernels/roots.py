@@ -67,7 +67,7 @@ def quad_positive(f, fp, a, L):
 
 
 @jit
-def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol):
+def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
     """One step of the certified search from a point with f, f', f'' (module docstring).
 
     ``lo2 <= f'' <= hi2`` on the whole rest of the piece (length ``rest``); ``m3 >=
@@ -82,16 +82,19 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol):
     (f is not a number), or STEP with the certified step h to the next point.
     """
     if not (f == f):
-        return FAIL, 0.0
+        return FAIL, 0.0, math.inf
     if not first and f <= 0.0:
-        return FOUND, 0.0
+        return FOUND, 0.0, math.inf
     if quad_positive(f, fp, lo2, rest):
-        return NONE, rest
+        return NONE, rest, math.inf
     hlo = quad_first_root(f, fp, lo2)
     hup = math.inf
     have_hup = False
     if m3 < math.inf:
-        H = 1.25 * quad_first_root(f, fp, fpp)
+        if H_hint > 0.0:
+            H = H_hint
+        else:
+            H = 1.25 * quad_first_root(f, fp, fpp)
         if H > rest:
             H = rest
         if H > hlo:
@@ -105,7 +108,7 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol):
             if h1 >= H:
                 h1 = H            # no root in [s, s + H]
                 if H == rest:
-                    return NONE, rest
+                    return NONE, rest, math.inf
             if h1 > hlo:
                 hlo = h1
             h2 = quad_first_root(f, fp, hi_loc)
@@ -117,9 +120,9 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol):
     if not have_hup:
         hup = quad_first_root(f, fp, hi2)
     if hup - hlo <= tol and hup <= rest:
-        return FOUND, hlo
+        return FOUND, hlo, hup
     if hlo < tol:
         if fp < 0.0 or (fpp < 0.0 and fp <= 0.0):
-            return FOUND, hlo
-        return STEP, tol
-    return STEP, hlo
+            return FOUND, hlo, hup
+        return STEP, tol, hup
+    return STEP, hlo, hup
