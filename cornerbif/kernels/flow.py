@@ -50,7 +50,7 @@ from ..models.obstacle import (D_HALF, D_IK, D_NPP, D_REGIME, D_STURM0, D_STURM1
                                zpp_range, zppp_max, z_state)
 from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
                                  small_sincos, upp_bound)
-from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root
+from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root, quad_positive
 
 HINT_MARGIN = 1.25   # the next step's window: this times the certified bracket's rest
 
@@ -238,22 +238,26 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     c2 = c + x          # = g0: y(0)
     if c2 < 0.0 or (c2 == 0.0 and yv <= 0.0):
         return 0.0, cr, sr, have_rot, math.nan
-    tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
-    if tr == math.inf:
+    if c2 == 0.0 and c - x >= 0.0:
+        # right after an impact (g0 = 0 < g0') with f_min >= 0: y has no root
         return window, cr, sr, have_rot, math.nan
     if window == rest:
         # the root lies beyond the piece iff tr >= tan(k rest / 2) = sin / (1 + cos) of
-        # k rest: no arctangent, and the same rotation carries the flight over the
-        # corner; a margin of 1e-12 (and 1 + cos away from 0) keeps the shortcut strictly
-        # inside the exact test
+        # k rest, i.e. iff the quadratic in t stays positive up to there (no square root,
+        # no arctangent); the same rotation carries the flight over the corner.  A margin
+        # of 1e-12 (and 1 + cos away from 0) keeps the shortcut strictly inside the
+        # exact test
         if not have_rot:
             ang = d[D_WD] * rest
             cr = math.cos(ang)
             sr = math.sin(ang)
             have_rot = True
         den = 1.0 + cr
-        if den > 1e-3 and tr * den > sr * (1.0 + 1e-12):
+        if den > 1e-3 and quad_positive(c2, 2.0 * yv, 2.0 * (c - x), sr / den * (1.0 + 1e-12)):
             return window, cr, sr, have_rot, math.nan
+    tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
+    if tr == math.inf:
+        return window, cr, sr, have_rot, math.nan
     s1 = 2.0 * math.atan(tr) * d[D_IK]
     if s1 >= window:
         return window, cr, sr, have_rot, math.nan
