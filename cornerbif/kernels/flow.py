@@ -341,14 +341,6 @@ def watch_for_cycle(p, d, ring_u, ring_v, ring_n, ring_s, j, u, v, n_imp, stuck,
 
 
 @jit
-def next_section(j, sec_phase, pps):
-    """The first corner after piece j's start with (corner - sec_phase) % pps == 0: where the
-    next Poincare section is taken (kept as a number, so crossing a corner needs no
-    integer division)."""
-    return j + 1 + (sec_phase - j - 1) % pps
-
-
-@jit
 def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_off, o_corner):
     """Record impact i: time, height, v-, v+ and the nearest corner with the signed offset."""
     o_t[i] = t
@@ -391,7 +383,6 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     pps = np.int64(p[P.SECTION_PIECES])
     auto_phase = p[P.SECTION_AUTO] != 0.0
     sec_phase = np.int64(0)
-    next_sec = pps        # the next corner j > 0 with (j - sec_phase) % pps == 0 (a section)
     transient = ints[P.I_TRANSIENT]
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
@@ -535,8 +526,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 stuck = False
             else:
                 tau_s = 0.0
-            if j == next_sec:
-                next_sec += pps
+            if (j - sec_phase) % pps == 0:
                 if n_imp >= rec0 and n_sec < record:
                     o_su[n_sec] = z
                     o_sv[n_sec] = v_after
@@ -547,8 +537,6 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 watch, rec0, j_end, sec_phase = watch_for_cycle(
                     p, d, ring_u, ring_v, ring_n, ring_s, j, z, v_after, n_imp, stuck, lag_step,
                     qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0, j_end)
-                if not watch:                   # the phase may have moved
-                    next_sec = next_section(j, sec_phase, pps)
                 need = rec0 + record
                 info[0] = rec0
             if j >= j_end:
@@ -642,8 +630,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             vh_ref = vh
             s_start = 0.0
             skip = False
-            if j == next_sec:
-                next_sec += pps
+            if (j - sec_phase) % pps == 0:
                 if n_imp >= rec0 and n_sec < record:
                     o_su[n_sec] = uh + up
                     o_sv[n_sec] = vh + vp
@@ -655,8 +642,6 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                     p, d, ring_u, ring_v, ring_n, ring_s, j, uh + up, vh + vp, n_imp, False,
                     lag_step, qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0,
                     j_end)
-                if not watch:                   # the phase may have moved
-                    next_sec = next_section(j, sec_phase, pps)
                 need = rec0 + record
                 info[0] = rec0
             if j >= j_end:
@@ -684,7 +669,6 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             # clusters, whichever of the shifted copies of the orbit (3.2) this is
             c, _ = corner_of(p, d, j, tau)
             sec_phase = (c + pps // 2) % pps
-            next_sec = next_section(j, sec_phase, pps)
         if n_imp >= need:
             return S.OK
         if events > max_events:
