@@ -87,9 +87,9 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
         return FOUND, 0.0, math.inf
     if quad_positive(f, fp, lo2, rest):
         return NONE, rest, math.inf
-    hlo = quad_first_root(f, fp, lo2)
     hup = math.inf
     have_hup = False
+    local = False
     if m3 < math.inf:
         if H_hint > 0.0:
             H = H_hint
@@ -97,26 +97,29 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
             H = 1.25 * quad_first_root(f, fp, fpp)
         if H > rest:
             H = rest
-        if H > hlo:
-            lo_loc = max(lo2, fpp - m3 * H)
-            hi_loc = min(hi2, fpp + m3 * H)
-            if m4 < math.inf:
-                e = 0.5 * m4 * H * H
-                lo_loc = max(lo_loc, fpp + min(0.0, fppp * H) - e)
-                hi_loc = min(hi_loc, fpp + max(0.0, fppp * H) + e)
-            h1 = quad_first_root(f, fp, lo_loc)
-            if h1 >= H:
-                h1 = H            # no root in [s, s + H]
-                if H == rest:
-                    return NONE, rest, math.inf
-            if h1 > hlo:
-                hlo = h1
-            h2 = quad_first_root(f, fp, hi_loc)
-            if h2 <= H:
-                # a curvature bound below hi2 puts the upper quadratic's root no later
-                # than that of hi2: the global one is not needed
-                hup = h2
-                have_hup = True
+        # the local bounds can only help where the global lower root comes before H
+        local = not quad_positive(f, fp, lo2, H)
+    if not local:
+        hlo = quad_first_root(f, fp, lo2)
+    else:
+        lo_loc = max(lo2, fpp - m3 * H)
+        hi_loc = min(hi2, fpp + m3 * H)
+        if m4 < math.inf:
+            e = 0.5 * m4 * H * H
+            lo_loc = max(lo_loc, fpp + min(0.0, fppp * H) - e)
+            hi_loc = min(hi_loc, fpp + max(0.0, fppp * H) + e)
+        h1 = quad_first_root(f, fp, lo_loc)
+        if h1 >= H:
+            h1 = H            # no root in [s, s + H]
+            if H == rest:
+                return NONE, rest, math.inf
+        hlo = h1              # >= the global lower root: lo_loc >= lo2
+        h2 = quad_first_root(f, fp, hi_loc)
+        if h2 <= H:
+            # a curvature bound below hi2 puts the upper quadratic's root no later
+            # than that of hi2: the global one is not needed
+            hup = h2
+            have_hup = True
     if not have_hup:
         hup = quad_first_root(f, fp, hi2)
     if hup - hlo <= tol and hup <= rest:
