@@ -158,8 +158,9 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2,
     first point, points of the search near each other cost no trigonometry.
 
     ``m4`` bounds |g''''| over the flight; the search also uses g''' = omega^2 z' -
-    k^2 u' at each point (``roots.bracket``).  ``t0`` = tan(k s0 / 2) when s0 is the Sturm root (``sturm_clear``), else NaN: the
-    flight's rotation to s0 then needs no libm call.
+    k^2 u' at each point (``roots.bracket``).  ``t0`` = tan(k s0 / 2) when s0 is the
+    Sturm root (``sturm_clear``), else NaN: the flight's rotation to s0 then needs no
+    libm call.
 
     Returns (code, s, u, u', z, z', z''): the state at s is the one at the root for
     FOUND (otherwise the last one evaluated).
