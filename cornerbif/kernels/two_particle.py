@@ -256,6 +256,13 @@ def derive(p):
 
 
 @jit
+def constants_tuple(c):
+    """The per-point constants of ``derive`` as a tuple of NC floats."""
+    return (c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12],
+            c[13], c[14], c[15], c[16])
+
+
+@jit
 def oscillators(p, c):
     """Rows of ``flow`` parameter vectors (and their derived constants) for z, u and the
     stuck pair, so every flight is the closed form of ``models.oscillator`` (eq 4).
@@ -740,13 +747,16 @@ def _close(o_zu, o_corner, lo, hi):
 
 
 @jit
-def run_one(p, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
+def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     """Integrate one item from (t, z, y, u, v) = (0, z0, y0, u0, v0); fill its rows.
 
     See the module docstring for the output layout, the event policy and the
     sticking rules.  Returns the status code.
     """
-    c = derive(p)
+    # the parameters and per-point constants as tuples: values, so the many calls below
+    # pass them without atomic reference counting
+    p = P.as_tuple(p_row)
+    c = constants_tuple(derive(p_row))
     Q, D = oscillators(p, c)
     smooth = c[C_SMOOTH] == 1.0
     # sign and vanishing of the pair's contact force h (``pair_force``)

@@ -53,6 +53,14 @@ OMF2 = 18
 PHI2 = 19
 NPARAM = 20
 
+
+@jit
+def as_tuple(p):
+    """The packed parameter row as a tuple of NPARAM floats: a value, so the kernel's calls
+    pass it without atomic reference counting (see ``params.as_tuple``)."""
+    return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12],
+            p[13], p[14], p[15], p[16], p[17], p[18], p[19])
+
 NAMES = ("omega0", "omega1", "omega2", "mu", "r1", "r2", "kappa", "beta",
          "sigma1", "sigma2", "F1", "Omega1", "phi1", "F2", "Omega2", "phi2")
 INDEX = {"omega0": OMEGA0, "omega1": OMEGA1, "omega2": OMEGA2, "mu": MU, "r1": R1,
