@@ -529,8 +529,8 @@ def from_dict(raw) -> Scene:
             run[k] = v
             continue
         if k in ("transient", "record", "max_events", "max_periods"):
-            if v is None:
-                run[k] = None
+            if v is None and k in ("max_events", "max_periods"):
+                run[k] = None         # automatic budget (below)
                 continue
             lo = 0 if k == "transient" else 1
             if not _is_int(v) or v < lo:

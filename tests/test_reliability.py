@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from cornerbif import config, io
@@ -47,6 +47,7 @@ VALUES = st.recursive(SCALARS, lambda c: st.lists(c, max_size=4) | st.dictionari
 
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.dictionaries(KEYS, VALUES, max_size=7))
+@example({"run": {"transient": None}})     # once raised TypeError: None passed as automatic
 def test_arbitrary_dicts_give_a_scene_or_a_scene_error(raw):
     try:
         sc = config.from_dict(raw)
