@@ -569,75 +569,54 @@ def _unit_costs(n=200000):
     from cornerbif.models.oscillator import derive
 
     @numba.njit
-    def loop_exact(p, d, n, dep):
+    def timed_loop(call, p, d, aux, n, dep):
         acc = 0.0
         for i in range(n):     # dep: each call depends on the last (latency)
-            u = free_state(p, d, 0, 0.1, 3.0, 0.5, 0.2 + 1e-12 * (acc if dep else i),
-                           math.inf, 0.0, 0.0, 0.0, 0.0)[0]
-            acc = u if dep else acc + u
-        return acc
-
-    @numba.njit
-    def loop_rotation(p, d, n, dep):
-        acc = 0.0
-        for i in range(n):
-            u = free_state(p, d, 0, 0.1, 3.0, 0.5, 0.2 + 1e-12 * (acc if dep else i),
-                           0.15, 2.9, 0.8, 0.5, 1.9)[0]
-            acc = u if dep else acc + u
-        return acc
-
-    @numba.njit
-    def loop_evaluate(p, d, n, dep):
-        acc = 0.0
-        for i in range(n):
-            f, fp, fpp = evaluate(GAP, p, d, 0, 0.1, 3.0, 0.5, 0.2 + 1e-12 * (acc if dep else i))
-            acc = f if dep else acc + f
-        return acc
-
-    @numba.njit
-    def loop_bracket(p, d, n, dep):
-        acc = 0.0
-        for i in range(n):     # the bounds of a flight of amplitude 3 on a Fig. 4(c) piece
-            h = bracket(0.3 + 1e-12 * (acc if dep else i), -1.0, -0.5, 1.0, False, 1.2, -3.0,
-                        7.4, 12.3, 20.0, 1e-12, -1.0)[1]
-            acc = h if dep else acc + h
-        return acc
-
-    @numba.njit
-    def loop_sturm(p, d, n, dep):
-        acc = 0.0
-        for i in range(n):
-            x = sturm_clear(p, d, 0, 2.0 + 1e-12 * (acc if dep else i), -0.5, 1.4,
-                            1.0, 0.0, False)[0]
+            x = call(p, d, aux, 1e-12 * (acc if dep else i))
             acc = x if dep else acc + x
         return acc
 
     @numba.njit
-    def loop_sturm_piece(p, d, n, dep):
-        # a flight from a corner cleared over the whole piece, rotation precomputed
-        acc = 0.0
-        L = d[0]
-        cr, sr = math.cos(L), math.sin(L)
-        for i in range(n):
-            x = sturm_clear(p, d, 0, 2.0 + 1e-12 * (acc if dep else i), 0.5, L, cr, sr,
-                            True)[0]
-            acc = x if dep else acc + x
-        return acc
+    def exact(p, d, aux, e):
+        return free_state(p, d, 0, 0.1, 3.0, 0.5, 0.2 + e, math.inf, 0.0, 0.0, 0.0, 0.0)[0]
+
+    @numba.njit
+    def rotation(p, d, aux, e):
+        return free_state(p, d, 0, 0.1, 3.0, 0.5, 0.2 + e, 0.15, 2.9, 0.8, 0.5, 1.9)[0]
+
+    @numba.njit
+    def general(p, d, aux, e):
+        return evaluate(GAP, p, d, 0, 0.1, 3.0, 0.5, 0.2 + e)[0]
+
+    @numba.njit
+    def step(p, d, aux, e):    # the bounds of a flight of amplitude 3 on a Fig. 4(c) piece
+        return bracket(0.3 + e, -1.0, -0.5, 1.0, False, 1.2, -3.0, 7.4, 12.3, 20.0, 1e-12,
+                       -1.0)[1]
+
+    @numba.njit
+    def sturm_root(p, d, aux, e):
+        return sturm_clear(p, d, 0, 2.0 + e, -0.5, 1.4, 1.0, 0.0, False)[0]
+
+    @numba.njit
+    def sturm_piece(p, d, aux, e):
+        # a flight from a corner cleared over the whole piece, rotation precomputed (aux)
+        return sturm_clear(p, d, 0, 2.0 + e, 0.5, d[0], aux[0], aux[1], True)[0]
 
     row = P.pack({"omega": 2.1, "kappa": 0.0, "beta": 1.0, "r": 0.8}, "rectified_sine", 1e-12,
                  1e-6, 1e6, None)
     p = P.as_tuple(row)
     d = derived_tuple(derive(row))
+    aux = (math.cos(d[0]), math.sin(d[0]))
     out = {}
     for dep, flavour in ((False, "throughput"), (True, "latency")):
-        for name, fn in (("exact", loop_exact), ("rotation", loop_rotation),
-                         ("evaluate", loop_evaluate), ("bracket", loop_bracket),
-                         ("sturm", loop_sturm), ("sturm_piece", loop_sturm_piece)):
-            fn(p, d, 10, dep)
+        for name, fn in (("exact", exact), ("rotation", rotation), ("evaluate", general),
+                         ("bracket", step), ("sturm", sturm_root),
+                         ("sturm_piece", sturm_piece)):
+            timed_loop(fn, p, d, aux, 10, dep)
             best = math.inf
             for _ in range(3):
                 t0 = time.perf_counter()
-                fn(p, d, n, dep)
+                timed_loop(fn, p, d, aux, n, dep)
                 best = min(best, time.perf_counter() - t0)
             out[f"{name}_{flavour}"] = best / n
     return out
