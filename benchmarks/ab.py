@@ -8,8 +8,13 @@ analysis, as benchmarks/run.py's ``bench_flow``, one thread, by process CPU time
 on the scene once in A, then once in B, and records B / A.  Short alternating
 turns expose both trees to the same machine load: this machine is shared, and
 the load of its other users moves throughput by +-30 % within minutes, so the
-report gives the median ratio with its quartiles.  TREE may be a git commit
-(exported with ``git archive`` to a temporary folder) or a directory.
+report gives the median ratio with its quartiles.  Both workers are pinned to one
+CPU (``--cpu``): unpinned, each kept to its own core, and the two cores of this
+machine differed by up to 1.3x for minutes, which flipped a comparison of one
+change from 1.16x to 0.87x.  TREE may be a git commit (exported with
+``git archive`` to a temporary folder) or a directory; each worker compiles into
+a fresh numba cache (numba's cache does not notice an edited callee in another
+module, so a tree's own cache may hold stale machine code).
 """
 
 from __future__ import annotations
@@ -59,12 +64,15 @@ def _tree(spec, tmp):
     return out
 
 
-def _child(tree, scene, num):
-    """A process that has imported ``tree`` and warmed its kernels; each line sent to it
-    runs the scene once and answers with the CPU time."""
+def _child(tree, scene, num, cpu, cache):
+    """A process on ``cpu`` that has imported ``tree`` and warmed its kernels (compiled
+    into the numba cache folder ``cache``); each line sent to it runs the scene once and
+    answers with the CPU time."""
     code = CHILD.format(tree=tree, bench=os.path.join(ROOT, "benchmarks"), scene=scene, num=num)
+    env = dict(os.environ, PYTHONPATH=tree, NUMBA_CACHE_DIR=cache)
     p = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
-                         stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=tree))
+                         stdout=subprocess.PIPE, text=True, env=env,
+                         preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))
     if p.stdout.readline().strip() != "ready":
         raise RuntimeError(f"the child for {tree} did not start")
     return p
@@ -84,10 +92,13 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=41)
     ap.add_argument("--num", type=int, default=50)
     ap.add_argument("--scene", default="fig04c")
+    ap.add_argument("--cpu", type=int, default=min(os.sched_getaffinity(0)),
+                    help="the CPU both workers run on (default: the first allowed)")
     a = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         ta, tb = _tree(a.a, tmp), _tree(a.b, tmp)
-        ca, cb = _child(ta, a.scene, a.num), _child(tb, a.scene, a.num)
+        ca = _child(ta, a.scene, a.num, a.cpu, os.path.join(tmp, "cache_a"))
+        cb = _child(tb, a.scene, a.num, a.cpu, os.path.join(tmp, "cache_b"))
         ratios = []
         try:
             for k in range(a.rounds):
