@@ -67,15 +67,67 @@ def quad_positive(f, fp, a, L):
 
 
 @jit
+def polish(f, fp, fpp, fppp, m4, rest, tol):
+    """A root within ``tol`` from the Taylor polynomial of degree 3, where it is close.
+
+    With T(x) = f + f' x + f'' x^2/2 + f''' x^3/6 and |f''''| <= m4, Taylor's formula
+    puts f(s + x) within T(x) -+ m4 x^4 / 24.  From a point with f > 0 > f' whose root
+    is near (y = f / -f' so small that m4 y^4 < 3 |f'| tol: the remainder is far below
+    |f'| tol), the root x* of T, by series reversion
+    x* = y + p y^2 + (t + 2 p^2) y^3 + 5 p (t + p^2) y^4 + O(y^5) with p = f''/(-2 f'),
+    t = f'''/(-6 f'), is bracketed by a = x* - q and b = x* + q, with q = 4 R / |f'| +
+    tol / 1000 (R = m4 (x* + tol)^4 / 24 bounds the remainder; 2 q <= tol is required):
+    f(s + a) >= T(a) - R > 0, f(s + b) <= T(b) + R <= 0, and the lower
+    bound T(x) - m4 x^4/24 is decreasing on [0, b] (its slope is at most
+    f' + max(0, f'') b + max(0, f''') b^2/2 < 0), so it stays above its positive value at
+    a on the whole of [0, a]: no root before a, one in [a, b].  One division, no square
+    root; each check that fails (far root, slope not clearly negative, a series not
+    accurate enough) returns False and the caller takes a certified step instead.
+
+    Returns (ok, a, b).
+    """
+    f2 = f * f
+    fp2 = fp * fp
+    if not (m4 * f2 * f2 < -3.0 * fp2 * fp2 * fp * tol):
+        return False, 0.0, 0.0
+    c2 = 0.5 * fpp
+    c3 = fppp / 6.0
+    ir = -1.0 / fp
+    y = f * ir
+    p = c2 * ir
+    t = c3 * ir
+    p2 = p * p
+    x = y + y * y * (p + y * ((t + 2.0 * p2) + y * 5.0 * p * (t + p2)))
+    xb = x + tol
+    r4 = m4 * xb * xb * xb * xb / 24.0     # >= the remainder on [0, x + tol]
+    # the margin the certificate needs (T falls by about |f'| q over q), and room for the
+    # series' truncation; as tight as that allows, not tol: a bracket always tol / 4 early
+    # would bias every impact the same way (on an elastic fixed wall, energy drifted by
+    # 1.5e-9 over 1e4 impacts)
+    q = 4.0 * r4 * ir + 1e-3 * tol
+    a = x - q
+    b = x + q
+    if not (a >= 0.0 and b <= rest and 2.0 * q <= tol
+            and fp + max(0.0, fpp) * b + max(0.0, fppp) * 0.5 * b * b < 0.0):
+        return False, 0.0, 0.0
+    if f + a * (fp + a * (c2 + a * c3)) - r4 > 0.0 and f + b * (fp + b * (c2 + b * c3)) + r4 <= 0.0:
+        return True, a, b
+    return False, 0.0, 0.0
+
+
+@jit
 def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
     """One step of the certified search from a point with f, f', f'' (module docstring).
 
     ``lo2 <= f'' <= hi2`` on the whole rest of the piece (length ``rest``); ``m3 >=
-    |f'''|`` (inf if unknown) tightens those bounds locally: on [s, s + H], f'' lies
-    within f''(s) +- m3 H.  H is 1.25 times the root predicted with the exact
-    curvature, so near a transversal root the bracket closes at third order.  With
-    f''' = ``fppp`` here and ``m4 >= |f''''|`` (inf if unknown), f'' also lies
-    within f''(s) + f''' x +- m4 x^2 / 2: tighter where f''' is small.
+    |f'''|`` (inf if unknown) tightens those bounds locally: by Taylor's formula with
+    integral remainder, f(s + x) = f + f' x + c x^2 / 2 with c within f''(s) +- m3 x / 3
+    (the remainder of order 3 is at most m3 x^3 / 6), so on [s, s + H] the quadratics
+    with c = f''(s) -+ m3 H / 3 bound f from below and above.  H is 1.25 times the
+    root predicted with the exact curvature, so near a transversal root the bracket
+    closes at third order.  With f''' = ``fppp`` here and ``m4 >= |f''''|`` (inf if
+    unknown), c also lies within f''(s) + f''' x / 3 +- m4 x^2 / 12: tighter where
+    f''' is small.
     ``first`` ignores f <= 0 here (the point just after an impact, g = 0, g' > 0).
 
     Returns (code, h): FOUND with the root at +h, NONE (no root in the rest), FAIL
@@ -85,6 +137,10 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
         return FAIL, 0.0, math.inf
     if not first and f <= 0.0:
         return FOUND, 0.0, math.inf
+    if m4 < math.inf and f > 0.0 and fp < 0.0:
+        ok, a, b = polish(f, fp, fpp, fppp, m4, rest, tol)
+        if ok:
+            return FOUND, a, b
     if quad_positive(f, fp, lo2, rest):
         return NONE, rest, math.inf
     hup = math.inf
@@ -102,12 +158,12 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
     if not local:
         hlo = quad_first_root(f, fp, lo2)
     else:
-        lo_loc = max(lo2, fpp - m3 * H)
-        hi_loc = min(hi2, fpp + m3 * H)
+        lo_loc = max(lo2, fpp - m3 * H / 3.0)
+        hi_loc = min(hi2, fpp + m3 * H / 3.0)
         if m4 < math.inf:
-            e = 0.5 * m4 * H * H
-            lo_loc = max(lo_loc, fpp + min(0.0, fppp * H) - e)
-            hi_loc = min(hi_loc, fpp + max(0.0, fppp * H) + e)
+            e = m4 * H * H / 12.0
+            lo_loc = max(lo_loc, fpp + min(0.0, fppp * H) / 3.0 - e)
+            hi_loc = min(hi_loc, fpp + max(0.0, fppp * H) / 3.0 + e)
         h1 = quad_first_root(f, fp, lo_loc)
         if h1 >= H:
             h1 = H            # no root in [s, s + H]
