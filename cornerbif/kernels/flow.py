@@ -415,6 +415,13 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
 
     j = np.int64(0)
     tau_ref = 0.0
+    # sigma = 0: (cos, sin)(k tau_ref), the free flight's phase at the reference point
+    # since the start of the piece, while it is known (NaN after a release from sticking):
+    # the flight from an impact to the end of its piece is then a rotation by
+    # k (L - tau_ref), composed without trigonometry
+    c_ref = 1.0
+    s_ref = 0.0
+    amp2 = 0.0
     up, vp = particular(p, d, 0.0)
     uh_ref = u0 - up
     vh_ref = v0 - vp
@@ -462,6 +469,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 uh_ref = z - up
                 vh_ref = zp - vp
                 tau_ref = tau_rel
+                c_ref = math.nan
                 z_ref = z
                 zp_ref = zp
                 code2, sb = first_root(NEGFORCE, p, d, j, tau_rel, 0.0, 0.0, 0.0, L - tau_rel,
@@ -570,14 +578,21 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
         t0 = math.nan
         if sturm and s_start == 0.0:
             # Sturm comparison: no root before the first root of the lower sinusoid
+            if j % 2 == 0:
+                cl = c_l0
+                sl = s_l0
+            else:
+                cl = c_l1
+                sl = s_l1
             if tau_ref == 0.0:
                 have_rot = True
-                if j % 2 == 0:
-                    cr = c_l0
-                    sr = s_l0
-                else:
-                    cr = c_l1
-                    sr = s_l1
+                cr = cl
+                sr = sl
+            elif c_ref == c_ref:
+                # k (L - tau_ref): the whole piece's rotation less the phase at tau_ref
+                have_rot = True
+                cr = cl * c_ref + sl * s_ref
+                sr = sl * c_ref - cl * s_ref
             s0, cr, sr, have_rot, t0 = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref,
                                                    rest, cr, sr, have_rot)
         at_root = False      # the search returned the state at the impact
@@ -674,6 +689,22 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             return S.OK
         if events > max_events:
             return S.MAX_EVENTS
+        if at_root and amp2 > 0.0:
+            # the phase k s of the flight to the impact, from the homogeneous states at
+            # its reference and at the root (u, u'/k) = rotation by k s of the reference
+            # (sigma = 0: the amplitude R^2 = amp2 is kept), added to the phase at tau_ref
+            ik = d[D_IK]
+            a1 = vh_ref * ik
+            b1 = vh * ik
+            ck = (uh_ref * uh + a1 * b1) / amp2
+            sk = (a1 * uh - uh_ref * b1) / amp2
+            if tau_ref == 0.0:
+                c_ref = ck
+                s_ref = sk
+            else:
+                c_ref, s_ref = c_ref * ck - s_ref * sk, s_ref * ck + c_ref * sk
+        else:
+            c_ref = math.nan
         tau_ref = tau
         z_ref = z
         zp_ref = zp
