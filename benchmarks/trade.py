@@ -595,12 +595,12 @@ def _unit_costs(n=200000):
 
     @numba.njit
     def sturm_root(p, d, aux, e):
-        return sturm_clear(p, d, 0, 2.0 + e, -0.5, 1.4, 1.0, 0.0, False)[0]
+        return sturm_clear(p, d, 0, 2.0 + e, -0.5, 1.4, 1.0, 0.0, False, False)[0]
 
     @numba.njit
     def sturm_piece(p, d, aux, e):
         # a flight from a corner cleared over the whole piece, rotation precomputed (aux)
-        return sturm_clear(p, d, 0, 2.0 + e, 0.5, d[0], aux[0], aux[1], True)[0]
+        return sturm_clear(p, d, 0, 2.0 + e, 0.5, d[0], aux[0], aux[1], True, False)[0]
 
     row = P.pack({"omega": 2.1, "kappa": 0.0, "beta": 1.0, "r": 0.8}, "rectified_sine", 1e-12,
                  1e-6, 1e6, None)

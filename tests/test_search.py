@@ -91,7 +91,8 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
         args = (p, d, 0, tau, uh, vh, 0.0, rest, -bu - zhi, bu - zlo, bu3 + zppp_max(p), tol,
                 False)
         m4 = bu3 * p[P.K] + zppp_max(p) * p[P.OMEGA]       # bound of |g''''|
-        fargs = args[:7] + (math.nan,) + args[7:11] + (m4,) + args[11:]
+        start = F.free_start(p, d, 0, tau, uh, vh, 0.0, math.nan)
+        fargs = args[:7] + start + args[7:11] + (m4,) + args[11:]
         c1, s1, u, v, z, zp, zpp = F.first_impact_free(*fargs)
         c2, s2 = F.first_root(F.GAP, *args)
         assert c1 == c2
@@ -109,11 +110,12 @@ def test_free_search_agrees_with_closed_form_search(omega, kappa):
         # from the Sturm root, the first point's rotation from its half-angle tangent
         zr, zpr = F.sine_part(p, 0, tau)
         s0, _, _, _, t0 = F.sturm_clear(p, d, 0, uh - p[P.KAPPA] - zr, vh - zpr, rest, 1.0,
-                                        0.0, False)
+                                        0.0, False, False)
         if t0 == t0:
             sturm_starts += 1
             a0 = args[:6] + (s0,)
-            c3, s3, u3, v3, *_ = F.first_impact_free(*a0, t0, *fargs[8:])
+            start = F.free_start(p, d, 0, tau, uh, vh, s0, t0)
+            c3, s3, u3, v3, *_ = F.first_impact_free(*a0, *start, *fargs[11:])
             c4, s4 = F.first_root(F.GAP, *a0, *args[7:])
             assert c3 == c4 == c1
             if c3 == FOUND:
@@ -140,7 +142,7 @@ def test_sturm_certificate_right_after_an_impact(omega, kappa):
         z = p[P.KAPPA] + zr
         w_out = 10.0 ** rng.uniform(-6, 1)                 # relative velocity after impact
         rest = L - tau
-        clear = F.sturm_clear(p, d, 0, 0.0, w_out, rest, 1.0, 0.0, False)[0]
+        clear = F.sturm_clear(p, d, 0, 0.0, w_out, rest, 1.0, 0.0, False, False)[0]
         if kappa <= 0.0 and omega >= 1.0:
             assert clear == rest
         if clear <= 0.0:
@@ -151,3 +153,71 @@ def test_sturm_certificate_right_after_an_impact(omega, kappa):
         g = u - (p[P.KAPPA] + np.sin(omega * (tau + s)))
         scale = 1e-12 * (1.0 + abs(z) + abs(zp) + w_out)
         assert g.min() > -scale, (tau, w_out, clear)
+
+
+@pytest.mark.parametrize("omega,kappa", [(2.1, 0.0), (1.999, -0.01), (1.5, 0.3), (2.5, -1.0),
+                                          (0.7, 0.2)])
+def test_grid_start_lies_before_the_sturm_root(omega, kappa):
+    """A flight from a corner starts its search at the phase grid's point before the Sturm
+    root: at most the root (no root skipped), less than one cell before it, and the state
+    there (rotated by the grid's table values) equals the closed forms to 1e-13."""
+    p, d = _point(omega, kappa)
+    grid = F.phase_grid(p, d)
+    cell = d[0] / F.PHASE_GRID
+    rng = np.random.default_rng(3)
+    zr0, zp0 = F.sine_part(p, 0, 0.0)
+    starts = 0
+    for _ in range(2000):
+        uh = p[P.KAPPA] + zr0 + abs(rng.normal()) * 10.0 ** rng.uniform(-9, 1)
+        vh = rng.normal() * 10.0 ** rng.uniform(-3, 1)
+        g0, gp0 = uh - p[P.KAPPA] - zr0, vh - zp0
+        s1, _, _, _, t = F.sturm_clear(p, d, 0, g0, gp0, d[0], 1.0, 0.0, False, False)
+        s_t, _, _, _, t2 = F.sturm_clear(p, d, 0, g0, gp0, d[0], 1.0, 0.0, False, True)
+        if t != t:
+            continue                        # no Sturm root inside the piece
+        if s_t >= 0.0:
+            continue                        # the t-only call cleared the whole reach
+        assert t2 == t
+        starts += 1
+        tau_m, u, v, zr, zp = F.grid_start(p, d, 0, uh, vh, grid, t)
+        assert tau_m <= s1 and s1 - tau_m < cell * (1 + 1e-12)
+        ue, ve = F.homogeneous(p, d, uh, vh, tau_m)
+        ze, zpe = F.sine_part(p, 0, tau_m)
+        assert abs(u - ue) <= 1e-13 * (1 + abs(ue)) and abs(v - ve) <= 1e-13 * (1 + abs(ve))
+        assert abs(zr - ze) <= 1e-14 and abs(zp - zpe) <= 1e-13
+    assert starts >= 200
+
+
+def test_polish_brackets_the_root_of_the_gap():
+    """roots.polish, on gaps near a transversal root, returns [a, b] no wider than tol with
+    g(a) > 0 >= g(b) and g > 0 on [0, a] (dense sampling of the closed forms), or declines."""
+    from cornerbif.kernels.roots import polish
+    p, d = _point(2.1, 0.0)
+    rng = np.random.default_rng(9)
+    k2, w2, tol = 1.0, 2.1 ** 2, 1e-12
+    accepted = 0
+    for _ in range(3000):
+        tau, uh, vh = _flight(p, d, rng)
+        rest = d[0] - tau
+        bu, bu3, _ = upp_bound(p, d, uh, vh)
+        m4 = bu3 * p[P.K] + zppp_max(p) * p[P.OMEGA]
+        # the exact first root on the rest of the piece, by the closed-form search
+        bu2 = zpp_range(p, 0)
+        code, s = F.first_root(F.GAP, p, d, 0, tau, uh, vh, 0.0, rest, -bu - bu2[1],
+                               bu - bu2[0], bu3 + zppp_max(p), 1e-15, False)
+        if code != FOUND or s < 1e-9:
+            continue
+        # a point shortly before it, where polish applies
+        x = s * 10.0 ** rng.uniform(-6, -2)
+        u, v = F.homogeneous(p, d, uh, vh, s - x)
+        zr, zp = F.sine_part(p, 0, tau + s - x)
+        f, fp = u - p[P.KAPPA] - zr, v - zp
+        ok, a, b = polish(f, fp, w2 * zr - k2 * u, w2 * zp - k2 * v, m4, rest - (s - x), tol)
+        if not ok:
+            continue
+        accepted += 1
+        assert 0.0 <= b - a <= tol
+        assert abs((s - x + a) - s) <= 2e-12
+        ga = F.evaluate(F.GAP, p, d, 0, tau, uh, vh, s - x + a)[0]
+        assert ga > -1e-14
+    assert accepted >= 500

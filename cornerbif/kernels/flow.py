@@ -46,8 +46,8 @@ from .._jit import jit, jit_inline, pjit
 from ..models import params as P
 from ..models.impact import restitution
 from ..models.obstacle import (D_HALF, D_IK, D_NPP, D_REGIME, D_STURM0, D_STURM1, D_WD,
-                               corner_of, derived_tuple, piece_length, piece_start, sine_part,
-                               zpp_range, zppp_max, z_state)
+                               corner_of, derived_tuple, piece_length, piece_start, sine_amp,
+                               sine_part, zpp_range, zppp_max, z_state)
 from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
                                  small_sincos, upp_bound)
 from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root, quad_positive
@@ -151,16 +151,79 @@ def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
 
 
 @jit_inline
-def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2, m3, m4,
-                      tol, skip_first):
+def free_start(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0):
+    """State (u, u', z - kappa, z') of a free undamped flight at tau_ref + s0, the first
+    point of its search.  ``t0`` = tan(k s0 / 2) when s0 is the Sturm root
+    (``sturm_clear``), else NaN: the flight's rotation to s0 then needs no libm call."""
+    if t0 == t0:
+        q = 1.0 / (1.0 + t0 * t0)
+        u, v = rotate(p, d, uh_ref, vh_ref, (1.0 - t0 * t0) * q, 2.0 * t0 * q)   # sigma = 0
+    else:
+        u, v = homogeneous(p, d, uh_ref, vh_ref, s0)
+    zr, zp = sine_part(p, j, tau_ref + s0)
+    return u, v, zr, zp
+
+
+PHASE_GRID = 32   # cells of the phase grid over a piece (``phase_grid``)
+G_COSK = 0        # rows of the phase grid at tau_m = m L / PHASE_GRID, m = 0 .. PHASE_GRID:
+G_SINK = 1        # cos and sin of k tau_m,
+G_TANK = 2        # tan(k tau_m / 2) (inf from k tau_m >= pi on),
+G_SINW = 3        # sin and cos of omega tau_m,
+G_COSW = 4
+G_TAU = 5         # and tau_m itself
+
+
+@jit
+def phase_grid(p, d):
+    """Phases of the free flight and of a sinusoidal obstacle at PHASE_GRID + 1 points
+    tau_m of a piece (rows ``G_*``), computed once per run: a search that starts at a
+    corner starts from the grid point before its Sturm root (``grid_start``), whose state
+    is a rotation by table values."""
+    k = p[P.K]
+    w = p[P.OMEGA]
+    g = np.empty((6, PHASE_GRID + 1))
+    dt = piece_length(d, 0) / PHASE_GRID
+    for m in range(PHASE_GRID + 1):
+        tm = m * dt
+        c = math.cos(k * tm)
+        sn = math.sin(k * tm)
+        g[G_COSK, m] = c
+        g[G_SINK, m] = sn
+        g[G_TANK, m] = sn / (1.0 + c) if k * tm < math.pi else math.inf
+        g[G_SINW, m] = math.sin(w * tm)
+        g[G_COSW, m] = math.cos(w * tm)
+        g[G_TAU, m] = tm
+    return g
+
+
+@jit_inline
+def grid_start(p, d, j, uh_ref, vh_ref, grid, t):
+    """The last grid point tau_m (m < PHASE_GRID) with tan(k tau_m / 2) <= t, for a flight
+    from the corner of piece j whose Sturm root has tan(k s / 2) = t: no root before
+    tau_m <= s.  Returns (tau_m, u, u', z - kappa, z') there, the flight rotated by the
+    grid's phases (sigma = 0, f = 0): no libm call, no division."""
+    m = 0
+    for i in range(1, PHASE_GRID):     # a count, not a bisection: no branch to mispredict
+        m += grid[G_TANK, i] <= t
+    c = grid[G_COSK, m]
+    sn = grid[G_SINK, m]
+    k = p[P.K]
+    vk = vh_ref * d[D_IK]
+    b = sine_amp(p, j)
+    return (grid[G_TAU, m], uh_ref * c + vk * sn, k * (vk * c - uh_ref * sn),
+            b * grid[G_SINW, m], b * p[P.OMEGA] * grid[G_COSW, m])
+
+
+@jit_inline
+def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, u, v, zr, zp, s_end, lo2, hi2, m3,
+                      m4, tol, skip_first):
     """``first_root`` of the gap g = u - z for a free undamped flight (sigma = 0, f = 0)
-    against a sinusoidal piece, with the state carried by ``free_state``: after the
-    first point, points of the search near each other cost no trigonometry.
+    against a sinusoidal piece, from the state (u, u', z - kappa, z') at s0 (``free_start``
+    or ``grid_start``), with the state carried by ``free_state``: points of the search
+    near each other cost no trigonometry.
 
     ``m4`` bounds |g''''| over the flight; the search also uses g''' = omega^2 z' -
-    k^2 u' at each point (``roots.bracket``).  ``t0`` = tan(k s0 / 2) when s0 is the
-    Sturm root (``sturm_clear``), else NaN: the flight's rotation to s0 then needs no
-    libm call.
+    k^2 u' at each point (``roots.bracket``).
 
     Returns (code, s, u, u', z, z', z''): the state at s is the one at the root for
     FOUND (otherwise the last one evaluated).
@@ -169,14 +232,7 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2,
     k2 = p[P.K] * p[P.K]
     w2 = p[P.OMEGA] * p[P.OMEGA]
     s = s0
-    if t0 == t0:
-        q = 1.0 / (1.0 + t0 * t0)
-        u, v = rotate(p, d, uh_ref, vh_ref, (1.0 - t0 * t0) * q, 2.0 * t0 * q)   # sigma = 0
-        zr, zp = sine_part(p, j, tau_ref + s)
-        sa, ua, vka, za, zwa = s, u, v * d[D_IK], zr, zp / p[P.OMEGA]
-    else:
-        u, v, zr, zp, sa, ua, vka, za, zwa = free_state(p, d, j, tau_ref, uh_ref, vh_ref, s,
-                                                        math.inf, 0.0, 0.0, 0.0, 0.0)
+    sa, ua, vka, za, zwa = s, u, v * d[D_IK], zr, zp / p[P.OMEGA]
     first = skip_first
     hint = -1.0
     for _ in range(MAXIT):
@@ -205,7 +261,7 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, s_end, lo2, hi2,
 
 
 @jit
-def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
+def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
     """Certified root-free length of a flight on piece j (sigma = 0, f = 0), eqs (4), (7)-(8).
 
     With u'' = -k^2 u, the gap satisfies g'' + k^2 g = -k^2 z - z'' =: f(tau), and on
@@ -223,6 +279,8 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     the flight over the corner without trigonometry; t = tan(k length / 2) when the
     length is the root of y (NaN otherwise), from which the search's first point gets
     its rotation (cos, sin)(k length) = ((1 - t^2), 2 t) / (1 + t^2) without libm.
+    With ``t_only`` a root of y within the reach of the comparison (t finite) is returned
+    as length -1 with its t, for the caller to place on its phase grid (no arctangent).
     """
     if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
         return 0.0, cr, sr, have_rot, math.nan
@@ -259,6 +317,8 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot):
     tr = quad_first_root(c2, 2.0 * yv, 2.0 * (c - x))
     if tr == math.inf:
         return window, cr, sr, have_rot, math.nan
+    if t_only:
+        return -1.0, cr, sr, have_rot, tr
     s1 = 2.0 * math.atan(tr) * d[D_IK]
     if s1 >= window:
         return window, cr, sr, have_rot, math.nan
@@ -437,6 +497,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     zppp_bound = zppp_max(p)
     sturm = p[P.SIGMA] == 0.0 and p[P.F_AMP] == 0.0 and p[P.K] > 0.0
     free_sine = sturm and p[P.OBSTACLE] != P.TRIANGLE     # see first_impact_free
+    grid = phase_grid(p, d) if free_sine else np.empty((6, 1))
     underdamped = d[D_REGIME] == 0.0
     # the obstacle at the start of each piece (it depends on the parity of j only) and,
     # for the Sturm test, the free rotation over a whole piece: no trigonometry for a
@@ -594,7 +655,8 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 cr = cl * c_ref + sl * s_ref
                 sr = sl * c_ref - cl * s_ref
             s0, cr, sr, have_rot, t0 = sturm_clear(p, d, j, uh_ref - z_ref, vh_ref - zp_ref,
-                                                   rest, cr, sr, have_rot)
+                                                   rest, cr, sr, have_rot,
+                                                   free_sine and tau_ref == 0.0)
         at_root = False      # the search returned the state at the impact
         if s0 < rest:
             if sturm:
@@ -604,9 +666,15 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             code = NONE
             s = rest
         elif free_sine:
+            if s0 < 0.0:
+                # a flight from the corner: its search starts at the grid point before
+                # the Sturm root
+                s0, u_i, v_i, zr_i, zp_i = grid_start(p, d, j, uh_ref, vh_ref, grid, t0)
+            else:
+                u_i, v_i, zr_i, zp_i = free_start(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0)
             code, s, u_i, v_i, z_i, zp_i, zpp_i = first_impact_free(
-                p, d, j, tau_ref, uh_ref, vh_ref, s0, t0, rest, -bu - zhi, bu - zlo,
-                bu3 + zppp_bound, bu3 * p[P.K] + zppp_bound * p[P.OMEGA], tol,
+                p, d, j, tau_ref, uh_ref, vh_ref, s0, u_i, v_i, zr_i, zp_i, rest, -bu - zhi,
+                bu - zlo, bu3 + zppp_bound, bu3 * p[P.K] + zppp_bound * p[P.OMEGA], tol,
                 skip and s0 == 0.0)
             at_root = True
         else:

@@ -72,12 +72,19 @@ def z_state(p, j, tau):
 
 
 @jit
+def sine_amp(p, j):
+    """Amplitude b of z - kappa = b sin(omega tau) on piece j of a sinusoidal obstacle:
+    beta for rectified_sine, +-beta on the even/odd half periods of sine."""
+    if p[P.OBSTACLE] == P.SINE and j % 2 == 1:
+        return -p[P.BETA]
+    return p[P.BETA]
+
+
+@jit
 def sine_part(p, j, tau):
     """z - kappa and z' on piece j of a sinusoidal obstacle (sine, rectified_sine) at tau."""
     w = p[P.OMEGA]
-    b = p[P.BETA]
-    if p[P.OBSTACLE] == P.SINE and j % 2 == 1:
-        b = -b
+    b = sine_amp(p, j)
     return b * math.sin(w * tau), b * w * math.cos(w * tau)
 
 
