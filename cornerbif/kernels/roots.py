@@ -21,7 +21,7 @@ grazing contact), otherwise the search moves on by ``tol``.
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_inline
 
 NONE = 0
 FOUND = 1
@@ -66,7 +66,7 @@ def quad_positive(f, fp, a, L):
     return fp * fp - 2.0 * a * f < 0.0     # the vertex inside: it must stay above 0
 
 
-@jit
+@jit_inline
 def polish(f, fp, fpp, fppp, m4, rest, tol):
     """A root within ``tol`` from the Taylor polynomial of degree 3, where it is close.
 
