@@ -115,7 +115,7 @@ def polish(f, fp, fpp, fppp, m4, rest, tol):
     return False, 0.0, 0.0
 
 
-@jit
+@jit_inline
 def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
     """One step of the certified search from a point with f, f', f'' (module docstring).
 
