@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .._jit import jit
+from .._jit import jit, jit_inline
 from . import params as P
 from .obstacle import (D_HALF, D_IK, D_IWD, D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD,
                        D_REGIME, D_STURM0, D_STURM1, D_UPP_PART, D_WD, D_X, D_Y, NDERIVED)
@@ -101,7 +101,7 @@ def forcing(p, t):
 SMALL_ANGLE = 0.25   # |x| up to which small_sincos is used: its remainder is below 1e-21
 
 
-@jit
+@jit_inline
 def small_sincos(x):
     """(sin x, cos x) for |x| <= SMALL_ANGLE by their Taylor series.
 
