@@ -260,7 +260,7 @@ def first_impact_free(p, d, j, tau_ref, uh_ref, vh_ref, s0, u, v, zr, zp, s_end,
     return FAIL, s, u, v, kap + zr, zp, -w2 * zr
 
 
-@jit
+@jit_inline
 def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
     """Certified root-free length of a flight on piece j (sigma = 0, f = 0), eqs (4), (7)-(8).
 
