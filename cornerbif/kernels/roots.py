@@ -30,7 +30,7 @@ STEP = 2      # ``bracket``: no decision yet, move on
 MAXIT = 400
 
 
-@jit
+@jit_inline
 def quad_first_root(f, fp, a):
     """First positive root of f + fp h + a h^2 / 2 (f >= 0), or inf if none."""
     if f < 0.0:
@@ -53,7 +53,7 @@ def quad_first_root(f, fp, a):
     return 2.0 * f / (math.sqrt(disc) - fp)
 
 
-@jit
+@jit_inline
 def quad_positive(f, fp, a, L):
     """Whether f + fp h + a h^2 / 2 (f >= 0; f < 0 read as 0) stays >= 0 on [0, L]: the
     test ``quad_first_root(f, fp, a) >= L`` without a square root or a division."""
