@@ -50,7 +50,8 @@ from ..models.obstacle import (D_HALF, D_IK, D_NPP, D_REGIME, D_STURM0, D_STURM1
                                sine_part, zpp_range, zppp_max, z_state)
 from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
                                  small_sincos, upp_bound)
-from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, quad_first_root, quad_positive
+from .roots import (FAIL, FOUND, MAXIT, NONE, STEP, bracket, bracket_call, quad_first_root,
+                    quad_positive)
 
 HINT_MARGIN = 1.25   # the next step's window: this times the certified bracket's rest
 
@@ -111,8 +112,8 @@ def first_root(kind, p, d, j, tau_ref, uh_ref, vh_ref, s0, s_end, lo2, hi2, m3, 
     f, fp, fpp = evaluate(kind, p, d, j, tau_ref, uh_ref, vh_ref, s)
     first = skip_first
     for _ in range(MAXIT):
-        code, h, _ = bracket(f, fp, fpp, 0.0, first, s_end - s, lo2, hi2, m3, math.inf, tol,
-                             -1.0)
+        code, h, _ = bracket_call(f, fp, fpp, 0.0, first, s_end - s, lo2, hi2, m3, math.inf,
+                                  tol, -1.0)
         first = False
         if code == NONE:
             return NONE, s_end
