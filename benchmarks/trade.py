@@ -557,12 +557,15 @@ def _unit_costs(n=200000):
     * ``rotation``: the same state by small-angle rotation from an anchor 0.05 away;
     * ``evaluate``: a gap evaluation of the general path (``flow.evaluate(GAP)``);
     * ``bracket``: one certified search step (``roots.bracket``) from a point with g > 0,
-      g' < 0 and a finite bound on g''';
-    * ``sturm``: the Sturm certificate (``flow.sturm_clear``).
+      g' < 0 and a finite bound on g''' (the root too far for ``roots.polish``);
+    * ``sturm``: the Sturm certificate (``flow.sturm_clear``) of a flight from a corner
+      that finds the root of its comparison sinusoid, with the search's first point on the
+      phase grid (``flow.grid_start``); ``sturm_piece``: one that clears the whole piece.
     """
     import numba
 
-    from cornerbif.kernels.flow import GAP, evaluate, free_state, sturm_clear
+    from cornerbif.kernels.flow import (GAP, evaluate, free_state, grid_start, phase_grid,
+                                        sturm_clear)
     from cornerbif.kernels.roots import bracket
     from cornerbif.models import params as P
     from cornerbif.models.obstacle import derived_tuple
@@ -595,7 +598,11 @@ def _unit_costs(n=200000):
 
     @numba.njit
     def sturm_root(p, d, aux, e):
-        return sturm_clear(p, d, 0, 2.0 + e, -0.5, 1.4, 1.0, 0.0, False, False)[0]
+        # a flight from a corner whose comparison sinusoid has a root on the piece: the
+        # root's half-angle tangent (no arctangent), then the search's first point on the
+        # phase grid (flow.grid_start), as the kernel does for every flight from a corner
+        s, _, _, _, t = sturm_clear(p, d, 0, 2.0 + e, -0.5, 1.4, 1.0, 0.0, False, True)
+        return s + grid_start(p, d, 0, 2.0 + e, -0.5 + 2.1, aux[2], t)[1]
 
     @numba.njit
     def sturm_piece(p, d, aux, e):
@@ -606,7 +613,7 @@ def _unit_costs(n=200000):
                  1e-6, 1e6, None)
     p = P.as_tuple(row)
     d = derived_tuple(derive(row))
-    aux = (math.cos(d[0]), math.sin(d[0]))
+    aux = (math.cos(d[0]), math.sin(d[0]), phase_grid(p, d))
     out = {}
     for dep, flavour in ((False, "throughput"), (True, "latency")):
         for name, fn in (("exact", exact), ("rotation", rotation), ("evaluate", general),
@@ -913,7 +920,8 @@ def render_profile(res, r):
         f"{un['bracket_latency']:.0f}, Sturm clearing the piece "
         f"{un.get('sturm_piece_throughput', float('nan')):.0f} / "
         f"{un.get('sturm_piece_latency', float('nan')):.0f}, Sturm finding the root of its "
-        f"sinusoid {un['sturm_throughput']:.0f} / {un['sturm_latency']:.0f}; "
+        f"sinusoid and the search's first point on the phase grid "
+        f"{un['sturm_throughput']:.0f} / {un['sturm_latency']:.0f}; "
         f"kernel {k['kernel_ns_per_impact']:.0f} ns per impact; variant runs: "
         f"{1e9 * res['kernel_variant_seconds']['1e-12'] / res['impacts']:.0f} ns at tol 1e-12, "
         f"{k['kernel_ns_per_impact_tol_1e-4']:.0f} at 1e-4 (timed variant: refinement "
