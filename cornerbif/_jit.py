@@ -22,3 +22,13 @@ def jit_inline(fn):
     arguments such as the parameter tuples are then not copied at every call."""
     return numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True,
                       inline="always")(fn)
+
+
+def cache_is_cold(dispatcher) -> bool:
+    """Whether numba's on-disk cache holds nothing for this kernel yet, so that its first call
+    compiles (tens of seconds for the event loops).  False when it cannot tell."""
+    import os
+    try:
+        return not os.path.exists(dispatcher._cache._cache_file._index_path)
+    except Exception:        # numba's cache internals moved: say nothing
+        return False

@@ -220,6 +220,19 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     return out, st, final, period, ipc, sym, rec0
 
 
+def kernel_cache_cold(scene: Scene) -> bool:
+    """Whether the scene's kernel has nothing in numba's on-disk cache yet: its first call
+    then compiles (``cornerbif sweep`` says so before it starts)."""
+    from ._jit import cache_is_cold
+    if scene.model == "map2d":
+        from .maps2d import iterate_batch as kernel
+    elif scene.model == "two_particle":
+        from .kernels.two_particle import run_batch as kernel
+    else:
+        from .kernels.flow import run_batch as kernel
+    return cache_is_cold(kernel)
+
+
 def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
     """Run the model's kernel and the cycle analysis on n items (rows of params/ics)."""
     if scene.model == "map2d":
