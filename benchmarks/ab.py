@@ -1,6 +1,11 @@
 """A/B throughput of the flow kernel: two source trees, alternated in one run.
 
     python benchmarks/ab.py TREE_A TREE_B [--rounds 41] [--num 50] [--scene fig04c]
+    python benchmarks/ab.py TREE_A TREE_B --speedup --num 1000 [--rounds 25]
+
+``--speedup`` compares how the two trees scale instead: in each turn a worker (not pinned)
+runs the scene on one thread and then on two, and the report gives each tree's median
+ratio of the wall times; both trees meet the same neighbours, turn by turn.
 
 Two worker processes, one per tree (each with its tree first on ``sys.path``, its
 numba cache warmed), take turns: each round times ``run_items`` (kernel + cycle
@@ -46,8 +51,21 @@ prm, ics = R._items(sc)
 ints = sweep.int_settings(sc)
 sweep.run_items(prm[:8], ics[:8], ints, sc)
 n_imp = len(prm) * (sc.transient + sc.record)
+if {speedup!r}:
+    numba.set_num_threads(2)
+    sweep.run_items(prm[:64], ics[:64], ints, sc)
 print("ready", flush=True)
 for line in sys.stdin:
+    if {speedup!r}:
+        # wall time on one thread, then on two, back to back
+        wall = []
+        for th in (1, 2):
+            numba.set_num_threads(th)
+            t0 = time.perf_counter()
+            sweep.run_items(prm, ics, ints, sc)
+            wall.append(time.perf_counter() - t0)
+        print(json.dumps({{"speedup": wall[0] / wall[1]}}), flush=True)
+        continue
     c0 = time.process_time()
     sweep.run_items(prm, ics, ints, sc)
     print(json.dumps({{"impacts": n_imp, "cpu_seconds": time.process_time() - c0}}), flush=True)
@@ -64,15 +82,17 @@ def _tree(spec, tmp):
     return out
 
 
-def _child(tree, scene, num, cpu, cache):
-    """A process on ``cpu`` that has imported ``tree`` and warmed its kernels (compiled
-    into the numba cache folder ``cache``); each line sent to it runs the scene once and
-    answers with the CPU time."""
-    code = CHILD.format(tree=tree, bench=os.path.join(ROOT, "benchmarks"), scene=scene, num=num)
+def _child(tree, scene, num, cpu, cache, speedup=False):
+    """A process on ``cpu`` (on every CPU with ``speedup``) that has imported ``tree`` and
+    warmed its kernels (compiled into the numba cache folder ``cache``); each line sent to
+    it runs the scene once and answers with the CPU time (with ``speedup``: once on one
+    thread and once on two, answering with the ratio of the wall times)."""
+    code = CHILD.format(tree=tree, bench=os.path.join(ROOT, "benchmarks"), scene=scene, num=num,
+                        speedup=speedup)
     env = dict(os.environ, PYTHONPATH=tree, NUMBA_CACHE_DIR=cache)
+    pin = None if speedup else (lambda: os.sched_setaffinity(0, {cpu}))
     p = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
-                         stdout=subprocess.PIPE, text=True, env=env,
-                         preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))
+                         stdout=subprocess.PIPE, text=True, env=env, preexec_fn=pin)
     if p.stdout.readline().strip() != "ready":
         raise RuntimeError(f"the child for {tree} did not start")
     return p
@@ -82,7 +102,7 @@ def _once(child):
     child.stdin.write("go\n")
     child.stdin.flush()
     r = json.loads(child.stdout.readline())
-    return r["impacts"] / r["cpu_seconds"]
+    return r["speedup"] if "speedup" in r else r["impacts"] / r["cpu_seconds"]
 
 
 def main(argv=None):
@@ -94,17 +114,25 @@ def main(argv=None):
     ap.add_argument("--scene", default="fig04c")
     ap.add_argument("--cpu", type=int, default=min(os.sched_getaffinity(0)),
                     help="the CPU both workers run on (default: the first allowed)")
+    ap.add_argument("--speedup", action="store_true",
+                    help="compare the 2-thread speed-ups (wall time, workers not pinned)")
     a = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         ta, tb = _tree(a.a, tmp), _tree(a.b, tmp)
-        ca = _child(ta, a.scene, a.num, a.cpu, os.path.join(tmp, "cache_a"))
-        cb = _child(tb, a.scene, a.num, a.cpu, os.path.join(tmp, "cache_b"))
+        ca = _child(ta, a.scene, a.num, a.cpu, os.path.join(tmp, "cache_a"), a.speedup)
+        cb = _child(tb, a.scene, a.num, a.cpu, os.path.join(tmp, "cache_b"), a.speedup)
         ratios = []
+        sa, sb = [], []
         try:
             for k in range(a.rounds):
                 ra = _once(ca)
                 rb = _once(cb)
                 ratios.append(rb / ra)
+                if a.speedup:
+                    sa.append(ra)
+                    sb.append(rb)
+                    print(f"round {k}: speed-up A {ra:.2f}, B {rb:.2f}", flush=True)
+                    continue
                 print(f"round {k}: A {ra / 1e6:.3f} M/s, B {rb / 1e6:.3f} M/s, "
                       f"B/A {ratios[-1]:.3f}", flush=True)
         finally:
@@ -112,6 +140,10 @@ def main(argv=None):
             cb.stdin.close()
             ca.wait()
             cb.wait()
+    if a.speedup:
+        print(f"median 2-thread speed-up over {a.rounds} rounds: A {statistics.median(sa):.3f}, "
+              f"B {statistics.median(sb):.3f}")
+        return
     q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else ratios * 3
     print(f"median B/A over {a.rounds} rounds: {statistics.median(ratios):.3f} "
           f"(quartiles {q[0]:.3f} - {q[2]:.3f}; min {min(ratios):.3f}, max {max(ratios):.3f})")
