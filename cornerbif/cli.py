@@ -81,8 +81,8 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         progress = sys.stderr.isatty() and not os.environ.get("CI")
     from .sweep import kernel_cache_cold
     if kernel_cache_cold(scene):
-        click.echo("compiling the numba kernels (the first run after an install: about a "
-                   "minute; cached afterwards) ...", err=True)
+        click.echo("compiling the numba kernels: the first run after an install takes tens of "
+                   "seconds (cached afterwards) ...", err=True)
     try:
         path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
                          progress=progress, command=_command_line(scene_path, out, sets, threads,
