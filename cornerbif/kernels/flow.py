@@ -153,9 +153,10 @@ def free_state(p, d, j, tau_ref, uh_ref, vh_ref, s, sa, ua, vka, za, zwa):
 
 @jit_inline
 def free_start(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0):
-    """State (u, u', z - kappa, z') of a free undamped flight at tau_ref + s0, the first
-    point of its search.  ``t0`` = tan(k s0 / 2) when s0 is the Sturm root
-    (``sturm_clear``), else NaN: the flight's rotation to s0 then needs no libm call."""
+    """State (u, u', z - kappa, z') of a free undamped flight (eq 4, sigma = 0, f = 0)
+    against a sinusoidal piece (eq 8) at tau_ref + s0, the first point of its search.
+    ``t0`` = tan(k s0 / 2) when s0 is the Sturm root (``sturm_clear``), else NaN: the
+    flight's rotation to s0 then needs no libm call."""
     if t0 == t0:
         q = 1.0 / (1.0 + t0 * t0)
         u, v = rotate(p, d, uh_ref, vh_ref, (1.0 - t0 * t0) * q, 2.0 * t0 * q)   # sigma = 0
@@ -176,10 +177,11 @@ G_TAU = 5         # and tau_m itself
 
 @jit
 def phase_grid(p, d):
-    """Phases of the free flight and of a sinusoidal obstacle at PHASE_GRID + 1 points
-    tau_m of a piece (rows ``G_*``), computed once per run: a search that starts at a
-    corner starts from the grid point before its Sturm root (``grid_start``), whose state
-    is a rotation by table values."""
+    """Phases of the free flight (eq 4: u_h turns at rate k) and of a sinusoidal obstacle
+    (eq 8: z - kappa = b sin(omega tau)) at PHASE_GRID + 1 points tau_m of a piece (rows
+    ``G_*``), computed once per run: a search that starts at a corner starts from the grid
+    point before its Sturm root (``grid_start``), whose state is a rotation by table
+    values."""
     k = p[P.K]
     w = p[P.OMEGA]
     g = np.empty((6, PHASE_GRID + 1))
