@@ -479,9 +479,10 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     j = np.int64(0)
     tau_ref = 0.0
     # sigma = 0: (cos, sin)(k tau_ref), the free flight's phase at the reference point
-    # since the start of the piece, while it is known (NaN after a release from sticking):
-    # the flight from an impact to the end of its piece is then a rotation by
-    # k (L - tau_ref), composed without trigonometry
+    # since the start of the piece: (1, 0) at a corner, composed with each flight's own
+    # rotation at an impact, NaN after a release from sticking (not known).  The flight
+    # from an impact to the end of its piece is then a rotation by k (L - tau_ref),
+    # composed without trigonometry
     c_ref = 1.0
     s_ref = 0.0
     amp2 = 0.0
@@ -573,6 +574,8 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 if n_imp >= need:
                     return S.OK
                 tau_ref = 0.0
+                c_ref = 1.0       # the phase at a corner
+                s_ref = 0.0
                 z_ref = z
                 zp_ref = za
                 uh_ref = z - up
@@ -590,6 +593,8 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 # the obstacle turns down under the particle: it leaves with zb
                 v_after = zb
                 tau_ref = 0.0
+                c_ref = 1.0       # the phase at a corner
+                s_ref = 0.0
                 z_ref = z
                 zp_ref = za
                 uh_ref = z - up
@@ -707,6 +712,8 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             if pieces > max_pieces:
                 return S.NO_IMPACT
             tau_ref = 0.0
+            c_ref = 1.0       # the phase at a corner
+            s_ref = 0.0
             if j % 2 == 0:
                 z_ref = zs0
                 zp_ref = zps0
@@ -769,11 +776,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             b1 = vh * ik
             ck = (uh_ref * uh + a1 * b1) / amp2
             sk = (a1 * uh - uh_ref * b1) / amp2
-            if tau_ref == 0.0:
-                c_ref = ck
-                s_ref = sk
-            else:
-                c_ref, s_ref = c_ref * ck - s_ref * sk, s_ref * ck + c_ref * sk
+            c_ref, s_ref = c_ref * ck - s_ref * sk, s_ref * ck + c_ref * sk
         else:
             c_ref = math.nan
         tau_ref = tau

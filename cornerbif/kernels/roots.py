@@ -128,10 +128,13 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
     closes at third order.  With f''' = ``fppp`` here and ``m4 >= |f''''|`` (inf if
     unknown), c also lies within f''(s) + f''' x / 3 +- m4 x^2 / 12: tighter where
     f''' is small.
+    ``H_hint`` > 0 replaces that prediction (the caller's window from the previous
+    step's bracket).  ``roots.polish`` is tried first where m4 is finite.
     ``first`` ignores f <= 0 here (the point just after an impact, g = 0, g' > 0).
 
-    Returns (code, h): FOUND with the root at +h, NONE (no root in the rest), FAIL
-    (f is not a number), or STEP with the certified step h to the next point.
+    Returns (code, h, hup): FOUND with the root at +h, NONE (no root in the rest), FAIL
+    (f is not a number), or STEP with the certified step h to the next point; hup is
+    the end of the certified bracket (a root lies before +hup; inf if none is known).
     """
     if not (f == f):
         return FAIL, 0.0, math.inf
@@ -189,7 +192,8 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
 
 @jit
 def bracket_call(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
-    """``bracket`` as a plain call, for searches off the hot path (``flow.first_root``):
-    every site that inlines ``bracket`` types and compiles it again (a cold start took
-    38 s with it inlined at every search, against 24 s)."""
+    """``bracket`` as a plain call, for searches off the hot path (``flow.first_root``, one
+    specialisation per searched function): every site that inlines ``bracket`` types and
+    compiles it again (a cold start of a fig06a sweep took 37 s with it inlined there too,
+    35 s with this call)."""
     return bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint)

@@ -173,7 +173,6 @@ def upp_bound(p, d, uh0, vh0):
     sig = p[P.SIGMA]
     reg = d[D_REGIME]
     if reg == 0.0:
-        wd = d[D_WD]
         B = (vh0 + sig * uh0) * d[D_IWD]
         amp = math.sqrt(uh0 * uh0 + B * B)
         k = p[P.K]
@@ -212,7 +211,6 @@ def deriv_bound(p, d, uh0, vh0, n):
     sig = p[P.SIGMA]
     reg = d[D_REGIME]
     if reg == 0.0:
-        wd = d[D_WD]
         B = (vh0 + sig * uh0) * d[D_IWD]
         hb = math.sqrt(uh0 * uh0 + B * B) * p[P.K] ** n
     elif reg == 1.0:
