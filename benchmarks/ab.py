@@ -45,7 +45,10 @@ import run as R
 sc = R._scene({scene!r}, **{{"sweep.omega.num": {num}}}) if {scene!r} == "fig04c" else \
      R._scene({scene!r}, **{{"sweep.kappa.num": {num}}})
 import time, numba
-from cornerbif import sweep
+try:
+    from cornerbif import engine as sweep
+except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+    from cornerbif import sweep
 numba.set_num_threads(1)
 prm, ics = R._items(sc)
 ints = sweep.int_settings(sc)

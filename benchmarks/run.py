@@ -40,7 +40,10 @@ def _scene(name, **over):
 
 def _items(scene):
     """Parameter rows and initial conditions of a whole scene (no file I/O)."""
-    from cornerbif import sweep
+    try:
+        from cornerbif import engine as sweep
+    except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+        from cornerbif import sweep
     G = scene.shape
     idx = [tuple(i) for i in np.ndindex(*G)]
     params = sweep.pack_points(scene, idx)
@@ -60,7 +63,10 @@ def bench_flow(scene, threads, repeat=3):
     """Impacts per second of the flow kernel (+ cycle analysis) on a whole scene."""
     import numba
 
-    from cornerbif import sweep
+    try:
+        from cornerbif import engine as sweep
+    except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+        from cornerbif import sweep
     prm, ics = _items(scene)
     ints = sweep.int_settings(scene)
     old = numba.get_num_threads()

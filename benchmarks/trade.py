@@ -44,7 +44,11 @@ def _run_scene(scene, ics=None, tile=1):
     Returns (out, status, period, words, seconds per item (one thread), ics) with items
     ordered (grid point, start).
     """
-    from cornerbif import sweep
+    try:
+        from cornerbif import engine as sweep
+    except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+        from cornerbif import sweep
+    from cornerbif.analysis import words
     from cornerbif.models import params as P
     n_pts = scene.shape[0]
     idx = [(i,) for i in range(n_pts)]
@@ -57,7 +61,7 @@ def _run_scene(scene, ics=None, tile=1):
     ints = sweep.int_settings(scene)
     out, st, final, period, ipc, sym = sweep.run_items(prm, ics, ints, scene)
     dt = _seconds_per_item(prm, ics, ints, scene, tile)
-    return out, st, period, sweep._words(sym), dt, ics
+    return out, st, period, words(sym), dt, ics
 
 
 def _seconds_per_item(prm, ics, ints, scene, tile=1, repeat=2):
@@ -65,7 +69,10 @@ def _seconds_per_item(prm, ics, ints, scene, tile=1, repeat=2):
     tiled ``tile`` times (a few dozen items are too few to time on a shared machine)."""
     import numba
 
-    from cornerbif import sweep
+    try:
+        from cornerbif import engine as sweep
+    except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+        from cornerbif import sweep
     P2 = np.ascontiguousarray(np.tile(prm, (tile, 1)))
     I2 = np.ascontiguousarray(np.tile(ics, (tile, 1)))
     old = numba.get_num_threads()
@@ -470,7 +477,11 @@ _COUNT_SCRIPT = r"""
 import json, os, sys
 import numpy as np
 sys.path.insert(0, {root!r})
-from cornerbif import config, sweep
+from cornerbif import config
+try:
+    from cornerbif import engine as sweep
+except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+    from cornerbif import sweep
 import cornerbif.kernels.flow as F
 from cornerbif.kernels.roots import FOUND, NONE
 
@@ -657,7 +668,11 @@ def bench_profile(smoke=False):
 
     import numba
 
-    from cornerbif import config, sweep
+    from cornerbif import config
+    try:
+        from cornerbif import engine as sweep
+    except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
+        from cornerbif import sweep
     from cornerbif.analysis import detect_cycles
     from cornerbif.models import params as P
     n_om = 20 if smoke else 1000

@@ -3,7 +3,34 @@
 The system is the one of Budd & Piiroinen, "Corner bifurcations in non-smoothly
 forced impact oscillators" (the paper in ``shared/paper``); equation numbers in
 docstrings are the paper's.
+
+Public entry points: ``simulate`` (any model from Python), ``load_scene``
+(a scene file -> ``Scene``), ``run_sweep`` (a scene to its HDF5 file), and the model
+registry in ``cornerbif.registry``.  See README.md.
 """
 
 __version__ = "0.1.0"
 FORMAT_VERSION = 1
+
+__all__ = ["simulate", "load_scene", "run_sweep", "Scene", "SceneError",
+           "SweepError", "__version__", "FORMAT_VERSION"]
+
+
+def __getattr__(name):
+    # lazy: importing the package pulls in neither numba nor h5py
+    if name == "simulate":
+        from .api import simulate
+        return simulate
+    if name == "load_scene":
+        from .config import load
+        return load
+    if name == "run_sweep":
+        from .sweep import run_sweep
+        return run_sweep
+    if name in ("Scene", "SceneError"):
+        from . import config
+        return getattr(config, name)
+    if name == "SweepError":
+        from .errors import SweepError
+        return SweepError
+    raise AttributeError(f"module 'cornerbif' has no attribute {name!r}")

@@ -60,11 +60,11 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     scene = _load(scene_path, sets)
     if scheduler is not None:
         from .distributed import parse_scheduler, require_dask
-        from .sweep import SweepError as _SE
+        from .errors import SweepError
         try:
             parse_scheduler(scheduler)
             require_dask()
-        except _SE as e:
+        except SweepError as e:
             _fail(str(e))
     from .sweep import SweepError, SweepInterrupted, estimate_bytes, estimate_memory, run_sweep
     out = out or f"{scene.name}.h5"
@@ -79,7 +79,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         return
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
-    from .sweep import kernel_cache_cold
+    from .engine import kernel_cache_cold
     if kernel_cache_cold(scene):
         click.echo("compiling the numba kernels: the first run after an install takes tens of "
                    "seconds (cached afterwards) ...", err=True)
@@ -161,7 +161,9 @@ def info(file):
         import tomllib
         sc = tomllib.loads(a["scene"])
         click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
-        click.echo(f"  model {sc['scene']['model']}, obstacle {sc['system'].get('obstacle')}")
+        model = sc['scene']['model']
+        obstacle = sc['system'].get('obstacle')
+        click.echo(f"  model {model}" + (f", obstacle {obstacle}" if obstacle else ""))
         rn = sc.get("run", {})
         click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
                    f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
@@ -212,7 +214,7 @@ def gallery(config_dir, out, data, only, smoke, threads):
     import time
 
     from . import gallery as G
-    from .sweep import SweepError
+    from .errors import SweepError
     t = time.perf_counter()
     try:
         recs = G.run(config_dir, out, data, only=only, smoke=smoke, threads=threads, echo=click.echo)

@@ -5,7 +5,12 @@ dotted key, the offending value and what is allowed (STYLE example 7)::
 
     sweep.omgea: unknown parameter of model 'flow' (did you mean 'omega'?)
 
-The public format (keep these names) is documented in README.md.
+``from_dict`` walks the declared tables in order (``READERS``: [scene], [system],
+[sweep], [initial], [run], [output], [plot]); the model registry
+(``cornerbif.registry``) supplies what [system], [sweep], [initial] and [output]
+allow, and each model's own cross-checks (``Model.check``).  No table reader
+branches on a model's name.  The public format (keep these names) is documented
+in README.md.
 """
 
 from __future__ import annotations
@@ -18,61 +23,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-MODELS = ("flow", "map2d", "two_particle")
-PLANNED_MODELS = ()
-OBSTACLES = ("sine", "rectified_sine", "triangle")
-KEEP = ("impacts", "section", "wall_impacts")
-FOLLOW = ("none", "up", "down")
+from . import registry
+from .model import is_number as _is_number
 
-# system parameters of model 'flow': default (paper scenes), and the allowed range
-FLOW_PARAMS = {
-    "omega": (2.0, "> 0"),
-    "kappa": (0.0, "any finite number"),
-    "beta": (1.0, ">= 0"),
-    "r": (0.8, "in [0, 1]"),
-    "sigma": (0.0, ">= 0"),
-    "k": (1.0, ">= 0"),
-    "F": (0.0, "any finite number"),
-    "Omega": (1.0, "> 0"),
-    "phi": (0.0, "any finite number"),
-    "theta1": (None, "> 0 (default beta * omega, the slope of eq (8) at its corners)"),
-    "theta2": (None, "> 0 (default beta * omega)"),
-}
-SYSTEM_OTHER = {"obstacle": "rectified_sine", "section_period": None}
-# model 'map2d' (section 5): the local maps with epsilon = 1, omega1 = omega - 2, kappa1 = kappa
-MAP2D_PARAMS = {
-    "omega": (1.999, "> 0 (the map uses omega1 = omega - 2)"),
-    "kappa": (-0.01, "any finite number (kappa1 = kappa)"),
-    "r": (0.8, "in (0, 1]"),
-}
-# model 'two_particle' (section 6): wall w = kappa + beta sin(omega0 t) (eq 72), heavy z and
-# light u harmonic with omega1, omega2 (eq 73), impacts by law (5) (r1) and eq (74) (r2, mu)
-TWO_PARTICLE_PARAMS = {
-    "omega0": (2.0, "> 0"),
-    "omega1": (1.001, "> 0"),
-    "omega2": (1.0, "> 0"),
-    "mu": (1000.0, "> 0 (inf allowed: law (74) becomes law (5))"),
-    "r1": (0.8, "in [0, 1]"),
-    "r2": (0.8, "in [0, 1]"),
-    "kappa": (0.0, "any finite number"),
-    "beta": (1.0, ">= 0"),
-    # beyond the paper: damping and forcing per particle as in 'flow' (eq 4)
-    "sigma1": (0.0, ">= 0"),
-    "sigma2": (0.0, ">= 0"),
-    "F1": (0.0, "any finite number"),
-    "Omega1": (1.0, "> 0"),
-    "phi1": (0.0, "any finite number"),
-    "F2": (0.0, "any finite number"),
-    "Omega2": (1.0, "> 0"),
-    "phi2": (0.0, "any finite number"),
-}
-MODEL_PARAMS = {"flow": FLOW_PARAMS, "map2d": MAP2D_PARAMS, "two_particle": TWO_PARTICLE_PARAMS}
-MODEL_INITIAL = {"flow": {"u": [0.0, 20.0], "v": [-20.0, 20.0]},
-                 "map2d": {"u": [0.0, 20.0], "v": [-0.05, 0.05]},
-                 "two_particle": {"z": [0.0, 2.0], "y": [-2.0, 2.0], "u": [0.0, 20.0],
-                                  "v": [-20.0, 20.0]}}
-MODEL_KEEP = {"flow": ("impacts", "section"), "map2d": ("section",),
-              "two_particle": ("impacts", "section", "wall_impacts")}
+FOLLOW = ("none", "up", "down")
 
 RUN_DEFAULTS = {
     "transient": 500,
@@ -97,24 +51,47 @@ PRESETS = {
     "precise": {"transient": 3000, "tol": 1e-14, "chatter": 1e-6},
 }
 DEFAULT_PRESET = "paper"
-# run.stop: "period" ends each run of the flow once its attractor's period is established
-# (the kernel's early stop, cornerbif.kernels.flow); the default is "period" for a flow scene
-# that keeps only the summary (output.keep = []) and "none" otherwise
+# run.stop: "period" ends each run once its attractor's period is established (the kernel's
+# early stop, models with Model.early_stop); the default is "period" for such a scene that
+# keeps only the summary (output.keep = []) and "none" otherwise
 STOPS = ("none", "period")
-INITIAL_DEFAULTS = {"count": 8, "seed": 1, "u": [0.0, 20.0], "v": [-20.0, 20.0]}
-TABLES = {
-    "scene": ("name", "title", "model"),
-    "system": tuple(FLOW_PARAMS) + tuple(SYSTEM_OTHER),
-    "sweep": None,  # parameter names + 'follow'
-    "initial": tuple(INITIAL_DEFAULTS) + ("z", "y"),
-    "run": ("preset",) + tuple(RUN_DEFAULTS),
-    "output": ("keep",),
-    "plot": ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
-             "max_panels"),
-}
+# the automatic time budget: obstacle periods per transient or recorded impact, plus a margin
+PERIODS_PER_IMPACT = 50
+BUDGET_MARGIN = 1000
+INITIAL_DEFAULTS = {"count": 8, "seed": 1}
+PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
+             "max_panels")
 PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
 # [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
 PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit")
+# the (a0, b1)-plane figures of the corner normal form (sections 4-5)
+NORMAL_FORM_KINDS = ("regions", "return_map", "orbit")
+
+
+def _union(seqs):
+    out = []
+    for s in seqs:
+        out += [x for x in s if x not in out]
+    return tuple(out)
+
+
+def _all_models():
+    return registry.models().values()
+
+
+MODELS = registry.names()
+# every observable any model has, in the file's order
+KEEP = _union(m.observables for m in _all_models())
+OBSTACLES = tuple(registry.get(registry.DEFAULT_MODEL).obstacles)
+TABLES = {
+    "scene": ("name", "title", "model"),
+    "system": _union(tuple(m.params) + tuple(m.system_extra) for m in _all_models()),
+    "sweep": None,  # parameter names + 'follow'
+    "initial": tuple(INITIAL_DEFAULTS) + _union(m.coords for m in _all_models()),
+    "run": ("preset",) + tuple(RUN_DEFAULTS),
+    "output": ("keep",),
+    "plot": PLOT_KEYS,
+}
 
 
 class SceneError(ValueError):
@@ -127,6 +104,8 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class Axis:
+    """One swept parameter: its name and its values (in increasing order)."""
+
     name: str
     values: tuple
 
@@ -137,20 +116,42 @@ class Axis:
 
 @dataclass(frozen=True)
 class Scene:
+    """A validated scene, every default resolved.
+
+    Attributes
+    ----------
+    name, title : the ``[scene]`` table (name also names the default output file).
+    model : the registered model's name (``cornerbif.registry``).
+    obstacle : ``system.obstacle`` for models with obstacles (``flow``), else the
+        default obstacle name (unused).
+    system : dict of the fixed numeric parameters (every declared parameter; a
+        derived default such as theta1 may be None).
+    section_period : Poincare section period (None: the model's default).
+    axes : tuple of ``Axis``, none, one (a diagram) or two (a parameter plane).
+    follow : "none", "up" or "down": carry each attractor along the first axis.
+    n_ic, seed : starts per grid point and the seed of their counter-based draw.
+    initial : dict coordinate -> (low, high), in the model's state order.
+    transient, record : impacts (map steps) discarded, then kept.
+    tol, chatter, escape, period_tol : the run tolerances (``[run]``).
+    max_events, max_periods : budgets (resolved from the automatic rule when not given).
+    keep : the observables stored beyond the per-point summary.
+    plot : the ``[plot]`` table as given.
+    text : the TOML text as run (defaults made explicit); ``hash`` is its SHA-256.
+    preset : the ``run.preset`` the run settings were resolved from.
+    stop : ``run.stop`` resolved: "period" (early stop) or "none".
+    """
+
     name: str
     title: str
     model: str
     obstacle: str
-    system: dict            # fixed numeric values (theta1/theta2 may be None)
+    system: dict
     section_period: float | None
-    axes: tuple             # tuple of Axis, one or two
+    axes: tuple
     follow: str
     n_ic: int
     seed: int
-    u_range: tuple
-    v_range: tuple
-    z_range: tuple | None
-    y_range: tuple | None
+    initial: dict
     transient: int
     record: int
     tol: float
@@ -161,9 +162,9 @@ class Scene:
     max_periods: int
     keep: tuple
     plot: dict = field(default_factory=dict)
-    text: str = ""          # the TOML text as run (overrides applied)
-    preset: str = DEFAULT_PRESET   # run.preset the run settings were resolved from
-    stop: str = "none"      # run.stop: "period" (early stop, flow only) or "none"
+    text: str = ""
+    preset: str = DEFAULT_PRESET
+    stop: str = "none"
 
     @property
     def shape(self) -> tuple:
@@ -172,6 +173,11 @@ class Scene:
     @property
     def hash(self) -> str:
         return hashlib.sha256(self.text.encode()).hexdigest()
+
+    @property
+    def spec(self):
+        """The registered model (``cornerbif.model.Model``)."""
+        return registry.get(self.model)
 
     def point(self, index: tuple) -> dict:
         """Named parameter values at a grid index."""
@@ -187,38 +193,12 @@ def _suggest(word, options):
     return f" (did you mean '{m[0]}'?)" if m else ""
 
 
-def _is_number(x):
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
 def _is_int(x):
     return isinstance(x, int) and not isinstance(x, bool)
 
 
 def _fmt(x):
     return repr(x)
-
-
-def _check_param(name, value, key, problems, model="flow"):
-    allowed = MODEL_PARAMS.get(model, FLOW_PARAMS)[name][1]
-    if not _is_number(value):
-        problems.append(f"{key}: {_fmt(value)} is not a number; {name} must be {allowed}")
-        return False
-    v = float(value)
-    if not math.isfinite(v) and not (name == "mu" and v == math.inf):
-        problems.append(f"{key}: {_fmt(value)} is not finite; {name} must be {allowed}")
-        return False
-    if name == "mu" and v == math.inf:
-        return True
-    bad = ((name in ("omega", "Omega", "theta1", "theta2", "omega0", "omega1", "omega2", "mu",
-                     "Omega1", "Omega2") and v <= 0)
-           or (name in ("beta", "sigma", "k", "sigma1", "sigma2") and v < 0)
-           or (name in ("r", "r1", "r2") and not 0.0 <= v <= 1.0)
-           or (name == "r" and model == "map2d" and v == 0.0))
-    if bad:
-        problems.append(f"{key}: {_fmt(value)} is out of range; {name} must be {allowed}")
-        return False
-    return True
 
 
 def set_dotted(raw: dict, key: str, value):
@@ -316,203 +296,242 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
     return from_dict(raw)
 
 
-def from_dict(raw) -> Scene:
-    """Validate a raw scene dict; raise ``SceneError`` listing every problem."""
-    problems = []
-    if not isinstance(raw, dict):
-        raise SceneError([f"scene: expected a table, got {type(raw).__name__}"])
-    for t, body in raw.items():
-        if t not in TABLES:
-            problems.append(f"{t}: unknown table{_suggest(str(t), TABLES)}; allowed: "
-                            + ", ".join(f"[{x}]" for x in TABLES))
-        elif not isinstance(body, dict):
-            problems.append(f"{t}: {_fmt(body)} must be a table [{t}]")
+# --------------------------------------------------------------------------- the walk
+class _Walk:
+    """What the table readers share: the raw tables, the problems found so far and the
+    values resolved so far (each reader adds its own)."""
 
-    def table(name):
-        b = raw.get(name, {})
+    def __init__(self, raw, drawn=True):
+        self.raw = raw
+        self.problems = []
+        self.drawn = drawn        # starts are drawn from [initial] ranges (not given)
+
+    def table(self, name):
+        b = self.raw.get(name, {})
         return b if isinstance(b, dict) else {}
 
-    def unknown(name, allowed):
-        for k in table(name):
+    def unknown(self, name, allowed):
+        for k in self.table(name):
             if k not in allowed:
                 where = [t for t, keys in TABLES.items() if keys and k in keys and t != name]
                 hint = f" (it belongs in [{where[0]}])" if where else _suggest(str(k), allowed)
-                problems.append(f"{name}.{k}: unknown key{hint}; allowed: {', '.join(allowed)}")
+                self.problems.append(f"{name}.{k}: unknown key{hint}; allowed: {', '.join(allowed)}")
 
-    # [scene]
-    sc = table("scene")
-    unknown("scene", TABLES["scene"])
+    def param(self, name, value, key):
+        p = self.spec.params[name].problem(value, key)
+        if p:
+            self.problems.append(p)
+        return p is None
+
+
+class CheckContext:
+    """What ``Model.check`` sees of a scene: its fixed values, axes, start ranges, the
+    problems found so far, and helpers that name a parameter's key and its values."""
+
+    def __init__(self, w):
+        self.system = w.system
+        self.axes = w.axes
+        self.ranges = w.ranges
+        self.obstacle = w.obstacle
+        self.problems = list(w.problems)
+        self.drawn = w.drawn
+
+    def swept(self, name):
+        return next((a for a in self.axes if a.name == name), None)
+
+    def key(self, name):
+        return f"sweep.{name}" if self.swept(name) else f"system.{name}"
+
+    def values_list(self, name):
+        a = self.swept(name)
+        return list(a.values) if a else [self.system.get(name)]
+
+    def values(self, name):
+        return set(self.values_list(name))
+
+
+def _read_scene(w):
+    sc = w.table("scene")
+    w.unknown("scene", TABLES["scene"])
     name = sc.get("name", "scene")
     if not isinstance(name, str) or not name:
-        problems.append(f"scene.name: {_fmt(name)} must be a non-empty string")
+        w.problems.append(f"scene.name: {_fmt(name)} must be a non-empty string")
         name = "scene"
     title = sc.get("title", name)
     if not isinstance(title, str):
-        problems.append(f"scene.title: {_fmt(title)} must be a string")
+        w.problems.append(f"scene.title: {_fmt(title)} must be a string")
         title = str(title)
-    model = sc.get("model", "flow")
+    model = sc.get("model", registry.DEFAULT_MODEL)
     if model not in MODELS:
-        if model in PLANNED_MODELS:
-            problems.append(f"scene.model: {_fmt(model)} is not implemented yet; allowed: "
-                            + ", ".join(MODELS))
-        else:
-            problems.append(f"scene.model: {_fmt(model)} is not a model"
-                            f"{_suggest(str(model), MODELS + PLANNED_MODELS)}; allowed: "
-                            + ", ".join(MODELS))
-        model = "flow"   # validate the rest as a flow scene; the error above stands
+        w.problems.append(f"scene.model: {_fmt(model)} is not a model"
+                          f"{_suggest(str(model), MODELS)}; allowed: " + ", ".join(MODELS))
+        model = registry.DEFAULT_MODEL   # validate the rest as such; the error above stands
+    w.name, w.title, w.model = name, title, model
+    w.spec = registry.get(model)
 
-    # [system]
-    sy = table("system")
-    mparams = MODEL_PARAMS.get(model, FLOW_PARAMS)
-    if model in ("map2d", "two_particle"):
-        unknown("system", tuple(mparams))
-    else:
-        unknown("system", TABLES["system"])
-    obstacle = sy.get("obstacle", SYSTEM_OTHER["obstacle"])
-    if obstacle not in OBSTACLES:
-        problems.append(f"system.obstacle: {_fmt(obstacle)} is not an obstacle"
-                        f"{_suggest(str(obstacle), OBSTACLES)}; allowed: {', '.join(OBSTACLES)}")
-        obstacle = "rectified_sine"
+
+def _read_system(w):
+    sy = w.table("system")
+    spec = w.spec
+    w.unknown("system", tuple(spec.params) + tuple(spec.system_extra))
+    default_obstacle = registry.get(registry.DEFAULT_MODEL).system_extra["obstacle"]
+    obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", default_obstacle))
+    if spec.obstacles and obstacle not in spec.obstacles:
+        allowed = tuple(spec.obstacles)
+        w.problems.append(f"system.obstacle: {_fmt(obstacle)} is not an obstacle"
+                          f"{_suggest(str(obstacle), allowed)}; allowed: {', '.join(allowed)}")
+        obstacle = spec.system_extra["obstacle"]
     system = {}
-    for p, (default, _) in mparams.items():
-        v = sy.get(p, default)
+    for p, decl in spec.params.items():
+        v = sy.get(p, decl.default)
         if v is None:
             system[p] = None
             continue
-        if _check_param(p, v, f"system.{p}", problems, model):
-            system[p] = float(v)
-        else:
-            system[p] = default
-    section_period = sy.get("section_period")
+        system[p] = float(v) if w.param(p, v, f"system.{p}") else decl.default
+    section_period = sy.get("section_period") if "section_period" in spec.system_extra else None
     if section_period is not None:
         if not _is_number(section_period) or not math.isfinite(section_period) or section_period <= 0:
-            problems.append(f"system.section_period: {_fmt(section_period)} must be a positive number")
+            w.problems.append(f"system.section_period: {_fmt(section_period)} must be a positive number")
             section_period = None
         else:
             section_period = float(section_period)
+    w.obstacle, w.system, w.section_period = obstacle, system, section_period
 
-    # [sweep]
-    sw = table("sweep")
+
+def _read_axis(w, k, spec):
+    """The values of one ``[sweep]`` axis, or None after a problem."""
+    key = f"sweep.{k}"
+    if not isinstance(spec, dict):
+        w.problems.append(f"{key}: {_fmt(spec)} must be {{ start = .., stop = .., num = .. }} "
+                          "or { values = [...] }")
+        return None
+    extra = set(spec) - {"start", "stop", "num", "values"}
+    for e in sorted(extra):
+        w.problems.append(f"{key}.{e}: unknown key{_suggest(e, ('start', 'stop', 'num', 'values'))}; "
+                          "allowed: start, stop, num, values")
+    if "values" in spec:
+        if {"start", "stop", "num"} & set(spec):
+            w.problems.append(f"{key}: give either values or start/stop/num, not both")
+        vals = spec["values"]
+        if not isinstance(vals, list) or not vals:
+            w.problems.append(f"{key}.values: {_fmt(vals)} must be a non-empty list of numbers")
+            return None
+        good = all(w.param(k, v, f"{key}.values") for v in vals)
+        return tuple(float(v) for v in vals) if good else None
+    ok = True
+    for part in ("start", "stop", "num"):
+        if part not in spec:
+            w.problems.append(f"{key}.{part}: missing; an axis needs start, stop and num")
+            ok = False
+    if not ok:
+        return None
+    num = spec["num"]
+    if not _is_int(num):
+        w.problems.append(f"{key}.num: {_fmt(num)} must be an integer >= 1")
+        ok = False
+    elif num < 1:
+        w.problems.append(f"{key}.num: {num} must be an integer >= 1")
+        ok = False
+    a = w.param(k, spec["start"], f"{key}.start")
+    b = w.param(k, spec["stop"], f"{key}.stop")
+    if not (ok and a and b):
+        return None
+    lo, hi = float(spec["start"]), float(spec["stop"])
+    if hi < lo:
+        w.problems.append(f"{key}: stop {hi!r} < start {lo!r}; axes run upwards "
+                          "(use sweep.follow = \"down\" to follow downwards)")
+    elif num > 1 and hi == lo:
+        w.problems.append(f"{key}: start = stop = {lo!r} with num = {num}; use num = 1")
+    else:
+        return tuple(float(x) for x in np.linspace(lo, hi, num))
+    return None
+
+
+def _read_sweep(w):
+    sw = w.table("sweep")
+    params = w.spec.params
     follow = sw.get("follow", "none")
     if follow not in FOLLOW:
-        problems.append(f"sweep.follow: {_fmt(follow)} is not allowed; allowed: {', '.join(FOLLOW)}")
+        w.problems.append(f"sweep.follow: {_fmt(follow)} is not allowed; allowed: {', '.join(FOLLOW)}")
         follow = "none"
     axes = []
     for k, spec in sw.items():
         if k == "follow":
             continue
-        key = f"sweep.{k}"
-        if k not in mparams:
-            hint = _suggest(str(k), mparams)
-            problems.append(f"{key}: {k!r} is not a parameter of model {model!r}{hint}; "
-                            f"allowed: {', '.join(mparams)}")
+        if k not in params:
+            w.problems.append(f"sweep.{k}: {k!r} is not a parameter of model {w.model!r}"
+                              f"{_suggest(str(k), params)}; allowed: {', '.join(params)}")
             continue
-        if not isinstance(spec, dict):
-            problems.append(f"{key}: {_fmt(spec)} must be {{ start = .., stop = .., num = .. }} "
-                            "or { values = [...] }")
-            continue
-        extra = set(spec) - {"start", "stop", "num", "values"}
-        for e in sorted(extra):
-            problems.append(f"{key}.{e}: unknown key{_suggest(e, ('start', 'stop', 'num', 'values'))}; "
-                            "allowed: start, stop, num, values")
-        values = None
-        if "values" in spec:
-            if {"start", "stop", "num"} & set(spec):
-                problems.append(f"{key}: give either values or start/stop/num, not both")
-            vals = spec["values"]
-            if not isinstance(vals, list) or not vals:
-                problems.append(f"{key}.values: {_fmt(vals)} must be a non-empty list of numbers")
-            else:
-                good = all(_check_param(k, v, f"{key}.values", problems, model) for v in vals)
-                if good:
-                    values = tuple(float(v) for v in vals)
-        else:
-            ok = True
-            for part in ("start", "stop", "num"):
-                if part not in spec:
-                    problems.append(f"{key}.{part}: missing; an axis needs start, stop and num")
-                    ok = False
-            if ok:
-                num = spec["num"]
-                if not _is_int(num):
-                    problems.append(f"{key}.num: {_fmt(num)} must be an integer >= 1")
-                    ok = False
-                elif num < 1:
-                    problems.append(f"{key}.num: {num} must be an integer >= 1")
-                    ok = False
-                a = _check_param(k, spec["start"], f"{key}.start", problems, model)
-                b = _check_param(k, spec["stop"], f"{key}.stop", problems, model)
-                if ok and a and b:
-                    lo, hi = float(spec["start"]), float(spec["stop"])
-                    if hi < lo:
-                        problems.append(f"{key}: stop {hi!r} < start {lo!r}; axes run upwards "
-                                        "(use sweep.follow = \"down\" to follow downwards)")
-                    elif num > 1 and hi == lo:
-                        problems.append(f"{key}: start = stop = {lo!r} with num = {num}; use num = 1")
-                    else:
-                        values = tuple(float(x) for x in np.linspace(lo, hi, num))
+        values = _read_axis(w, k, spec)
         if values is not None:
-            if k in ("theta1", "theta2") and obstacle != "triangle":
-                problems.append(f"{key}: {k} is a parameter of the triangle obstacle only "
-                                f"(system.obstacle is {obstacle!r})")
+            only = params[k].obstacles
+            if only and w.obstacle not in only:
+                w.problems.append(f"sweep.{k}: {k} is a parameter of the {' and '.join(only)} "
+                                  f"obstacle only (system.obstacle is {w.obstacle!r})")
             axes.append(Axis(k, values))
-    if raw.get("sweep") is not None and not axes and "sweep" in raw:
+    if "sweep" in w.raw and w.raw.get("sweep") is not None and not axes:
         if not [k for k in sw if k != "follow"]:
-            problems.append("sweep: no axis given; add e.g. kappa = { start = -0.02, stop = 0.0, num = 101 }")
+            w.problems.append("sweep: no axis given; add e.g. kappa = { start = -0.02, stop = 0.0, num = 101 }")
     if len(axes) > 2:
-        problems.append(f"sweep: {len(axes)} axes ({', '.join(a.name for a in axes)}); at most two")
-    if not axes and "sweep" not in raw:
-        axes = []
-    if section_period is not None and any(a.name == "omega" for a in axes):
-        problems.append("system.section_period: cannot be fixed while omega is swept "
-                        "(the default T = 2 pi / omega follows omega)")
-    if section_period is not None and model == "map2d":
-        problems.append(f"system.section_period: not a parameter of model {model!r}")
-        section_period = None
-    if section_period is not None and system.get("omega"):
-        per = (2 if obstacle == "sine" else 1) * math.pi / system["omega"]
-        m = section_period / per
+        w.problems.append(f"sweep: {len(axes)} axes ({', '.join(a.name for a in axes)}); at most two")
+    names = [a.name for a in axes]
+    if len(set(names)) != len(names):
+        w.problems.append(f"sweep: two axes name one parameter ({', '.join(names)})")
+    if follow != "none" and not axes:
+        w.problems.append(f"sweep.follow: {follow!r} needs a swept parameter")
+    sp = w.section_period
+    if sp is not None and any(a.name == "omega" for a in axes):
+        w.problems.append("system.section_period: cannot be fixed while omega is swept "
+                          "(the default T = 2 pi / omega follows omega)")
+    ob = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
+    if sp is not None and ob is not None and w.system.get("omega"):
+        per = ob.period(w.system["omega"])
+        m = sp / per
         if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
-            problems.append(f"system.section_period: {section_period!r} is not a whole number of "
-                            f"obstacle periods (P = {per!r})")
+            w.problems.append(f"system.section_period: {sp!r} is not a whole number of "
+                              f"obstacle periods (P = {per!r})")
+    w.axes, w.follow = axes, follow
 
-    # [initial]
-    ini = table("initial")
-    unknown("initial", TABLES["initial"])
+
+def _read_initial(w):
+    ini = w.table("initial")
+    w.unknown("initial", TABLES["initial"])
     n_ic = ini.get("count", INITIAL_DEFAULTS["count"])
     if not _is_int(n_ic) or n_ic < 1:
-        problems.append(f"initial.count: {_fmt(n_ic)} must be an integer >= 1")
+        w.problems.append(f"initial.count: {_fmt(n_ic)} must be an integer >= 1")
         n_ic = 1
     seed = ini.get("seed", INITIAL_DEFAULTS["seed"])
     if not _is_int(seed) or seed < 0:
-        problems.append(f"initial.seed: {_fmt(seed)} must be an integer >= 0")
+        w.problems.append(f"initial.seed: {_fmt(seed)} must be an integer >= 0")
         seed = 0
-    ranges = {}
-    coords = tuple(MODEL_INITIAL.get(model, INITIAL_DEFAULTS).keys() & {"z", "y", "u", "v"})
-    coords = tuple(c for c in ("z", "y", "u", "v") if c in coords)
-    for c in ("z", "y"):
+    coords = w.spec.coords
+    for c in TABLES["initial"][len(INITIAL_DEFAULTS):]:
         if c in ini and c not in coords:
-            problems.append(f"initial.{c}: not an initial coordinate of model {model!r}; "
-                            f"allowed: {', '.join(coords)}")
-    for c in coords:
-        rng = ini.get(c, MODEL_INITIAL.get(model, INITIAL_DEFAULTS)[c])
+            w.problems.append(f"initial.{c}: not an initial coordinate of model {w.model!r}; "
+                              f"allowed: {', '.join(coords)}")
+    ranges = {}
+    for c in coords:                                        # the model's state order
+        default = list(w.spec.coord(c).default)
+        rng = ini.get(c, default)
         if _is_number(rng):
             rng = [rng, rng]
         if (not isinstance(rng, list) or len(rng) != 2 or not all(_is_number(x) for x in rng)
                 or not all(math.isfinite(x) for x in rng)):
-            problems.append(f"initial.{c}: {_fmt(rng)} must be a range [low, high] of finite numbers")
-            rng = INITIAL_DEFAULTS[c]
+            w.problems.append(f"initial.{c}: {_fmt(rng)} must be a range [low, high] of finite numbers")
+            rng = default
         elif rng[1] < rng[0]:
-            problems.append(f"initial.{c}: {_fmt(rng)} has high < low")
+            w.problems.append(f"initial.{c}: {_fmt(rng)} has high < low")
         ranges[c] = (float(rng[0]), float(rng[1]))
+    w.n_ic, w.seed, w.ranges = n_ic, seed, ranges
 
-    # [run]
-    rn = table("run")
-    unknown("run", TABLES["run"])
+
+def _read_run(w):
+    rn = w.table("run")
+    w.unknown("run", TABLES["run"])
     preset = rn.get("preset", DEFAULT_PRESET)
     if not isinstance(preset, str) or preset not in PRESETS:
-        problems.append(f"run.preset: {_fmt(preset)} is not a preset"
-                        f"{_suggest(str(preset), PRESETS)}; allowed: {', '.join(PRESETS)}")
+        w.problems.append(f"run.preset: {_fmt(preset)} is not a preset"
+                          f"{_suggest(str(preset), PRESETS)}; allowed: {', '.join(PRESETS)}")
         preset = DEFAULT_PRESET
     run = {}
     for k, default in RUN_DEFAULTS.items():
@@ -520,11 +539,12 @@ def from_dict(raw) -> Scene:
         v = rn.get(k, default)
         if k == "stop":
             if v is not None and v not in STOPS:
-                problems.append(f"run.stop: {_fmt(v)} is not allowed; allowed: {', '.join(STOPS)}")
+                w.problems.append(f"run.stop: {_fmt(v)} is not allowed; allowed: {', '.join(STOPS)}")
                 v = None
-            elif v == "period" and model != "flow":
-                problems.append(f"run.stop: 'period' is implemented for model 'flow' only, "
-                                f"not {model!r}; allowed here: none")
+            elif v == "period" and not w.spec.early_stop:
+                which = " or ".join(repr(m.name) for m in _all_models() if m.early_stop)
+                w.problems.append(f"run.stop: 'period' is implemented for model {which} only, "
+                                  f"not {w.model!r}; allowed here: none")
                 v = None
             run[k] = v
             continue
@@ -534,48 +554,63 @@ def from_dict(raw) -> Scene:
                 continue
             lo = 0 if k == "transient" else 1
             if not _is_int(v) or v < lo:
-                problems.append(f"run.{k}: {_fmt(v)} must be an integer >= {lo}")
+                w.problems.append(f"run.{k}: {_fmt(v)} must be an integer >= {lo}")
                 v = default if default is not None else 1
         else:
             if not _is_number(v) or not math.isfinite(v) or v <= 0:
-                problems.append(f"run.{k}: {_fmt(v)} must be a positive finite number")
+                w.problems.append(f"run.{k}: {_fmt(v)} must be a positive finite number")
                 v = default
             elif k == "tol" and v > 1e-3:
-                problems.append(f"run.tol: {v!r} is too coarse; the event-time tolerance must be <= 1e-3")
+                w.problems.append(f"run.tol: {v!r} is too coarse; the event-time tolerance must be <= 1e-3")
             v = float(v)
         run[k] = v
     need = run["transient"] + run["record"]
-    per_event = 40 if model == "two_particle" else 10
-    max_events = run["max_events"] if run["max_events"] is not None else per_event * need + 1000
-    max_periods = run["max_periods"] if run["max_periods"] is not None else 50 * need + 1000
+    if run["max_events"] is None:
+        run["max_events"] = w.spec.events_per_impact * need + BUDGET_MARGIN
+    if run["max_periods"] is None:
+        run["max_periods"] = PERIODS_PER_IMPACT * need + BUDGET_MARGIN
+    w.preset, w.run, w.run_given = preset, run, rn
 
-    # [output]
-    outp = table("output")
-    unknown("output", TABLES["output"])
+
+def _read_output(w):
+    outp = w.table("output")
+    w.unknown("output", TABLES["output"])
     keep = outp.get("keep", list(KEEP))
     if not isinstance(keep, list) or not all(isinstance(x, str) for x in keep):
-        problems.append(f"output.keep: {_fmt(keep)} must be a list drawn from {list(KEEP)}")
+        w.problems.append(f"output.keep: {_fmt(keep)} must be a list drawn from {list(KEEP)}")
         keep = list(KEEP)
     for x in keep:
         if x not in KEEP:
-            problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, KEEP)}; "
-                            f"allowed: {', '.join(KEEP)}")
+            w.problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, KEEP)}; "
+                              f"allowed: {', '.join(KEEP)}")
     keep = tuple(x for x in KEEP if x in keep)
-    allowed_keep = MODEL_KEEP.get(model, KEEP)
+    allowed_keep = tuple(w.spec.observables)
     for x in keep:
         if x not in allowed_keep and "keep" in outp:
-            extra = (" (the map's iterates are stored as section/u = a_n, section/v = b_n)"
-                     if model == "map2d" else "")
-            problems.append(f"output.keep: {x!r} is not an observable of model {model!r}{extra}; "
-                            f"allowed: {', '.join(allowed_keep)}")
-    keep = tuple(x for x in keep if x in allowed_keep)
-    if run["stop"] is None:
-        run["stop"] = "period" if (model == "flow" and not keep) else "none"
+            w.problems.append(f"output.keep: {x!r} is not an observable of model {w.model!r}"
+                              f"{w.spec.keep_hint}; allowed: {', '.join(allowed_keep)}")
+    w.keep = tuple(x for x in keep if x in allowed_keep)
+    if w.run["stop"] is None:
+        w.run["stop"] = "period" if (w.spec.early_stop and not w.keep) else "none"
 
-    # [plot]
-    pl = table("plot")
-    unknown("plot", TABLES["plot"])
+
+def _normal_form_needs():
+    """Which models (and obstacles) the (a0, b1)-plane figures accept, in words."""
+    parts = []
+    for m in sorted(_all_models(), key=lambda m: m.normal_form_role != "map"):
+        if m.normal_form_role == "map":
+            parts.append(f"model {m.name!r}")
+        elif m.normal_form_role == "flow":
+            obs = [o for o, d in m.obstacles.items() if d.normal_form]
+            parts.append(f"{m.name!r} with obstacle " + " or ".join(repr(o) for o in obs))
+    return " or ".join(parts)
+
+
+def _read_plot(w):
+    pl = w.table("plot")
+    w.unknown("plot", TABLES["plot"])
     plot = dict(pl)
+    problems = w.problems
     if "y" in plot and plot["y"] not in PLOT_Y:
         problems.append(f"plot.y: {_fmt(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
     for lim in ("xlim", "ylim"):
@@ -583,39 +618,39 @@ def from_dict(raw) -> Scene:
             v = plot[lim]
             if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v) and v[0] < v[1]):
                 problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
-
     kind = plot.get("kind", "diagram")
-    if kind in ("regions", "return_map", "orbit"):
-        # the (a0, b1)-plane figures of the rectified-sine normal form (sections 4-5)
-        if model not in ("map2d", "flow") or (model == "flow" and obstacle != "rectified_sine"):
+    if kind in NORMAL_FORM_KINDS:
+        if not w.spec.has_normal_form(w.obstacle):
             problems.append(f"plot.kind: {kind!r} draws the corner normal form of z = kappa + "
-                            f"beta |sin omega t| (sections 4-5): it needs model 'map2d' or 'flow' "
-                            f"with obstacle 'rectified_sine' (this scene: model {model!r}"
-                            + (f", obstacle {obstacle!r}" if model == "flow" else "") + ")")
-        if axes:
+                            f"beta |sin omega t| (sections 4-5): it needs {_normal_form_needs()} "
+                            f"(this scene: model {w.model!r}"
+                            + (f", obstacle {w.obstacle!r}" if w.spec.obstacles else "") + ")")
+        if w.axes:
             problems.append(f"plot.kind: {kind!r} draws a scene without sweep axes; this one "
-                            f"sweeps {', '.join(a.name for a in axes)}")
-        if kind == "return_map" and rn.get("transient", PRESETS[preset]["transient"]) != 0:
+                            f"sweeps {', '.join(a.name for a in w.axes)}")
+        if kind == "return_map" and w.run_given.get("transient", PRESETS[w.preset]["transient"]) != 0:
             problems.append("plot.kind: 'return_map' needs run.transient = 0 (A0 is the first "
                             "section value after the start)")
     if kind not in PLOT_KINDS:
         problems.append(f"plot.kind: {_fmt(kind)} is not a plot kind{_suggest(str(kind), PLOT_KINDS)}; "
                         f"allowed: {', '.join(PLOT_KINDS)}")
     if kind == "timeseries":
-        if model != "flow":
-            problems.append(f"plot.kind: 'timeseries' needs model 'flow' (the scene's model is {model!r})")
-        if "impacts" not in keep:
+        if not w.spec.timeseries:
+            which = " or ".join(repr(m.name) for m in _all_models() if m.timeseries)
+            problems.append(f"plot.kind: 'timeseries' needs model {which} (the scene's model is "
+                            f"{w.model!r})")
+        if "impacts" not in w.keep:
             problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
                             "output.keep must contain \"impacts\"")
     if "ic" in plot:
         v = plot["ic"]
-        if not (v == "distinct" or (isinstance(v, list) and v and all(_is_int(i) and 0 <= i < n_ic
+        if not (v == "distinct" or (isinstance(v, list) and v and all(_is_int(i) and 0 <= i < w.n_ic
                                                                        for i in v))):
             problems.append(f"plot.ic: {_fmt(v)} must be \"distinct\" or a list of start indices "
-                            f"in 0..{n_ic - 1}")
+                            f"in 0..{w.n_ic - 1}")
     if "point" in plot:
         v = plot["point"]
-        shape = [len(a.values) for a in axes]
+        shape = [len(a.values) for a in w.axes]
         if not (isinstance(v, list) and len(v) == len(shape)
                 and all(_is_int(i) and 0 <= i < n for i, n in zip(v, shape))):
             problems.append(f"plot.point: {_fmt(v)} must be a grid index with one entry per swept "
@@ -623,84 +658,72 @@ def from_dict(raw) -> Scene:
     for k, lo in (("cycles", 0), ("max_panels", 1)):
         if k in plot and not (_is_number(plot[k]) and plot[k] > lo and math.isfinite(plot[k])):
             problems.append(f"plot.{k}: {_fmt(plot[k])} must be a number > {lo}")
+    w.plot = plot
 
-    # cross checks
-    names = [a.name for a in axes]
-    if len(set(names)) != len(names):
-        problems.append(f"sweep: two axes name one parameter ({', '.join(names)})")
-    if follow != "none" and not axes:
-        problems.append(f"sweep.follow: {follow!r} needs a swept parameter")
-    if not any(a.name == "kappa" for a in axes) and not problems:
-        kap = [system["kappa"]]
-    else:
-        kap = list(next((a.values for a in axes if a.name == "kappa"), [system["kappa"]]))
-    if model == "two_particle" and "z" in ranges and "u" in ranges:
-        if ranges["z"][1] <= max(kap):
-            problems.append(f"initial.z: {list(ranges['z'])} lies on or below the wall at t = 0 "
-                            f"(w(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
-        if ranges["u"][1] <= ranges["z"][1]:
-            problems.append(f"initial.u: {list(ranges['u'])} must reach above initial.z "
-                            f"{list(ranges['z'])} (u >= z)")
-    if model == "two_particle" and not problems:
-        # undamped exact resonance of a particle or of the stuck pair (models.two_particle.pack
-        # refuses it per point): checked here over every combination of the values of the
-        # parameters it involves, so that a sweep is refused before any kernel runs
-        from .models import two_particle as TP
-        involved = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
-        swept = [a for a in axes if a.name in involved]
-        n_comb = math.prod(len(set(a.values)) for a in swept) if swept else 1
-        if n_comb <= 200_000:
-            import itertools
-            for combo in itertools.product(*[sorted(set(a.values)) for a in swept]):
-                vals = dict(system) | {a.name: v for a, v in zip(swept, combo)}
-                try:
-                    TP.pack({k: v for k, v in vals.items() if v is not None})
-                except ValueError as e:
-                    if "resonance" in str(e):
-                        where = ", ".join(f"sweep.{a.name} = {v!r}" for a, v in zip(swept, combo))
-                        problems.append(f"system/sweep: {e}" + (f" (at {where})" if where else ""))
-                        break
-    if model == "flow" and not problems:
-        # models.oscillator's particular solution divides by k^2 - Omega^2 when undamped
-        def vals(n):
-            return set(next((a.values for a in axes if a.name == n), [system.get(n)]))
-        res = vals("Omega") & vals("k")
-        if any(x not in (0, 0.0, None) for x in vals("F")) and 0.0 in vals("sigma") and res:
-            def key(n):
-                return f"sweep.{n}" if any(a.name == n for a in axes) else f"system.{n}"
-            problems.append(f"{key('Omega')}: {_fmt(sorted(res)[0])} equals {key('k')} with "
-                            f"sigma = 0 and F != 0 (undamped exact resonance: no bounded "
-                            "closed-form flight); change Omega or k, or add damping sigma > 0")
-    if model == "flow" and ranges.get("u") and kap and all(_is_number(x) for x in kap):
-        if ranges["u"][1] <= max(kap):
-            problems.append(f"initial.u: {list(ranges['u'])} lies on or below the obstacle at t = 0 "
-                            f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
-    if problems:
-        raise SceneError(problems)
 
-    # the scene as run: defaults made explicit, so the file says everything
+def _read_model_checks(w):
+    """The model's own cross-checks (``Model.check``)."""
+    w.problems += w.spec.check(CheckContext(w))
+
+
+# the declared tables, walked in this order
+READERS = (("scene", _read_scene), ("system", _read_system), ("sweep", _read_sweep),
+           ("initial", _read_initial), ("run", _read_run), ("output", _read_output),
+           ("plot", _read_plot), (None, _read_model_checks))
+
+
+def from_dict(raw, drawn_starts: bool = True) -> Scene:
+    """Validate a raw scene dict; raise ``SceneError`` listing every problem.
+
+    ``drawn_starts=False`` (``simulate``, which is given its starts) skips the checks of
+    the ``[initial]`` ranges against the obstacle.
+    """
+    if not isinstance(raw, dict):
+        raise SceneError([f"scene: expected a table, got {type(raw).__name__}"])
+    w = _Walk(raw, drawn_starts)
+    for t, body in raw.items():
+        if t not in TABLES:
+            w.problems.append(f"{t}: unknown table{_suggest(str(t), TABLES)}; allowed: "
+                              + ", ".join(f"[{x}]" for x in TABLES))
+        elif not isinstance(body, dict):
+            w.problems.append(f"{t}: {_fmt(body)} must be a table [{t}]")
+    for _, read in READERS:
+        read(w)
+    if w.problems:
+        raise SceneError(w.problems)
+    return _scene(w)
+
+
+def _scene(w) -> Scene:
+    """The scene as run: defaults made explicit, so the file says everything."""
+    run, spec = w.run, w.spec
+    system_text = {}
+    if "obstacle" in spec.system_extra:
+        system_text["obstacle"] = w.obstacle
+    system_text |= {k: v for k, v in w.system.items() if v is not None}
     as_run = {
-        "scene": {"name": name, "title": title, "model": model},
-        "system": ({"obstacle": obstacle} if model == "flow" else {})
-        | {k: v for k, v in system.items() if v is not None},
-        "sweep": {**{a.name: {"values": list(a.values)} for a in axes}, "follow": follow},
-        "initial": {"count": n_ic, "seed": seed, **{c: list(ranges[c]) for c in coords}},
-        "run": {**({"preset": preset} if "preset" in rn else {}),
-                **{k: v for k, v in run.items() if v is not None and k != "stop"},
-                "max_events": max_events, "max_periods": max_periods, "stop": run["stop"]},
-        "output": {"keep": list(keep)},
+        "scene": {"name": w.name, "title": w.title, "model": w.model},
+        "system": system_text,
+        "sweep": {**{a.name: {"values": list(a.values)} for a in w.axes}, "follow": w.follow},
+        "initial": {"count": w.n_ic, "seed": w.seed,
+                    **{c: list(r) for c, r in w.ranges.items()}},
+        "run": {**({"preset": w.preset} if "preset" in w.run_given else {}),
+                **{k: v for k, v in run.items()
+                   if v is not None and k not in ("stop", "max_events", "max_periods")},
+                "max_events": run["max_events"], "max_periods": run["max_periods"],
+                "stop": run["stop"]},
+        "output": {"keep": list(w.keep)},
     }
-    if not axes:
+    if not w.axes:
         del as_run["sweep"]
-    if section_period is not None:
-        as_run["system"]["section_period"] = section_period
-    if plot:
-        as_run["plot"] = plot
-    return Scene(name=name, title=title, model=model, obstacle=obstacle, system=system,
-                 section_period=section_period, axes=tuple(axes), follow=follow, n_ic=n_ic,
-                 seed=seed, u_range=ranges["u"], v_range=ranges["v"],
-                 z_range=ranges.get("z"), y_range=ranges.get("y"), transient=run["transient"],
-                 record=run["record"], tol=run["tol"], chatter=run["chatter"], escape=run["escape"],
-                 period_tol=run["period_tol"], max_events=max_events, max_periods=max_periods,
-                 keep=keep, plot=plot, text=dumps(as_run), preset=preset,
-                 stop=run["stop"])
+    if w.section_period is not None:
+        as_run["system"]["section_period"] = w.section_period
+    if w.plot:
+        as_run["plot"] = w.plot
+    return Scene(name=w.name, title=w.title, model=w.model, obstacle=w.obstacle,
+                 system=w.system, section_period=w.section_period, axes=tuple(w.axes),
+                 follow=w.follow, n_ic=w.n_ic, seed=w.seed, initial=w.ranges,
+                 transient=run["transient"], record=run["record"], tol=run["tol"],
+                 chatter=run["chatter"], escape=run["escape"], period_tol=run["period_tol"],
+                 max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
+                 plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"])

@@ -2,7 +2,7 @@
 
 ``cornerbif sweep SCENE.toml --scheduler ADDRESS`` (or ``local:N`` for a local
 cluster of N worker processes) runs the sweep's blocks ("chunks") on Dask
-workers.  The unit of work is ``sweep.compute_block`` - the very function the
+workers.  The unit of work is ``engine.compute_block`` - the very function the
 local backend calls - so both backends write the same bytes.  Workers do no
 I/O: each returns its block's arrays and this process, the driver, is the only
 writer of the HDF5 file, with the same done-marks, lock and ``--resume`` as the
@@ -37,7 +37,7 @@ numba threads of one worker, not more workers.
 
 Test-only hook: ``CORNERBIF_TEST_CRASH=DIR`` in a worker's environment makes a
 chunk misbehave when ``DIR`` holds a control file for it: ``crash-<i>`` holding
-``once`` (or ``always``) makes chunk ``i`` (its position in ``sweep.blocks``)
+``once`` (or ``always``) makes chunk ``i`` (its position in ``engine.blocks``)
 compute and then ``os._exit`` on its first (every) attempt, each attempt
 appended to ``DIR/attempts-<i>``; ``hold`` holding ``h`` makes every chunk
 ``i >= h`` wait while that file exists.  Never set it outside the test suite.
@@ -51,11 +51,10 @@ import threading
 import time
 import uuid
 
-import numpy as np
-
 from . import io
-from .sweep import (SweepError, _carry_from_file, block_carry, blocks, compute_block,
-                    progress_bar)
+from .engine import block_carry, blocks, compute_block
+from .errors import SweepError
+from .local import carry_from_file, progress_bar
 
 try:  # the plugin's base class; the module imports without Dask (the CLI says how to install)
     from distributed import WorkerPlugin as _PluginBase
@@ -152,7 +151,7 @@ def _set_numba_threads(requested, dask_threads):
 def compute_chunk(scene_hash, i, blk, carry=None):
     """The task: chunk ``i`` (slab ``blk``) of the scene held by ``SceneSetup``.
 
-    Returns (block dict as ``sweep.compute_block``, seconds spent computing, numba
+    Returns (block dict as ``engine.compute_block``, seconds spent computing, numba
     threads used).  No I/O (apart from the test-only hook)."""
     from distributed import get_worker
     try:
@@ -243,8 +242,7 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
     from distributed import as_completed
     kind, arg = parse_scheduler(scheduler)
     every = blocks(scene, block_points)
-    done = f["done"][...]
-    todo = [(i, b) for i, b in enumerate(every) if not np.all(done[b])]
+    todo = [(i, every[i]) for i in io.unfinished(every, f)]
     stats = {} if stats is None else stats
     stats.update(chunks=len(every), submitted=0, failed=[], compute_seconds=[],
                  write_seconds=[])
@@ -289,7 +287,7 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
 
         failed = stats["failed"]
         if followed:
-            carry = _carry_from_file(scene, f, every, todo[0][1])
+            carry = carry_from_file(scene, f, every, todo[0][1])
             for i, blk in todo:
                 fut = submit(i, blk, carry)
                 try:

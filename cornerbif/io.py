@@ -1,19 +1,28 @@
 """The HDF5 file: schema, incremental writing, reading, resume (DESIGN 5).
 
-Layout (public, keep these names)::
+Layout (public, keep these names; format version 1; the per-model datasets come from
+the model's declaration in ``cornerbif.registry``)::
 
     /                attrs: format = "cornerbif", format_version, cornerbif_version,
                      scene (TOML as run), scene_hash, created, completed, command,
-                     numpy_version, numba_version, h5py_version, status_codes
+                     model, obstacle, numpy_version, numba_version, h5py_version,
+                     python_version, status_codes, status_counts (once complete),
+                     failed_chunks (a distributed run with failed chunks, until resumed)
     /<axis>          one dataset per swept parameter, a dimension scale
     /ic, /record     dimension scales
-    /initial/u, v    G + (n_ic,)
+    /initial/<c>     G + (n_ic,): the start of each state coordinate c
+                     (flow, map2d: u, v; two_particle: z, y, u, v)
+    /final/<c>       G + (n_ic,): the state at the last section crossed (what follow carries)
     /impacts/t, u, v_in, v_out, corner_offset   G + (n_ic, record), NaN where absent
-    /section/u, v    G + (n_ic, record)
+                     (flow; two_particle: the z-u impacts, offset to the nearest w-z impact)
+    /section/u, v    G + (n_ic, record) (map2d: a_n, b_n; two_particle adds section/z, y)
+    /wall_impacts/t, z, y_in, y_out   G + (n_ic, record) (two_particle: the w-z impacts)
+    /<group>/<axis>, /<group>/ic, /<group>/record   each group's own copies of the scales,
+                     so that xarray opens a group with coordinate values
     /status          G + (n_ic,) int8 (names in its attribute ``codes``)
     /period, /impacts_per_cycle   G + (n_ic,) int32
-    /symbols         G + (n_ic,) fixed-length ASCII string (record // 2 bytes, NUL-padded)
-    /final/u, v      G + (n_ic,): state at the last section crossed (what follow carries)
+    /symbols         G + (n_ic,) fixed-length ASCII string (record // 2 bytes, NUL-padded;
+                     attribute _Encoding = "ascii", so xarray reads text)
     /done            G uint8: 1 where the grid point is complete
 
 A sweep writes ``OUT.h5.partial`` in HDF5's single-writer/multiple-reader
@@ -34,17 +43,10 @@ import h5py
 import numpy as np
 
 from . import FORMAT_VERSION, __version__
+from . import registry
 from . import status as S
+from .errors import SweepError
 
-IMPACT_FIELDS = ("t", "u", "v_in", "v_out", "corner_offset")
-SECTION_FIELDS = ("u", "v")
-UNITS = {
-    "t": ("time", "impact time t"),
-    "u": ("length", "impact height u = z(t)"),
-    "v_in": ("length/time", "velocity just before impact v-"),
-    "v_out": ("length/time", "velocity just after impact v+ (law 5)"),
-    "corner_offset": ("time", "signed offset of the impact to the nearest corner (t - t_k)"),
-}
 
 
 class FileFormatError(Exception):
@@ -56,7 +58,14 @@ def _now():
 
 
 def create(path, scene, n_ic, command="", versions=None):
-    """Create the partial file with every dataset allocated and its scales attached."""
+    """Create the partial file with every dataset allocated and its scales attached.
+
+    The schema is the model's declaration (``cornerbif.registry``): ``initial/<c>`` and
+    ``final/<c>`` per state coordinate, one dataset per Field of each kept observable,
+    and the per-run summary every model shares (status, period, impacts_per_cycle,
+    symbols) with the grid's ``done`` mask.
+    """
+    spec = registry.get(scene.model)
     G = scene.shape
     rec = scene.record
     f = h5py.File(path, "w", libver="latest")
@@ -87,7 +96,19 @@ def create(path, scene, n_ic, command="", versions=None):
     recd.make_scale("record")
     recd.attrs["long_name"] = "recorded event index"
 
+    def local(scale, group):
+        """The group's own copy of a root dimension scale: xarray opens a group
+        (``group="impacts"``) with coordinate values only from scales inside it."""
+        name = f"{group}/{scale.name.rsplit('/', 1)[-1]}"
+        if name not in f:
+            ds = f.create_dataset(name, data=scale[...])
+            ds.attrs["long_name"] = scale.attrs["long_name"]
+            ds.make_scale(name.rsplit("/", 1)[-1])
+        return f[name]
+
     def make(name, shape, dtype, fill, scales, **attrs):
+        if "/" in name:
+            scales = [local(sc, name.split("/")[0]) for sc in scales]
         nb = np.dtype(dtype).itemsize
         trailing = int(np.prod(shape[len(G):])) if len(shape) > len(G) else 1
         per = max(1, (256 * 1024) // max(1, trailing * nb))
@@ -104,49 +125,27 @@ def create(path, scene, n_ic, command="", versions=None):
         return ds
 
     gsc = list(dims)
-    make("initial/u", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="initial position u(0)")
-    make("initial/v", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="initial velocity v(0)")
-    if "impacts" in scene.keep:
-        for fld in IMPACT_FIELDS:
-            units, ln = UNITS[fld]
-            make(f"impacts/{fld}", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
-                 units=units, long_name=ln)
-    if "section" in scene.keep:
-        make("section/u", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
-             long_name="u at the Poincare section t = nT")
-        make("section/v", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
-             long_name="v at the Poincare section t = nT")
-    if scene.model == "two_particle":
-        # section 6: the heavy particle z (velocity y) and the wall-particle impacts
-        make("initial/z", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="initial z(0)")
-        make("initial/y", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="initial y(0) = z'(0)")
-        make("final/z", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="z at the last section")
-        make("final/y", G + (n_ic,), "f8", np.nan, gsc + [ic], long_name="y at the last section")
-        if "section" in scene.keep:
-            make("section/z", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
-                 long_name="z at the Poincare section t = n 2 pi/omega0")
-            make("section/y", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
-                 long_name="y at the Poincare section")
-        if "wall_impacts" in scene.keep:
-            for fld, ln in (("t", "wall-particle impact time"), ("z", "impact height z = w"),
-                            ("y_in", "velocity of z before the impact"),
-                            ("y_out", "velocity of z after the impact (law 5, r1)")):
-                make(f"wall_impacts/{fld}", G + (n_ic, rec), "f8", np.nan, gsc + [ic, recd],
-                     long_name=ln)
-    make("final/u", G + (n_ic,), "f8", np.nan, gsc + [ic],
-         long_name="u at the last section crossed (the state a followed sweep carries on)")
-    make("final/v", G + (n_ic,), "f8", np.nan, gsc + [ic],
-         long_name="v at the last section crossed")
-    make("status", G + (n_ic,), "i1", -1, gsc + [ic],
+    per_run = G + (n_ic,)
+    per_event = G + (n_ic, rec)
+    for c in spec.state:
+        make(f"initial/{c.name}", per_run, "f8", np.nan, gsc + [ic], long_name=c.initial_doc)
+    for fld in spec.fields(scene.keep):
+        units = {"units": fld.units} if fld.units else {}
+        make(fld.name, per_event, "f8", np.nan, gsc + [ic, recd], **units,
+             long_name=fld.long_name)
+    for c in spec.state:
+        make(f"final/{c.name}", per_run, "f8", np.nan, gsc + [ic], long_name=c.final_doc)
+    make("status", per_run, "i1", -1, gsc + [ic],
          codes=json.dumps({str(k): v for k, v in S.NAMES.items()}),
          long_name="how the run ended (-1: not run)")
-    make("period", G + (n_ic,), "i4", 0, gsc + [ic],
+    make("period", per_run, "i4", 0, gsc + [ic],
          long_name="clusters per cycle (Poincare-map iterates near omega = 2); 0: none found")
-    make("impacts_per_cycle", G + (n_ic,), "i4", 0, gsc + [ic], long_name="impacts per cycle")
+    make("impacts_per_cycle", per_run, "i4", 0, gsc + [ic], long_name="impacts per cycle")
     # fixed length (no global heap): a period needs two cycles in the window, so at
     # most record // 2 letters; stays consistent for readers of an interrupted file
-    make("symbols", G + (n_ic,), symbol_dtype(rec), b"", gsc + [ic],
-         long_name="cycle word: a alpha, b beta, g gamma, x other; smallest rotation")
+    make("symbols", per_run, symbol_dtype(rec), b"", gsc + [ic],
+         long_name="cycle word: a alpha, b beta, g gamma, x other; smallest rotation",
+         _Encoding="ascii")      # read back as text (CF / xarray), not bytes
     d = f.create_dataset("done", shape=G, dtype="u1", fillvalue=0,
                          chunks=(tuple([1] * (len(G) - 1) + [min(G[-1], 65536)]) if G else None))
     for i, sc in enumerate(gsc):
@@ -237,3 +236,131 @@ def versions():
     import numba
     return {"numpy": np.__version__, "numba": numba.__version__, "h5py": h5py.__version__,
             "python": sys.version.split()[0]}
+
+
+# ------------------------------------------------------------------ the sweep's file
+# The lifecycle of a sweep's output: OUT.h5.partial is created with every dataset
+# (``open_partial``), written block by block (``write_block``, ``write_pending``),
+# reopened by --resume (``reopen``; rebuilt from a killed writer's file by
+# ``rebuild``) and renamed to OUT.h5 once every block is done (``finish``).
+def open_partial(partial, scene, command=""):
+    """Set a new partial file up under a temporary name: a partial file exists only once
+    every dataset is in place and single-writer/multiple-reader mode is on."""
+    init = partial + ".init"
+    f = create(init, scene, scene.n_ic, command=command, versions=versions())
+    f.swmr_mode = True
+    os.replace(init, partial)
+    return f
+
+
+def reopen(partial, scene):
+    """Open an interrupted sweep's partial file for writing.
+
+    A file whose writer was killed keeps HDF5's "open for writing" flags; it still
+    opens read-only in SWMR mode, so its finished points are copied into a fresh
+    partial file, which replaces it.
+    """
+    try:
+        f = h5py.File(partial, "r+", libver="latest")
+    except OSError:
+        f = rebuild(partial, scene)
+    if f.attrs.get("scene_hash") != scene.hash:
+        f.close()
+        raise SweepError(f"{partial}: the scene differs from the one this file was started with; "
+                         "--resume needs the same scene (or --overwrite to start again)")
+    f.swmr_mode = True
+    return f
+
+
+def rebuild(partial, scene):
+    """Copy the finished points of a killed writer's partial file into a fresh one."""
+    try:
+        src = h5py.File(partial, "r", swmr=True, locking=False)
+    except OSError as e:
+        raise SweepError(f"{partial}: cannot be read to resume ({e}); start again with "
+                         "--overwrite") from None
+    try:
+        return _copy_done(src, partial, scene)
+    except SweepError:
+        raise
+    except Exception as e:  # noqa: BLE001
+        raise SweepError(f"{partial}: cannot be read to resume ({e}); start again with "
+                         "--overwrite") from None
+
+
+def _copy_done(src, partial, scene):
+    with src:
+        if src.attrs.get("scene_hash") != scene.hash:
+            raise SweepError(f"{partial}: the scene differs from the one this file was started "
+                             "with; --resume needs the same scene (or --overwrite to start again)")
+        tmp = partial + ".rebuild"
+        dst = create(tmp, scene, scene.n_ic, command=src.attrs.get("command", ""),
+                     versions=versions())
+        dst.attrs["created"] = src.attrs.get("created", "")
+        names = _datasets(dst)
+        scales = {a.name for a in scene.axes} | {"ic", "record"}
+        G0 = scene.shape[0] if scene.shape else 1
+        step = max(1, G0 // 64)
+        for name in names:
+            if name in scales or name not in src or dst[name].is_scale:
+                continue
+            if not scene.shape:
+                dst[name][...] = src[name][...]
+                continue
+            for a in range(0, G0, step):
+                dst[name][a:a + step] = src[name][a:a + step]
+        dst.close()
+    os.replace(tmp, partial)
+    return h5py.File(partial, "r+", libver="latest")
+
+
+def unfinished(every, f):
+    """The positions in ``every`` (a list of blocks) of the blocks not yet marked done."""
+    done = f["done"][...]
+    return [i for i, b in enumerate(every) if not np.all(done[b])]
+
+
+def write_pending(f, pending):
+    """Write finished slabs, merged into one write where they are neighbours on axis 0.
+
+    The slabs are taken off ``pending`` before writing, so a write that fails (or is
+    interrupted) is not attempted again by the caller's clean-up.
+    """
+    items = sorted(pending, key=lambda item: item[0][0].start if item[0] else 0)
+    pending.clear()
+    if not items:
+        return
+    idx = [blk for blk, _ in items]
+    contiguous = len(items) > 1 and all(a[0].stop == b[0].start and a[1:] == b[1:]
+                                        for a, b in zip(idx, idx[1:]))
+    if contiguous:
+        blk = (slice(idx[0][0].start, idx[-1][0].stop),) + tuple(idx[0][1:])
+        write_block(f, blk, {n: np.concatenate([block[n] for _, block in items], axis=0)
+                             for n in items[0][1]})
+    else:
+        for item in items:
+            write_block(f, *item)
+
+
+def read_block(f, blk, names):
+    """The datasets ``names`` of slab ``blk`` as written (a followed sweep's carry on resume)."""
+    return {n: f[n][blk] for n in names}
+
+
+def finish(partial, out_path):
+    """Stamp a complete partial file (completion time, status counts) and rename it."""
+    with h5py.File(partial, "r+") as g:
+        g.attrs["completed"] = _now()
+        if "failed_chunks" in g.attrs:        # left by an earlier distributed run
+            del g.attrs["failed_chunks"]
+        counts = np.bincount(g["status"][...].ravel().astype(np.int64) + 1, minlength=9)
+        g.attrs["status_counts"] = str({S.NAMES.get(i - 1, "NOT_RUN"): int(c)
+                                        for i, c in enumerate(counts) if c})
+    os.replace(partial, out_path)
+
+
+def record_failures(partial, failures):
+    """The failed chunks of a distributed run, with their errors, on the partial file that
+    --resume completes (attributes cannot be added in single-writer/multiple-reader mode)."""
+    with h5py.File(partial, "r+") as g:
+        g.attrs["failed_chunks"] = json.dumps(failures)

@@ -12,7 +12,7 @@ import tomllib
 
 import numpy as np
 
-from . import plot_normal_form, theory
+from . import plot_normal_form, registry, theory
 from .analysis import run_length
 from .io import check_readable
 
@@ -44,7 +44,10 @@ class PlotData:
             self.period = f["period"][...]
             self.ipc = f["impacts_per_cycle"][...]
             self.symbols = f["symbols"][...].astype(str)
-            self.model = self.scene.get("scene", {}).get("model", "flow")
+            self.model = self.scene.get("scene", {}).get("model", registry.DEFAULT_MODEL)
+            self.spec = registry.models().get(self.model)
+            # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
+            self.role = self.spec.normal_form_role if self.spec else None
             self.done = f["done"][...]
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
             self.data = {}
@@ -88,8 +91,8 @@ class PlotData:
         return self.data.get(name)
 
     def default_y(self):
-        if self.model == "map2d":
-            return "section_v"
+        if self.spec is not None and self.spec.default_y:
+            return self.spec.default_y
         for kind in ("impact_u", "section_u"):
             if self.y(kind) is not None:
                 return kind
@@ -329,9 +332,9 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
         fig.savefig(out)
         plt.close(fig)
         return out
-    models = {d.model for d in datas}
-    if len(datas) == 2 and models == {"flow", "map2d"} and len(d0.axes) == 1:
-        datas.sort(key=lambda d: d.model != "flow")
+    roles = {d.role for d in datas}
+    if len(datas) == 2 and roles == {"flow", "map"} and len(d0.axes) == 1:
+        datas.sort(key=lambda d: d.role != "flow")
         kind = y or "section_v"
         fig = plt.figure(figsize=(7, 7), dpi=150)
         axs = draw_comparison(fig, datas, kind, plot_cfg)
@@ -448,7 +451,7 @@ def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
     from . import trajectory as TR
     with check_readable(path) as f:
         scene = C.loads(f.attrs["scene"])
-        if scene.model != "flow":
+        if not scene.spec.timeseries:
             raise ValueError(f"{path}: a time series needs a 'flow' scene, not {scene.model!r}")
         if "impacts/t" not in f:
             raise ValueError(f"{path}: a time series needs the impacts: set output.keep = [\"impacts\"]")

@@ -95,7 +95,7 @@ def draw_regions(ax, data, ms=1.5):
     omega, omega1, kappa1, r = _system(data)
     a0 = data.initial["u"].ravel()
     b0 = data.initial["v"].ravel()
-    if data.model == "map2d":
+    if data.role == "map":
         lab = map_regions(a0, b0, omega1, kappa1, r)
         source = "the map's rule (56)"
     else:
@@ -131,7 +131,7 @@ def return_values(data):
     if su is None:
         raise ValueError(f"{data.path}: plot kind 'return_map' needs output.keep = [\"section\"]")
     a0 = data.initial["u"].ravel()
-    col = 1 if data.model == "map2d" else 0
+    col = 1 if data.role == "map" else 0
     A0 = su.reshape(a0.size, -1)[:, col]
     order = np.argsort(a0)
     return a0[order], A0[order]
@@ -174,7 +174,7 @@ def draw_orbit(ax, data, ms=4.0):
     a, b = su.ravel(), sv.ravel()
     ok = np.isfinite(a) & np.isfinite(b)
     a, b = a[ok], b[ok]
-    if data.model == "flow":
+    if data.role == "flow":
         ax.plot(a, b, ls="none", marker="x", ms=1.6 * ms, mew=0.9, color="k",
                 label=f"flow: $(u, u')(nT)$, word {_word(data)}")
         return a, b
@@ -225,7 +225,7 @@ def figure(datas, out, plot_cfg, title=None):
         if d.axes:
             raise ValueError(f"{d.path}: plot kind {kind!r} draws a scene without sweep axes "
                              f"(this one sweeps {', '.join(d.axes)})")
-    datas = sorted(datas, key=lambda d: d.model != "flow")
+    datas = sorted(datas, key=lambda d: d.role != "flow")
     ms = plot_cfg.get("marker_size")
     if kind == "regions":
         fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.6), dpi=150,
@@ -251,10 +251,10 @@ def figure(datas, out, plot_cfg, title=None):
                     ax.axvline(x, color="0.5", lw=0.7, ls=":")
                     ax.text(x, 1.0, lab, transform=ax.get_xaxis_transform(), ha="center",
                             va="bottom", fontsize=7)
-            name = "(a) the impacting system (flow)" if d.model == "flow" else \
+            name = "(a) the impacting system (flow)" if d.role == "flow" else \
                 "(b) the linear maps (56)"
             ax.set_title(name, fontsize=8, loc="left", pad=12)
-        if datas[0].model == "flow" and len(datas) == 2:
+        if datas[0].role == "flow" and len(datas) == 2:
             a0, A0 = return_values(datas[0])
             a0m, A0m = return_values(datas[1])
             ax = axs[0][0]
@@ -275,7 +275,7 @@ def figure(datas, out, plot_cfg, title=None):
         fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 4.8), dpi=150,
                                        gridspec_kw={"width_ratios": [3, 2]})
         draw_orbit_frame(ax, datas)
-        for d in sorted(datas, key=lambda d: d.model == "flow"):
+        for d in sorted(datas, key=lambda d: d.role == "flow"):
             draw_orbit(ax, d, ms=ms or 4.0)
         ax.legend(loc="lower center", fontsize=6)
         # right: the approach to x_beta* along (0, 1) and the switching iterate there
@@ -284,7 +284,7 @@ def figure(datas, out, plot_cfg, title=None):
         a_all = np.concatenate([d.data["section/u"].ravel() for d in datas])
         b_all = np.concatenate([d.data["section/v"].ravel() for d in datas])
         near = np.isfinite(a_all) & (np.abs(a_all - xs[0]) < 0.02 * abs(xs[0]))
-        for d in sorted(datas, key=lambda d: d.model == "flow"):
+        for d in sorted(datas, key=lambda d: d.role == "flow"):
             draw_orbit(zoom, d, ms=ms or 4.0)
         zoom.plot([xs[0]], [xs[1]], "k*", ms=9)
         if near.sum() > 3:

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cornerbif import config, sweep as sweep_mod
+from cornerbif import config, engine, local
+from cornerbif import sweep as sweep_mod
 from cornerbif.cli import main
 
 TINY = """
@@ -111,7 +112,7 @@ def test_overrides_and_rerun_reproduces_bitwise(tiny, tmp_path):
 def test_resume_after_interruption_is_bitwise_equal(tiny, tmp_path, monkeypatch):
     full = tmp_path / "full.h5"
     assert run(["sweep", tiny, "-o", full]).exit_code == 0
-    monkeypatch.setattr(sweep_mod, "BLOCK_BYTES", 2 * 3 * (60 * sweep_mod.ITEM_FIELDS * 8 + 64))  # 2 points a block
+    monkeypatch.setattr(engine, "BLOCK_BYTES", 2 * 3 * engine.item_bytes(config.load(tiny)))  # 2 points a block
     calls = {"n": 0}
     real = sweep_mod.io.write_block
 
@@ -178,7 +179,7 @@ def test_follow_carries_the_attractor(tmp_path):
 @pytest.mark.parametrize("follow", ["up", "down"])
 def test_followed_slabs_written_together_equal_slab_by_slab_and_survive_interrupt(
         tmp_path, monkeypatch, follow):
-    """A followed sweep writes its thin slabs in batches (sweep.FOLLOW_BATCH); the file must
+    """A followed sweep writes its thin slabs in batches (local.FOLLOW_BATCH); the file must
     be bitwise the one written slab by slab, and an interrupt must keep every finished slab
     (the pending batch is written on the way out) and resume to the same file."""
     text = TINY.replace('kappa = { start = -0.016, stop = -0.012, num = 9 }',
@@ -187,10 +188,10 @@ def test_followed_slabs_written_together_equal_slab_by_slab_and_survive_interrup
     sc = tmp_path / "s.toml"
     sc.write_text(text)
     assert run(["sweep", sc, "-o", tmp_path / "batched.h5"]).exit_code == 0
-    monkeypatch.setattr(sweep_mod, "FOLLOW_BATCH", 1)
+    monkeypatch.setattr(local, "FOLLOW_BATCH", 1)
     assert run(["sweep", sc, "-o", tmp_path / "single.h5"]).exit_code == 0
-    monkeypatch.setattr(sweep_mod, "FOLLOW_BATCH", 256)
-    real = sweep_mod.compute_block
+    monkeypatch.setattr(local, "FOLLOW_BATCH", 256)
+    real = engine.compute_block
     calls = {"n": 0}
 
     def interrupted(*a, **k):
@@ -199,12 +200,12 @@ def test_followed_slabs_written_together_equal_slab_by_slab_and_survive_interrup
             raise KeyboardInterrupt
         return real(*a, **k)
 
-    monkeypatch.setattr(sweep_mod, "compute_block", interrupted)
+    monkeypatch.setattr(engine, "compute_block", interrupted)
     part = tmp_path / "part.h5"
     assert run(["sweep", sc, "-o", part]).exit_code == 130
     with h5py.File(str(part) + ".partial", "r") as f:
         assert f["done"][...].sum() == 5            # the five slabs computed before the interrupt
-    monkeypatch.setattr(sweep_mod, "compute_block", real)
+    monkeypatch.setattr(engine, "compute_block", real)
     assert run(["sweep", sc, "-o", part, "--resume"]).exit_code == 0
     names = ("impacts/t", "section/v", "status", "period", "final/u", "final/v", "done")
     with h5py.File(tmp_path / "batched.h5") as a, h5py.File(tmp_path / "single.h5") as b, \
@@ -279,11 +280,11 @@ def test_initial_conditions_are_above_the_obstacle():
         "seed = 4", "seed = 4\nu = [-1.0, 0.5]"))
     flat = np.arange(9)
     kap = sc.axes[0].array
-    ics = sweep_mod.draw_initial(sc, flat, kap)
+    ics = engine.draw_initial(sc, flat, kap)
     assert (ics[..., 0] > kap[:, None]).all()
     assert (ics[..., 0] <= 0.5).all()
     # the draw depends only on (seed, point, start): the same for a sub-range
-    again = sweep_mod.draw_initial(sc, flat[3:5], kap[3:5])
+    again = engine.draw_initial(sc, flat[3:5], kap[3:5])
     assert np.array_equal(again, ics[3:5])
 
 

@@ -13,7 +13,8 @@ import numba
 import numpy as np
 import pytest
 
-from cornerbif import config, sweep, theory
+from cornerbif import config, engine, sweep, theory
+from cornerbif.models.flow_model import STOP_TOL_FACTOR
 from cornerbif.kernels.flow import run_batch
 from cornerbif.models import params as P
 
@@ -25,8 +26,8 @@ def _chart_items(stop, n=14, count=3, extra=()):
     sc = config.load(CHART, [f"sweep.omega.num={n}", f"sweep.kappa.num={n}",
                              f"initial.count={count}", f'run.stop="{stop}"', *extra])
     idx = [tuple(i) for i in np.ndindex(*sc.shape)]
-    params = sweep.pack_points(sc, idx)
-    ics = sweep.draw_initial(sc, np.arange(len(idx)), params[:, P.KAPPA]).reshape(-1, 2)
+    params = engine.pack_points(sc, idx)
+    ics = engine.draw_initial(sc, np.arange(len(idx)), params[:, P.KAPPA]).reshape(-1, 2)
     return sc, np.repeat(params, sc.n_ic, axis=0), np.ascontiguousarray(ics)
 
 
@@ -35,13 +36,13 @@ def _first_recorded(prm, ics, sc):
     n, rec = len(prm), sc.record
     o = [np.full((n, rec), np.nan) for _ in range(7)]
     rec0 = np.zeros(n, np.int64)
-    run_batch(prm, sweep.int_settings(sc), ics, *o[:5], np.zeros((n, rec), np.int64), o[5], o[6],
+    run_batch(prm, engine.int_settings(sc), ics, *o[:5], np.zeros((n, rec), np.int64), o[5], o[6],
               np.zeros(n, np.int8), np.zeros((n, 2)), rec0)
     return rec0
 
 
 def _summary(sc, prm, ics):
-    _, st, _, period, ipc, sym = sweep.run_items(prm, ics, sweep.int_settings(sc), sc)
+    _, st, _, period, ipc, sym = engine.run_items(prm, ics, engine.int_settings(sc), sc)
     return st, period, ipc, sym
 
 
@@ -104,7 +105,7 @@ def test_long_periods_near_kappa_C_are_unchanged_by_early_stop():
                            "run": {"transient": 1500, "record": 240, "stop": "period"},
                            "output": {"keep": []}})
     prm = np.array([P.pack(dict(sc.system, kappa=k), "rectified_sine", sc.tol, sc.chatter,
-                           sc.escape, None, sweep.STOP_TOL_FACTOR * sc.period_tol) for k in kap])
+                           sc.escape, None, STOP_TOL_FACTOR * sc.period_tol) for k in kap])
     rec0 = _first_recorded(prm, np.ascontiguousarray(np.stack([u0, v0], -1)), sc)
     assert np.all(rec0[a["period"] >= 30] < 600)
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import naive
 from cornerbif import status as S
-from cornerbif.sweep import simulate
+from cornerbif import simulate
 
 
 def test_elastic_impacts_on_a_fixed_wall_conserve_energy():

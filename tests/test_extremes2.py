@@ -9,7 +9,7 @@ import pytest
 import naive
 from cornerbif import status as S
 from cornerbif import theory
-from cornerbif.sweep import simulate
+from cornerbif import simulate
 
 
 @pytest.mark.parametrize("d", [1e-9, -1e-9])

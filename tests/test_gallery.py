@@ -9,17 +9,17 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cornerbif import analysis, config, gallery, theory, trajectory
+from cornerbif import analysis, config, gallery, registry, theory, trajectory
 from cornerbif.cli import main
 from cornerbif.plot import PlotData
-from cornerbif.sweep import run_sweep, simulate
+from cornerbif import run_sweep, simulate
 
 ROOT = os.path.dirname(os.path.dirname(__file__))
 CONFIGS = os.path.join(ROOT, "configs")
 
 
 def _flight_setup(obstacle, **vals):
-    v = {k: d for k, (d, _) in config.FLOW_PARAMS.items()}
+    v = {k: p.default for k, p in registry.get("flow").params.items()}
     v.update(vals)
     return trajectory.pack(v, obstacle)
 

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from cornerbif import config
-from cornerbif import sweep as sw
+from cornerbif import engine as sw
+from cornerbif.analysis import words
 
 SCENE = """
 [scene]
@@ -45,7 +46,7 @@ def _run(model):
     ics = sw.draw_initial(scene, np.arange(len(idx)), kap).reshape(-1, 2)
     prm = np.repeat(params, scene.n_ic, axis=0)
     out, st, final, period, ipc, sym = sw.run_items(prm, ics, sw.int_settings(scene), scene)
-    return out, st, period, sw._words(sym)
+    return out, st, period, words(sym)
 
 
 def test_map_words_and_b_iterates_match_the_flow():
@@ -63,7 +64,7 @@ def test_map_words_and_b_iterates_match_the_flow():
 
 
 def _flow_word(k, w=1.999, r=0.8, record=240):
-    from cornerbif.sweep import simulate
+    from cornerbif import simulate
     res = simulate([16.0, 18.5], [0.0, 0.0], transient=4000, record=record, omega=w, kappa=k, r=r)
     s = set(res["symbols"])
     return s.pop() if len(s) == 1 else ""

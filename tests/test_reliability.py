@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from cornerbif import config, io
+from cornerbif import config, io, registry
 from cornerbif import sweep as sweep_mod
 from cornerbif.cli import main
 
@@ -35,7 +35,7 @@ def test_arbitrary_toml_text_gives_a_scene_or_a_scene_error(text):
         assert isinstance(sc, config.Scene)
 
 
-KEYS = st.sampled_from(list(config.TABLES) + list(config.FLOW_PARAMS)
+KEYS = st.sampled_from(list(config.TABLES) + list(registry.get("flow").params)
                        + ["obstacle", "follow", "start", "stop", "num", "values", "count",
                           "seed", "u", "v", "transient", "record", "tol", "keep", "model",
                           "name", "y", "xlim", "omgea", ""])

@@ -18,7 +18,7 @@ from cornerbif import config
 from cornerbif import status as S
 from cornerbif.kernels.two_particle import simulate_two_particle
 from cornerbif.models import two_particle as P
-from cornerbif.sweep import simulate
+from cornerbif import simulate
 
 import naive
 

@@ -31,6 +31,9 @@ SECTION_AUTO = 16    # 1: put the section corners between the impact clusters (s
 STOP_TOL = 17        # > 0: stop once the attractor's period is established (run.stop = "period"),
                      # with this relative tolerance on the state at the corners; 0: never
 NPARAM = 18
+# the named parameters of models/flow_model.PARAMS and their slots (theta1, theta2: pack)
+INDEX = {"omega": OMEGA, "kappa": KAPPA, "beta": BETA, "r": R, "sigma": SIGMA, "k": K,
+         "F": F_AMP, "Omega": F_OMEGA, "phi": F_PHI}
 
 
 @jit
@@ -45,12 +48,14 @@ def as_tuple(p):
             p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17])
 
 
-# --- obstacle codes -------------------------------------------------------------------
-SINE = 0            # kappa + beta sin(omega t), section 2.2 (smooth, no corners)
-RECTIFIED_SINE = 1  # kappa + beta |sin(omega t)|, eq (8), corners at k pi / omega
-TRIANGLE = 2        # eq (7) made periodic with period pi / omega
+# --- obstacle codes (declared with each obstacle in models/flow_model.OBSTACLES) ---------
+from .flow_model import OBSTACLES as _DECLARED  # noqa: E402  (numba-free declarations)
 
-OBSTACLES = {"sine": SINE, "rectified_sine": RECTIFIED_SINE, "triangle": TRIANGLE}
+SINE = _DECLARED["sine"].code                      # section 2.2 (smooth, no corners)
+RECTIFIED_SINE = _DECLARED["rectified_sine"].code  # eq (8), corners at k pi / omega
+TRIANGLE = _DECLARED["triangle"].code              # eq (7) made periodic with period pi / omega
+
+OBSTACLES = {name: ob.code for name, ob in _DECLARED.items()}
 
 # --- integer run settings (a small int64 vector) --------------------------------------
 I_TRANSIENT = 0
@@ -61,47 +66,42 @@ NINT = 4
 
 
 def obstacle_period(obstacle: str, omega: float) -> float:
-    """Forcing period P: pi/omega for rectified_sine and triangle, 2 pi/omega for sine."""
-    return 2.0 * math.pi / omega if obstacle == "sine" else math.pi / omega
+    """Forcing period P (``Obstacle.period``): pi/omega for rectified_sine and triangle,
+    2 pi/omega for sine."""
+    return _DECLARED[obstacle].period(omega)
 
 
 def pieces_per_period(obstacle: str) -> int:
-    """Smooth pieces per forcing period.
+    """Smooth pieces per forcing period (``Obstacle.pieces``).
 
     ``sine`` is split at its half periods (no corner there, but the sign of z''
     is fixed on each half, which tightens the event-location bound);
     ``triangle`` has a rising and a falling piece.
     """
-    return {"sine": 2, "rectified_sine": 1, "triangle": 2}[obstacle]
+    return _DECLARED[obstacle].pieces
 
 
 def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
          section_period: float | None, stop_tol: float = 0.0) -> np.ndarray:
     """Pack named parameters of one grid point into the kernel's float64 vector.
 
-    ``stop_tol`` > 0 turns the kernel's early stop on (``run.stop = "period"``).
+    Missing values take their declared defaults (``models.flow_model.PARAMS``);
+    theta1 and theta2 default to beta * omega.  ``stop_tol`` > 0 turns the kernel's
+    early stop on (``run.stop = "period"``).
     """
+    from .flow_model import AUTO_SECTION, PARAMS, section_pieces
+    v = {k: values.get(k, p.default) for k, p in PARAMS.items()}
     p = np.zeros(NPARAM)
-    p[OMEGA] = values["omega"]
-    p[KAPPA] = values["kappa"]
-    p[BETA] = values["beta"]
-    p[R] = values["r"]
-    p[SIGMA] = values.get("sigma", 0.0)
-    p[K] = values.get("k", 1.0)
-    p[F_AMP] = values.get("F", 0.0)
-    p[F_OMEGA] = values.get("Omega", 1.0)
-    p[F_PHI] = values.get("phi", 0.0)
-    t1 = values.get("theta1")
-    t2 = values.get("theta2")
-    p[THETA1] = values["beta"] * values["omega"] if t1 is None or (isinstance(t1, float) and math.isnan(t1)) else t1
-    p[THETA2] = values["beta"] * values["omega"] if t2 is None or (isinstance(t2, float) and math.isnan(t2)) else t2
+    for name, index in INDEX.items():
+        p[index] = v[name]
+    for name, index in (("theta1", THETA1), ("theta2", THETA2)):
+        t = v[name]
+        p[index] = v["beta"] * v["omega"] if t is None or (isinstance(t, float) and math.isnan(t)) else t
     p[OBSTACLE] = OBSTACLES[obstacle]
     p[TOL] = tol
     p[CHATTER] = chatter
     p[ESCAPE] = escape
-    P = obstacle_period(obstacle, values["omega"])
-    sp = 2.0 * math.pi / values["omega"] if section_period is None else section_period
-    p[SECTION_PIECES] = max(1, round(sp / P)) * pieces_per_period(obstacle)
-    p[SECTION_AUTO] = 1.0 if (obstacle == "rectified_sine" and section_period is None) else 0.0
+    p[SECTION_PIECES] = section_pieces(obstacle, v["omega"], section_period)
+    p[SECTION_AUTO] = 1.0 if (obstacle in AUTO_SECTION and section_period is None) else 0.0
     p[STOP_TOL] = stop_tol
     return p

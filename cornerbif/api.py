@@ -1,0 +1,86 @@
+"""``cornerbif.simulate``: run any registered model from Python, one or many starts."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import registry
+
+RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
+
+
+def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=1e-6,
+             escape=1e6, period_tol=1e-6, max_events=None, max_periods=None, stop="none",
+             **system):
+    """Run ``model`` for one or many initial states at t = 0.
+
+    ``starts`` are the state coordinates at t = 0 in the model's order
+    (``flow``, ``map2d``: u0, v0; ``two_particle``: z0, y0, u0, v0), positionally or
+    by keyword (``u0=...``).  ``system`` takes the names of the model's ``[system]``
+    table (e.g. omega, kappa, r; ``obstacle`` and ``section_period`` where the model
+    has them), each a scalar or an array broadcast against the starts.  Parameters are
+    validated exactly as a scene's, every element of every array included.
+
+    Returns a dict of arrays: the kernel's per-event outputs (``flow``: t, u, v_in,
+    v_out, corner_offset, su, sv; ``two_particle`` adds sz, sy and the wall impacts
+    wz_*; ``map2d`` stores a_n, b_n in su, sv) shaped ``shape + (record,)``, and
+    status, final (``shape + (state size,)``), period, impacts_per_cycle, symbols.
+    """
+    from .analysis import words
+    from .config import SceneError, from_dict
+    spec = registry.get(model)
+    coords = spec.coords
+    named = {c: system.pop(f"{c}0") for c in coords if f"{c}0" in system}
+    if len(starts) + len(named) != len(coords) or any(c in named for c in coords[:len(starts)]):
+        raise TypeError(f"simulate(model={model!r}) needs the starts "
+                        + ", ".join(f"{c}0" for c in coords))
+    named.update(zip(coords, starts))
+    extra = {k: system.pop(k) for k in list(system) if k in spec.system_extra}
+    unknown = [k for k in system if k not in spec.params]
+    if unknown:
+        raise TypeError(f"simulate() got an unknown parameter {unknown[0]!r} of model "
+                        f"{model!r}; allowed: {', '.join(spec.params)}")
+    raw = {"scene": {"model": model},
+           "system": {k: v for k, v in extra.items() if v is not None},
+           "run": {"transient": transient, "record": record, "tol": tol, "chatter": chatter,
+                   "escape": escape, "period_tol": period_tol, "stop": stop}}
+    if max_events is not None:
+        raw["run"]["max_events"] = max_events
+    if max_periods is not None:
+        raw["run"]["max_periods"] = max_periods
+    arrays = {k: np.atleast_1d(np.asarray(v, float)) for k, v in system.items() if v is not None}
+    x0 = [np.atleast_1d(np.asarray(named[c], float)) for c in coords]
+    shape = np.broadcast_shapes(*[a.shape for a in x0], *[a.shape for a in arrays.values()])
+    flat = {k: np.broadcast_to(a, shape).ravel() for k, a in arrays.items()}
+    n = int(np.prod(shape))
+    for k, a in flat.items():
+        raw["system"][k] = float(a[0])
+    scene = from_dict(raw, drawn_starts=False)
+    # every value is checked as a scene's would be, not only the first of each array:
+    # ranges per distinct value (their extremes when there are many), then the model's
+    # point checks (undamped resonance) on every distinct combination
+    for k, a in flat.items():
+        vals = np.unique(a)
+        for v in (vals if vals.size <= 2000 else vals[[0, -1]]):
+            from_dict({**raw, "system": {**raw["system"], k: float(v)}}, drawn_starts=False)
+    names = list(flat)
+    table = np.stack([flat[k] for k in names], -1) if names else np.zeros((n, 0))
+    rows, first = np.unique(table, axis=0, return_index=True) if n else (table, [])
+    check_point = getattr(spec, "check_point", None)
+    if check_point is not None:
+        for row, i in zip(rows, first):
+            problem = check_point(dict(scene.system) | dict(zip(names, row)))
+            if problem:
+                raise SceneError([f"{problem} (at element {int(i)})"])
+    params = np.stack([spec.pack_values(dict(scene.system)
+                                        | {k: float(flat[k][i]) for k in names}, scene)
+                       for i in range(n)]) if n else np.zeros((0, 0))
+    ics = np.stack([np.broadcast_to(a, shape).ravel() for a in x0], -1)
+    out, st, final, period, ipc, sym = spec.run_items(np.ascontiguousarray(params),
+                                                      np.ascontiguousarray(ics),
+                                                      spec.int_settings(scene), scene)
+    res = {k: v.reshape(shape + (record,)) for k, v in out.items()}
+    res.update(status=st.reshape(shape), final=final.reshape(shape + (len(coords),)),
+               period=period.reshape(shape), impacts_per_cycle=ipc.reshape(shape),
+               symbols=words(sym).reshape(shape))
+    return res

@@ -1,0 +1,188 @@
+"""The sweep engine: grid slabs in, datasets out (pure: no I/O, no global state).
+
+Data flow (docs/architecture.md): scene -> ``blocks`` (grid slabs) -> ``compute_block``
+(pack the slab's parameters, draw its starts, run the model's kernel and cycle
+analysis through the registry) -> a dict dataset name -> array, which a backend
+(``cornerbif.local``, ``cornerbif.distributed``) hands to the file (``cornerbif.io``).
+Initial conditions are drawn outside the kernels from a counter-based generator
+keyed by (seed, grid point, initial condition, coordinate), so they do not depend
+on block size, thread count or resume history.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import registry
+from .config import Scene
+
+BLOCK_BYTES = 48 * 2**20     # working memory per block (kernel outputs)
+ITEM_OVERHEAD = 64           # bytes per item beyond its recorded events (status, period, ...)
+
+
+# ------------------------------------------------------------------ initial conditions
+def _splitmix64(x):
+    x = (x + np.uint64(0x9E3779B97F4A7C15)) & np.uint64(0xFFFFFFFFFFFFFFFF)
+    z = x
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+def uniform(seed, point, ic, coord):
+    """Counter-based uniform numbers in [0, 1) keyed by (seed, point, ic, coord)."""
+    with np.errstate(over="ignore"):
+        key = (np.asarray(point, np.uint64) * np.uint64(1 << 20) + np.asarray(ic, np.uint64)) \
+            * np.uint64(4) + np.uint64(coord)
+        z = _splitmix64(_splitmix64(np.uint64(seed) ^ np.uint64(0xC0FFEE)) ^ key)
+        z = _splitmix64(z)
+    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+
+
+def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray):
+    """Initial states at t = 0 for grid points ``flat_points`` (shape (n,)): an array
+    (n, n_ic, state size) in the model's state order (``Model.state``).
+
+    A coordinate with a floor is uniform on the part of its ``[initial]`` range strictly
+    above it (the same law as drawing on the whole range and redrawing points below):
+    ``"wall"`` is the obstacle at t = 0 (``wall``, per point), otherwise another
+    coordinate drawn before it (two_particle: w(0) < z <= u).
+    """
+    spec = registry.get(scene.model)
+    n = flat_points.shape[0]
+    pts = np.repeat(flat_points.astype(np.uint64), scene.n_ic)
+    ics = np.tile(np.arange(scene.n_ic, dtype=np.uint64), n)
+    drawn = {}
+    for c in spec.state:
+        x = uniform(scene.seed, pts, ics, c.draw).reshape(n, scene.n_ic)
+        lo, hi = scene.initial[c.name]
+        if c.floor is None:
+            drawn[c.name] = lo + (hi - lo) * x
+            continue
+        floor = wall[:, None] if c.floor == "wall" else drawn[c.floor]
+        lo = np.maximum(lo, floor)
+        drawn[c.name] = hi - (hi - lo) * x          # in (floor, hi]
+    return np.stack([drawn[c] for c in spec.coords], axis=-1)
+
+
+# ------------------------------------------------------------------ the model's kernel
+def pack_points(scene: Scene, index_list) -> np.ndarray:
+    """Packed parameter rows of the scene's model for a list of grid indices."""
+    return registry.get(scene.model).pack_points(scene, index_list)
+
+
+def int_settings(scene: Scene) -> np.ndarray:
+    """The kernel's integer settings (transient, record, budgets)."""
+    return registry.get(scene.model).int_settings(scene)
+
+
+def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
+    """The model's kernel and cycle analysis on n items (rows of params / ics):
+    (out, status, final, period, impacts per cycle, symbols) (``Model.run_items``)."""
+    return registry.get(scene.model).run_items(params, ics, ints, scene)
+
+
+def kernel_cache_cold(scene: Scene) -> bool:
+    """Whether the scene's kernel has nothing in numba's on-disk cache yet: its first call
+    then compiles (``cornerbif sweep`` says so before it starts)."""
+    from ._jit import cache_is_cold
+    return cache_is_cold(registry.get(scene.model).kernel())
+
+
+def symbol_bytes(sym, record):
+    """uint8 word rows -> fixed-length byte strings for the file (no Python objects)."""
+    L = max(1, record // 2)
+    return np.ascontiguousarray(sym[:, :L]).view(f"S{L}").reshape(sym.shape[0])
+
+
+# ------------------------------------------------------------------ blocks
+def item_bytes(scene: Scene) -> int:
+    """Working memory of one item (one start at one grid point) in a block."""
+    return scene.record * registry.get(scene.model).bytes_per_event + ITEM_OVERHEAD
+
+
+def blocks(scene: Scene, block_points: int | None = None):
+    """Grid slabs in execution order: list of index tuples (of slices).
+
+    A slab holds at most ``block_points`` grid points (default: as many as fit
+    in BLOCK_BYTES of kernel output); a followed sweep runs one value of the
+    first axis at a time, in the direction of ``follow``.
+    """
+    G = scene.shape
+    max_points = max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
+    if block_points:
+        max_points = min(max_points, int(block_points))
+    if not G:
+        return [()]
+    if scene.follow != "none":
+        order = range(G[0]) if scene.follow == "up" else range(G[0] - 1, -1, -1)
+        if len(G) == 1:
+            return [(slice(i, i + 1),) for i in order]
+        return [(slice(i, i + 1), slice(0, G[1])) for i in order]
+    if len(G) == 1:
+        return [(slice(a, min(a + max_points, G[0])),) for a in range(0, G[0], max_points)]
+    out = []
+    for i in range(G[0]):
+        for a in range(0, G[1], max_points):
+            out.append((slice(i, i + 1), slice(a, min(a + max_points, G[1]))))
+    return out
+
+
+def block_indices(scene, blk):
+    """The grid indices of a slab (row-major) and the slab's shape."""
+    ranges = [range(s.start, s.stop) for s in blk]
+    grid = np.stack(np.meshgrid(*[np.arange(r.start, r.stop) for r in ranges], indexing="ij"),
+                    axis=-1).reshape(-1, len(ranges)) if ranges else np.zeros((1, 0), int)
+    return [tuple(int(x) for x in row) for row in grid], [len(r) for r in ranges]
+
+
+def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
+    """The one unit of work of every backend: a grid slab in, its datasets out.
+
+    Pure (no I/O, no global state): packs the slab's parameters, draws its initial
+    conditions (``draw_initial``; a followed sweep replaces them by ``carry``, the
+    previous slab's final states, where those lie above the obstacle), runs the
+    model's kernels and the cycle analysis (``run_items``), and returns a dict from
+    dataset name (``io`` schema) to an array shaped ``slab shape + (n_ic, ...)``,
+    ready for ``io.write_block``.  The local loop and the Dask workers
+    (``cornerbif.distributed``) both call it, so both write the same bytes.
+    """
+    spec = registry.get(scene.model)
+    if ints is None:
+        ints = spec.int_settings(scene)
+    G = scene.shape
+    idx, sub = block_indices(scene, blk)
+    params = spec.pack_points(scene, idx)
+    flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
+    wall = spec.wall_at_start(params)
+    ics = draw_initial(scene, flat, wall)
+    if carry is not None:
+        ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > wall[:, None])
+        ics = np.where(ok[..., None], carry, ics)
+    n = len(idx) * scene.n_ic
+    prm = np.repeat(params, scene.n_ic, axis=0)
+    out, st, final, period, ipc, sym = spec.run_items(prm, ics.reshape(n, ics.shape[-1]),
+                                                      ints, scene)
+    shape = tuple(sub) + (scene.n_ic,)
+    block = {}
+    for i, c in enumerate(spec.coords):
+        block[f"initial/{c}"] = ics[..., i].reshape(shape)
+        block[f"final/{c}"] = final[:, i].reshape(shape)
+    block.update({"status": st.reshape(shape), "period": period.reshape(shape),
+                  "impacts_per_cycle": ipc.reshape(shape),
+                  "symbols": symbol_bytes(sym, scene.record).reshape(shape)})
+    for fld in spec.fields(scene.keep):
+        block[fld.name] = out[fld.source].reshape(shape + (scene.record,))
+    return block
+
+
+def carry_names(scene: Scene) -> list:
+    """The datasets a followed sweep carries to the next slab (the final states)."""
+    return [f"final/{c}" for c in registry.get(scene.model).coords]
+
+
+def block_carry(scene: Scene, block: dict) -> np.ndarray:
+    """What a followed sweep carries to the next slab: the slab's final states,
+    shape (points, n_ic, state size), in the kernel's state order."""
+    names = carry_names(scene)
+    return np.stack([block[n] for n in names], -1).reshape(-1, scene.n_ic, len(names))

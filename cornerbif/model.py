@@ -1,0 +1,229 @@
+"""What every model provides: the interface the registry holds (``cornerbif.registry``).
+
+A model is one object (a ``Model`` subclass instance) that declares
+
+* its parameters (``Param``: default, allowed range, one-line doc, equation), the
+  ``[system]`` table of a scene and the numeric values a ``[sweep]`` may take;
+* its state and initial coordinates (``Coord``: the default range of ``[initial]``,
+  how a start is drawn, the long names of ``initial/*`` and ``final/*``);
+* its observables (the names ``[output] keep`` allows) and the datasets each adds
+  to the file (``Field``: name, source array, units, long name);
+* its checks (``check``: what a scene of this model must satisfy beyond each value's
+  range, e.g. undamped resonance, starts above the obstacle);
+* its kernel entry (``pack_points``, ``int_settings``, ``run_items``, ``kernel``)
+  and its Python ``simulate``.
+
+Config (``cornerbif.config``), the engine (``cornerbif.engine``), the file schema
+(``cornerbif.io``), ``cornerbif info`` and the plots read these declarations; none of
+them branches on a model's name.  ``docs/architecture.md`` says which files a new
+model or a new obstacle touches.
+
+This module imports neither numba nor h5py: ``cornerbif validate`` stays fast.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+# ------------------------------------------------------------------ declarations
+@dataclass(frozen=True)
+class Param:
+    """One numeric parameter of a model's ``[system]`` table (and of ``[sweep]``).
+
+    ``ok`` is the allowed range as a predicate on a finite float; ``allowed`` says
+    it in words for messages; ``inf_ok`` admits +inf (the mass ratio mu of law 74);
+    ``obstacles`` restricts the parameter to some obstacles (the triangle's slopes);
+    a ``default`` of None means "derived from others" (see the model).
+    """
+
+    name: str
+    default: float | None
+    allowed: str
+    ok: Callable[[float], bool] = lambda v: True
+    doc: str = ""
+    equation: str = ""
+    inf_ok: bool = False
+    obstacles: tuple | None = None
+
+    def problem(self, value, key: str) -> str | None:
+        """The message for a bad value at ``key``, or None when the value is allowed."""
+        if not is_number(value):
+            return f"{key}: {value!r} is not a number; {self.name} must be {self.allowed}"
+        v = float(value)
+        if self.inf_ok and v == math.inf:
+            return None
+        if not math.isfinite(v):
+            return f"{key}: {value!r} is not finite; {self.name} must be {self.allowed}"
+        if not self.ok(v):
+            return f"{key}: {value!r} is out of range; {self.name} must be {self.allowed}"
+        return None
+
+
+@dataclass(frozen=True)
+class Coord:
+    """One coordinate of the state at t = 0 (and of the state a followed sweep carries).
+
+    ``default``: the range ``[initial]`` draws from; ``draw``: the counter of the
+    random stream (``engine.uniform``), fixed per coordinate so that starts do not
+    depend on the order of declaration; ``floor``: None, ``"wall"`` (drawn above the
+    obstacle at t = 0) or the name of another coordinate it is drawn above.
+    """
+
+    name: str
+    default: tuple
+    draw: int
+    floor: str | None
+    initial_doc: str
+    final_doc: str
+
+
+@dataclass(frozen=True)
+class Field:
+    """One stored dataset of an observable: ``name`` in the file, ``source`` the key of
+    the kernel output (``Model.run_items``) it is read from, per recorded event."""
+
+    name: str
+    source: str
+    long_name: str
+    units: str | None = None
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A periodic obstacle z(t) of the ``flow`` model: its declaration.
+
+    ``code``: the value of the packed parameter ``OBSTACLE`` the kernels read (their
+    jitted pieces are in ``models/obstacle.py``); ``period_pi``: the period in units
+    of pi/omega; ``pieces``: smooth pieces per period (the certified search works
+    piece by piece); ``corners``: whether the slope jumps between pieces (corner
+    offsets and cluster symbols exist); ``normal_form``: the corner normal form of
+    sections 4-5 (the maps alpha, beta, gamma and theory.py) is derived for it.
+    """
+
+    name: str
+    code: int
+    formula: str
+    period_pi: int
+    pieces: int
+    corners: bool
+    normal_form: bool = False
+
+    def period(self, omega: float) -> float:
+        return self.period_pi * math.pi / omega
+
+
+# ------------------------------------------------------------------ the interface
+@dataclass(frozen=True)
+class Model:
+    """The interface every model implements (one instance per model in the registry).
+
+    Data (declared): ``name``, ``doc``, ``params`` (name -> Param, in the order of
+    the scene's ``[system]``), ``state`` (the Coords, in the kernel's state order),
+    ``observables`` (keep name -> tuple of Fields), ``system_extra`` (non-numeric
+    ``[system]`` keys: name -> default), ``obstacles`` (name -> Obstacle, ``flow``
+    only), ``events_per_impact`` (the automatic event budget per recorded or transient
+    impact), ``early_stop`` (``run.stop = "period"`` is implemented), ``timeseries``
+    (``[plot] kind = "timeseries"`` can rebuild its flights), ``normal_form_role``
+    ("flow", "map" or None: its part in the flow-against-map figures of sections 4-5),
+    ``default_y`` (the diagram's default y), ``keep_hint`` (said when a scene asks for
+    an observable the model lacks), ``bytes_per_event`` (working memory per item and
+    recorded event, measured: ``benchmarks/run.py`` memory section).
+
+    Methods (implemented by each model): ``check``, ``wall_at_start``,
+    ``pack_points``, ``int_settings``, ``run_items``, ``kernel``, ``simulate``.
+    """
+
+    name: str
+    doc: str
+    params: dict
+    state: tuple
+    observables: dict
+    system_extra: dict = field(default_factory=dict)
+    obstacles: dict = field(default_factory=dict)
+    events_per_impact: int = 10
+    early_stop: bool = False
+    timeseries: bool = False
+    normal_form_role: str | None = None
+    default_y: str | None = None
+    keep_hint: str = ""
+    bytes_per_event: int = 72
+
+    # --- declared facts, derived ------------------------------------------------------
+    @property
+    def coords(self) -> tuple:
+        return tuple(c.name for c in self.state)
+
+    def coord(self, name: str) -> Coord:
+        return next(c for c in self.state if c.name == name)
+
+    def fields(self, keep) -> list:
+        """The per-event datasets of the observables in ``keep``, in the file's order."""
+        return [f for k in self.observables if k in keep for f in self.observables[k]]
+
+    def obstacle_of(self, scene):
+        """The scene's Obstacle declaration (None for a model without obstacles)."""
+        return self.obstacles.get(scene.obstacle) if self.obstacles else None
+
+    def has_normal_form(self, obstacle: str | None) -> bool:
+        """Whether the (a0, b1)-plane figures of sections 4-5 apply to this model and
+        obstacle."""
+        if self.normal_form_role == "map":
+            return True
+        ob = self.obstacles.get(obstacle) if self.obstacles else None
+        return self.normal_form_role == "flow" and ob is not None and ob.normal_form
+
+    # --- behaviour: every model implements these -------------------------------------
+    def check(self, ctx) -> list:
+        """Problems of a scene beyond each value's own range (``config.CheckContext``)."""
+        return []
+
+    def wall_at_start(self, params: np.ndarray) -> np.ndarray:
+        """Per packed row, the height of the obstacle at t = 0 (starts are drawn above it)."""
+        raise NotImplementedError
+
+    def pack_points(self, scene, index_list) -> np.ndarray:
+        """Packed parameter rows (n, NPARAM) for grid indices."""
+        raise NotImplementedError
+
+    def int_settings(self, scene) -> np.ndarray:
+        """The kernel's integer settings (transient, record, budgets)."""
+        raise NotImplementedError
+
+    def run_items(self, params, ics, ints, scene):
+        """Kernel and cycle analysis on n items: (out, status, final, period,
+        impacts per cycle, symbols), ``out`` keyed by the Fields' ``source``."""
+        raise NotImplementedError
+
+    def kernel(self):
+        """The compiled kernel entry (for the cold-cache notice)."""
+        raise NotImplementedError
+
+    def simulate(self, **kw) -> dict:
+        """Run the model from Python (see ``cornerbif.simulate``)."""
+        raise NotImplementedError
+
+
+# ------------------------------------------------------------------ small shared helpers
+def is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def positive(v):
+    return v > 0
+
+
+def nonnegative(v):
+    return v >= 0
+
+
+def unit_interval(v):
+    return 0.0 <= v <= 1.0
+
+
+def anything(v):
+    return True

@@ -1,0 +1,207 @@
+"""The ``flow`` model (sections 2-3): one particle, one moving obstacle, law (5).
+
+u'' + 2 sigma u' + k^2 u = f(t), f = 0 or F cos(Omega t + phi) (eq 4), for u >= z(t),
+with Newton's impact law v+ = (1 + r) z'(t) - r v- (eq 5).  The obstacles are
+declared in ``OBSTACLES`` below (their jitted pieces: ``models/obstacle.py``); the
+packed parameter layout is ``models/params.py``; the kernel is ``kernels/flow.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model import (Coord, Field, Model, Obstacle, Param, anything, nonnegative, positive,
+                     unit_interval)
+
+# run.stop = "period": the kernel stops once the state at the corners repeats to this share of
+# run.period_tol (relative), tighter than the analysis so that the orbit has converged well
+# beyond what the period test reads (see kernels.flow.cycle_watch)
+STOP_TOL_FACTOR = 1e-3
+
+# every obstacle of the flow model: a new one is a line here and its jitted pieces in
+# models/obstacle.py (docs/architecture.md)
+OBSTACLES = {
+    "sine": Obstacle("sine", 0, "kappa + beta sin(omega t) (section 2.2, no corners)",
+                     period_pi=2, pieces=2, corners=False),
+    "rectified_sine": Obstacle("rectified_sine", 1, "kappa + beta |sin(omega t)| (eq 8), "
+                               "corners at k pi / omega", period_pi=1, pieces=1, corners=True,
+                               normal_form=True),
+    "triangle": Obstacle("triangle", 2, "eq (7) made periodic, period pi / omega: slope "
+                         "+theta2 after each corner, -theta1 before it", period_pi=1, pieces=2,
+                         corners=True),
+}
+# the section corners are put between the impact clusters (kernels.flow) for obstacles whose
+# attractors near omega = 2 have one cluster every second corner (sections 3-4)
+AUTO_SECTION = ("rectified_sine",)
+
+PARAMS = {p.name: p for p in (
+    Param("omega", 2.0, "> 0", positive, "obstacle frequency", "eq 8"),
+    Param("kappa", 0.0, "any finite number", anything, "obstacle offset", "eq 8"),
+    Param("beta", 1.0, ">= 0", nonnegative, "obstacle amplitude", "eq 8"),
+    Param("r", 0.8, "in [0, 1]", unit_interval, "coefficient of restitution", "eq 5"),
+    Param("sigma", 0.0, ">= 0", nonnegative, "damping", "eq 4"),
+    Param("k", 1.0, ">= 0", nonnegative, "natural frequency", "eq 4"),
+    Param("F", 0.0, "any finite number", anything, "forcing amplitude: f = F cos(Omega t + phi)",
+          "eq 4"),
+    Param("Omega", 1.0, "> 0", positive, "forcing frequency", "eq 4"),
+    Param("phi", 0.0, "any finite number", anything, "forcing phase", "eq 4"),
+    Param("theta1", None, "> 0 (default beta * omega, the slope of eq (8) at its corners)",
+          positive, "triangle: slope magnitude before each corner", "eq 7",
+          obstacles=("triangle",)),
+    Param("theta2", None, "> 0 (default beta * omega)", positive,
+          "triangle: slope after each corner", "eq 7", obstacles=("triangle",)),
+)}
+
+IMPACT_FIELDS = (
+    Field("impacts/t", "t", "impact time t", "time"),
+    Field("impacts/u", "u", "impact height u = z(t)", "length"),
+    Field("impacts/v_in", "v_in", "velocity just before impact v-", "length/time"),
+    Field("impacts/v_out", "v_out", "velocity just after impact v+ (law 5)", "length/time"),
+    Field("impacts/corner_offset", "corner_offset",
+          "signed offset of the impact to the nearest corner (t - t_k)", "time"),
+)
+SECTION_FIELDS = (
+    Field("section/u", "su", "u at the Poincare section t = nT"),
+    Field("section/v", "sv", "v at the Poincare section t = nT"),
+)
+U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
+          "u at the last section crossed (the state a followed sweep carries on)")
+V = Coord("v", (-20.0, 20.0), 1, None, "initial velocity v(0)", "v at the last section crossed")
+
+
+def resonance_problem(vals, key) -> str | None:
+    """Undamped exact resonance (F != 0, sigma = 0, Omega = k): models.oscillator's particular
+    solution divides by k^2 - Omega^2.  ``vals(name)`` gives the set of values a parameter
+    takes; ``key(name)`` its dotted key."""
+    res = vals("Omega") & vals("k")
+    if any(x not in (0, 0.0, None) for x in vals("F")) and 0.0 in vals("sigma") and res:
+        return (f"{key('Omega')}: {sorted(res)[0]!r} equals {key('k')} with "
+                f"sigma = 0 and F != 0 (undamped exact resonance: no bounded "
+                "closed-form flight); change Omega or k, or add damping sigma > 0")
+    return None
+
+
+class FlowModel(Model):
+    def check(self, ctx):
+        problems = []
+        if not ctx.problems:
+            p = resonance_problem(ctx.values, ctx.key)
+            if p:
+                problems.append(p)
+        kap = ctx.values_list("kappa")
+        rng = ctx.ranges.get("u")
+        if ctx.drawn and rng and kap and rng[1] <= max(kap):
+            problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
+                            f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
+        return problems
+
+    def check_point(self, values: dict) -> str | None:
+        return resonance_problem(lambda n: {values.get(n)}, lambda n: f"system.{n}")
+
+    def wall_at_start(self, params):
+        from . import params as P
+        return params[:, P.KAPPA]
+
+    def pack_values(self, values: dict, scene) -> np.ndarray:
+        from . import params as P
+        stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
+        return P.pack(values, scene.obstacle, scene.tol, scene.chatter, scene.escape,
+                      scene.section_period, stop_tol)
+
+    def pack_points(self, scene, index_list):
+        from . import params as P
+        rows = [self.pack_values(scene.point(idx), scene) for idx in index_list]
+        return np.array(rows).reshape(len(index_list), P.NPARAM)
+
+    def int_settings(self, scene):
+        from . import params as P
+        ints = np.zeros(P.NINT, np.int64)
+        ints[P.I_TRANSIENT] = scene.transient
+        ints[P.I_RECORD] = scene.record
+        ints[P.I_MAX_EVENTS] = scene.max_events
+        per_pieces = 4  # at most 4 pieces per obstacle period (triangle, sine: 2)
+        ints[P.I_MAX_PIECES] = scene.max_periods * per_pieces
+        return ints
+
+    def kernel(self):
+        from ..kernels.flow import run_batch
+        return run_batch
+
+    def run_items(self, params, ics, ints, scene):
+        from . import params as P
+        # NaN marks "no impact" in what is stored and in t, where the analysis reads the end
+        # of the recorded window; what is neither is left unfilled (a summary-only chart then
+        # touches only the few rows' entries its early-stopped runs write)
+        fill = {"t"} | {f.source for f in self.fields(scene.keep)}
+        cornered = np.isin(params[:, P.OBSTACLE],
+                           [o.code for o in OBSTACLES.values() if o.corners])
+        res = _run_flow(params, ics, ints, scene, fill, cornered)
+        out, st, final, period, ipc, sym, rec0 = res
+        # early stop: a run stopped on a cycle the analysis does not confirm (e.g. a
+        # near-grazing impact magnifies the last 1e-9 of the transient beyond period_tol)
+        # runs again without it
+        redo = np.flatnonzero((rec0 < ints[P.I_TRANSIENT]) & (period == 0))
+        if redo.size:
+            prm = np.ascontiguousarray(params[redo])
+            prm[:, P.STOP_TOL] = 0.0
+            again = _run_flow(prm, np.ascontiguousarray(ics[redo]), ints, scene, set(out),
+                              cornered[redo])
+            for k in out:
+                out[k][redo] = again[0][k]
+            for whole, part in zip(res[1:], again[1:]):
+                whole[redo] = part
+        if not cornered.all():
+            out["corner_offset"][~cornered] = np.nan
+        return out, st, final, period, ipc, sym
+
+
+def _run_flow(params, ics, ints, scene, fill, cornered):
+    """The flow kernel and the cycle analysis on n items; outputs not in ``fill`` start
+    unfilled.  Returns (out, status, final, period, impacts per cycle, symbols, first
+    recorded impact)."""
+    from ..analysis import detect_cycles
+    from ..kernels.flow import run_batch
+    n = params.shape[0]
+    rec = scene.record
+    out = {k: np.full((n, rec), np.nan) if k in fill else np.empty((n, rec))
+           for k in ("t", "u", "v_in", "v_out", "corner_offset", "su", "sv")}
+    corner = np.empty((n, rec), np.int64)
+    st = np.zeros(n, np.int8)
+    final = np.zeros((n, 2))
+    rec0 = np.zeros(n, np.int64)
+    run_batch(params, ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
+              out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
+    period = np.zeros(n, np.int64)
+    ipc = np.zeros(n, np.int64)
+    sym = np.zeros((n, rec), np.uint8)
+    detect_cycles(out["t"], out["v_in"], out["corner_offset"], corner, cornered,
+                  scene.period_tol, period, ipc, sym)
+    return out, st, final, period, ipc, sym, rec0
+
+
+def section_pieces(obstacle: str, omega: float, section_period: float | None) -> int:
+    """Smooth pieces per Poincare section period (default T = 2 pi / omega)."""
+    ob = OBSTACLES[obstacle]
+    P = ob.period(omega)
+    sp = 2.0 * math.pi / omega if section_period is None else section_period
+    return max(1, round(sp / P)) * ob.pieces
+
+
+MODEL = FlowModel(
+    name="flow",
+    doc="one particle and a moving obstacle with corners (sections 2-3, eqs 4-9)",
+    params=PARAMS,
+    state=(U, V),
+    observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS},
+    system_extra={"obstacle": "rectified_sine", "section_period": None},
+    obstacles=OBSTACLES,
+    events_per_impact=10,
+    early_stop=True,
+    timeseries=True,
+    normal_form_role="flow",
+    # per item and recorded event: 7 float64 outputs, the corner index, the word (measured
+    # against peak memory in benchmarks/run.py)
+    bytes_per_event=7 * 8 + 8 + 1,
+)

@@ -1,0 +1,91 @@
+"""The ``map2d`` model (sections 4-5): the local piecewise-linear maps alpha, beta, gamma.
+
+The maps (eqs 56-60, with P_alpha from (52)-(53): the printed (58) is a misprint, see
+docs/discrepancies.md) act on x = (a0, b1) with epsilon = 1, so omega1 = omega - 2 and
+kappa1 = kappa.  The iterates are stored where the flow stores its section values
+(``section/u`` = a_n, ``section/v`` = b_n), so flow and map files compare dataset by
+dataset.  The kernels are in ``cornerbif/maps2d.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model import Coord, Field, Model, Param, anything, positive
+from .flow_model import SECTION_FIELDS, U
+
+PARAMS = {p.name: p for p in (
+    Param("omega", 1.999, "> 0 (the map uses omega1 = omega - 2)", positive,
+          "obstacle frequency; omega1 = omega - 2", "eq 20"),
+    Param("kappa", -0.01, "any finite number (kappa1 = kappa)", anything,
+          "obstacle offset; kappa1 = kappa", "eq 20"),
+    Param("r", 0.8, "in (0, 1]", lambda v: 0.0 < v <= 1.0, "coefficient of restitution",
+          "eq 5"),
+)}
+V = Coord("v", (-0.05, 0.05), 1, None, "initial velocity v(0)", "v at the last section crossed")
+NO_OBSTACLE = -np.inf   # any (a0, b1) is a start
+
+
+class Map2dModel(Model):
+    def wall_at_start(self, params):
+        return np.full(params.shape[0], NO_OBSTACLE)
+
+    def pack_values(self, values: dict, scene) -> np.ndarray:
+        """The map's row [omega1, kappa1, r] with epsilon = 1."""
+        return np.array([values["omega"] - 2.0, values["kappa"], values["r"]], dtype=float)
+
+    def pack_points(self, scene, index_list):
+        vals = [scene.point(idx) for idx in index_list]
+        return np.array([[v["omega"] - 2.0, v["kappa"], v["r"]] for v in vals],
+                        dtype=float).reshape(len(index_list), 3)
+
+    def int_settings(self, scene):
+        return np.array([scene.transient, scene.record], np.int64)
+
+    def kernel(self):
+        from ..maps2d import iterate_batch
+        return iterate_batch
+
+    def run_items(self, params, ics, ints, scene):
+        """Iterate the local maps (56) on n items; outputs shaped like the flow's.
+
+        The iterates x_n = (a_n, b_n) go to the section slots (su, sv), as the flow's
+        section values (u, v)(nT); a run is OK unless an iterate is not finite.
+        """
+        from .. import status as S
+        from ..maps2d import detect_map_cycles, iterate_batch
+        n = params.shape[0]
+        rec = scene.record
+        a = np.empty((n, rec))
+        b = np.empty((n, rec))
+        reg = np.empty((n, rec), np.int8)
+        iterate_batch(np.ascontiguousarray(params), np.ascontiguousarray(ics), scene.transient,
+                      rec, a, b, reg)
+        period = np.zeros(n, np.int64)
+        sym = np.zeros((n, max(1, rec // 2)), np.uint8)
+        detect_map_cycles(reg, a, b, scene.period_tol, period, sym)
+        ipc = ((sym == ord("a")) * 2 + (sym == ord("b")) + (sym == ord("g"))).sum(axis=1)
+        ok = np.isfinite(b).all(axis=1) & np.isfinite(a).all(axis=1)
+        st = np.where(ok, S.OK, S.NONFINITE).astype(np.int8)
+        nan = np.full((n, rec), np.nan)
+        out = {"t": nan, "u": nan, "v_in": nan, "v_out": nan, "corner_offset": nan,
+               "su": a, "sv": b}
+        final = np.stack([a[:, -1], b[:, -1]], axis=1)
+        sym_full = np.zeros((n, rec), np.uint8)
+        sym_full[:, :sym.shape[1]] = sym
+        return out, st, final, period, ipc, sym_full
+
+
+MODEL = Map2dModel(
+    name="map2d",
+    doc="the local maps alpha, beta, gamma near (omega, kappa) = (2, 0) (sections 4-5, "
+        "eqs 56-60)",
+    params=PARAMS,
+    state=(U, V),
+    observables={"section": SECTION_FIELDS},
+    normal_form_role="map",
+    default_y="section_v",
+    keep_hint=" (the map's iterates are stored as section/u = a_n, section/v = b_n)",
+    # per item and recorded step: a, b, the region, the word, and the flow-shaped NaN rows
+    bytes_per_event=3 * 8 + 2,
+)

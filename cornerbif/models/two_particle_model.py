@@ -1,0 +1,181 @@
+"""The ``two_particle`` model (section 6): wall w, heavy particle z, light particle u.
+
+w = kappa + beta sin(omega0 t) (eq 72); z and u harmonic in flight with omega1, omega2
+(eq 73), optionally damped and forced as the flow's oscillator (eq 4); w-z impacts by
+law (5) with r1, z-u impacts by the mass-ratio law (74) with r2 and mu = M/m.  The
+packed layout and the impact law are ``models/two_particle.py``; the kernel is
+``kernels/two_particle.py``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from ..model import Coord, Field, Model, Param, anything, nonnegative, positive, unit_interval
+from .flow_model import IMPACT_FIELDS, SECTION_FIELDS, U, V
+
+PARAMS = {p.name: p for p in (
+    Param("omega0", 2.0, "> 0", positive, "wall frequency", "eq 72"),
+    Param("omega1", 1.001, "> 0", positive, "natural frequency of the heavy particle z", "eq 73"),
+    Param("omega2", 1.0, "> 0", positive, "natural frequency of the light particle u", "eq 73"),
+    Param("mu", 1000.0, "> 0 (inf allowed: law (74) becomes law (5))", positive,
+          "mass ratio M/m", "eq 74", inf_ok=True),
+    Param("r1", 0.8, "in [0, 1]", unit_interval, "restitution of w-z impacts", "eq 5"),
+    Param("r2", 0.8, "in [0, 1]", unit_interval, "restitution of z-u impacts", "eq 74"),
+    Param("kappa", 0.0, "any finite number", anything, "wall offset", "eq 72"),
+    Param("beta", 1.0, ">= 0", nonnegative, "wall amplitude", "eq 72"),
+    # beyond the paper: damping and forcing per particle as in 'flow' (eq 4)
+    Param("sigma1", 0.0, ">= 0", nonnegative, "damping of z", "eq 4"),
+    Param("sigma2", 0.0, ">= 0", nonnegative, "damping of u", "eq 4"),
+    Param("F1", 0.0, "any finite number", anything, "forcing of z per unit mass", "eq 4"),
+    Param("Omega1", 1.0, "> 0", positive, "forcing frequency of z", "eq 4"),
+    Param("phi1", 0.0, "any finite number", anything, "forcing phase of z", "eq 4"),
+    Param("F2", 0.0, "any finite number", anything, "forcing of u per unit mass", "eq 4"),
+    Param("Omega2", 1.0, "> 0", positive, "forcing frequency of u", "eq 4"),
+    Param("phi2", 0.0, "any finite number", anything, "forcing phase of u", "eq 4"),
+)}
+# the parameters that decide an undamped resonance (models.two_particle.resonance_problems)
+RESONANCE_PARAMS = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
+MAX_RESONANCE_COMBINATIONS = 200_000
+
+Z = Coord("z", (0.0, 2.0), 2, "wall", "initial z(0)", "z at the last section")
+Y = Coord("y", (-2.0, 2.0), 3, None, "initial y(0) = z'(0)", "y at the last section")
+U_ABOVE_Z = Coord("u", U.default, U.draw, "z", U.initial_doc, U.final_doc)
+
+SECTION_ZY = (
+    Field("section/z", "sz", "z at the Poincare section t = n 2 pi/omega0"),
+    Field("section/y", "sy", "y at the Poincare section"),
+)
+WALL_IMPACT_FIELDS = (
+    Field("wall_impacts/t", "wz_t", "wall-particle impact time"),
+    Field("wall_impacts/z", "wz_z", "impact height z = w"),
+    Field("wall_impacts/y_in", "wz_y_in", "velocity of z before the impact"),
+    Field("wall_impacts/y_out", "wz_y_out", "velocity of z after the impact (law 5, r1)"),
+)
+
+
+class TwoParticleModel(Model):
+    def check(self, ctx):
+        problems = []
+        rz, ru = ctx.ranges.get("z"), ctx.ranges.get("u")
+        kap = ctx.values_list("kappa")
+        if ctx.drawn and rz and ru:
+            if rz[1] <= max(kap):
+                problems.append(f"initial.z: {list(rz)} lies on or below the wall at t = 0 "
+                                f"(w(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
+            if ru[1] <= rz[1]:
+                problems.append(f"initial.u: {list(ru)} must reach above initial.z "
+                                f"{list(rz)} (u >= z)")
+        if not ctx.problems and not problems:
+            # undamped exact resonance of a particle or of the stuck pair (models.two_particle
+            # .pack refuses it per point): checked over every combination of the values of
+            # the parameters it involves, so that a sweep is refused before any kernel runs
+            swept = [a for a in ctx.axes if a.name in RESONANCE_PARAMS]
+            n_comb = math.prod(len(set(a.values)) for a in swept) if swept else 1
+            if n_comb <= MAX_RESONANCE_COMBINATIONS:
+                for combo in itertools.product(*[sorted(set(a.values)) for a in swept]):
+                    vals = dict(ctx.system) | {a.name: v for a, v in zip(swept, combo)}
+                    p = self.check_point(vals)
+                    if p:
+                        where = ", ".join(f"sweep.{a.name} = {v!r}" for a, v in zip(swept, combo))
+                        problems.append(f"system/sweep: {p}" + (f" (at {where})" if where else ""))
+                        break
+        return problems
+
+    def check_point(self, values: dict) -> str | None:
+        from . import two_particle as TP
+        try:
+            TP.pack({k: v for k, v in values.items() if v is not None})
+        except ValueError as e:
+            if "resonance" in str(e):
+                return str(e)
+        return None
+
+    def wall_at_start(self, params):
+        from . import two_particle as TP
+        return params[:, TP.KAPPA]             # the wall at t = 0: w(0) = kappa
+
+    def pack_values(self, values: dict, scene) -> np.ndarray:
+        from . import two_particle as TP
+        return TP.pack(values, scene.tol, scene.chatter, scene.escape, scene.section_period)
+
+    def pack_points(self, scene, index_list):
+        from . import two_particle as TP
+        rows = [self.pack_values(scene.point(idx), scene) for idx in index_list]
+        return np.array(rows).reshape(len(index_list), TP.NPARAM)
+
+    def int_settings(self, scene):
+        from . import two_particle as TP
+        ints = np.zeros(TP.NINT, np.int64)
+        ints[TP.I_TRANSIENT] = scene.transient
+        ints[TP.I_RECORD] = scene.record
+        ints[TP.I_MAX_EVENTS] = scene.max_events
+        ints[TP.I_MAX_PERIODS] = scene.max_periods
+        return ints
+
+    def kernel(self):
+        from ..kernels.two_particle import run_batch
+        return run_batch
+
+    def run_items(self, params, ics, ints, scene):
+        """The two-particle kernel (section 6) on n items; outputs shaped like the flow's.
+
+        ``t, u, v_in, v_out, corner_offset`` are the u-z impacts (offset to the nearest
+        w-z impact, this system's corner); ``su, sv, sz, sy`` the sections; ``wz_*``
+        the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
+        """
+        from ..analysis import detect_cycles
+        from ..kernels import two_particle as K
+        n = params.shape[0]
+        rec = scene.record
+        cap = wall_capacity(rec)
+        o_zu = np.full((n, rec, K.NZU), np.nan)
+        corner = np.full((n, rec), -1, np.int64)
+        o_wz = np.full((n, cap, K.NWZ), np.nan)
+        o_sec = np.full((n, rec, K.NSEC), np.nan)
+        st = np.zeros(n, np.int8)
+        final = np.full((n, 4), np.nan)
+        K.run_batch(np.ascontiguousarray(params), ints, np.ascontiguousarray(ics), o_zu, corner,
+                    o_wz, o_sec, st, final)
+        out = {"t": np.ascontiguousarray(o_zu[:, :, K.ZU_T]), "u": o_zu[:, :, K.ZU_U].copy(),
+               "v_in": np.ascontiguousarray(o_zu[:, :, K.ZU_VIN]),
+               "v_out": o_zu[:, :, K.ZU_VOUT].copy(),
+               "corner_offset": np.ascontiguousarray(o_zu[:, :, K.ZU_OFF]),
+               "su": o_sec[:, :, K.SEC_U].copy(), "sv": o_sec[:, :, K.SEC_V].copy(),
+               "sz": o_sec[:, :, K.SEC_Z].copy(), "sy": o_sec[:, :, K.SEC_Y].copy(),
+               "wz_t": o_wz[:, :rec, K.WZ_T].copy(), "wz_z": o_wz[:, :rec, K.WZ_Z].copy(),
+               "wz_y_in": o_wz[:, :rec, K.WZ_YIN].copy(),
+               "wz_y_out": o_wz[:, :rec, K.WZ_YOUT].copy()}
+        period = np.zeros(n, np.int64)
+        ipc = np.zeros(n, np.int64)
+        sym = np.zeros((n, rec), np.uint8)
+        t = np.where(np.isnan(out["corner_offset"]), np.nan, out["t"])
+        detect_cycles(t, out["v_in"], out["corner_offset"], corner, np.ones(n, np.bool_),
+                      scene.period_tol, period, ipc, sym)
+        return out, st, final, period, ipc, sym
+
+
+def wall_capacity(record: int) -> int:
+    """Rows of the kernel's w-z impact table: the w-z impacts between the first and the last
+    recorded z-u impact (at most four per z-u impact, and a margin)."""
+    return 4 * record + 8
+
+
+# working memory per item and recorded z-u impact, from run_items' arrays: the z-u table
+# (NZU = 7 columns), the corner index, the w-z table (4 rows of NWZ = 4 per impact), the
+# sections (NSEC = 5), the 13 extracted copies, the masked t and the word
+BYTES_PER_EVENT = (7 + 1 + 4 * 4 + 5 + 13 + 1) * 8 + 1
+
+MODEL = TwoParticleModel(
+    name="two_particle",
+    doc="a wall, a heavy and a light particle (section 6, eqs 72-74)",
+    params=PARAMS,
+    state=(Z, Y, U_ABOVE_Z, V),
+    observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS + SECTION_ZY,
+                 "wall_impacts": WALL_IMPACT_FIELDS},
+    events_per_impact=40,
+    bytes_per_event=BYTES_PER_EVENT,
+)

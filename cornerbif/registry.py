@@ -1,0 +1,40 @@
+"""The model registry: one object per model (``cornerbif.model.Model``).
+
+A new model is its own files (its declaration module, its kernel) and one line in
+``MODEL_MODULES`` below; nothing else in the package names a model
+(docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+# each module defines MODEL, a cornerbif.model.Model instance
+MODEL_MODULES = (
+    "cornerbif.models.flow_model",
+    "cornerbif.models.map2d_model",
+    "cornerbif.models.two_particle_model",
+)
+
+_MODELS = {}
+
+
+def models() -> dict:
+    """Every registered model, name -> Model, in registration order."""
+    if not _MODELS:
+        for path in MODEL_MODULES:
+            m = importlib.import_module(path).MODEL
+            _MODELS[m.name] = m
+    return _MODELS
+
+
+def names() -> tuple:
+    return tuple(models())
+
+
+def get(name: str):
+    """The model called ``name`` (KeyError if there is none)."""
+    return models()[name]
+
+
+DEFAULT_MODEL = "flow"

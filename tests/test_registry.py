@@ -1,0 +1,111 @@
+"""The contract every registered model passes (STYLE: one shared test for every system),
+and a model from outside the package registered with one line (docs/architecture.md)."""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cornerbif import config, engine, io, registry, simulate
+from cornerbif.cli import main
+from cornerbif.model import Model
+
+
+def tiny(name, **extra):
+    raw = {"scene": {"name": f"tiny_{name}", "model": name},
+           "initial": {"count": 2, "seed": 3},
+           "run": {"transient": 4, "record": 6}}
+    spec = registry.get(name)
+    first = next(iter(spec.params))
+    p = spec.params[first]
+    raw["sweep"] = {first: {"values": [p.default, p.default * 1.001 if p.default else 0.001]}}
+    for k, v in extra.items():
+        raw.setdefault(k, {}).update(v)
+    return config.from_dict(raw)
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_declarations_are_complete_and_their_defaults_allowed(name):
+    spec = registry.get(name)
+    assert isinstance(spec, Model) and spec.name == name and spec.doc
+    for k, p in spec.params.items():
+        assert p.name == k and p.allowed and p.doc and p.equation, k
+        if p.default is not None:
+            assert p.problem(p.default, f"system.{k}") is None, k
+        assert p.problem(float("nan"), "x") is not None
+    assert spec.state and len(set(spec.coords)) == len(spec.coords)
+    for c in spec.state:
+        if c.floor not in (None, "wall"):
+            assert spec.coords.index(c.floor) < spec.coords.index(c.name)   # drawn before
+    names = [f.name for obs in spec.observables.values() for f in obs]
+    assert len(set(names)) == len(names)
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_a_block_fills_exactly_the_schema_and_simulate_agrees(name, tmp_path):
+    """compute_block writes every dataset io.create allocates (and nothing else); the
+    same starts through cornerbif.simulate give the same numbers."""
+    sc = tiny(name)
+    spec = sc.spec
+    with io.create(str(tmp_path / "s.h5"), sc, sc.n_ic) as f:
+        names = []
+        f.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        schema = {n: f[n].shape for n in names if not f[n].is_scale and n != "done"}
+    block = engine.compute_block(sc, engine.blocks(sc)[0])
+    assert set(block) == set(schema)
+    for n, a in block.items():
+        assert a.shape == schema[n], n
+    starts = [block[f"initial/{c}"] for c in spec.coords]
+    axis = sc.axes[0]
+    res = simulate(*starts, model=name, transient=sc.transient, record=sc.record,
+                   **{axis.name: np.array(axis.values)[:, None]})
+    assert np.array_equal(res["status"], block["status"])
+    assert np.array_equal(res["period"], block["period"])
+    for fld in spec.fields(sc.keep):
+        assert np.array_equal(res[fld.source], block[fld.name], equal_nan=True), fld.name
+    for i, c in enumerate(spec.coords):
+        assert np.array_equal(res["final"][..., i], block[f"final/{c}"], equal_nan=True)
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_bad_values_name_key_value_and_range(name):
+    spec = registry.get(name)
+    k, p = next((k, p) for k, p in spec.params.items() if p.ok(-1.0) is False)
+    with pytest.raises(config.SceneError) as e:
+        tiny(name, system={k: -1.0})
+    assert f"system.{k}: -1.0 is out of range; {k} must be {p.allowed}" in str(e.value)
+    with pytest.raises(config.SceneError) as e:
+        tiny(name, system={k + "x": 1.0})
+    assert f"system.{k}x: unknown key" in str(e.value)
+
+
+@pytest.fixture
+def toy_registered(monkeypatch):
+    """Register tests/toy_model.py: the one line a new model adds to the registry."""
+    monkeypatch.setattr(registry, "MODEL_MODULES", registry.MODEL_MODULES + ("toy_model",))
+    monkeypatch.setattr(registry, "_MODELS", {})
+    monkeypatch.setattr(config, "MODELS", registry.names())
+    monkeypatch.setitem(config.TABLES, "initial", config.TABLES["initial"])
+    yield registry.get("toy_rotation")
+
+
+def test_a_model_from_outside_the_package_sweeps_to_a_file(toy_registered, tmp_path):
+    scene = tmp_path / "toy.toml"
+    scene.write_text('[scene]\nname = "toy"\nmodel = "toy_rotation"\n[system]\nr = 0.5\n'
+                     '[sweep]\nomega = { start = 0.5, stop = 1.5, num = 3 }\n'
+                     '[initial]\ncount = 2\n[run]\ntransient = 60\nrecord = 4\n')
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(tmp_path / "toy.h5")])
+    assert r.exit_code == 0, r.output
+    with h5py.File(tmp_path / "toy.h5") as f:
+        omega = f["omega"][...]
+        u = f["section/u"][...]
+        assert f["done"][...].all() and (f["period"][...] == 1).all()
+    # the fixed point x* = (I - r R)^-1 (kappa, 0), in closed form
+    for i, w in enumerate(omega):
+        A = np.eye(2) - 0.5 * np.array([[math.cos(w), -math.sin(w)], [math.sin(w), math.cos(w)]])
+        x = np.linalg.solve(A, [0.1, 0.0])
+        assert np.allclose(u[i, :, -1], x[0], atol=1e-12)
+    r = CliRunner().invoke(main, ["validate", str(scene), "--set", "system.r=1.5"])
+    assert r.exit_code == 2 and "system.r: 1.5 is out of range; r must be in (0, 1)" in r.output
