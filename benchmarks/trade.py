@@ -304,7 +304,7 @@ def bench_map_vs_flow(smoke=False):
                         pl["flow_lo"] = pl["flow_hi"] = None
                         pl["note"] = "the flow has another word at the map's plateau centre"
                     else:
-                        judge = lambda k: _flow_word(k, omega, ftr)  # noqa: E731
+                        judge = lambda k, omega=omega, ftr=ftr: _flow_word(k, omega, ftr)  # noqa: E731
                         tol = (1e-3 if smoke else 1e-7) * w
                         pl["flow_lo"] = refine_edge(judge, mid, lo - w, word, tol)
                         pl["flow_hi"] = refine_edge(judge, mid, hi + w, word, tol)
@@ -327,7 +327,7 @@ def plot_map_vs_flow(res, path):
         ax[0].loglog(d, [max(r["b_dist_max"] or np.nan, 1e-17) for r in rows], mk, ms=3,
                      label=f"b: max distance, {lab}")
         if sign < 0:
-            for i, N in enumerate(sorted({p["word"] for r in rows for p in r["plateaus"]})):
+            for N in sorted({p["word"] for r in rows for p in r["plateaus"]}):
                 e = [next((p.get("end_error") for p in r["plateaus"] if p["word"] == N), None)
                      for r in rows]
                 ok = [(x, y) for x, y in zip(d, e) if y is not None]
@@ -370,7 +370,7 @@ def chatter_reference(omega, r, w0, dps=60, w_stop=1e-20):
     n = 0
     while w > w_stop:
         u, v = z(t), zp(t) + w
-        g = lambda s: u * mp.cos(s) + v * mp.sin(s) - z(t + s)      # noqa: E731
+        g = lambda s, u=u, v=v, t=t: u * mp.cos(s) + v * mp.sin(s) - z(t + s)      # noqa: E731
         guess = 2 * w / N(t)
         lo, hi = guess / 2, guess * 1.5
         while g(hi) > 0:
@@ -397,8 +397,8 @@ def bench_chatter(smoke=False):
     """
     from cornerbif.kernels.flow import contact_force
     from cornerbif.models import params as P
-    from cornerbif.models.oscillator import derive
     from cornerbif.models.obstacle import z_state
+    from cornerbif.models.oscillator import derive
     from cornerbif.sweep import simulate
     cases = [(0.5, 0.8, 0.05), (0.8, 0.5, 0.1)] if smoke else \
         [(w, r, w0) for w in (0.5, 0.8) for r in (0.5, 0.8) for w0 in (0.01, 0.1)]
@@ -575,8 +575,7 @@ def _unit_costs(n=200000):
     """
     import numba
 
-    from cornerbif.kernels.flow import (GAP, evaluate, free_state, grid_start, phase_grid,
-                                        sturm_clear)
+    from cornerbif.kernels.flow import GAP, evaluate, free_state, grid_start, phase_grid, sturm_clear
     from cornerbif.kernels.roots import bracket
     from cornerbif.models import params as P
     from cornerbif.models.obstacle import derived_tuple
@@ -846,7 +845,8 @@ def render_map_vs_flow(res, r):
     L = ["## map2d against flow, by distance from (omega, kappa) = (2, 0)", "",
          f"Rays omega - 2 = +-delta, kappa = c (omega - 2) (omega < 2: c in [12, 14.2], "
          f"Fig. 16's range; omega > 2: c in [0.5, 2.8] (one-impact orbit) and [14.5, 17] "
-         f"(two-impact orbit), outside the band [kappa_CC, kappa_C]). Both models run {res['transient']} + {res['record']} steps from "
+         f"(two-impact orbit), outside the band [kappa_CC, kappa_C]). Both models run "
+         f"{res['transient']} + {res['record']} steps from "
          f"{res['starts']} starts per point through `sweep.run_items`. b error: Hausdorff "
          "distance between the flow's v(nT) and the map's b_n per point on the attractors both "
          "models reached (max over the ray); 'attractors differ': points where the starts of "

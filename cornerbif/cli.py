@@ -161,9 +161,12 @@ def info(file):
         import tomllib
         sc = tomllib.loads(a["scene"])
         click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
-        model = sc['scene']['model']
-        obstacle = sc['system'].get('obstacle')
-        click.echo(f"  model {model}" + (f", obstacle {obstacle}" if obstacle else ""))
+        from . import registry
+        model = sc["scene"]["model"]
+        spec = registry.models().get(model)
+        obstacle = sc["system"].get("obstacle")
+        click.echo(f"  model {model}" + (f", obstacle {obstacle}" if obstacle else "")
+                   + (f": {spec.doc}" if spec else " (not a model of this version)"))
         rn = sc.get("run", {})
         click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
                    f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
@@ -184,7 +187,12 @@ def info(file):
             vals, cnt = np.unique(per, return_counts=True)
             top = sorted(zip(cnt, vals), reverse=True)[:8]
             click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
-        click.echo(f"  datasets: {', '.join(sorted(_names(f)))}")
+        names = _names(f)
+        if spec:
+            kept = [k for k in spec.observables if any(n.startswith(k + "/") for n in names)]
+            click.echo(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
+                       f"state {', '.join(spec.coords)}")
+        click.echo(f"  datasets: {', '.join(sorted(n for n in names if not f[n].is_scale))}")
     from .plot import PlotData, attractor_summary
     click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
 

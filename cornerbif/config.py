@@ -471,7 +471,8 @@ def _read_sweep(w):
             axes.append(Axis(k, values))
     if "sweep" in w.raw and w.raw.get("sweep") is not None and not axes:
         if not [k for k in sw if k != "follow"]:
-            w.problems.append("sweep: no axis given; add e.g. kappa = { start = -0.02, stop = 0.0, num = 101 }")
+            w.problems.append("sweep: no axis given; add e.g. "
+                              "kappa = { start = -0.02, stop = 0.0, num = 101 }")
     if len(axes) > 2:
         w.problems.append(f"sweep: {len(axes)} axes ({', '.join(a.name for a in axes)}); at most two")
     names = [a.name for a in axes]

@@ -181,7 +181,8 @@ def facts(h5: str) -> dict:
     labels, count = d.attractors()
     st, cnt = np.unique(d.status, return_counts=True)
     out = {"scene": d.scene["scene"]["name"], "status": {int(a): int(b) for a, b in zip(st, cnt)},
-           "attractors": attractor_summary(d, tex=False), "max_attractors": int(count.max()) if count.size else 0}
+           "attractors": attractor_summary(d, tex=False),
+           "max_attractors": int(count.max()) if count.size else 0}
     if len(d.axes) == 1:
         a = d.axes[0]
         x = d.values[a]

@@ -42,11 +42,9 @@ import sys
 import h5py
 import numpy as np
 
-from . import FORMAT_VERSION, __version__
-from . import registry
+from . import FORMAT_VERSION, __version__, registry
 from . import status as S
 from .errors import SweepError
-
 
 
 class FileFormatError(Exception):
@@ -54,7 +52,7 @@ class FileFormatError(Exception):
 
 
 def _now():
-    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
 def create(path, scene, n_ic, command="", versions=None):

@@ -24,8 +24,8 @@ This module imports neither numba nor h5py: ``cornerbif validate`` stays fast.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 

@@ -337,7 +337,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
         datas.sort(key=lambda d: d.role != "flow")
         kind = y or "section_v"
         fig = plt.figure(figsize=(7, 7), dpi=150)
-        axs = draw_comparison(fig, datas, kind, plot_cfg)
+        draw_comparison(fig, datas, kind, plot_cfg)
         import textwrap
         sc = datas[1].scene.get("scene", {})
         fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""),
@@ -528,7 +528,8 @@ def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
         info.append(r)
         if k == 0:
             ax.legend(loc="upper right", fontsize=7, ncol=4)
-    axs[-1, 0].set_xlabel(r"$t - t_0$  ($t_0 = nT$, $T = 2\pi/\omega$, the section before the first recorded impact)")
+    axs[-1, 0].set_xlabel(r"$t - t_0$  ($t_0 = nT$, $T = 2\pi/\omega$, "
+                          r"the section before the first recorded impact)")
     sc = data.scene.get("scene", {})
     import textwrap
     fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""), 90)),

@@ -204,12 +204,14 @@ def c_alpha(omega1: float, kappa1: float, r: float) -> float:
 
 
 def theta_beta(r: float) -> float:
-    """theta_beta = pi (1+r)/(2 (1-r)) (section 5.3.1): the beta fixed point exists for kappa1 < theta_beta omega1."""
+    """theta_beta = pi (1+r)/(2 (1-r)) (section 5.3.1): the beta fixed point exists for
+    kappa1 < theta_beta omega1."""
     return math.pi * (1.0 + r) / (2.0 * (1.0 - r))
 
 
 def theta_alpha(r: float) -> float:
-    """theta_alpha = pi (1+r)^2/(2 (1+r^2)) (section 5.3.1): the alpha fixed point exists for kappa1 > theta_alpha omega1."""
+    """theta_alpha = pi (1+r)^2/(2 (1+r^2)) (section 5.3.1): the alpha fixed point exists for
+    kappa1 > theta_alpha omega1."""
     return math.pi * (1.0 + r) ** 2 / (2.0 * (1.0 + r * r))
 
 

@@ -112,7 +112,8 @@ def test_overrides_and_rerun_reproduces_bitwise(tiny, tmp_path):
 def test_resume_after_interruption_is_bitwise_equal(tiny, tmp_path, monkeypatch):
     full = tmp_path / "full.h5"
     assert run(["sweep", tiny, "-o", full]).exit_code == 0
-    monkeypatch.setattr(engine, "BLOCK_BYTES", 2 * 3 * engine.item_bytes(config.load(tiny)))  # 2 points a block
+    # 2 points a block
+    monkeypatch.setattr(engine, "BLOCK_BYTES", 2 * 3 * engine.item_bytes(config.load(tiny)))
     calls = {"n": 0}
     real = sweep_mod.io.write_block
 

@@ -3,13 +3,12 @@
 import math
 
 import mpmath as mp
+import naive
 import numpy as np
 import pytest
 
-import naive
+from cornerbif import simulate, theory
 from cornerbif import status as S
-from cornerbif import theory
-from cornerbif import simulate
 
 
 @pytest.mark.parametrize("d", [1e-9, -1e-9])

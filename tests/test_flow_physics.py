@@ -2,14 +2,13 @@
 
 import math
 
+import naive
 import numba
 import numpy as np
 import pytest
 
-import naive
+from cornerbif import simulate, theory
 from cornerbif import status as S
-from cornerbif import theory
-from cornerbif import simulate
 
 R = 0.8
 
@@ -231,8 +230,8 @@ def test_simulate_checks_every_element_of_an_array_parameter():
     """simulate() broadcasts arrays of parameters; each value is validated as a scene's would
     be (r in [0, 1]; no undamped exact resonance F != 0, sigma = 0, Omega = k of eq 4), not
     only the first."""
-    from cornerbif.config import SceneError
     from cornerbif import simulate
+    from cornerbif.config import SceneError
     with pytest.raises(SceneError, match="system.r: 1.5"):
         simulate(u0=[5.0, 5.0], v0=[1.0, 1.0], transient=2, record=2, omega=1.999, kappa=-2.0,
                  r=[0.5, 1.5])

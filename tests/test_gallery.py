@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cornerbif import analysis, config, gallery, registry, theory, trajectory
+from cornerbif import analysis, config, gallery, registry, run_sweep, simulate, theory, trajectory
 from cornerbif.cli import main
 from cornerbif.plot import PlotData
-from cornerbif import run_sweep, simulate
 
 ROOT = os.path.dirname(os.path.dirname(__file__))
 CONFIGS = os.path.join(ROOT, "configs")

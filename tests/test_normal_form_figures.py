@@ -17,7 +17,8 @@ import h5py
 import numpy as np
 import pytest
 
-from cornerbif import config, plot_normal_form as nf
+from cornerbif import config
+from cornerbif import plot_normal_form as nf
 from cornerbif.plot import PlotData, figure
 from cornerbif.sweep import run_sweep
 

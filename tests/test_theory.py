@@ -181,7 +181,8 @@ def test_double_impact_kappa_eq_14_corrected_sign():
     # corner limit tau- = tau+ = t0: kappa_CC, eq (17)
     for omega in (1.999, 2.001, 1.8):
         t0 = math.pi / omega
-        assert th.double_impact_kappa(omega, t0, t0, R, omega, omega) == pytest.approx(th.kappa_CC(omega, R), rel=1e-12)
+        assert th.double_impact_kappa(omega, t0, t0, R, omega, omega) == pytest.approx(
+            th.kappa_CC(omega, R), rel=1e-12)
 
 
 # ---------------------------------------------------------------------------
@@ -254,7 +255,7 @@ def test_period_adding_estimate_section_5_4():
     # against the exact intervals of the map (word_interval): the ratio -> 1 as N grows,
     # like 1/N at order 1 and 1/N^2 at order 2 (measured: 1.258/1.153 at N = 11, 1.035/1.002 at N = 30)
     for N, tol1, tol2 in [(11, 0.3, 0.17), (30, 0.04, 0.003)]:
-        lo, hi = th.word_interval("b^%d g" % N, W1, R)
+        lo, hi = th.word_interval(f"b^{N} g", W1, R)
         e1 = th.period_adding_interval(N, W1, R, 1)
         e2 = th.period_adding_interval(N, W1, R, 2)
         assert 1 < (lo - kb) / e1[0] < 1 + tol1 and 1 < (hi - kb) / e1[1] < 1 + tol1

@@ -11,13 +11,13 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from cornerbif import simulate
 from cornerbif import status as S
 from cornerbif.kernels import two_particle as K
 from cornerbif.kernels.two_particle import simulate_two_particle
 from cornerbif.models import two_particle as P
 from cornerbif.models.impact import restitution
 from cornerbif.models.two_particle import mass_ratio_impact
-from cornerbif import simulate
 
 FIG19 = dict(omega1=1.001, omega2=1.0, mu=1000.0, r1=0.8, r2=0.8, kappa=0.0, beta=1.0)
 

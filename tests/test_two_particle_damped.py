@@ -9,18 +9,16 @@ exhaustive grid + brentq search of gap minima), and conservation laws.
 
 import math
 
+import naive
 import numba
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from cornerbif import config
+from cornerbif import config, simulate
 from cornerbif import status as S
 from cornerbif.kernels.two_particle import simulate_two_particle
 from cornerbif.models import two_particle as P
-from cornerbif import simulate
-
-import naive
 
 DAMP = dict(sigma1=0.1, sigma2=0.05, F1=0.4, Omega1=1.7, phi1=0.3, F2=0.6, Omega2=2.3, phi2=-1.0)
 BASE = dict(omega0=2.0, omega1=1.3, omega2=0.9, mu=5.0, r1=0.7, r2=0.6, kappa=-0.5, beta=0.8)
@@ -159,7 +157,7 @@ def test_grazing_family_with_damping_against_the_slow_search():
         else:
             assert first <= tmin + 1e-9, (d, first)
         if d == -1e-3:
-            def g(t):
+            def g(t, kap=kap):
                 z, _ = naive.free_flight(t, 0.0, z0, y0, sigma=0.2, k=1.3, F=0.5, Omega=1.7,
                                          phi=0.3)
                 return z - kap - 0.8 * math.sin(2.0 * t)

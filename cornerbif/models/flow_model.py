@@ -1,58 +1,25 @@
 """The ``flow`` model (sections 2-3): one particle, one moving obstacle, law (5).
 
 u'' + 2 sigma u' + k^2 u = f(t), f = 0 or F cos(Omega t + phi) (eq 4), for u >= z(t),
-with Newton's impact law v+ = (1 + r) z'(t) - r v- (eq 5).  The obstacles are
-declared in ``OBSTACLES`` below (their jitted pieces: ``models/obstacle.py``); the
-packed parameter layout is ``models/params.py``; the kernel is ``kernels/flow.py``.
+with Newton's impact law v+ = (1 + r) z'(t) - r v- (eq 5).  Its parameters and obstacles
+are declared in ``models/params.py`` (with the packed vector the kernels index), the
+obstacles' jitted pieces in ``models/obstacle.py``; the kernel is ``kernels/flow.py``.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from ..model import (Coord, Field, Model, Obstacle, Param, anything, nonnegative, positive,
-                     unit_interval)
+from ..analysis import detect_cycles
+from ..kernels.flow import run_batch
+from ..model import Coord, Field, Model
+from . import params as P
+from .params import OBSTACLES
 
 # run.stop = "period": the kernel stops once the state at the corners repeats to this share of
 # run.period_tol (relative), tighter than the analysis so that the orbit has converged well
 # beyond what the period test reads (see kernels.flow.cycle_watch)
 STOP_TOL_FACTOR = 1e-3
-
-# every obstacle of the flow model: a new one is a line here and its jitted pieces in
-# models/obstacle.py (docs/architecture.md)
-OBSTACLES = {
-    "sine": Obstacle("sine", 0, "kappa + beta sin(omega t) (section 2.2, no corners)",
-                     period_pi=2, pieces=2, corners=False),
-    "rectified_sine": Obstacle("rectified_sine", 1, "kappa + beta |sin(omega t)| (eq 8), "
-                               "corners at k pi / omega", period_pi=1, pieces=1, corners=True,
-                               normal_form=True),
-    "triangle": Obstacle("triangle", 2, "eq (7) made periodic, period pi / omega: slope "
-                         "+theta2 after each corner, -theta1 before it", period_pi=1, pieces=2,
-                         corners=True),
-}
-# the section corners are put between the impact clusters (kernels.flow) for obstacles whose
-# attractors near omega = 2 have one cluster every second corner (sections 3-4)
-AUTO_SECTION = ("rectified_sine",)
-
-PARAMS = {p.name: p for p in (
-    Param("omega", 2.0, "> 0", positive, "obstacle frequency", "eq 8"),
-    Param("kappa", 0.0, "any finite number", anything, "obstacle offset", "eq 8"),
-    Param("beta", 1.0, ">= 0", nonnegative, "obstacle amplitude", "eq 8"),
-    Param("r", 0.8, "in [0, 1]", unit_interval, "coefficient of restitution", "eq 5"),
-    Param("sigma", 0.0, ">= 0", nonnegative, "damping", "eq 4"),
-    Param("k", 1.0, ">= 0", nonnegative, "natural frequency", "eq 4"),
-    Param("F", 0.0, "any finite number", anything, "forcing amplitude: f = F cos(Omega t + phi)",
-          "eq 4"),
-    Param("Omega", 1.0, "> 0", positive, "forcing frequency", "eq 4"),
-    Param("phi", 0.0, "any finite number", anything, "forcing phase", "eq 4"),
-    Param("theta1", None, "> 0 (default beta * omega, the slope of eq (8) at its corners)",
-          positive, "triangle: slope magnitude before each corner", "eq 7",
-          obstacles=("triangle",)),
-    Param("theta2", None, "> 0 (default beta * omega)", positive,
-          "triangle: slope after each corner", "eq 7", obstacles=("triangle",)),
-)}
 
 IMPACT_FIELDS = (
     Field("impacts/t", "t", "impact time t", "time"),
@@ -101,22 +68,18 @@ class FlowModel(Model):
         return resonance_problem(lambda n: {values.get(n)}, lambda n: f"system.{n}")
 
     def wall_at_start(self, params):
-        from . import params as P
         return params[:, P.KAPPA]
 
     def pack_values(self, values: dict, scene) -> np.ndarray:
-        from . import params as P
         stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
         return P.pack(values, scene.obstacle, scene.tol, scene.chatter, scene.escape,
                       scene.section_period, stop_tol)
 
     def pack_points(self, scene, index_list):
-        from . import params as P
         rows = [self.pack_values(scene.point(idx), scene) for idx in index_list]
         return np.array(rows).reshape(len(index_list), P.NPARAM)
 
     def int_settings(self, scene):
-        from . import params as P
         ints = np.zeros(P.NINT, np.int64)
         ints[P.I_TRANSIENT] = scene.transient
         ints[P.I_RECORD] = scene.record
@@ -126,11 +89,9 @@ class FlowModel(Model):
         return ints
 
     def kernel(self):
-        from ..kernels.flow import run_batch
         return run_batch
 
     def run_items(self, params, ics, ints, scene):
-        from . import params as P
         # NaN marks "no impact" in what is stored and in t, where the analysis reads the end
         # of the recorded window; what is neither is left unfilled (a summary-only chart then
         # touches only the few rows' entries its early-stopped runs write)
@@ -161,8 +122,6 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     """The flow kernel and the cycle analysis on n items; outputs not in ``fill`` start
     unfilled.  Returns (out, status, final, period, impacts per cycle, symbols, first
     recorded impact)."""
-    from ..analysis import detect_cycles
-    from ..kernels.flow import run_batch
     n = params.shape[0]
     rec = scene.record
     out = {k: np.full((n, rec), np.nan) if k in fill else np.empty((n, rec))
@@ -181,18 +140,10 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     return out, st, final, period, ipc, sym, rec0
 
 
-def section_pieces(obstacle: str, omega: float, section_period: float | None) -> int:
-    """Smooth pieces per Poincare section period (default T = 2 pi / omega)."""
-    ob = OBSTACLES[obstacle]
-    P = ob.period(omega)
-    sp = 2.0 * math.pi / omega if section_period is None else section_period
-    return max(1, round(sp / P)) * ob.pieces
-
-
 MODEL = FlowModel(
     name="flow",
     doc="one particle and a moving obstacle with corners (sections 2-3, eqs 4-9)",
-    params=PARAMS,
+    params=P.PARAMS,
     state=(U, V),
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS},
     system_extra={"obstacle": "rectified_sine", "section_period": None},

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import Coord, Field, Model, Param, anything, positive
+from .. import status as S
+from ..maps2d import detect_map_cycles, iterate_batch
+from ..model import Coord, Model, Param, anything, positive
 from .flow_model import SECTION_FIELDS, U
 
 PARAMS = {p.name: p for p in (
@@ -43,7 +45,6 @@ class Map2dModel(Model):
         return np.array([scene.transient, scene.record], np.int64)
 
     def kernel(self):
-        from ..maps2d import iterate_batch
         return iterate_batch
 
     def run_items(self, params, ics, ints, scene):
@@ -52,8 +53,6 @@ class Map2dModel(Model):
         The iterates x_n = (a_n, b_n) go to the section slots (su, sv), as the flow's
         section values (u, v)(nT); a run is OK unless an iterate is not finite.
         """
-        from .. import status as S
-        from ..maps2d import detect_map_cycles, iterate_batch
         n = params.shape[0]
         rec = scene.record
         a = np.empty((n, rec))

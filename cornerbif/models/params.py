@@ -1,7 +1,9 @@
-"""Packed parameter vector of the ``flow`` model (STYLE example 4).
+"""The ``flow`` model's parameters: their declarations and the packed vector (STYLE example 4).
 
-Parameters have names in Python and live in one float64 vector inside the
-kernels, indexed by the constants below, so every kernel compiles exactly once.
+``PARAMS`` declares each parameter (default, allowed range, doc, equation) and
+``OBSTACLES`` each obstacle; config reads them through the registry
+(``models/flow_model.py``).  Inside the kernels the parameters live in one float64
+vector indexed by the constants below, so every kernel compiles exactly once.
 """
 
 import math
@@ -9,6 +11,7 @@ import math
 import numpy as np
 
 from .._jit import jit
+from ..model import Obstacle, Param, anything, nonnegative, positive, unit_interval
 
 # --- indices into the packed vector --------------------------------------------------
 OMEGA = 0      # obstacle frequency omega (eq 8)
@@ -31,7 +34,7 @@ SECTION_AUTO = 16    # 1: put the section corners between the impact clusters (s
 STOP_TOL = 17        # > 0: stop once the attractor's period is established (run.stop = "period"),
                      # with this relative tolerance on the state at the corners; 0: never
 NPARAM = 18
-# the named parameters of models/flow_model.PARAMS and their slots (theta1, theta2: pack)
+# the named parameters of PARAMS (below) and their slots (theta1, theta2: pack)
 INDEX = {"omega": OMEGA, "kappa": KAPPA, "beta": BETA, "r": R, "sigma": SIGMA, "k": K,
          "F": F_AMP, "Omega": F_OMEGA, "phi": F_PHI}
 
@@ -48,14 +51,45 @@ def as_tuple(p):
             p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17])
 
 
-# --- obstacle codes (declared with each obstacle in models/flow_model.OBSTACLES) ---------
-from .flow_model import OBSTACLES as _DECLARED  # noqa: E402  (numba-free declarations)
+# --- the declarations (read by config through the registry) ------------------------------
+# every obstacle of the flow model: a new one is a line here and its jitted pieces in
+# models/obstacle.py (docs/architecture.md)
+OBSTACLES = {
+    "sine": Obstacle("sine", 0, "kappa + beta sin(omega t) (section 2.2, no corners)",
+                     period_pi=2, pieces=2, corners=False),
+    "rectified_sine": Obstacle("rectified_sine", 1, "kappa + beta |sin(omega t)| (eq 8), "
+                               "corners at k pi / omega", period_pi=1, pieces=1, corners=True,
+                               normal_form=True),
+    "triangle": Obstacle("triangle", 2, "eq (7) made periodic, period pi / omega: slope "
+                         "+theta2 after each corner, -theta1 before it", period_pi=1, pieces=2,
+                         corners=True),
+}
+# the section corners are put between the impact clusters (kernels.flow) for obstacles whose
+# attractors near omega = 2 have one cluster every second corner (sections 3-4)
+AUTO_SECTION = ("rectified_sine",)
 
-SINE = _DECLARED["sine"].code                      # section 2.2 (smooth, no corners)
-RECTIFIED_SINE = _DECLARED["rectified_sine"].code  # eq (8), corners at k pi / omega
-TRIANGLE = _DECLARED["triangle"].code              # eq (7) made periodic with period pi / omega
+PARAMS = {p.name: p for p in (
+    Param("omega", 2.0, "> 0", positive, "obstacle frequency", "eq 8"),
+    Param("kappa", 0.0, "any finite number", anything, "obstacle offset", "eq 8"),
+    Param("beta", 1.0, ">= 0", nonnegative, "obstacle amplitude", "eq 8"),
+    Param("r", 0.8, "in [0, 1]", unit_interval, "coefficient of restitution", "eq 5"),
+    Param("sigma", 0.0, ">= 0", nonnegative, "damping", "eq 4"),
+    Param("k", 1.0, ">= 0", nonnegative, "natural frequency", "eq 4"),
+    Param("F", 0.0, "any finite number", anything, "forcing amplitude: f = F cos(Omega t + phi)",
+          "eq 4"),
+    Param("Omega", 1.0, "> 0", positive, "forcing frequency", "eq 4"),
+    Param("phi", 0.0, "any finite number", anything, "forcing phase", "eq 4"),
+    Param("theta1", None, "> 0 (default beta * omega, the slope of eq (8) at its corners)",
+          positive, "triangle: slope magnitude before each corner", "eq 7",
+          obstacles=("triangle",)),
+    Param("theta2", None, "> 0 (default beta * omega)", positive,
+          "triangle: slope after each corner", "eq 7", obstacles=("triangle",)),
+)}
 
-OBSTACLES = {name: ob.code for name, ob in _DECLARED.items()}
+# the obstacle codes the kernels compare (models/obstacle.py)
+SINE = OBSTACLES["sine"].code                      # section 2.2 (smooth, no corners)
+RECTIFIED_SINE = OBSTACLES["rectified_sine"].code  # eq (8), corners at k pi / omega
+TRIANGLE = OBSTACLES["triangle"].code              # eq (7) made periodic with period pi / omega
 
 # --- integer run settings (a small int64 vector) --------------------------------------
 I_TRANSIENT = 0
@@ -68,7 +102,7 @@ NINT = 4
 def obstacle_period(obstacle: str, omega: float) -> float:
     """Forcing period P (``Obstacle.period``): pi/omega for rectified_sine and triangle,
     2 pi/omega for sine."""
-    return _DECLARED[obstacle].period(omega)
+    return OBSTACLES[obstacle].period(omega)
 
 
 def pieces_per_period(obstacle: str) -> int:
@@ -78,18 +112,17 @@ def pieces_per_period(obstacle: str) -> int:
     is fixed on each half, which tightens the event-location bound);
     ``triangle`` has a rising and a falling piece.
     """
-    return _DECLARED[obstacle].pieces
+    return OBSTACLES[obstacle].pieces
 
 
 def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
          section_period: float | None, stop_tol: float = 0.0) -> np.ndarray:
     """Pack named parameters of one grid point into the kernel's float64 vector.
 
-    Missing values take their declared defaults (``models.flow_model.PARAMS``);
+    Missing values take their declared defaults (``PARAMS``);
     theta1 and theta2 default to beta * omega.  ``stop_tol`` > 0 turns the kernel's
     early stop on (``run.stop = "period"``).
     """
-    from .flow_model import AUTO_SECTION, PARAMS, section_pieces
     v = {k: values.get(k, p.default) for k, p in PARAMS.items()}
     p = np.zeros(NPARAM)
     for name, index in INDEX.items():
@@ -97,7 +130,7 @@ def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
     for name, index in (("theta1", THETA1), ("theta2", THETA2)):
         t = v[name]
         p[index] = v["beta"] * v["omega"] if t is None or (isinstance(t, float) and math.isnan(t)) else t
-    p[OBSTACLE] = OBSTACLES[obstacle]
+    p[OBSTACLE] = OBSTACLES[obstacle].code
     p[TOL] = tol
     p[CHATTER] = chatter
     p[ESCAPE] = escape
@@ -105,3 +138,11 @@ def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
     p[SECTION_AUTO] = 1.0 if (obstacle in AUTO_SECTION and section_period is None) else 0.0
     p[STOP_TOL] = stop_tol
     return p
+
+
+def section_pieces(obstacle: str, omega: float, section_period: float | None) -> int:
+    """Smooth pieces per Poincare section period (default T = 2 pi / omega)."""
+    ob = OBSTACLES[obstacle]
+    P = ob.period(omega)
+    sp = 2.0 * math.pi / omega if section_period is None else section_period
+    return max(1, round(sp / P)) * ob.pieces

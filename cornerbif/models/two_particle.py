@@ -28,7 +28,30 @@ import math
 import numpy as np
 
 from .._jit import jit
+from ..model import Param, anything, nonnegative, positive, unit_interval
 from .impact import restitution
+
+# --- the declarations (read by config through the registry) ------------------------------
+PARAMS = {p.name: p for p in (
+    Param("omega0", 2.0, "> 0", positive, "wall frequency", "eq 72"),
+    Param("omega1", 1.001, "> 0", positive, "natural frequency of the heavy particle z", "eq 73"),
+    Param("omega2", 1.0, "> 0", positive, "natural frequency of the light particle u", "eq 73"),
+    Param("mu", 1000.0, "> 0 (inf allowed: law (74) becomes law (5))", positive,
+          "mass ratio M/m", "eq 74", inf_ok=True),
+    Param("r1", 0.8, "in [0, 1]", unit_interval, "restitution of w-z impacts", "eq 5"),
+    Param("r2", 0.8, "in [0, 1]", unit_interval, "restitution of z-u impacts", "eq 74"),
+    Param("kappa", 0.0, "any finite number", anything, "wall offset", "eq 72"),
+    Param("beta", 1.0, ">= 0", nonnegative, "wall amplitude", "eq 72"),
+    # beyond the paper: damping and forcing per particle as in 'flow' (eq 4)
+    Param("sigma1", 0.0, ">= 0", nonnegative, "damping of z", "eq 4"),
+    Param("sigma2", 0.0, ">= 0", nonnegative, "damping of u", "eq 4"),
+    Param("F1", 0.0, "any finite number", anything, "forcing of z per unit mass", "eq 4"),
+    Param("Omega1", 1.0, "> 0", positive, "forcing frequency of z", "eq 4"),
+    Param("phi1", 0.0, "any finite number", anything, "forcing phase of z", "eq 4"),
+    Param("F2", 0.0, "any finite number", anything, "forcing of u per unit mass", "eq 4"),
+    Param("Omega2", 1.0, "> 0", positive, "forcing frequency of u", "eq 4"),
+    Param("phi2", 0.0, "any finite number", anything, "forcing phase of u", "eq 4"),
+)}
 
 # --- indices into the packed vector --------------------------------------------------
 OMEGA0 = 0    # wall frequency omega0 (eq 72)
@@ -63,12 +86,13 @@ def as_tuple(p):
 
 NAMES = ("omega0", "omega1", "omega2", "mu", "r1", "r2", "kappa", "beta",
          "sigma1", "sigma2", "F1", "Omega1", "phi1", "F2", "Omega2", "phi2")
+# the slots of the named parameters (declared in PARAMS above)
 INDEX = {"omega0": OMEGA0, "omega1": OMEGA1, "omega2": OMEGA2, "mu": MU, "r1": R1,
          "r2": R2, "kappa": KAPPA, "beta": BETA, "sigma1": SIGMA1, "sigma2": SIGMA2,
          "F1": F1, "Omega1": OMF1, "phi1": PHI1, "F2": F2, "Omega2": OMF2, "phi2": PHI2}
-# optional keys (damping and forcing beyond the paper) and their defaults
-OPTIONAL = {"sigma1": 0.0, "sigma2": 0.0, "F1": 0.0, "Omega1": 1.0, "phi1": 0.0,
-            "F2": 0.0, "Omega2": 1.0, "phi2": 0.0}
+# optional keys (damping and forcing beyond the paper) and their declared defaults
+OPTIONAL = {k: PARAMS[k].default for k in ("sigma1", "sigma2", "F1", "Omega1", "phi1", "F2",
+                                              "Omega2", "phi2")}
 
 # --- integer run settings (a small int64 vector) --------------------------------------
 I_TRANSIENT = 0    # z-u impacts skipped before recording
@@ -94,41 +118,20 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
                          f"allowed: {', '.join(NAMES)}, section_period")
     p = np.zeros(NPARAM)
     problems = []
-    for k in NAMES:
+    for k, decl in PARAMS.items():
         if k not in values and k not in OPTIONAL:
             problems.append(f"{k}: missing")
             continue
-        v = float(values.get(k, OPTIONAL.get(k)))
-        p[INDEX[k]] = v
-        if math.isnan(v):
-            problems.append(f"{k}: {v!r} is not a number")
-        elif k == "mu":
-            if not v > 0.0:
-                problems.append(f"mu: {v!r} must be > 0 (inf allowed)")
-        elif math.isinf(v):
-            problems.append(f"{k}: {v!r} must be finite")
-        elif k in ("omega0", "omega1", "omega2", "Omega1", "Omega2") and not v > 0.0:
-            problems.append(f"{k}: {v!r} must be > 0")
-        elif k in ("sigma1", "sigma2") and not v >= 0.0:
-            problems.append(f"{k}: {v!r} must be >= 0")
-        elif k in ("r1", "r2") and not 0.0 <= v <= 1.0:
-            problems.append(f"{k}: {v!r} must lie in [0, 1]")
+        v = values.get(k, decl.default)
+        problem = decl.problem(v, k)
+        if problem:
+            problems.append(problem)
+        else:
+            p[INDEX[k]] = float(v)
     if not problems:
-        # the closed forms of models.oscillator need a non-resonant forcing when undamped
-        mu = p[MU]
-        mui = 0.0 if mu == math.inf else 1.0 / (1.0 + mu)
-        om_pair = math.sqrt(p[OMEGA1] ** 2 + (p[OMEGA2] ** 2 - p[OMEGA1] ** 2) * mui)
-        sig_pair = p[SIGMA1] + (p[SIGMA2] - p[SIGMA1]) * mui
-        muf = 1.0 if mu == math.inf else mu / (1.0 + mu)
-        for fk, amp, wk, sig, k, who in (
-                ("F1", p[F1], "Omega1", p[SIGMA1], p[OMEGA1], "omega1"),
-                ("F2", p[F2], "Omega2", p[SIGMA2], p[OMEGA2], "omega2"),
-                ("F1", p[F1] * muf, "Omega1", sig_pair, om_pair, "the stuck pair's Omega"),
-                ("F2", p[F2] * mui, "Omega2", sig_pair, om_pair, "the stuck pair's Omega")):
-            if amp != 0.0 and sig == 0.0 and p[INDEX[wk]] == k:
-                problems.append(f"{wk}: {float(p[INDEX[wk]])!r} equals {who} with no damping "
-                                f"(undamped resonance, unbounded flight); change {wk} or add "
-                                f"damping")
+        problem = resonance_problem(p)
+        if problem:
+            problems.append(problem)
     sp = values.get("section_period", section_period)
     if sp is None and p[OMEGA0] > 0.0:
         sp = 2.0 * math.pi / p[OMEGA0]
@@ -144,6 +147,27 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
     p[ESCAPE] = escape
     p[SECTION] = sp
     return p
+
+
+def resonance_problem(p: np.ndarray) -> str | None:
+    """The undamped exact resonance of a particle or of the stuck pair in the packed row
+    ``p``, in words, or None: the closed forms of models.oscillator need a non-resonant
+    forcing when undamped (F cos(Omega t) with Omega equal to the undamped frequency of z,
+    of u, or of the stuck pair, whose frequency and damping are mass-weighted)."""
+    mu = p[MU]
+    mui = 0.0 if mu == math.inf else 1.0 / (1.0 + mu)
+    om_pair = math.sqrt(p[OMEGA1] ** 2 + (p[OMEGA2] ** 2 - p[OMEGA1] ** 2) * mui)
+    sig_pair = p[SIGMA1] + (p[SIGMA2] - p[SIGMA1]) * mui
+    muf = 1.0 if mu == math.inf else mu / (1.0 + mu)
+    for amp, wk, sig, k, who in (
+            (p[F1], "Omega1", p[SIGMA1], p[OMEGA1], "omega1"),
+            (p[F2], "Omega2", p[SIGMA2], p[OMEGA2], "omega2"),
+            (p[F1] * muf, "Omega1", sig_pair, om_pair, "the stuck pair's Omega"),
+            (p[F2] * mui, "Omega2", sig_pair, om_pair, "the stuck pair's Omega")):
+        if amp != 0.0 and sig == 0.0 and p[INDEX[wk]] == k:
+            return (f"{wk}: {float(p[INDEX[wk]])!r} equals {who} with no damping "
+                    f"(undamped resonance, unbounded flight); change {wk} or add damping")
+    return None
 
 
 @jit

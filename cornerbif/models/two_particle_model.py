@@ -3,8 +3,8 @@
 w = kappa + beta sin(omega0 t) (eq 72); z and u harmonic in flight with omega1, omega2
 (eq 73), optionally damped and forced as the flow's oscillator (eq 4); w-z impacts by
 law (5) with r1, z-u impacts by the mass-ratio law (74) with r2 and mu = M/m.  The
-packed layout and the impact law are ``models/two_particle.py``; the kernel is
-``kernels/two_particle.py``.
+parameters' declarations, the packed layout and the impact law are
+``models/two_particle.py``; the kernel is ``kernels/two_particle.py``.
 """
 
 from __future__ import annotations
@@ -14,29 +14,12 @@ import math
 
 import numpy as np
 
-from ..model import Coord, Field, Model, Param, anything, nonnegative, positive, unit_interval
+from ..analysis import detect_cycles
+from ..kernels import two_particle as K
+from ..model import Coord, Field, Model
+from . import two_particle as TP
 from .flow_model import IMPACT_FIELDS, SECTION_FIELDS, U, V
 
-PARAMS = {p.name: p for p in (
-    Param("omega0", 2.0, "> 0", positive, "wall frequency", "eq 72"),
-    Param("omega1", 1.001, "> 0", positive, "natural frequency of the heavy particle z", "eq 73"),
-    Param("omega2", 1.0, "> 0", positive, "natural frequency of the light particle u", "eq 73"),
-    Param("mu", 1000.0, "> 0 (inf allowed: law (74) becomes law (5))", positive,
-          "mass ratio M/m", "eq 74", inf_ok=True),
-    Param("r1", 0.8, "in [0, 1]", unit_interval, "restitution of w-z impacts", "eq 5"),
-    Param("r2", 0.8, "in [0, 1]", unit_interval, "restitution of z-u impacts", "eq 74"),
-    Param("kappa", 0.0, "any finite number", anything, "wall offset", "eq 72"),
-    Param("beta", 1.0, ">= 0", nonnegative, "wall amplitude", "eq 72"),
-    # beyond the paper: damping and forcing per particle as in 'flow' (eq 4)
-    Param("sigma1", 0.0, ">= 0", nonnegative, "damping of z", "eq 4"),
-    Param("sigma2", 0.0, ">= 0", nonnegative, "damping of u", "eq 4"),
-    Param("F1", 0.0, "any finite number", anything, "forcing of z per unit mass", "eq 4"),
-    Param("Omega1", 1.0, "> 0", positive, "forcing frequency of z", "eq 4"),
-    Param("phi1", 0.0, "any finite number", anything, "forcing phase of z", "eq 4"),
-    Param("F2", 0.0, "any finite number", anything, "forcing of u per unit mass", "eq 4"),
-    Param("Omega2", 1.0, "> 0", positive, "forcing frequency of u", "eq 4"),
-    Param("phi2", 0.0, "any finite number", anything, "forcing phase of u", "eq 4"),
-)}
 # the parameters that decide an undamped resonance (models.two_particle.resonance_problems)
 RESONANCE_PARAMS = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
 MAX_RESONANCE_COMBINATIONS = 200_000
@@ -86,29 +69,24 @@ class TwoParticleModel(Model):
         return problems
 
     def check_point(self, values: dict) -> str | None:
-        from . import two_particle as TP
-        try:
-            TP.pack({k: v for k, v in values.items() if v is not None})
-        except ValueError as e:
-            if "resonance" in str(e):
-                return str(e)
-        return None
+        """Undamped exact resonance at one point (``models.two_particle.resonance_problem``)."""
+        row = np.zeros(TP.NPARAM)
+        for k, p in self.params.items():
+            row[TP.INDEX[k]] = values.get(k, p.default)
+        problem = TP.resonance_problem(row)
+        return f"two_particle: {problem}" if problem else None
 
     def wall_at_start(self, params):
-        from . import two_particle as TP
         return params[:, TP.KAPPA]             # the wall at t = 0: w(0) = kappa
 
     def pack_values(self, values: dict, scene) -> np.ndarray:
-        from . import two_particle as TP
         return TP.pack(values, scene.tol, scene.chatter, scene.escape, scene.section_period)
 
     def pack_points(self, scene, index_list):
-        from . import two_particle as TP
         rows = [self.pack_values(scene.point(idx), scene) for idx in index_list]
         return np.array(rows).reshape(len(index_list), TP.NPARAM)
 
     def int_settings(self, scene):
-        from . import two_particle as TP
         ints = np.zeros(TP.NINT, np.int64)
         ints[TP.I_TRANSIENT] = scene.transient
         ints[TP.I_RECORD] = scene.record
@@ -117,8 +95,7 @@ class TwoParticleModel(Model):
         return ints
 
     def kernel(self):
-        from ..kernels.two_particle import run_batch
-        return run_batch
+        return K.run_batch
 
     def run_items(self, params, ics, ints, scene):
         """The two-particle kernel (section 6) on n items; outputs shaped like the flow's.
@@ -127,8 +104,6 @@ class TwoParticleModel(Model):
         w-z impact, this system's corner); ``su, sv, sz, sy`` the sections; ``wz_*``
         the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
         """
-        from ..analysis import detect_cycles
-        from ..kernels import two_particle as K
         n = params.shape[0]
         rec = scene.record
         cap = wall_capacity(rec)
@@ -172,7 +147,7 @@ BYTES_PER_EVENT = (7 + 1 + 4 * 4 + 5 + 13 + 1) * 8 + 1
 MODEL = TwoParticleModel(
     name="two_particle",
     doc="a wall, a heavy and a light particle (section 6, eqs 72-74)",
-    params=PARAMS,
+    params=TP.PARAMS,
     state=(Z, Y, U_ABOVE_Z, V),
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS + SECTION_ZY,
                  "wall_impacts": WALL_IMPACT_FIELDS},
