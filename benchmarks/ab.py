@@ -1,6 +1,7 @@
-"""A/B throughput of the flow kernel: two source trees, alternated in one run.
+"""A/B throughput of a scene's kernel: two source trees, alternated in one run.
 
     python benchmarks/ab.py TREE_A TREE_B [--rounds 41] [--num 50] [--scene fig04c]
+    python benchmarks/ab.py TREE_A TREE_B --scene fig19a     # two_particle (its first axis)
     python benchmarks/ab.py TREE_A TREE_B --speedup --num 1000 [--rounds 25]
 
 ``--speedup`` compares how the two trees scale instead: in each turn a worker (not pinned)
@@ -36,14 +37,16 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 CHILD = r"""
-import json, sys
+import json, os, sys
 sys.path.insert(0, {tree!r})
 sys.path.insert(1, {bench!r})
 import cornerbif
 assert cornerbif.__file__.startswith({tree!r}), cornerbif.__file__
 import run as R
-sc = R._scene({scene!r}, **{{"sweep.omega.num": {num}}}) if {scene!r} == "fig04c" else \
-     R._scene({scene!r}, **{{"sweep.kappa.num": {num}}})
+import tomllib
+with open(os.path.join(R.ROOT, "configs", {scene!r} + ".toml"), "rb") as fh:
+    axis = next(k for k in tomllib.load(fh)["sweep"] if k != "follow")   # the first axis
+sc = R._scene({scene!r}, **{{f"sweep.{{axis}}.num": {num}}})
 import time, numba
 try:
     from cornerbif import engine as sweep

@@ -48,13 +48,14 @@ def _items(scene):
     idx = [tuple(i) for i in np.ndindex(*G)]
     params = sweep.pack_points(scene, idx)
     flat = np.arange(len(idx))
-    if scene.model == "two_particle":
-        from cornerbif.models import two_particle as TP
-        kap = params[:, TP.KAPPA]
-    else:
+    try:
+        from cornerbif import registry
+        wall = registry.get(scene.model).wall_at_start(params)
+    except ImportError:  # a tree from before the registry (benchmarks/ab.py compares trees)
         from cornerbif.models import params as P
-        kap = params[:, P.KAPPA]
-    ics = sweep.draw_initial(scene, flat, kap)
+        from cornerbif.models import two_particle as TP
+        wall = params[:, TP.KAPPA if scene.model == "two_particle" else P.KAPPA]
+    ics = sweep.draw_initial(scene, flat, wall)
     prm = np.repeat(params, scene.n_ic, axis=0)
     return prm, ics.reshape(-1, ics.shape[-1])
 

@@ -13,9 +13,14 @@ i + p agree (symbol, number of impacts, corner offsets and impact velocities
 to ``period_tol``, and the same corner step) over the whole recorded window,
 which must hold at least two cycles.  Near omega = 2 a cluster is one iterate of
 the paper's Poincare map, so its "period-25" orbit has period 25.  The cycle's
-word is rotated to its lexicographically smallest form.  The winding number
-(section 5.4) is the share of ``g`` clusters in the word.
+word is rotated to its lexicographically smallest form (``smallest_rotation``, shared
+with ``maps2d``).  The winding number (section 5.4) is the share of ``g`` clusters in the
+word (``winding_number``, the package's one: it also reads the run-length words of
+``parse_word``).
 """
+
+import math
+import re
 
 import numpy as np
 from numba import prange
@@ -23,6 +28,22 @@ from numba import prange
 from ._jit import jit, pjit
 
 A, B, G, X = ord("a"), ord("b"), ord("g"), ord("x")
+
+
+@jit
+def smallest_rotation(w, lo, p):
+    """The start r (0 <= r < p) of the lexicographically smallest rotation of the word
+    w[lo:lo + p] (integer letter codes; the first of equal rotations)."""
+    best = 0
+    for rot in range(1, p):
+        for q in range(p):
+            x = w[lo + (rot + q) % p]
+            y = w[lo + (best + q) % p]
+            if x != y:
+                if x < y:
+                    best = rot
+                break
+    return best
 
 
 @jit
@@ -85,16 +106,7 @@ def detect_cycle(t, vin, off, corner, cornered, period_tol, sym_out):
             if not ok:
                 break
         if ok:
-            # smallest rotation of the word sym[lo:lo+p]
-            best = 0
-            for rot in range(1, p):
-                for q in range(p):
-                    x = sym[lo + (rot + q) % p]
-                    y = sym[lo + (best + q) % p]
-                    if x != y:
-                        if x < y:
-                            best = rot
-                        break
+            best = smallest_rotation(sym, lo, p)
             ipc = 0
             for q in range(p):
                 sym_out[q] = sym[lo + (best + q) % p]
@@ -119,10 +131,47 @@ def words(sym: np.ndarray) -> np.ndarray:
     return np.array([s.decode("ascii") for s in raw], dtype=object)
 
 
+_TOKEN = re.compile(r"\s*([abg\u03b1\u03b2\u03b3])\s*(?:\^?\s*(\d+))?\s*")
+_LETTER = {"\u03b1": "a", "\u03b2": "b", "\u03b3": "g"}
+_PLAIN = re.compile(r"[abgx]+")
+
+
+def parse_word(word: str) -> str:
+    """Expand a symbol word: 'bbbg', 'b11 g b12 g', 'b^11 g', 'β^3γ' -> plain letters a/b/g.
+
+    Parentheses are ignored; an exponent applies to the letter before it.
+    """
+    s = str(word).replace("(", " ").replace(")", " ").lower()
+    out = []
+    pos = 0
+    while pos < len(s):
+        if s[pos].isspace():
+            pos += 1
+            continue
+        m = _TOKEN.match(s, pos)
+        if m is None or m.end() == pos:
+            raise ValueError(f"word {word!r}: cannot read {s[pos:]!r} "
+                             "(letters a, b, g, optional ^n)")
+        letter = _LETTER.get(m.group(1), m.group(1))
+        out.append(letter * (int(m.group(2)) if m.group(2) else 1))
+        pos = m.end()
+    res = "".join(out)
+    if not res:
+        raise ValueError(f"word {word!r} is empty")
+    return res
+
+
 def winding_number(word: str) -> float:
-    """Share of gamma clusters in a cycle's word (section 5.4); NaN for no cycle."""
+    """W = share of gamma clusters in a cycle's word (section 5.4): 1/(N+1) for beta^N
+    gamma; NaN for no cycle (an empty word).
+
+    Reads the words of ``detect_cycle`` (letters a, b, g and x) and the run-length forms
+    of ``parse_word`` ('b^11 g', 'b11 g b12 g', Greek letters).
+    """
     if not word:
-        return float("nan")
+        return math.nan
+    if _PLAIN.fullmatch(word) is None:
+        word = parse_word(word)
     return word.count("g") / len(word)
 
 
@@ -197,8 +246,9 @@ def distinct_attractors(period, ipc, symbols, series, tol):
                     break
             else:
                 reps.append((key, sig, [i]))
-        order = sorted(range(len(reps)), key=lambda k: (reps[k][0][0], reps[k][0][2],
-                                                          float(np.mean(reps[k][1])) if reps[k][1].size else 0.0))
+        order = sorted(range(len(reps)),
+                       key=lambda k: (reps[k][0][0], reps[k][0][2],
+                                      float(np.mean(reps[k][1])) if reps[k][1].size else 0.0))
         for rank, k in enumerate(order):
             labels[g, reps[k][2]] = rank
         count[g] = len(reps)

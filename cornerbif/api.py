@@ -66,12 +66,10 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
     names = list(flat)
     table = np.stack([flat[k] for k in names], -1) if names else np.zeros((n, 0))
     rows, first = np.unique(table, axis=0, return_index=True) if n else (table, [])
-    check_point = getattr(spec, "check_point", None)
-    if check_point is not None:
-        for row, i in zip(rows, first):
-            problem = check_point(dict(scene.system) | dict(zip(names, row)))
-            if problem:
-                raise SceneError([f"{problem} (at element {int(i)})"])
+    for row, i in zip(rows, first):
+        problem = spec.check_point(dict(scene.system) | dict(zip(names, row)))
+        if problem:
+            raise SceneError([f"{problem} (at element {int(i)})"])
     params = np.stack([spec.pack_values(dict(scene.system)
                                         | {k: float(flat[k][i]) for k in names}, scene)
                        for i in range(n)]) if n else np.zeros((0, 0))

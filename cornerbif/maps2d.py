@@ -140,10 +140,9 @@ Kernels
 same arithmetic, bit for bit; ``detect_map_cycle`` / ``detect_map_cycles`` find
 the period and the word of the recorded tail.  :func:`iterate` and
 :func:`find_cycles` are the public, checking and allocating wrappers.
-Measured: ``iterate_batch`` runs about 4.1e8 steps per second on one core of
-this machine (AMD EPYC, 1e7 steps after warm-up, any mix of regions: the
-region test is predicted by the branch predictor and stays off the dependency
-chain b -> h a + b -> s (.) + P_b), and scales linearly to two threads.
+Its speed is measured by ``benchmarks/run.py`` (map2d steps per second; the region
+test is predicted by the branch predictor and stays off the dependency chain
+b -> h a + b -> s (.) + P_b).
 """
 
 from __future__ import annotations
@@ -154,6 +153,7 @@ import numpy as np
 from numba import prange
 
 from ._jit import jit, pjit
+from .analysis import smallest_rotation
 
 #: region / symbol codes (out_region values); NONE marks NaN input
 ALPHA, BETA, GAMMA, NONE = 0, 1, 2, -1
@@ -325,16 +325,8 @@ def detect_map_cycle(regions, a, b, tol, sym_out):
                 ok = False
                 break
         if ok:
-            best = 0
-            for rot in range(1, p):
-                for q in range(p):
-                    x = regions[(rot + q) % p]
-                    y = regions[(best + q) % p]
-                    if x != y:
-                        # letters a < b < g have codes 0 < 1 < 2: same order
-                        if x < y:
-                            best = rot
-                        break
+            # letters a < b < g have codes 0 < 1 < 2: the same order as the letters
+            best = smallest_rotation(regions, 0, p)
             for q in range(min(p, sym_out.shape[0])):
                 k = regions[(best + q) % p]
                 sym_out[q] = _A if k == 0 else (_B if k == 1 else _G)

@@ -132,10 +132,13 @@ class Model:
     ("flow", "map" or None: its part in the flow-against-map figures of sections 4-5),
     ``default_y`` (the diagram's default y), ``keep_hint`` (said when a scene asks for
     an observable the model lacks), ``bytes_per_event`` (working memory per item and
-    recorded event, measured: ``benchmarks/run.py`` memory section).
+    recorded event, counted from the arrays ``run_items`` allocates; the peak memory of a
+    large sweep against the estimate: ``benchmarks/same_output.py --peak-memory``).
 
-    Methods (implemented by each model): ``check``, ``wall_at_start``,
-    ``pack_points``, ``int_settings``, ``run_items``, ``kernel``, ``simulate``.
+    Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
+    at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
+    ``int_settings``, ``run_items``, ``kernel``; ``simulate`` is shared
+    (``cornerbif.api.simulate``) and a model may override it.
     """
 
     name: str
@@ -182,13 +185,21 @@ class Model:
         """Problems of a scene beyond each value's own range (``config.CheckContext``)."""
         return []
 
+    def check_point(self, values: dict) -> str | None:
+        """The problem of the parameter values at one point, or None."""
+        return None
+
     def wall_at_start(self, params: np.ndarray) -> np.ndarray:
         """Per packed row, the height of the obstacle at t = 0 (starts are drawn above it)."""
         raise NotImplementedError
 
-    def pack_points(self, scene, index_list) -> np.ndarray:
-        """Packed parameter rows (n, NPARAM) for grid indices."""
+    def pack_values(self, values: dict, scene) -> np.ndarray:
+        """The packed parameter row of named values at one point."""
         raise NotImplementedError
+
+    def pack_points(self, scene, index_list) -> np.ndarray:
+        """Packed parameter rows (n, NPARAM) for grid indices: ``pack_values`` at each."""
+        return np.stack([self.pack_values(scene.point(idx), scene) for idx in index_list])
 
     def int_settings(self, scene) -> np.ndarray:
         """The kernel's integer settings (transient, record, budgets)."""
@@ -203,9 +214,10 @@ class Model:
         """The compiled kernel entry (for the cold-cache notice)."""
         raise NotImplementedError
 
-    def simulate(self, **kw) -> dict:
-        """Run the model from Python (see ``cornerbif.simulate``)."""
-        raise NotImplementedError
+    def simulate(self, *starts, **kw) -> dict:
+        """Run the model from Python: ``cornerbif.simulate(*starts, model=name, **kw)``."""
+        from .api import simulate
+        return simulate(*starts, model=self.name, **kw)
 
 
 # ------------------------------------------------------------------ small shared helpers

@@ -82,8 +82,8 @@ class PlotData:
 
     def y(self, kind):
         if kind == "winding":
-            w = np.vectorize(lambda s: s.count("g") / len(s) if s else np.nan, otypes=[float])
-            return w(self.symbols)
+            from .analysis import winding_number
+            return np.vectorize(winding_number, otypes=[float])(self.symbols)
         if kind == "period":
             return np.where(self.period > 0, self.period, np.nan).astype(float)
         name = {"impact_u": "impacts/u", "impact_v": "impacts/v_in",

@@ -7,9 +7,10 @@ All formulas are written for the obstacle z = kappa + beta |sin(omega t)|
 from __future__ import annotations
 
 import math
-import re as _re
 
 import numpy as _np
+
+from .analysis import parse_word, winding_number  # noqa: F401  (part of theory's API)
 
 
 def kappa_C(omega: float, r: float, beta: float = 1.0) -> float:
@@ -317,38 +318,7 @@ def double_impact_kappa(omega: float, tau_minus: float, tau_plus: float, r: floa
 # ---------------------------------------------------------------------------
 # Sections 5.3-5.4: cycles of the piecewise-linear map, words, period adding
 # ---------------------------------------------------------------------------
-_TOKEN = _re.compile(r"\s*([abg\u03b1\u03b2\u03b3])\s*(?:\^?\s*(\d+))?\s*")
-_LETTER = {"\u03b1": "a", "\u03b2": "b", "\u03b3": "g"}
-
-
-def parse_word(word: str) -> str:
-    """Expand a symbol word: 'bbbg', 'b11 g b12 g', 'b^11 g', 'β^3γ' -> plain letters a/b/g.
-
-    Parentheses are ignored; an exponent applies to the letter before it.
-    """
-    s = str(word).replace("(", " ").replace(")", " ").lower()
-    out = []
-    pos = 0
-    while pos < len(s):
-        if s[pos].isspace():
-            pos += 1
-            continue
-        m = _TOKEN.match(s, pos)
-        if m is None or m.end() == pos:
-            raise ValueError(f"word {word!r}: cannot read {s[pos:]!r} (letters a, b, g, optional ^n)")
-        letter = _LETTER.get(m.group(1), m.group(1))
-        out.append(letter * (int(m.group(2)) if m.group(2) else 1))
-        pos = m.end()
-    res = "".join(out)
-    if not res:
-        raise ValueError(f"word {word!r} is empty")
-    return res
-
-
-def winding_number(word: str) -> float:
-    """W = share of gamma letters in a cycle's word (section 5.4); 1/(N+1) for beta^N gamma."""
-    w = parse_word(word)
-    return w.count("g") / len(w)
+# the words' grammar and W are analysis.parse_word and analysis.winding_number (imported above)
 
 
 def _orbit(letters, Qs, Ps):

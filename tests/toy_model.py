@@ -32,9 +32,6 @@ class ToyModel(Model):
     def pack_values(self, values, scene):
         return np.array([values["omega"], values["r"], values["kappa"]])
 
-    def pack_points(self, scene, index_list):
-        return np.array([self.pack_values(scene.point(i), scene) for i in index_list]).reshape(-1, 3)
-
     def int_settings(self, scene):
         return np.array([scene.transient, scene.record], np.int64)
 

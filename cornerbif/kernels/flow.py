@@ -1,39 +1,11 @@
 """Event-driven kernel of the ``flow`` model (sections 2-3; eqs 4, 5, 7, 8).
 
-Three layers (STYLE, stumpy): ``run_one`` integrates one (parameter point,
-initial condition) item, ``run_batch`` fans out over items with ``prange``,
-and the Python layer in ``cornerbif.sweep`` checks and allocates.
-
-The run is a sequence of phases:
-
-* flight: exact closed-form motion; the next impact on the current smooth
-  piece of the obstacle is located by the certified search of ``roots``; if
-  there is none the motion is carried to the piece's end (a corner or a
-  half-period) and continues on the next piece;
-* impact: law (5) with the slope of the piece the root was found in;
-* chattering: when the relative velocity after an impact falls below
-  ``run.chatter`` while the contact force N = z'' + 2 sigma z' + k^2 z - f is
-  positive, the geometric sequence of impacts is summed: it ends after
-  2 w / (N (1 - r)), where the particle sticks (u = z);
-* sticking: u = z while N >= 0; release at the first sign change of N (a
-  certified root search on N); at a corner where the slope jumps up the
-  obstacle kicks the particle by law (5) (recorded as an impact just after the
-  corner); where it jumps down the particle leaves with its velocity.
-
-Early stop (``run.stop = "period"``, packed as ``STOP_TOL`` > 0): a chart needs
-only each point's attractor, so during the transient the state (u, v) at every
-corner is kept in a ring of the last 2 Q corners (Q = 2 record + 2).  Every
-``WATCH_EVERY`` corners ``cycle_watch`` looks for the smallest lag q <= Q (a
-multiple of the obstacle's pieces per period) at which the state repeats to
-``STOP_TOL`` (relative) and confirms it over the whole last cycle, which must
-hold an impact: the run is then on a cycle of q pieces (the system is
-periodic with the piece length, so the state at a corner fixes the future).
-Recording starts at once, and the run ends after 4 q + 2 more pieces, enough for
-``analysis.detect_cycle`` to see two whole cycles besides the clusters it
-drops at both ends.  A run without a confirmed cycle before impact
-``transient`` records exactly as without early stop.
-
-Every run ends with a status from ``cornerbif.status``; nothing raises.
+``run_one`` integrates one (parameter point, initial condition) item through flights
+(exact, eq 4), impacts (law 5), chattering and sticking, with the certified event search of
+``roots`` and the Sturm comparison of ``sturm_clear``; ``run_batch`` fans out over items.
+The phases, the early stop (``run.stop = "period"``) and the helpers are described in
+docs/kernels.md; the obstacles (eqs 7, 8) live in ``models.obstacle``.  Every run ends with
+a status from ``cornerbif.status``; nothing raises.
 """
 
 import math
@@ -45,13 +17,38 @@ from .. import status as S
 from .._jit import jit, jit_inline, pjit
 from ..models import params as P
 from ..models.impact import restitution
-from ..models.obstacle import (D_HALF, D_IK, D_NPP, D_REGIME, D_STURM0, D_STURM1, D_WD,
-                               corner_of, derived_tuple, piece_length, piece_start, sine_amp,
-                               sine_part, zpp_range, zppp_max, z_state)
-from ..models.oscillator import (SMALL_ANGLE, derive, forcing, homogeneous, particular, rotate,
-                                 small_sincos, upp_bound)
-from .roots import (FAIL, FOUND, MAXIT, NONE, STEP, bracket, bracket_call, quad_first_root,
-                    quad_positive)
+from ..models.obstacle import (
+    D_HALF,
+    D_IK,
+    D_NPP,
+    D_REGIME,
+    D_STURM0,
+    D_STURM1,
+    D_WD,
+    corner_of,
+    cycle_lag,
+    derived_tuple,
+    piece_length,
+    piece_start,
+    sine_amp,
+    sine_part,
+    sinusoidal,
+    z_state,
+    zpp_range,
+    zppp_max,
+    zpppp_max,
+)
+from ..models.oscillator import (
+    SMALL_ANGLE,
+    derive,
+    forcing,
+    homogeneous,
+    particular,
+    rotate,
+    small_sincos,
+    upp_bound,
+)
+from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, bracket_call, quad_first_root, quad_positive
 
 HINT_MARGIN = 1.25   # the next step's window: this times the certified bracket's rest
 
@@ -268,8 +265,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
     """Certified root-free length of a flight on piece j (sigma = 0, f = 0), eqs (4), (7)-(8).
 
     With u'' = -k^2 u, the gap satisfies g'' + k^2 g = -k^2 z - z'' =: f(tau), and on
-    each piece f >= f_min (rectified_sine: -k^2 kappa + min(0, beta (omega^2 - k^2)); the
-    odd half periods of sine with the sign of beta reversed; triangle: -k^2 max z).  By
+    each piece f >= f_min (``obstacle.sturm_floors``, stored in D_STURM0/1).  By
     Sturm comparison g >= y on [0, pi/k], where y'' + k^2 y = f_min with y, y' = g, g'
     at s = 0, so g has no root before the first root of the sinusoid y (closed form).
 
@@ -287,7 +283,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
     """
     if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
         return 0.0, cr, sr, have_rot, math.nan
-    c = d[D_STURM0] if j % 2 == 0 else d[D_STURM1]      # f_min / k^2 (``derive``)
+    c = d[D_STURM0] if j % 2 == 0 else d[D_STURM1]      # f_min / k^2 (``sturm_floors``)
     x = g0 - c
     yv = gp0 * d[D_IK]
     window = d[D_HALF]
@@ -416,6 +412,25 @@ def store_impact(p, d, i, j, tau, t, z, v_in, v_out, o_t, o_u, o_vin, o_vout, o_
     o_off[i] = off
 
 
+@jit_inline
+def release(p, d, j, tau_rel, L, tol, underdamped):
+    """The particle leaves the obstacle at tau_rel on piece j (the contact force N turns
+    negative).  The gap stays >= 0 while N < 0, and for less than half a damped period:
+    g'' + 2 sigma g' + k^2 g = -N with g = g' = 0 at release, and the impulse response is
+    >= 0 there.  Returns (code, z, z', u_h, u_h', s): the search of -N's root (FAIL when
+    its budget ran out), the obstacle and the flight's homogeneous state at release, and
+    the length s from which the gap search starts."""
+    z, zp, _, _ = z_state(p, j, tau_rel)
+    t = piece_start(d, j) + tau_rel
+    up, vp = particular(p, d, t)
+    code, sb = first_root(NEGFORCE, p, d, j, tau_rel, 0.0, 0.0, 0.0, L - tau_rel,
+                          -d[D_NPP], d[D_NPP], math.inf, tol, True)
+    wd = d[D_WD]
+    if underdamped and math.pi / wd < sb:
+        sb = math.pi / wd
+    return code, z, zp, z - up, zp - vp, sb
+
+
 @jit
 def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final,
             info):
@@ -465,7 +480,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     ring_v = np.empty(nring)
     ring_n = np.empty(nring, np.int64)
     ring_s = np.empty(nring, np.bool_)
-    lag_step = 1 if p[P.OBSTACLE] == P.RECTIFIED_SINE else 2
+    lag_step = cycle_lag(p)
     j_end = np.int64(np.iinfo(np.int64).max)
     last_j = np.int64(0)
     last_tau = 0.0
@@ -499,8 +514,9 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     pieces = 0
     wd = d[D_WD]
     zppp_bound = zppp_max(p)
+    zpppp_bound = zpppp_max(p)
     sturm = p[P.SIGMA] == 0.0 and p[P.F_AMP] == 0.0 and p[P.K] > 0.0
-    free_sine = sturm and p[P.OBSTACLE] != P.TRIANGLE     # see first_impact_free
+    free_sine = sturm and sinusoidal(p)     # see first_impact_free
     grid = phase_grid(p, d) if free_sine else np.empty((6, 1))
     underdamped = d[D_REGIME] == 0.0
     # the obstacle at the start of each piece (it depends on the parity of j only) and,
@@ -515,7 +531,33 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     z_ref = zs0            # obstacle height and slope at (j, tau_ref)
     zp_ref = zps0
 
+    at_corner = False      # a corner was just crossed, with the state (cu, cv), c_stuck
+    cu = 0.0
+    cv = 0.0
+    c_stuck = False
+    c_event = 0            # 1 when crossing it stuck counts as an event
     while True:
+        if at_corner:
+            # ---- at corner j (stuck or in flight): section, early stop --------------------
+            at_corner = False
+            if (j - sec_phase) % pps == 0:
+                if n_imp >= rec0 and n_sec < record:
+                    o_su[n_sec] = cu
+                    o_sv[n_sec] = cv
+                    n_sec += 1
+                final[0] = cu
+                final[1] = cv
+            if watch and n_imp < rec0:
+                watch, rec0, j_end, sec_phase = watch_for_cycle(
+                    p, d, ring_u, ring_v, ring_n, ring_s, j, cu, cv, n_imp, c_stuck, lag_step,
+                    qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0, j_end)
+                need = rec0 + record
+                info[0] = rec0
+            if j >= j_end:
+                return S.OK
+            events += c_event
+            if events > max_events:
+                return S.MAX_EVENTS
         L = piece_length(d, j)
         if stuck:
             # ---- sticking on piece j from tau_s -----------------------------------
@@ -524,27 +566,12 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             if code == FAIL:
                 return S.STEP_LIMIT
             if code == FOUND:
-                # release at tau_rel: the gap stays >= 0 while N < 0 (and for less
-                # than half a damped period): g'' + 2 sigma g' + k^2 g = -N with
-                # g = g' = 0 at release, and the impulse response is >= 0 there.
-                tau_rel = tau_s + s
-                z, zp, _, _ = z_state(p, j, tau_rel)
-                t = piece_start(d, j) + tau_rel
-                up, vp = particular(p, d, t)
-                uh_ref = z - up
-                vh_ref = zp - vp
-                tau_ref = tau_rel
-                c_ref = math.nan
-                z_ref = z
-                zp_ref = zp
-                code2, sb = first_root(NEGFORCE, p, d, j, tau_rel, 0.0, 0.0, 0.0, L - tau_rel,
-                                       -d[D_NPP], d[D_NPP], math.inf, tol, True)
+                tau_ref = tau_s + s
+                code2, z_ref, zp_ref, uh_ref, vh_ref, s_start = release(p, d, j, tau_ref, L, tol,
+                                                                        underdamped)
                 if code2 == FAIL:
                     return S.STEP_LIMIT
-                s_free = sb
-                if underdamped and math.pi / wd < s_free:
-                    s_free = math.pi / wd
-                s_start = s_free
+                c_ref = math.nan
                 skip = False
                 stuck = False
                 events += 1
@@ -604,24 +631,11 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 stuck = False
             else:
                 tau_s = 0.0
-            if (j - sec_phase) % pps == 0:
-                if n_imp >= rec0 and n_sec < record:
-                    o_su[n_sec] = z
-                    o_sv[n_sec] = v_after
-                    n_sec += 1
-                final[0] = z
-                final[1] = v_after
-            if watch and n_imp < rec0:
-                watch, rec0, j_end, sec_phase = watch_for_cycle(
-                    p, d, ring_u, ring_v, ring_n, ring_s, j, z, v_after, n_imp, stuck, lag_step,
-                    qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0, j_end)
-                need = rec0 + record
-                info[0] = rec0
-            if j >= j_end:
-                return S.OK
-            events += 1
-            if events > max_events:
-                return S.MAX_EVENTS
+            at_corner = True      # the corner's records at the top of the loop
+            cu = z
+            cv = v_after
+            c_stuck = stuck
+            c_event = 1
             continue
 
         # ---- flight on piece j from tau_ref ----------------------------------------
@@ -682,7 +696,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 u_i, v_i, zr_i, zp_i = free_start(p, d, j, tau_ref, uh_ref, vh_ref, s0, t0)
             code, s, u_i, v_i, z_i, zp_i, zpp_i = first_impact_free(
                 p, d, j, tau_ref, uh_ref, vh_ref, s0, u_i, v_i, zr_i, zp_i, rest, -bu - zhi,
-                bu - zlo, bu3 + zppp_bound, bu3 * p[P.K] + zppp_bound * p[P.OMEGA], tol,
+                bu - zlo, bu3 + zppp_bound, bu3 * p[P.K] + zpppp_bound, tol,
                 skip and s0 == 0.0)
             at_root = True
         else:
@@ -724,22 +738,11 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             vh_ref = vh
             s_start = 0.0
             skip = False
-            if (j - sec_phase) % pps == 0:
-                if n_imp >= rec0 and n_sec < record:
-                    o_su[n_sec] = uh + up
-                    o_sv[n_sec] = vh + vp
-                    n_sec += 1
-                final[0] = uh + up
-                final[1] = vh + vp
-            if watch and n_imp < rec0:
-                watch, rec0, j_end, sec_phase = watch_for_cycle(
-                    p, d, ring_u, ring_v, ring_n, ring_s, j, uh + up, vh + vp, n_imp, False,
-                    lag_step, qmax, stop_tol, last_j, last_tau, auto_phase, pps, sec_phase, rec0,
-                    j_end)
-                need = rec0 + record
-                info[0] = rec0
-            if j >= j_end:
-                return S.OK
+            at_corner = True      # the corner's records at the top of the loop
+            cu = uh + up
+            cv = vh + vp
+            c_stuck = False
+            c_event = 0
             continue
         # ---- impact at (j, tau) -----------------------------------------------------
         if at_root:

@@ -1,147 +1,12 @@
 """Event-driven kernel of the ``two_particle`` model (section 6; eqs 5, 72-74).
 
-A wall w(t) = kappa + beta sin(omega0 t), a heavy particle z (z'' + omega1^2 z = 0,
-mass M) and a light particle u (u'' + omega2^2 u = 0, mass m = M/mu), kept in the
-order w <= z <= u.  Three layers as for ``flow`` (STYLE, stumpy): ``run_one``
-integrates one item, ``run_batch`` fans out over items with ``prange``, and
-``simulate_two_particle`` checks, packs and allocates.
-
-Time and flights
-----------------
-Time is kept as a section index n and a local time tau in [0, S] (S = the section
-period, 2 pi/omega0 by default), so precision stays at rounding level over long
-runs (DESIGN 2b).  Every flight is closed form (harmonic with omega1, omega2, or
-with the combined frequency below) from a reference state re-taken at every event
-and every section.
-
-Damping and forcing (beyond the paper; scene keys sigma1, sigma2, F1, Omega1, phi1,
-F2, Omega2, phi2, all 0 by default)
------------------------------------------------------------------------------------
-Each particle then obeys eq (4); every flight is the closed form of
-``models.oscillator`` (rows RZ, RU and, for a stuck pair, RP + RPB, see
-``oscillators``), forcing phases carried per section like the wall's.  The searches
-below then use f0 = 0 (F = f'', the quadratic bound of ``roots`` and DESIGN 2) with
-the second and third derivatives bounded over the whole flight by
-``oscillator.deriv_bound`` (every damping regime) plus the wall's and the forcings'
-derivative sizes; contact forces gain 2 sigma w' - f(t) (``wall_force``,
-``pair_force``), and the release windows end at pi/omega_d (``halfp``).  Undamped
-and unforced, the code runs exactly as before (C_SMOOTH), bit for bit.
-
-Event location (never miss an impact)
--------------------------------------
-Each function searched (a gap, or a contact force) obeys f'' + f0^2 f = F(s) with
-F known to lie in [F_min, F_max] (and |F'| <= m1):
-
-* g1 = x - w for a particle x of frequency f0 against the wall:
-  F = -(w'' + f0^2 w) = -f0^2 kappa - beta (f0^2 - omega0^2) sin(omega0 t);
-* g2 = u - z for two free particles (f0 = omega2): F = -(omega2^2 - omega1^2) z(t),
-  |F| <= |omega2^2 - omega1^2| A_z (A_z the amplitude of z: tiny when
-  omega1 ~ omega2, the paper's case);
-* contact forces A + B sin(omega0 t) (f0 = omega0, F constant) and the harmonic
-  z(t) (F = 0): there the comparison below is exact and one step finds the root.
-
-Sturm comparison: with the same f, f' at s, the solution y of y'' + f0^2 y = F_min
-satisfies f >= y on [s, s + pi/f0], so no root of f lies before the first root of
-y; the solution with F_max bounds f from above and certifies a root where it
-vanishes.  The first root of y on [0, pi/f0) is found in closed form through the
-half-angle substitution t = tan(f0 h / 2), which turns it into the first positive
-root of a quadratic (``roots.quad_first_root``): no root can be skipped, grazing
-ones included.  The search steps to the lower root (a whole half period at once
-when y stays positive), tightens [F_min, F_max] locally by |F'| <= m1 over a
-window 1.25 times the predicted root (third-order closing near a transversal
-root), and stops when the bracket is narrower than ``tol``; the tolerance rule of
-``roots`` decides grazing contacts.  The event time returned is the lower end of
-the bracket (at most ``tol`` early).
-
-Simultaneous and near-simultaneous impacts (the triple impact w = z = u)
-------------------------------------------------------------------------
-In free flight the first root s1 of g1 = z - w is found on the window, then the
-first root s2 of g2 = u - z on [start, s1 + tol].  If s2 < s1 - tol the z-u
-impact alone happens at s2; otherwise the w-z impact happens, and if s2 was found
-too (|s1 - s2| <= tol) the event is a triple impact at min(s1, s2), resolved as
-a deterministic sequence of pairwise impacts at that same time:
-
-1. w-z first: law (5) with r1, z is placed on the wall (u moved up to z if the
-   move put it below);
-2. then, if u is approaching z (v - y < 0), the z-u impact by law (74) with the
-   updated y;
-3. then both gaps are searched again from that time: a further impact at the
-   same time is found at once when a relative velocity still points into a
-   contact (the pair sequence is finite: for M >> m the mass-weighted wedge is
-   almost a right angle, giving 2-3 impacts).
-
-No event is recorded twice (each processed pairwise impact is recorded once) and
-every event counts against the event budget, so nothing hangs.  Pairs within
-``tol`` of each other across a section boundary are resolved in time order.
-
-Chattering and sticking (contact forces derived from a 2x2 LCP)
----------------------------------------------------------------
-With contact forces lambda1 (wall on z) and lambda2 (z on u) >= 0, each with
-complementary gap acceleration, and the wall force needed to carry a stuck
-particle x (x = w) being N_f = w'' + f^2 w per unit mass, the modes are
-
-* ``FREE``: both fly.
-* ``WALL`` (z stuck on w, u free): N1 = w'' + omega1^2 w >= 0.
-* ``PAIR`` (u stuck on z, z free): the pair moves with the combined frequency
-  Omega^2 = (mu omega1^2 + omega2^2)/(mu + 1) (-> omega1^2 as mu -> inf), and
-  lambda2/m = mu/(mu + 1) (omega2^2 - omega1^2) z >= 0.
-* ``ALL`` (z = u = w): lambda2/m = N2 = w'' + omega2^2 w >= 0 and
-  lambda1 needs N12 = w'' + Omega^2 w >= 0 (N12 = (mu N1 + N2)/(mu + 1)).
-  When N2 reaches 0 first u leaves (-> WALL; there N1 >= 0 holds); when N12
-  reaches 0 first the pair leaves the wall (-> PAIR; there lambda2 > 0 holds).
-
-All release conditions are A + B sin(omega0 t) or a harmonic z(t), located
-exactly.  After a release the freed gap starts at g = g' = 0 with
-g'' + f^2 g = -N > 0; by the same Sturm argument g >= 0 as long as N < 0 and for
-at most half a period pi/f, so the gap search starts at the end of that stretch
-(as in ``flow``).
-
-Chattering: after an impact whose outgoing relative velocity is below
-``chatter`` (and r < 1) while the contact force of the target mode is positive,
-the remaining geometric sequence is summed by sticking at once with the
-inelastic (momentum-conserving) common velocity: z takes w', a pair takes
-(mu y + v)/(mu + 1).  The error is O(chatter) in velocity and
-O(chatter * duration) in position; the release search runs from the impact
-time, so a contact force that turns negative during the would-be chattering
-interval is honoured.  An impact of u on a stuck z is an ordinary z-u impact by
-(74) followed, when z is driven into the wall by more than ``chatter``, by the
-w-z impact at the same time (sequential impacts, as for the triple impact); with
-mu = inf z is not moved and stays stuck.  A stuck pair hitting the wall is a w-z
-impact followed by the z-u impact at the same time.
-
-Collapse of a near-triple contact: a sequence of alternating w-z and z-u impacts
-can accumulate in finite time even when one contact alone could not (r1 = 1 with
-r2 < 1, or the reverse).  When, at an impact, the other particle is within the
-chattering scale (gap <= chatter^2) and every relative velocity is below
-``chatter``, the sequence is summed into ``ALL`` if the LCP gives both contact
-forces positive (N12 > 0, N2 > 0), unless both impacts are elastic.
-
-Slow separation: after an impact whose outgoing relative velocity is below
-``chatter`` while the contact force is <= 0 (the particle leaves by its
-acceleration, not its velocity), the gap opens like s^2 and would sit in the
-rounding noise of the positions for a while; its search then starts where the
-Sturm argument above stops guaranteeing g >= 0 (as after a release), so no
-spurious impacts are produced.
-
-Corner offsets
---------------
-The w-z impacts play the role of the corners t_k of the ``flow`` model.  Every
-z-u impact stores the signed offset t - t_k to the nearest w-z impact and that
-impact's index k (counted from 0 over the whole run, transient included); a tie
-goes to the earlier one (offset >= 0).  The offset waits for the next w-z impact;
-after the last requested z-u impact the run goes on (without recording) until
-the next w-z impact or two more sections; if none came, the offset is taken to
-the previous w-z impact, and NaN with index -1 if there was none at all.
-
-Outputs (per item; NaN fill)
-----------------------------
-``o_zu`` (record, NZU): columns ZU_T, ZU_U, ZU_VIN, ZU_VOUT, ZU_YIN, ZU_YOUT,
-ZU_OFF of z-u impacts number ``transient`` and on; ``o_corner`` (record,) int64;
-``o_wz`` (capacity, NWZ): columns WZ_T, WZ_Z, WZ_YIN, WZ_YOUT of the w-z impacts
-from the first recorded z-u impact to the last; ``o_sec`` (record, NSEC): columns
-SEC_T, SEC_Z, SEC_Y, SEC_U, SEC_V at the sections t = n S crossed during the
-recording window; ``final`` (4,): (z, y, u, v) at the last section crossed
-before the run's end.  Every run returns a status from ``cornerbif.status``.
+A wall w = kappa + beta sin(omega0 t) (eq 72), a heavy particle z and a light one u (eq 73,
+optionally damped and forced as eq 4), w <= z <= u; w-z impacts by law (5), z-u impacts by
+the mass-ratio law (74).  ``run_one`` integrates one item (modes FREE, WALL, PAIR, ALL;
+the certified Sturm search of ``first_root``), ``run_batch`` fans out over items and
+``simulate_two_particle`` checks, packs and allocates.  Time and flights, the event
+location, simultaneous impacts, chattering and sticking, the corner offsets and the output
+layout are described in docs/kernels.md.
 """
 
 import math
@@ -150,14 +15,14 @@ import numpy as np
 from numba import prange
 
 from .. import status as S
-from .._jit import jit, pjit
-from ..models import two_particle as P
-from ..models.two_particle import mass_ratio_impact
+from .._jit import jit, jit_inline, pjit
 from ..models import params as FP
+from ..models import two_particle as P
 from ..models.impact import restitution
 from ..models.obstacle import D_REGIME, D_WD, D_X, D_Y, NDERIVED
 from ..models.oscillator import deriv_bound, homogeneous, particular
 from ..models.oscillator import derive as osc_derive
+from ..models.two_particle import mass_ratio_impact
 from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
 
 # --- output columns -------------------------------------------------------------------
@@ -746,6 +611,61 @@ def _close(o_zu, o_corner, lo, hi):
             o_corner[i] = -1
 
 
+@jit_inline
+def wall_window(c, Q, D, r, na, nb):
+    """The window of a gap freed from the wall (a release, or a slow separation while the
+    wall does not push): row r's gap to the wall stays >= 0 while its contact force
+    N = na + nb sin(omega0 t) < 0, for at most ``halfp``.  Returns the search (kind,
+    a0, a1, a2, a3, end) of N's sign change."""
+    return K_WF, na, nb, -1.0, float(r), halfp(c, Q, D, r)
+
+
+@jit_inline
+def pair_window(c, Q, D, z, y, hsgn):
+    """The window of u freed from z at (z, y): g2 = u - z stays >= 0 while the pair's
+    contact force h (``pair_force``) < 0, for at most ``halfp`` of u.  Returns the
+    search (kind, a0, a1, a2, a3, end) of h's sign change along z's flight."""
+    return K_HM, z, y, float(RZ), -hsgn, halfp(c, Q, D, RU)
+
+
+@jit_inline
+def release(ev, p, c, Q, D, ph, tau, tau_ref, se, za, ya, ua, va, hsgn):
+    """A release event ev (EV_REL_*) at local time tau = tau_ref + se.
+
+    Returns (mode, z, y, u, v, target, window): the new mode and reference state, and the
+    window search of the freed gap (``wall_window``, ``pair_window``) whose result is the
+    start of the gap search 1 (z - w) or 2 (u - z) given by target.
+    """
+    if ev == EV_REL_Z:
+        # z leaves the wall: g1 = z - w >= 0 while N1 < 0, for at most pi/omega1
+        w, wp, _, _ = wall(p, tau, ph)
+        u, v = fly(c, Q, D, RU, tau_ref, ua, va, se)
+        return FREE, w, wp, u, v, 1, wall_window(c, Q, D, RZ, c[C_N1A], c[C_N1B])
+    if ev == EV_REL_PAIR:
+        # u leaves z where (omega2^2 - omega1^2) z turns negative; afterwards
+        # g2'' + omega2^2 g2 = -(omega2^2 - omega1^2) z_free >= 0 for a while
+        z, y = fly(c, Q, D, RP, tau_ref, za, ya, se)
+        return FREE, z, y, z, y, 2, pair_window(c, Q, D, z, y, hsgn)
+    w, wp, _, _ = wall(p, tau, ph)
+    if ev == EV_REL_U:
+        # u leaves the stuck stack: z stays on the wall
+        return WALL, za, ya, w, wp, 2, wall_window(c, Q, D, RU, c[C_N2A], c[C_N2B])
+    # EV_REL_STACK: the pair leaves the wall together
+    return PAIR, w, wp, ua, va, 1, wall_window(c, Q, D, RP, c[C_N12A], c[C_N12B])
+
+
+@jit_inline
+def pair_or_free(c, p, Q, tau, u_stick, z, y_out, v_out, ua, va):
+    """After a z-u impact at height z: u stays on z (PAIR, with the pair's common velocity)
+    when it is slow enough to stick and z pushes it, else both fly (FREE).  Returns (mode,
+    z, y, u, v) of the new reference (u, v unchanged for PAIR)."""
+    if u_stick:
+        y_pair = c[C_MUF] * y_out + c[C_MUI] * v_out
+        if pforce(c, p, Q, tau, z, y_pair) > 0.0:
+            return PAIR, z, y_pair, ua, va
+    return FREE, z, y_out, z, v_out
+
+
 @jit
 def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     """Integrate one item from (t, z, y, u, v) = (0, z0, y0, u0, v0); fill its rows.
@@ -772,8 +692,6 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     w1 = p[P.OMEGA1]
     w2 = p[P.OMEGA2]
     om = c[C_OM]
-    muf = c[C_MUF]
-    mui = c[C_MUI]
     transient = ints[P.I_TRANSIENT]
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
@@ -942,55 +860,15 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             return S.OK if done else S.MAX_EVENTS
 
         # ---- releases -----------------------------------------------------------------------
-        if ev == EV_REL_Z:
-            # z leaves the wall: g1 = z - w >= 0 while N1 < 0, for at most pi/omega1
-            w, wp, _, _ = wall(p, tau, ph)
-            u, v = fly(c, Q, D, RU, tau_ref, ua, va, se)
-            mode = FREE
-            za = w
-            ya = wp
-            ua = u
-            va = v
+        if ev >= EV_REL_Z:
+            mode, za, ya, ua, va, win_target, win = release(ev, p, c, Q, D, ph, tau, tau_ref, se,
+                                                            za, ya, ua, va, hsgn)
+            win_kind, win_a0, win_a1, win_a2, win_a3, win_end = win
             tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N1A], c[C_N1B], -1.0, float(RZ)
-            win_end = halfp(c, Q, D, RZ)
-            win_target = 1
-            s2s = 0.0
-            continue
-        if ev == EV_REL_PAIR:
-            # u leaves z where (omega2^2 - omega1^2) z turns negative; afterwards
-            # g2'' + omega2^2 g2 = -(omega2^2 - omega1^2) z_free >= 0 for a while
-            z, y = fly(c, Q, D, RP, tau_ref, za, ya, se)
-            mode = FREE
-            za = z
-            ya = y
-            ua = z
-            va = y
-            tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_HM, z, y, float(RZ), -hsgn
-            win_end = halfp(c, Q, D, RU)
-            win_target = 2
-            s1s = 0.0
-            continue
-        if ev == EV_REL_U:
-            w, wp, _, _ = wall(p, tau, ph)
-            mode = WALL
-            ua = w
-            va = wp
-            tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N2A], c[C_N2B], -1.0, float(RU)
-            win_end = halfp(c, Q, D, RU)
-            win_target = 2
-            continue
-        if ev == EV_REL_STACK:
-            w, wp, _, _ = wall(p, tau, ph)
-            mode = PAIR
-            za = w
-            ya = wp
-            tau_ref = tau
-            win_kind, win_a0, win_a1, win_a2, win_a3 = K_WF, c[C_N12A], c[C_N12B], -1.0, float(RP)
-            win_end = halfp(c, Q, D, RP)
-            win_target = 1
+            if ev == EV_REL_Z:
+                s2s = 0.0
+            elif ev == EV_REL_PAIR:
+                s1s = 0.0
             continue
 
         # ---- w-z impact (z free, or a stuck pair) -----------------------------------------
@@ -1070,9 +948,8 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     # z leaves slowly and the wall does not push (N1 <= 0): the gap
                     # stays >= 0 while N1 < 0 (as after a release); search from there,
                     # not through the rounding noise of a gap that opens like s^2
-                    win_kind, win_a0, win_a1, win_a2 = K_WF, c[C_N1A], c[C_N1B], -1.0
-                    win_a3 = float(RZ)
-                    win_end = halfp(c, Q, D, RZ)
+                    win_kind, win_a0, win_a1, win_a2, win_a3, win_end = wall_window(
+                        c, Q, D, RZ, c[C_N1A], c[C_N1B])
                     win_target = 1
                 continue
 
@@ -1130,40 +1007,23 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                     va = v_out
                     if slow_u and not N2 > 0.0:
                         # u leaves slowly while z does not push it: u - w >= 0 while N2 < 0
-                        win_kind, win_a0, win_a1, win_a2 = K_WF, c[C_N2A], c[C_N2B], -1.0
-                        win_a3 = float(RU)
-                        win_end = halfp(c, Q, D, RU)
+                        win_kind, win_a0, win_a1, win_a2, win_a3, win_end = wall_window(
+                            c, Q, D, RU, c[C_N2A], c[C_N2B])
                         win_target = 2
-                elif u_stick and pforce(c, p, Q, tau, z, muf * y_out + mui * v_out) > 0.0:
-                    mode = PAIR
-                    za = z
-                    ya = muf * y_out + mui * v_out
                 else:
-                    mode = FREE
-                    za = z
-                    ya = y_out
-                    ua = z
-                    va = v_out
+                    mode, za, ya, ua, va = pair_or_free(c, p, Q, tau, u_stick, z, y_out, v_out,
+                                                        ua, va)
             else:
-                if u_stick and pforce(c, p, Q, tau, z, muf * y_out + mui * v_out) > 0.0:
-                    mode = PAIR
-                    za = z
-                    ya = muf * y_out + mui * v_out
-                else:
-                    mode = FREE
-                    za = z
-                    ya = y_out
-                    ua = z
-                    va = v_out
+                mode, za, ya, ua, va = pair_or_free(c, p, Q, tau, u_stick, z, y_out, v_out, ua, va)
+                if mode == FREE:
                     if slow_u and not pforce(c, p, Q, tau, z, y_out) > 0.0:
                         # u leaves slowly while z does not push it: g2'' + omega2^2 g2 =
                         # -(omega2^2 - omega1^2) z >= 0 keeps g2 >= 0 for a while
                         if hzero:
                             s2s = halfp(c, Q, D, RU)
                         else:
-                            win_kind, win_a0, win_a1, win_a2 = K_HM, z, y_out, float(RZ)
-                            win_a3 = -hsgn
-                            win_end = halfp(c, Q, D, RU)
+                            win_kind, win_a0, win_a1, win_a2, win_a3, win_end = pair_window(
+                                c, Q, D, z, y_out, hsgn)
                             win_target = 2
             continue
 
@@ -1189,8 +1049,8 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
     ``params`` are omega0, omega1, omega2, mu, r1, r2, kappa, beta (defaults: the
     paper's Fig. 19 values omega1 = 1.001, omega2 = 1, mu = 1000, r1 = r2 = 0.8,
     kappa = 0, beta = 1; omega0 is required) and the damping and forcing of each
-    particle sigma1, sigma2, F1, Omega1, phi1, F2, Omega2, phi2 (default 0, Omega 1), each a scalar or an array broadcast
-    against the initial states.  Returns a dict of arrays with shape
+    particle sigma1, sigma2, F1, Omega1, phi1, F2, Omega2, phi2 (default 0, Omega 1), each a
+    scalar or an array broadcast against the initial states.  Returns a dict of arrays with shape
     ``shape + (record,)`` for the z-u impacts (t, u, v_in, v_out, y_in, y_out,
     corner_offset, corner), ``shape + (record_wz,)`` for the w-z impacts
     (wz_t, wz_z, wz_y_in, wz_y_out; ``record_wz`` defaults to 4 record + 8),
@@ -1200,9 +1060,8 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
     """
     from ..analysis import detect_cycles, words
 
-    defaults = {"omega1": 1.001, "omega2": 1.0, "mu": 1000.0, "r1": 0.8, "r2": 0.8,
-                "kappa": 0.0, "beta": 1.0}
-    defaults.update(P.OPTIONAL)
+    # the declared defaults (models.two_particle.PARAMS), omega0 aside
+    defaults = {k: p.default for k, p in P.PARAMS.items() if k != "omega0"}
     unknown = set(params) - set(P.NAMES)
     if unknown:
         raise TypeError(f"simulate_two_particle() got unknown parameter(s) {sorted(unknown)}")

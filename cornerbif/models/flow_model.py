@@ -75,10 +75,6 @@ class FlowModel(Model):
         return P.pack(values, scene.obstacle, scene.tol, scene.chatter, scene.escape,
                       scene.section_period, stop_tol)
 
-    def pack_points(self, scene, index_list):
-        rows = [self.pack_values(scene.point(idx), scene) for idx in index_list]
-        return np.array(rows).reshape(len(index_list), P.NPARAM)
-
     def int_settings(self, scene):
         ints = np.zeros(P.NINT, np.int64)
         ints[P.I_TRANSIENT] = scene.transient
@@ -152,7 +148,7 @@ MODEL = FlowModel(
     early_stop=True,
     timeseries=True,
     normal_form_role="flow",
-    # per item and recorded event: 7 float64 outputs, the corner index, the word (measured
-    # against peak memory in benchmarks/run.py)
+    # per item and recorded event: 7 float64 outputs, the corner index, the word (the arrays
+    # run_items allocates)
     bytes_per_event=7 * 8 + 8 + 1,
 )

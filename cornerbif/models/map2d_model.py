@@ -36,11 +36,6 @@ class Map2dModel(Model):
         """The map's row [omega1, kappa1, r] with epsilon = 1."""
         return np.array([values["omega"] - 2.0, values["kappa"], values["r"]], dtype=float)
 
-    def pack_points(self, scene, index_list):
-        vals = [scene.point(idx) for idx in index_list]
-        return np.array([[v["omega"] - 2.0, v["kappa"], v["r"]] for v in vals],
-                        dtype=float).reshape(len(index_list), 3)
-
     def int_settings(self, scene):
         return np.array([scene.transient, scene.record], np.int64)
 

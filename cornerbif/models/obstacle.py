@@ -1,5 +1,14 @@
 """Obstacles z(t) of the ``flow`` model, piece by piece (eqs 7, 8; section 2.2).
 
+Every per-obstacle quantity of the kernels lives here, the only module that reads the
+obstacle code ``P.OBSTACLE``: the piece lengths (``piece_lengths``), the height and its
+derivatives (``z_state``; ``sine_amp``, ``sine_part`` for sinusoidal pieces), the bounds
+of the certified searches (``zpp_range``, ``zppp_max``, ``zpppp_max``, ``contact_npp``,
+``sturm_floors``), the nearest corner of an event (``corner_of``) and the per-run
+switches of the flow kernel (``cycle_lag``, ``sinusoidal``).  A new obstacle adds a
+branch to each of them, and its Python declaration (name, code, period, pieces per
+period) in ``models/params.py``; docs/kernels.md says what each must return.
+
 Time is kept as a piece index ``j`` and a local time ``tau`` in [0, L_j]
 (DESIGN 2b): precision stays at rounding level over long runs, and a corner is
 always exactly at a piece boundary.
@@ -44,6 +53,65 @@ def derived_tuple(d):
     in the kernels' calls, see ``params.as_tuple``)."""
     return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11], d[12],
             d[13], d[14], d[15])
+
+
+@jit
+def piece_lengths(p):
+    """(L0, L1, L0 + L1): the lengths of the even and the odd pieces, and of a pair."""
+    w = p[P.OMEGA]
+    if p[P.OBSTACLE] == P.TRIANGLE:
+        per = math.pi / w
+        t1 = p[P.THETA1]
+        t2 = p[P.THETA2]
+        return t1 * per / (t1 + t2), t2 * per / (t1 + t2), per
+    return math.pi / w, math.pi / w, 2.0 * math.pi / w
+
+
+@jit
+def contact_npp(p, f2):
+    """Bound of |N''|, N = z'' + 2 sigma z' + k^2 z - f the contact force while stuck,
+    given f2 >= |f''| (the forcing's share): a bound of |z'''' + 2 sigma z''' + k^2 z''|
+    plus f2."""
+    if p[P.OBSTACLE] == P.TRIANGLE:
+        return f2
+    w = p[P.OMEGA]
+    k = p[P.K]
+    return w * w * p[P.BETA] * (abs(k * k - w * w) + 2.0 * p[P.SIGMA] * w) + f2
+
+
+@jit
+def sturm_floors(p, d):
+    """f_min / k^2 on the even and on the odd pieces (k > 0; ``d`` holds the piece
+    lengths): the floor of the Sturm comparison of the free undamped gap
+    (``flow.sturm_clear``), g'' + k^2 g = -k^2 z - z'' =: f(tau) >= f_min on each piece.
+
+    rectified_sine: f_min = -k^2 kappa + min(0, beta (omega^2 - k^2)); sine: the same with
+    beta reversed on the odd pieces; triangle (z'' = 0): -k^2 max z = -k^2 (kappa +
+    theta2 L0).
+    """
+    kap = p[P.KAPPA]
+    ob = p[P.OBSTACLE]
+    if ob == P.TRIANGLE:
+        f = -(kap + p[P.THETA2] * d[D_L0])
+        return f, f
+    k = p[P.K]
+    w = p[P.OMEGA]
+    a = p[P.BETA] * (w * w - k * k) / (k * k)
+    return -kap + min(0.0, a), -kap + min(0.0, -a if ob == P.SINE else a)
+
+
+@jit
+def cycle_lag(p):
+    """Pieces per period of the obstacle: the early stop of the flow kernel
+    (``flow.cycle_watch``) looks for a repeating state at multiples of this lag."""
+    return 1 if p[P.OBSTACLE] == P.RECTIFIED_SINE else 2
+
+
+@jit
+def sinusoidal(p):
+    """Whether every piece is z = kappa + b sin(omega tau), b = ``sine_amp``: then the flow
+    kernel's free-flight fast path (``flow.first_impact_free``, its phase grid) applies."""
+    return p[P.OBSTACLE] != P.TRIANGLE
 
 
 @jit
@@ -106,6 +174,14 @@ def zppp_max(p):
     if p[P.OBSTACLE] == P.TRIANGLE:
         return 0.0
     return p[P.BETA] * p[P.OMEGA] ** 3
+
+
+@jit
+def zpppp_max(p):
+    """Bound of |z''''| on every piece (used by the sinusoidal fast search)."""
+    if p[P.OBSTACLE] == P.TRIANGLE:
+        return 0.0
+    return zppp_max(p) * p[P.OMEGA]
 
 
 @jit

@@ -12,27 +12,36 @@ import numpy as np
 
 from .._jit import jit, jit_inline
 from . import params as P
-from .obstacle import (D_HALF, D_IK, D_IWD, D_L0, D_L1, D_LAM1, D_LAM2, D_NPP, D_PERIOD,
-                       D_REGIME, D_STURM0, D_STURM1, D_UPP_PART, D_WD, D_X, D_Y, NDERIVED)
+from .obstacle import (
+    D_HALF,
+    D_IK,
+    D_IWD,
+    D_L0,
+    D_L1,
+    D_LAM1,
+    D_LAM2,
+    D_NPP,
+    D_PERIOD,
+    D_REGIME,
+    D_STURM0,
+    D_STURM1,
+    D_UPP_PART,
+    D_WD,
+    D_X,
+    D_Y,
+    NDERIVED,
+    contact_npp,
+    piece_lengths,
+    sturm_floors,
+)
 
 
 @jit
 def derive(p):
-    """Per-point constants: piece lengths, damping regime, particular solution, bounds."""
+    """Per-point constants: piece lengths, damping regime, particular solution, bounds
+    (the obstacle's own quantities come from ``models.obstacle``)."""
     d = np.zeros(NDERIVED)
-    w = p[P.OMEGA]
-    ob = p[P.OBSTACLE]
-    if ob == P.TRIANGLE:
-        per = math.pi / w
-        t1 = p[P.THETA1]
-        t2 = p[P.THETA2]
-        d[D_L0] = t1 * per / (t1 + t2)
-        d[D_L1] = t2 * per / (t1 + t2)
-        d[D_PERIOD] = per
-    else:
-        d[D_L0] = math.pi / w
-        d[D_L1] = math.pi / w
-        d[D_PERIOD] = 2.0 * math.pi / w
+    d[D_L0], d[D_L1], d[D_PERIOD] = piece_lengths(p)
     sig = p[P.SIGMA]
     k = p[P.K]
     if sig < k:
@@ -56,23 +65,10 @@ def derive(p):
         d[D_Y] = F * b / den
         d[D_UPP_PART] = W * W * math.sqrt(d[D_X] ** 2 + d[D_Y] ** 2)
     # bound of |N''| with N = z'' + 2 sigma z' + k^2 z - f (contact force while stuck)
-    if ob == P.TRIANGLE:
-        d[D_NPP] = abs(F) * W * W
-    else:
-        be = p[P.BETA]
-        d[D_NPP] = w * w * be * (abs(k * k - w * w) + 2.0 * sig * w) + abs(F) * W * W
-    # Sturm comparison of the free undamped gap (flow.sturm_clear): g'' + k^2 g = f(tau) >=
-    # f_min on each piece; stored as f_min / k^2 (rectified_sine: -k^2 kappa + min(0,
-    # beta (omega^2 - k^2)); sine: the same with beta reversed on odd pieces; triangle:
-    # -k^2 max z)
+    d[D_NPP] = contact_npp(p, abs(F) * W * W)
+    # the floors of the Sturm comparison of the free undamped gap (flow.sturm_clear)
     if k > 0.0:
-        kap = p[P.KAPPA]
-        if ob == P.TRIANGLE:
-            d[D_STURM0] = d[D_STURM1] = -(kap + p[P.THETA2] * d[D_L0])
-        else:
-            a = p[P.BETA] * (w * w - k * k) / (k * k)
-            d[D_STURM0] = -kap + min(0.0, a)
-            d[D_STURM1] = -kap + min(0.0, -a if ob == P.SINE else a)
+        d[D_STURM0], d[D_STURM1] = sturm_floors(p, d)
         d[D_IK] = 1.0 / k
         d[D_HALF] = math.pi / k
     return d

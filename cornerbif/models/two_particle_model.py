@@ -82,10 +82,6 @@ class TwoParticleModel(Model):
     def pack_values(self, values: dict, scene) -> np.ndarray:
         return TP.pack(values, scene.tol, scene.chatter, scene.escape, scene.section_period)
 
-    def pack_points(self, scene, index_list):
-        rows = [self.pack_values(scene.point(idx), scene) for idx in index_list]
-        return np.array(rows).reshape(len(index_list), TP.NPARAM)
-
     def int_settings(self, scene):
         ints = np.zeros(TP.NINT, np.int64)
         ints[TP.I_TRANSIENT] = scene.transient
