@@ -66,6 +66,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
             require_dask()
         except SweepError as e:
             _fail(str(e))
+    from .errors import WriteFailed
     from .sweep import SweepError, SweepInterrupted, estimate_bytes, estimate_memory, run_sweep
     out = out or f"{scene.name}.h5"
     import numpy as np
@@ -91,6 +92,15 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
                          block_points=block_points, scheduler=scheduler)
     except SweepInterrupted as e:
         _fail(str(e), 130)
+    except WriteFailed as e:
+        if e.broken:
+            # HDF5's state in this process is unusable after a failed write: end now, without
+            # its clean-up (which would write into the same error and flood the terminal)
+            click.echo(f"error: {e}", err=True)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(1)
+        _fail(str(e), 1)
     except SweepError as e:
         # failed chunks on a cluster: a run-time failure (1), not bad input (2)
         _fail(str(e), 1 if getattr(e, "failures", None) else 2)

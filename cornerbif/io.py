@@ -35,6 +35,7 @@ never half-written, and an interrupted one still opens and resumes.
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import json
 import os
 import sys
@@ -44,7 +45,7 @@ import numpy as np
 
 from . import FORMAT_VERSION, __version__, registry
 from . import status as S
-from .errors import SweepError
+from .errors import SweepError, WriteFailed
 
 
 class FileFormatError(Exception):
@@ -157,14 +158,62 @@ def symbol_dtype(record):
     return h5py.string_dtype("ascii", max(1, record // 2))
 
 
+# bytes kept free beyond a block's data: HDF5's metadata and chunk index, the done marks and
+# the attributes written when the file is finished
+WRITE_RESERVE = 256 * 1024
+
+
+def room(path, size=None):
+    """Bytes that may still be written to the file at ``path``: the space its filesystem
+    gives this user, and the file-size limit of this process (``ulimit -f``) less the
+    file's size (``size``, default its size on disk); None when neither can be read."""
+    import resource
+    left = None
+    try:
+        st = os.statvfs(os.path.dirname(os.path.abspath(path)))
+        left = st.f_bavail * st.f_frsize
+    except OSError:
+        pass
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if soft != resource.RLIM_INFINITY:
+        if size is None:
+            size = os.path.getsize(path) if os.path.exists(path) else 0
+        left = soft - size if left is None else min(left, soft - size)
+    return left
+
+
+def ensure_room(path, nbytes, size=None):
+    """Refuse, before writing, data that the file's disk or size limit cannot take
+    (``nbytes`` uncompressed, an upper bound of what gzip writes, plus WRITE_RESERVE)."""
+    need = nbytes + WRITE_RESERVE
+    left = room(path, size)
+    if left is not None and left < need:
+        raise WriteFailed(f"{path}: no room for the next block ({need / 2**20:.1f} MiB needed, "
+                          f"{max(left, 0) / 2**20:.1f} MiB left on its disk or under this "
+                          "process's file-size limit); every finished point is kept; free "
+                          "space and run the same command with --resume")
+
+
 def write_block(f, index, block):
-    """Write one finished block (a slab of the grid) and mark it done, flushing in order."""
-    for name, arr in block.items():
-        if name in f:
-            f[name][index] = arr
-    f.flush()
-    f["done"][index] = 1
-    f.flush()
+    """Write one finished block (a slab of the grid) and mark it done, flushing in order.
+
+    The room for it is checked first (``ensure_room``): a full disk stops the sweep with
+    the file as it was after the last block, which --resume completes."""
+    # f.filename is the name the file was created under (open_partial renames it); the
+    # directory is the same, and HDF5 knows the file's size
+    ensure_room(f.filename, sum(np.asarray(a).nbytes for a in block.values()),
+                f.id.get_filesize())
+    try:
+        for name, arr in block.items():
+            if name in f:
+                f[name][index] = arr
+        f.flush()
+        f["done"][index] = 1
+        f.flush()
+    except (OSError, RuntimeError) as e:      # h5py raises either for a failed write
+        raise WriteFailed(f"writing {f.filename} failed ({reason(e)}); every point marked "
+                          "done before is kept; free space and run the same command with "
+                          "--resume", broken=True) from None
 
 
 def check_readable(path):
@@ -245,6 +294,7 @@ def open_partial(partial, scene, command=""):
     """Set a new partial file up under a temporary name: a partial file exists only once
     every dataset is in place and single-writer/multiple-reader mode is on."""
     init = partial + ".init"
+    ensure_room(init, 0)
     f = create(init, scene, scene.n_ic, command=command, versions=versions())
     f.swmr_mode = True
     os.replace(init, partial)
@@ -362,3 +412,16 @@ def record_failures(partial, failures):
     --resume completes (attributes cannot be added in single-writer/multiple-reader mode)."""
     with h5py.File(partial, "r+") as g:
         g.attrs["failed_chunks"] = json.dumps(failures)
+
+
+def reason(e: Exception) -> str:
+    """An OSError in a few words (HDF5's messages carry a whole error stack)."""
+    if getattr(e, "errno", None):
+        return f"{errno.errorcode.get(e.errno, e.errno)}: {os.strerror(e.errno)}"
+    text = str(e)
+    for code in ("ENOSPC", "EDQUOT", "EFBIG", "EIO", "EROFS"):
+        num = getattr(errno, code)
+        if f"errno = {num}," in text:
+            return f"{code}: {os.strerror(num)}"
+    return text.splitlines()[0][:200]
+

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import engine, io, registry
 from .config import Scene
-from .errors import SweepError, SweepInterrupted
+from .errors import SweepError, SweepInterrupted, WriteFailed
 
 __all__ = ["run_sweep", "check_budget", "estimate_bytes", "estimate_memory", "simulate",
            "SweepError", "SweepInterrupted"]
@@ -148,7 +148,12 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
                              "complete it or --overwrite to start again")
     if f is None:
         check_budget(scene, out_path)
-        f = io.open_partial(partial, scene, command)
+        try:
+            f = io.open_partial(partial, scene, command)
+        except OSError as e:
+            raise WriteFailed(f"creating {partial} failed ({io.reason(e)}); nothing was "
+                              "computed; free space and run the same command again",
+                              broken=True) from None
     try:
         if scheduler:
             from .distributed import run_blocks_dask
@@ -167,14 +172,19 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
         raise SweepInterrupted(f"interrupted; finished points are kept in {partial}; "
                                "run again with --resume to complete it") from None
     except OSError as e:
-        try:
-            f.close()
-        except Exception:  # noqa: BLE001
-            pass
-        raise SweepError(f"writing {partial} failed ({e}); finished points are kept; "
-                         "free space and run again with --resume") from None
+        # a write failed inside HDF5 (a disk filled by someone else between our check and
+        # the write, an I/O error): the file on disk is as it was after the last block
+        # marked done (single-writer/multiple-reader flush order), but this process's HDF5
+        # state is not, so the file is not closed (closing would flush into the error)
+        raise WriteFailed(f"writing {partial} failed ({io.reason(e)}); every finished point "
+                          "is kept; free space and run the same command with --resume",
+                          broken=True) from None
     f.close()
-    io.finish(partial, out_path)
+    try:
+        io.finish(partial, out_path)
+    except OSError as e:
+        raise WriteFailed(f"finishing {partial} failed ({io.reason(e)}); every point is kept; "
+                          "free space and run the same command with --resume") from None
 
 
 def simulate(*starts, **kw):
