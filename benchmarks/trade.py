@@ -707,10 +707,11 @@ def bench_profile(smoke=False):
                           scene.period_tol, per, ip, sy)
             t_analysis = min(t_analysis, time.perf_counter() - t0)
         t_sweep = math.inf
+        from cornerbif.sweep import run_sweep
         with tempfile.TemporaryDirectory() as tmp:
             for _ in range(1 if smoke else 2):
                 t0 = time.perf_counter()
-                sweep.run_sweep(scene, os.path.join(tmp, "p.h5"), threads=1, overwrite=True)
+                run_sweep(scene, os.path.join(tmp, "p.h5"), threads=1, overwrite=True)
                 t_sweep = min(t_sweep, time.perf_counter() - t0)
             size = os.path.getsize(os.path.join(tmp, "p.h5"))
     finally:

@@ -67,16 +67,19 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         except SweepError as e:
             _fail(str(e))
     from .errors import WriteFailed
-    from .sweep import SweepError, SweepInterrupted, estimate_bytes, estimate_memory, run_sweep
-    out = out or f"{scene.name}.h5"
-    import numpy as np
-    n_points = int(np.prod(scene.shape or (1,)))
-    n_items = n_points * scene.n_ic
+    from .sweep import SweepError, SweepInterrupted, default_output, run_sweep
+    out = out or default_output(scene)
+    cores = _check_threads(threads)
     if dry_run:
-        click.echo(f"scene {scene.name}: model {scene.model}, grid {scene.shape or '(single point)'}, "
-                   f"{scene.n_ic} starts -> {n_items} runs of {scene.transient + scene.record} impacts")
-        click.echo(f"output {out}: up to {estimate_bytes(scene) / 2**20:.1f} MiB (uncompressed)")
-        click.echo(f"working memory: about {estimate_memory(scene) / 2**20:.1f} MiB")
+        for line in _describe(scene, out, threads or cores):
+            click.echo(line)
+        from .sweep import check_budget, check_output
+        try:
+            check_output(out, overwrite or resume, (scene_path,))
+            check_budget(scene, out)
+        except SweepError as e:
+            _fail(str(e))
+        click.echo("ok: the sweep fits (disk, memory) and can write its output")
         return
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
@@ -89,7 +92,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
                          progress=progress, command=_command_line(scene_path, out, sets, threads,
                                                                   resume, overwrite, block_points,
                                                                   scheduler),
-                         block_points=block_points, scheduler=scheduler)
+                         block_points=block_points, scheduler=scheduler, inputs=(scene_path,))
     except SweepInterrupted as e:
         _fail(str(e), 130)
     except WriteFailed as e:
@@ -105,6 +108,38 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         # failed chunks on a cluster: a run-time failure (1), not bad input (2)
         _fail(str(e), 1 if getattr(e, "failures", None) else 2)
     click.echo(f"wrote {path}")
+
+
+def _check_threads(threads):
+    """The cores numba may use here; refuse ``--threads`` above them (exit 2)."""
+    import numba
+    cores = numba.config.NUMBA_NUM_THREADS
+    if threads and threads > cores:
+        _fail(f"--threads {threads}: numba can use at most {cores} threads on this machine "
+              "(its cores, or NUMBA_NUM_THREADS)")
+    return cores
+
+
+def _describe(scene, out, threads):
+    """What a scene will do, in lines: grid, runs, output size, memory and time."""
+    from .sweep import duration, estimate_bytes, estimate_memory, estimate_seconds
+    n_points = 1
+    for n in scene.shape:
+        n_points *= n
+    n_items = n_points * scene.n_ic
+    lines = [f"scene {scene.name}: model {scene.model}"
+             + (f", obstacle {scene.obstacle}" if scene.spec.obstacles else "")]
+    for a in scene.axes:
+        lo, hi = min(a.values), max(a.values)
+        lines.append(f"  axis {a.name}: {len(a.values)} values from {lo:.10g} to {hi:.10g}")
+    lines.append(f"  {n_points} grid points x {scene.n_ic} starts = {n_items} runs of "
+                 f"{scene.transient} + {scene.record} events")
+    lines.append(f"output {out}: up to {estimate_bytes(scene) / 2**20:.1f} MiB (uncompressed)")
+    lines.append(f"working memory: about {estimate_memory(scene) / 2**20:.1f} MiB")
+    early = " (at most: runs stop once their cycle is found)" if scene.stop == "period" else ""
+    lines.append(f"time: about {duration(estimate_seconds(scene, threads))} on {threads} "
+                 f"thread(s){early}, at this machine's measured speed (benchmarks/run.py)")
+    return lines
 
 
 def _command_line(scene_path, out, sets, threads, resume, overwrite, block_points,
@@ -141,12 +176,21 @@ def plot(files, out, y, title):
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".png", ".pdf", ".svg"):
         _fail(f"-o {out}: the figure must be .png, .pdf or .svg")
+    d = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(d):
+        _fail(f"-o {out}: the directory {d} does not exist")
+    if not os.access(d, os.W_OK | os.X_OK):
+        _fail(f"-o {out}: the directory {d} is not writable (read-only filesystem or no "
+              "permission)")
+    if any(os.path.exists(x) and os.path.exists(out) and os.path.samefile(x, out) for x in files):
+        _fail(f"-o {out}: that is one of the files to draw; name another figure")
     try:
         figure(list(files), out, y=y, title=title)
-    except FileFormatError as e:
+    except (FileFormatError, ValueError) as e:
         _fail(str(e))
-    except ValueError as e:
-        _fail(str(e))
+    except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
+        _fail(f"{', '.join(files)}: cannot be drawn ({type(e).__name__}: {e}); the file is "
+              "damaged or was not written by cornerbif")
     click.echo(f"wrote {out}")
 
 
@@ -163,48 +207,52 @@ def info(file):
         f = check_readable(file)
     except FileFormatError as e:
         _fail(str(e))
-    with f:
-        a = f.attrs
-        click.echo(f"{file}: cornerbif format {a['format_version']}, written by cornerbif "
-                   f"{a['cornerbif_version']}")
-        click.echo(f"  created {a['created']}, completed {a['completed'] or 'NO (partial)'}")
-        import tomllib
-        sc = tomllib.loads(a["scene"])
-        click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
-        from . import registry
-        model = sc["scene"]["model"]
-        spec = registry.models().get(model)
-        obstacle = sc["system"].get("obstacle")
-        click.echo(f"  model {model}" + (f", obstacle {obstacle}" if obstacle else "")
-                   + (f": {spec.doc}" if spec else " (not a model of this version)"))
-        rn = sc.get("run", {})
-        click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
-                   f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
-        for k, v in sc.get("sweep", {}).items():
-            if k != "follow":
-                vals = v["values"]
-                click.echo(f"  axis {k}: {len(vals)} values in [{min(vals)}, {max(vals)}]")
-        done = f["done"][...]
-        click.echo(f"  grid points done: {int(done.sum())} / {done.size}")
-        st = f["status"][...].ravel()
-        codes = json.loads(a["status_codes"])
-        counts = {codes.get(str(c), "NOT_RUN") if c >= 0 else "NOT_RUN": int((st == c).sum())
-                  for c in np.unique(st)}
-        click.echo(f"  status: {counts}")
-        per = f["period"][...].ravel()
-        per = per[per > 0]
-        if per.size:
-            vals, cnt = np.unique(per, return_counts=True)
-            top = sorted(zip(cnt, vals), reverse=True)[:8]
-            click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
-        names = _names(f)
-        if spec:
-            kept = [k for k in spec.observables if any(n.startswith(k + "/") for n in names)]
-            click.echo(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
-                       f"state {', '.join(spec.coords)}")
-        click.echo(f"  datasets: {', '.join(sorted(n for n in names if not f[n].is_scale))}")
-    from .plot import PlotData, attractor_summary
-    click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
+    try:
+        with f:
+            a = f.attrs
+            click.echo(f"{file}: cornerbif format {a['format_version']}, written by cornerbif "
+                       f"{a['cornerbif_version']}")
+            click.echo(f"  created {a['created']}, completed {a['completed'] or 'NO (partial)'}")
+            import tomllib
+            sc = tomllib.loads(a["scene"])
+            click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
+            from . import registry
+            model = sc["scene"]["model"]
+            spec = registry.models().get(model)
+            obstacle = sc["system"].get("obstacle")
+            click.echo(f"  model {model}" + (f", obstacle {obstacle}" if obstacle else "")
+                       + (f": {spec.doc}" if spec else " (not a model of this version)"))
+            rn = sc.get("run", {})
+            click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
+                       f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
+            for k, v in sc.get("sweep", {}).items():
+                if k != "follow":
+                    vals = v["values"]
+                    click.echo(f"  axis {k}: {len(vals)} values in [{min(vals)}, {max(vals)}]")
+            done = f["done"][...]
+            click.echo(f"  grid points done: {int(done.sum())} / {done.size}")
+            st = f["status"][...].ravel()
+            codes = json.loads(a["status_codes"])
+            counts = {codes.get(str(c), "NOT_RUN") if c >= 0 else "NOT_RUN": int((st == c).sum())
+                      for c in np.unique(st)}
+            click.echo(f"  status: {counts}")
+            per = f["period"][...].ravel()
+            per = per[per > 0]
+            if per.size:
+                vals, cnt = np.unique(per, return_counts=True)
+                top = sorted(zip(cnt, vals), reverse=True)[:8]
+                click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
+            names = _names(f)
+            if spec:
+                kept = [k for k in spec.observables if any(n.startswith(k + "/") for n in names)]
+                click.echo(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
+                           f"state {', '.join(spec.coords)}")
+            click.echo(f"  datasets: {', '.join(sorted(n for n in names if not f[n].is_scale))}")
+        from .plot import PlotData, attractor_summary
+        click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
+    except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
+        _fail(f"{file}: cannot be summarised ({type(e).__name__}: {e}); the file is damaged "
+              "or was not written by cornerbif")
 
 
 def _names(f):
@@ -228,6 +276,7 @@ def _names(f):
 @click.option("--threads", type=click.IntRange(min=1), help="Numba threads (default: all cores).")
 def gallery(config_dir, out, data, only, smoke, threads):
     """Sweep every scene whose file is missing or stale, then draw every figure."""
+    _check_threads(threads)
     import json
     import time
 
@@ -261,12 +310,20 @@ def gallery(config_dir, out, data, only, smoke, threads):
 @main.command()
 @click.argument("scene_path", metavar="SCENE.toml", type=click.Path(dir_okay=False))
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE")
-def validate(scene_path, sets):
-    """Check a scene and print it as it would run (run.preset resolved to its values)."""
+@click.option("--toml", is_flag=True, help="Also print the scene as it would run (TOML, "
+              "every default explicit, every axis value listed).")
+def validate(scene_path, sets, toml):
+    """Check a scene: a verdict, what it will do, and with --toml the scene as it would run."""
+    from .sweep import default_output
     scene = _load(scene_path, sets)
+    click.echo(f"ok: {scene_path} is a valid scene")
     click.echo(f"# run.preset {scene.preset!r} -> transient {scene.transient}, tol {scene.tol!r}, "
                f"chatter {scene.chatter!r} (explicit [run] keys override the preset)")
-    click.echo(scene.text)
+    import numba
+    for line in _describe(scene, default_output(scene), numba.config.NUMBA_NUM_THREADS):
+        click.echo(line)
+    if toml:
+        click.echo(scene.text)
 
 
 if __name__ == "__main__":

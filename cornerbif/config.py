@@ -59,6 +59,22 @@ STOPS = ("none", "period")
 PERIODS_PER_IMPACT = 50
 BUDGET_MARGIN = 1000
 INITIAL_DEFAULTS = {"count": 8, "seed": 1}
+# Sizes, checked before anything is allocated (each limit says why it is there):
+# values of one axis: the scene as run lists every value (the file's ``scene`` attribute)
+MAX_AXIS_VALUES = 1_000_000
+# grid points: the done mask and the block list grow with them (~200 bytes a grid row)
+MAX_GRID_POINTS = 100_000_000
+# starts per grid point: the counter-based draw keys a start by point * 2^20 + start
+# (engine.uniform), so more would repeat starts
+MAX_STARTS = 2**20
+# recorded events: the word of a cycle is a fixed-length string of record // 2 bytes whose
+# fill value lives in the dataset's HDF5 object header (at most 64 KiB)
+MAX_RECORD = 100_000
+# integers the kernels hold in int64 (transient, budgets, seed): below 2^62, so that the
+# automatic budgets (a multiple of transient + record) and the time budget in pieces fit
+MAX_INT = 2**62
+# the time budget: the kernels count it in smooth pieces of the obstacle (a few per period)
+MAX_PERIODS = 2**58
 PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
              "max_panels")
 PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
@@ -284,6 +300,7 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
     except tomllib.TOMLDecodeError as e:
         raise SceneError([f"{source}: TOML syntax error: {e}"]) from None
     problems = []
+    given = []
     for ov in overrides:
         try:
             key, val = parse_override(ov) if isinstance(ov, str) else ov
@@ -291,9 +308,22 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
             problems += e.problems
             continue
         set_dotted(raw, key, val)
+        given.append((key, ov if isinstance(ov, str) else f"{key}={val!r}"))
     if problems:
         raise SceneError(problems)
-    return from_dict(raw)
+    try:
+        return from_dict(raw)
+    except SceneError as e:
+        raise SceneError([_from_set(p, given) for p in e.problems]) from None
+
+
+def _from_set(problem: str, given) -> str:
+    """Say that a problem comes from a ``--set`` override when its key is one given there."""
+    key = problem.split(":", 1)[0].strip()
+    for k, text in reversed(given):
+        if key == k or key.startswith(k + ".") or k.startswith(key + "."):
+            return f"{problem} (from --set {text})"
+    return problem
 
 
 # --------------------------------------------------------------------------- the walk
@@ -376,7 +406,7 @@ def _read_system(w):
     w.unknown("system", tuple(spec.params) + tuple(spec.system_extra))
     default_obstacle = registry.get(registry.DEFAULT_MODEL).system_extra["obstacle"]
     obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", default_obstacle))
-    if spec.obstacles and obstacle not in spec.obstacles:
+    if spec.obstacles and not (isinstance(obstacle, str) and obstacle in spec.obstacles):
         allowed = tuple(spec.obstacles)
         w.problems.append(f"system.obstacle: {_fmt(obstacle)} is not an obstacle"
                           f"{_suggest(str(obstacle), allowed)}; allowed: {', '.join(allowed)}")
@@ -384,7 +414,7 @@ def _read_system(w):
     system = {}
     for p, decl in spec.params.items():
         v = sy.get(p, decl.default)
-        if v is None:
+        if v is None and decl.default is None:    # a derived default (theta1 = beta omega)
             system[p] = None
             continue
         system[p] = float(v) if w.param(p, v, f"system.{p}") else decl.default
@@ -414,7 +444,11 @@ def _read_axis(w, k, spec):
             w.problems.append(f"{key}: give either values or start/stop/num, not both")
         vals = spec["values"]
         if not isinstance(vals, list) or not vals:
-            w.problems.append(f"{key}.values: {_fmt(vals)} must be a non-empty list of numbers")
+            w.problems.append(f"{key}.values: {_fmt(vals)[:80]} must be a non-empty list of numbers")
+            return None
+        if len(vals) > MAX_AXIS_VALUES:
+            w.problems.append(f"{key}.values: {len(vals)} values on one axis; at most "
+                              f"{MAX_AXIS_VALUES}")
             return None
         good = all(w.param(k, v, f"{key}.values") for v in vals)
         return tuple(float(v) for v in vals) if good else None
@@ -431,6 +465,10 @@ def _read_axis(w, k, spec):
         ok = False
     elif num < 1:
         w.problems.append(f"{key}.num: {num} must be an integer >= 1")
+        ok = False
+    elif num > MAX_AXIS_VALUES:
+        w.problems.append(f"{key}.num: {num} values on one axis; at most {MAX_AXIS_VALUES} "
+                          "(the scene as run lists every value)")
         ok = False
     a = w.param(k, spec["start"], f"{key}.start")
     b = w.param(k, spec["stop"], f"{key}.stop")
@@ -475,6 +513,11 @@ def _read_sweep(w):
                               "kappa = { start = -0.02, stop = 0.0, num = 101 }")
     if len(axes) > 2:
         w.problems.append(f"sweep: {len(axes)} axes ({', '.join(a.name for a in axes)}); at most two")
+    points = math.prod(len(a.values) for a in axes)
+    if points > MAX_GRID_POINTS:
+        w.problems.append(f"sweep: {' x '.join(str(len(a.values)) for a in axes)} = {points} grid "
+                          f"points; at most {MAX_GRID_POINTS} (the done mask and the block list "
+                          "grow with the grid)")
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         w.problems.append(f"sweep: two axes name one parameter ({', '.join(names)})")
@@ -498,12 +541,13 @@ def _read_initial(w):
     ini = w.table("initial")
     w.unknown("initial", TABLES["initial"])
     n_ic = ini.get("count", INITIAL_DEFAULTS["count"])
-    if not _is_int(n_ic) or n_ic < 1:
-        w.problems.append(f"initial.count: {_fmt(n_ic)} must be an integer >= 1")
+    if not _is_int(n_ic) or not 1 <= n_ic <= MAX_STARTS:
+        w.problems.append(f"initial.count: {_fmt(n_ic)} must be an integer in 1..{MAX_STARTS} "
+                          "(starts are keyed by point * 2^20 + start)")
         n_ic = 1
     seed = ini.get("seed", INITIAL_DEFAULTS["seed"])
-    if not _is_int(seed) or seed < 0:
-        w.problems.append(f"initial.seed: {_fmt(seed)} must be an integer >= 0")
+    if not _is_int(seed) or not 0 <= seed < MAX_INT:
+        w.problems.append(f"initial.seed: {_fmt(seed)} must be an integer in 0..2^62 - 1")
         seed = 0
     coords = w.spec.coords
     for c in TABLES["initial"][len(INITIAL_DEFAULTS):]:
@@ -554,8 +598,12 @@ def _read_run(w):
                 run[k] = None         # automatic budget (below)
                 continue
             lo = 0 if k == "transient" else 1
-            if not _is_int(v) or v < lo:
-                w.problems.append(f"run.{k}: {_fmt(v)} must be an integer >= {lo}")
+            hi = {"record": MAX_RECORD, "max_periods": MAX_PERIODS}.get(k, MAX_INT - 1)
+            if not _is_int(v) or not lo <= v <= hi:
+                why = (" (the cycle's word is a fixed-length string in the file)" if k == "record"
+                       else " (held in int64 by the kernels)")
+                w.problems.append(f"run.{k}: {_fmt(v)} must be an integer in {lo}..{hi}"
+                                  + (why if _is_int(v) and v > hi else ""))
                 v = default if default is not None else 1
         else:
             if not _is_number(v) or not math.isfinite(v) or v <= 0:
@@ -567,9 +615,9 @@ def _read_run(w):
         run[k] = v
     need = run["transient"] + run["record"]
     if run["max_events"] is None:
-        run["max_events"] = w.spec.events_per_impact * need + BUDGET_MARGIN
+        run["max_events"] = min(w.spec.events_per_impact * need + BUDGET_MARGIN, MAX_INT - 1)
     if run["max_periods"] is None:
-        run["max_periods"] = PERIODS_PER_IMPACT * need + BUDGET_MARGIN
+        run["max_periods"] = min(PERIODS_PER_IMPACT * need + BUDGET_MARGIN, MAX_PERIODS)
     w.preset, w.run, w.run_given = preset, run, rn
 
 

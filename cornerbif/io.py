@@ -264,6 +264,7 @@ def check_readable(path):
         for req in ("status", "done", "initial/u"):
             if req not in f:
                 raise FileFormatError(f"{path}: required dataset {req!r} is missing")
+        _check_contents(path, f)
     except FileFormatError:
         f.close()
         raise
@@ -271,6 +272,52 @@ def check_readable(path):
         f.close()
         raise FileFormatError(f"{path}: damaged file ({e})") from None
     return f
+
+
+# what the readers (plot, info) need of each summary dataset: its kind of dtype
+SUMMARY_KINDS = {"status": "i", "period": "iu", "impacts_per_cycle": "iu", "done": "iu",
+                 "symbols": "S"}
+
+
+def _check_contents(path, f):
+    """Refuse, before anything is read, a file whose contents the readers cannot take: a
+    ``scene`` attribute that is not a scene's TOML, summary datasets of the wrong kind or
+    of shapes that do not match the grid, or more data than this machine's memory holds."""
+    import tomllib
+    try:
+        scene = tomllib.loads(str(f.attrs.get("scene", "")))
+        model = scene["scene"]["model"]
+    except (tomllib.TOMLDecodeError, KeyError, TypeError):
+        raise FileFormatError(f"{path}: its scene attribute is not a cornerbif scene "
+                              "(TOML with a [scene] table)") from None
+    if model not in registry.models():
+        raise FileFormatError(f"{path}: model {model!r} is not one this cornerbif knows "
+                              f"({', '.join(registry.models())})")
+    for name, kinds in SUMMARY_KINDS.items():
+        if name in f and f[name].dtype.kind not in kinds:
+            raise FileFormatError(f"{path}: dataset {name!r} has dtype {f[name].dtype}, "
+                                  "not what cornerbif writes")
+    G = f["done"].shape
+    for name in ("status", "period", "impacts_per_cycle", "symbols", "initial/u"):
+        if name in f and f[name].shape[:len(G)] != G:
+            raise FileFormatError(f"{path}: dataset {name!r} has shape {f[name].shape}, "
+                                  f"which does not match the grid {G}")
+    total = sum(f[n].size * f[n].dtype.itemsize for n in _datasets(f))
+    avail = available_memory()
+    if avail is not None and total > avail // 2:
+        raise FileFormatError(f"{path}: holds {total / 2**30:.1f} GiB of data, more than half "
+                              f"of the {avail / 2**30:.1f} GiB of memory available here")
+
+
+def available_memory():
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
 
 
 def _datasets(f):

@@ -133,7 +133,9 @@ class Model:
     ``default_y`` (the diagram's default y), ``keep_hint`` (said when a scene asks for
     an observable the model lacks), ``bytes_per_event`` (working memory per item and
     recorded event, counted from the arrays ``run_items`` allocates; the peak memory of a
-    large sweep against the estimate: ``benchmarks/same_output.py --peak-memory``).
+    large sweep against the estimate: ``benchmarks/same_output.py --peak-memory``),
+    ``events_per_second`` (impacts, or map steps, per second on one core, as
+    ``benchmarks/run.py`` measured them: the time estimate of ``--dry-run``).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -155,6 +157,7 @@ class Model:
     default_y: str | None = None
     keep_hint: str = ""
     bytes_per_event: int = 72
+    events_per_second: float = 1e6
 
     # --- declared facts, derived ------------------------------------------------------
     @property

@@ -36,25 +36,95 @@ def estimate_bytes(scene: Scene) -> int:
 
 def estimate_memory(scene: Scene) -> int:
     """Upper estimate of the sweep's working memory: one block of kernel outputs (bounded
-    by BLOCK_BYTES, twice for the copies the writer makes) plus what grows with the grid
-    (the done mask and the block list, ~200 bytes a grid row)."""
+    by BLOCK_BYTES, but never less than one grid point with all its starts; three times,
+    for the copies the writer makes) plus what grows with the grid (the done mask and the
+    block list, ~200 bytes a grid row)."""
     points = int(np.prod(scene.shape or (1,)))
     per_item = engine.item_bytes(scene)
-    block = min(engine.BLOCK_BYTES, per_item * scene.n_ic * points)
+    per_point = per_item * scene.n_ic
+    block = per_point * max(1, min(points, engine.BLOCK_BYTES // per_point))
     rows = points if len(scene.shape) < 2 else scene.shape[0] * max(1, scene.shape[1] // max(
         1, engine.BLOCK_BYTES // (per_item * scene.n_ic)))
     return 3 * block + points + 200 * rows
 
 
-def _available_memory():
+def estimate_seconds(scene: Scene, threads: int) -> float:
+    """Compute time of the sweep on ``threads`` cores, from the model's measured events per
+    second (an upper bound for scenes that stop early, ``run.stop = "period"``)."""
+    spec = registry.get(scene.model)
+    items = int(np.prod(scene.shape or (1,))) * scene.n_ic
+    return items * (scene.transient + scene.record) / (spec.events_per_second * max(1, threads))
+
+
+def duration(seconds: float) -> str:
+    """A duration in words: '0.4 s', '12 min', '3.2 h', '41 days'."""
+    for unit, size in (("days", 86400), ("h", 3600), ("min", 60)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.1f} {unit}"
+    return f"{seconds:.1f} s"
+
+
+# the longest name a sweep gives a file beside OUT.h5 (io.open_partial, io.rebuild)
+SIDE_SUFFIXES = (".partial", ".lock", ".partial.init", ".partial.rebuild")
+DEFAULT_NAME_MAX = 100
+
+
+def default_output(scene: Scene) -> str:
+    """The default output ``NAME.h5`` for a scene, in the working directory: the last path
+    component of ``scene.name``, other characters than letters, digits, '.', '_' and '-'
+    replaced by '_', no leading dot, at most 100 characters (a name such as ``../x`` or
+    ``/etc/x`` cannot place the file elsewhere)."""
+    import re
+    base = os.path.basename(scene.name.replace("\\", "/").rstrip("/"))
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", base).lstrip(".")[:DEFAULT_NAME_MAX]
+    return (base or "scene") + ".h5"
+
+
+def is_cornerbif_file(path: str) -> bool:
+    """Whether ``path`` is an HDF5 file that cornerbif wrote (root attribute format)."""
     try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        return None
-    return None
+        import h5py
+        if not h5py.is_hdf5(path):
+            return False
+        with h5py.File(path, "r", locking=False) as f:
+            return f.attrs.get("format") == "cornerbif"
+    except Exception:  # noqa: BLE001 - unreadable means: not ours
+        return False
+
+
+def check_output(out_path: str, overwrite: bool, inputs=()):
+    """Refuse, before any work, an output the sweep could not write or should not replace:
+    a missing or read-only directory, a name too long for the filesystem (with the
+    ``.partial.rebuild`` suffix a sweep may need), the scene file itself (or another input),
+    an existing file without ``--overwrite``, or an existing file that is not a cornerbif
+    output (``--overwrite`` replaces only those)."""
+    d = os.path.dirname(os.path.abspath(out_path))
+    if not os.path.isdir(d):
+        raise SweepError(f"-o {out_path}: the directory {d} does not exist")
+    if not os.access(d, os.W_OK | os.X_OK):
+        raise SweepError(f"-o {out_path}: the directory {d} is not writable (read-only "
+                         "filesystem or no permission)")
+    try:
+        name_max = os.pathconf(d, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    longest = len(os.fsencode(os.path.basename(out_path) + max(SIDE_SUFFIXES, key=len)))
+    if longest > name_max:
+        raise SweepError(f"-o {out_path}: the file name is too long for its filesystem "
+                         f"({longest} bytes with the {max(SIDE_SUFFIXES, key=len)} suffix a "
+                         f"sweep may need; at most {name_max})")
+    for path in inputs:
+        if os.path.exists(path) and os.path.exists(out_path) and os.path.samefile(path, out_path):
+            raise SweepError(f"-o {out_path}: that is the scene file itself; name another output")
+    if os.path.isdir(out_path):
+        raise SweepError(f"-o {out_path}: is a directory")
+    if os.path.exists(out_path):
+        if not overwrite:
+            raise SweepError(f"{out_path} exists; pass --overwrite to replace it")
+        if not is_cornerbif_file(out_path):
+            raise SweepError(f"-o {out_path}: exists and is not a cornerbif HDF5 file; "
+                             "--overwrite replaces only cornerbif outputs (remove it yourself "
+                             "or name another output)")
 
 
 def _free_bytes(d):
@@ -74,7 +144,7 @@ def check_budget(scene: Scene, out_path: str):
         raise SweepError(f"the output needs up to {need / 2**30:.2f} GiB but only "
                          f"{free / 2**30:.2f} GiB are free on its disk; shrink the grid or "
                          "keep less (output.keep)")
-    avail = _available_memory()
+    avail = io.available_memory()
     mem = estimate_memory(scene)
     if avail is not None and mem > avail:
         raise SweepError(f"the sweep needs about {mem / 2**30:.2f} GiB of memory but only "
@@ -101,19 +171,19 @@ class _NumbaThreads:
 def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
               overwrite: bool = False, progress: bool = False, command: str = "",
               block_points: int | None = None, scheduler: str | None = None,
-              stats: dict | None = None) -> str:
+              stats: dict | None = None, inputs=()) -> str:
     """Run a scene to ``out_path``; return the path of the finished file.
 
     ``scheduler``: None runs the blocks here (numba threads); a Dask scheduler address
     or ``local:N`` runs them on a Dask cluster (``cornerbif.distributed``), with this
     process the only writer of the file either way.  ``threads`` is then the numba
     threads of each worker; ``stats`` (a dict) receives what the Dask backend did
-    (chunks submitted, failures, compute seconds per chunk).
+    (chunks submitted, failures, compute seconds per chunk).  ``inputs``: files the
+    output must not replace (the scene file).
     """
     partial = out_path + ".partial"
     lock_path = out_path + ".lock"
-    if os.path.exists(out_path) and not overwrite:
-        raise SweepError(f"{out_path} exists; pass --overwrite to replace it")
+    check_output(out_path, overwrite, inputs)
     lock = open(lock_path, "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -163,6 +233,8 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
             from .local import run_blocks
             run_blocks(scene, f, progress, block_points)
     except SweepError as e:
+        if getattr(e, "broken", False):
+            raise                      # HDF5 failed inside a write: the file is left as it is
         f.close()
         if getattr(e, "failures", None):
             io.record_failures(partial, e.failures)

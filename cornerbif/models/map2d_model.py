@@ -82,4 +82,6 @@ MODEL = Map2dModel(
     keep_hint=" (the map's iterates are stored as section/u = a_n, section/v = b_n)",
     # per item and recorded step: a, b, the region, the word, and the flow-shaped NaN rows
     bytes_per_event=3 * 8 + 2,
+    # map steps, benchmarks/run.py, one core (benchmarks/results/results.json)
+    events_per_second=4.0e8,
 )

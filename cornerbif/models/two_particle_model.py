@@ -149,4 +149,6 @@ MODEL = TwoParticleModel(
                  "wall_impacts": WALL_IMPACT_FIELDS},
     events_per_impact=40,
     bytes_per_event=BYTES_PER_EVENT,
+    # u-z impacts, benchmarks/run.py, Fig. 19(a), one core (benchmarks/results/results.json)
+    events_per_second=7.0e5,
 )
