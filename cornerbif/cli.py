@@ -135,7 +135,8 @@ def _describe(scene, out, threads):
     lines.append(f"  {n_points} grid points x {scene.n_ic} starts = {n_items} runs of "
                  f"{scene.transient} + {scene.record} events")
     lines.append(f"output {out}: up to {estimate_bytes(scene) / 2**20:.1f} MiB (uncompressed)")
-    lines.append(f"working memory: about {estimate_memory(scene) / 2**20:.1f} MiB")
+    lines.append(f"working memory: about {estimate_memory(scene) / 2**20:.1f} MiB (the "
+                 "process's peak)")
     early = " (at most: runs stop once their cycle is found)" if scene.stop == "period" else ""
     lines.append(f"time: about {duration(estimate_seconds(scene, threads))} on {threads} "
                  f"thread(s){early}, at this machine's measured speed (benchmarks/run.py)")

@@ -34,10 +34,18 @@ def estimate_bytes(scene: Scene) -> int:
     return n * per
 
 
+# the peak memory of a sweep's process: its baseline (interpreter, numpy, numba, h5py and the
+# compiled kernels: 173 MiB measured for a tiny warm sweep, benchmarks/same_output.py
+# --peak-memory) and 1.3 times one block of kernel outputs (the writer's and the analysis'
+# copies: 1.06 to 1.27 times the block measured at 10^6 starts, benchmarks/memory_estimate.py)
+PROCESS_BASELINE = 180 * 2**20
+BLOCK_FACTOR = 1.3
+
+
 def estimate_memory(scene: Scene) -> int:
-    """Upper estimate of the sweep's working memory: one block of kernel outputs (bounded
-    by BLOCK_BYTES, but never less than one grid point with all its starts; three times,
-    for the copies the writer makes) plus what grows with the grid (the done mask and the
+    """Upper estimate of the sweep's peak memory (the whole process): its baseline, one
+    block of kernel outputs (bounded by BLOCK_BYTES, but never less than one grid point with
+    all its starts) times BLOCK_FACTOR, and what grows with the grid (the done mask and the
     block list, ~200 bytes a grid row)."""
     points = int(np.prod(scene.shape or (1,)))
     per_item = engine.item_bytes(scene)
@@ -45,15 +53,23 @@ def estimate_memory(scene: Scene) -> int:
     block = per_point * max(1, min(points, engine.BLOCK_BYTES // per_point))
     rows = points if len(scene.shape) < 2 else scene.shape[0] * max(1, scene.shape[1] // max(
         1, engine.BLOCK_BYTES // (per_item * scene.n_ic)))
-    return 3 * block + points + 200 * rows
+    return int(PROCESS_BASELINE + BLOCK_FACTOR * block) + points + 200 * rows
+
+
+# writing the file: gzip level 4 with shuffle takes about 45 MB of uncompressed data a second
+# on this machine (the rewrite of a Fig. 4(c)-like sweep's datasets: 91 MB in 2.0 s)
+WRITE_BYTES_PER_SECOND = 45e6
 
 
 def estimate_seconds(scene: Scene, threads: int) -> float:
-    """Compute time of the sweep on ``threads`` cores, from the model's measured events per
-    second (an upper bound for scenes that stop early, ``run.stop = "period"``)."""
+    """Time of the sweep on ``threads`` cores: the kernels at the model's measured events per
+    second (an upper bound for scenes that stop early, ``run.stop = "period"``) and the
+    writer (serial) at WRITE_BYTES_PER_SECOND."""
     spec = registry.get(scene.model)
     items = int(np.prod(scene.shape or (1,))) * scene.n_ic
-    return items * (scene.transient + scene.record) / (spec.events_per_second * max(1, threads))
+    compute = items * (scene.transient + scene.record) / (spec.events_per_second
+                                                          * max(1, threads))
+    return compute + estimate_bytes(scene) / WRITE_BYTES_PER_SECOND
 
 
 def duration(seconds: float) -> str:
