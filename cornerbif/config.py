@@ -61,7 +61,7 @@ BUDGET_MARGIN = 1000
 INITIAL_DEFAULTS = {"count": 8, "seed": 1}
 # Sizes, checked before anything is allocated (each limit says why it is there):
 # values of one axis: the scene as run lists every value (the file's ``scene`` attribute)
-MAX_AXIS_VALUES = 1_000_000
+MAX_AXIS_VALUES = 100_000
 # grid points: the done mask and the block list grow with them (~200 bytes a grid row)
 MAX_GRID_POINTS = 100_000_000
 # starts per grid point: the counter-based draw keys a start by point * 2^20 + start
@@ -259,6 +259,8 @@ def _toml_value(v):
     if isinstance(v, str):
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, (list, tuple)):
+        if all(type(x) is float for x in v):      # an axis: up to 10^6 values, one repr each
+            return "[" + ", ".join(map(repr, v)) + "]"
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
         return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
