@@ -55,7 +55,8 @@ DEFAULT_PRESET = "paper"
 # early stop, models with Model.early_stop); the default is "period" for such a scene that
 # keeps only the summary (output.keep = []) and "none" otherwise
 STOPS = ("none", "period")
-# the automatic time budget: obstacle periods per transient or recorded impact, plus a margin
+# the automatic time budget: periods (of the slower of the obstacle and the oscillator, see
+# docs/guarantees.md) per transient or recorded impact, plus a margin
 PERIODS_PER_IMPACT = 50
 BUDGET_MARGIN = 1000
 INITIAL_DEFAULTS = {"count": 8, "seed": 1}

@@ -25,6 +25,7 @@ from ..models.obstacle import (
     D_STURM0,
     D_STURM1,
     D_WD,
+    contact_floor,
     corner_of,
     cycle_lag,
     derived_tuple,
@@ -40,6 +41,7 @@ from ..models.obstacle import (
 )
 from ..models.oscillator import (
     SMALL_ANGLE,
+    budget_pieces,
     derive,
     forcing,
     homogeneous,
@@ -325,6 +327,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
 
 
 WATCH_EVERY = 32   # corners between two searches for a cycle (early stop)
+NO_END = np.iinfo(np.int64).max   # j_end of a run without a confirmed cycle (early stop)
 
 
 @jit
@@ -465,7 +468,12 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     transient = ints[P.I_TRANSIENT]
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
-    max_pieces = ints[P.I_MAX_PIECES]
+    # the time budget in pieces: run.max_periods units of the slower of the obstacle's and
+    # the oscillator's time scales (``oscillator.budget_pieces``)
+    max_pieces = budget_pieces(p, d, ints[P.I_MAX_PIECES])
+    # stuck where the contact force is certified positive for all time (no corner, N > 0:
+    # ``obstacle.contact_floor``) is stuck for good
+    forever = contact_floor(p) > 0.0
     rec0 = transient          # number of the first recorded impact
     need = rec0 + record
     final[0] = math.nan
@@ -481,7 +489,7 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     ring_n = np.empty(nring, np.int64)
     ring_s = np.empty(nring, np.bool_)
     lag_step = cycle_lag(p)
-    j_end = np.int64(np.iinfo(np.int64).max)
+    j_end = NO_END
     last_j = np.int64(0)
     last_tau = 0.0
 
@@ -560,6 +568,23 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                 return S.MAX_EVENTS
         L = piece_length(d, j)
         if stuck:
+            if forever and j_end == NO_END:
+                # ---- stuck for good: N > 0 for all time and no corner ------------------
+                # u = z and v = z' from here on: every section the run would cross holds
+                # the obstacle's state at that section corner (the flat wall: (kappa, 0))
+                js = j + 1
+                while (js - sec_phase) % pps != 0:
+                    js += 1
+                zs, zps, _, _ = z_state(p, js, 0.0)
+                final[0] = zs
+                final[1] = zps
+                while n_imp >= rec0 and n_sec < record:
+                    zs, zps, _, _ = z_state(p, js, 0.0)
+                    o_su[n_sec] = zs
+                    o_sv[n_sec] = zps
+                    n_sec += 1
+                    js += pps
+                return S.STUCK
             # ---- sticking on piece j from tau_s -----------------------------------
             code, s = first_root(FORCE, p, d, j, tau_s, 0.0, 0.0, 0.0, L - tau_s,
                                  -d[D_NPP], d[D_NPP], math.inf, tol, False)

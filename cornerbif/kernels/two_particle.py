@@ -602,6 +602,39 @@ def state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, s):
     return w, wp, w, wp
 
 
+MAX_BUDGET = 2 ** 62   # the largest section budget (int64 with room to count past it)
+
+
+@jit
+def budget_sections(p, sections):
+    """The time budget of a run in sections (``run.max_periods``): ``sections`` units, each
+    the slower of the section period S and the slower particle's natural period
+    2 pi / min(omega1, omega2) (eq 73).  When the wall is fast (omega0 large, S = 2 pi /
+    omega0 by default) a flight between impacts spans many sections, and the budget grows
+    by 2 pi / (min(omega1, omega2) S), rounded up (at most MAX_BUDGET)."""
+    scale = 2.0 * math.pi / (min(p[P.OMEGA1], p[P.OMEGA2]) * p[P.SECTION])
+    if not scale > 1.0:
+        return sections
+    x = math.ceil(sections * scale)
+    if x >= MAX_BUDGET:
+        return np.int64(MAX_BUDGET)
+    return np.int64(x)
+
+
+@jit
+def stack_floor(c):
+    """A certified lower bound over all time of the contact forces that hold the stack
+    z = u = w (mode ALL): N12 (the pair on the wall) and N2 (u on z), each A + B sin(omega0 t)
+    undamped and unforced (C_SMOOTH), less a relative margin of 1e-12; -inf otherwise.
+    Where it is > 0 neither ever changes sign and the wall has no corner: a stack is stuck
+    for good."""
+    if c[C_SMOOTH] != 1.0:
+        return -math.inf
+    f12 = c[C_N12A] - abs(c[C_N12B]) - 1e-12 * (abs(c[C_N12A]) + abs(c[C_N12B]))
+    f2 = c[C_N2A] - abs(c[C_N2B]) - 1e-12 * (abs(c[C_N2A]) + abs(c[C_N2B]))
+    return min(f12, f2)
+
+
 @jit
 def _close(o_zu, o_corner, lo, hi):
     """Offsets still waiting for a next w-z impact: keep the previous one, NaN if none."""
@@ -695,7 +728,8 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     transient = ints[P.I_TRANSIENT]
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
-    max_periods = ints[P.I_MAX_PERIODS]
+    max_periods = budget_sections(p, ints[P.I_MAX_PERIODS])
+    stack_forever = stack_floor(c) > 0.0
     need = transient + record
     cap_wz = o_wz.shape[0]
     for k in range(4):
@@ -742,6 +776,26 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
     while True:
         rest = Sper - tau_ref
+        if mode == ALL and stack_forever and not done:
+            # ---- the stack stuck for good (``stack_floor``): z = u = w, y = v = w' ----------
+            # every section the run would cross holds the wall's state there
+            m = n + 1
+            w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
+            final[0] = w
+            final[1] = wp
+            final[2] = w
+            final[3] = wp
+            while n_zu >= transient and n_sec < record:
+                w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
+                o_sec[n_sec, SEC_T] = m * Sper
+                o_sec[n_sec, SEC_Z] = w
+                o_sec[n_sec, SEC_Y] = wp
+                o_sec[n_sec, SEC_U] = w
+                o_sec[n_sec, SEC_V] = wp
+                n_sec += 1
+                m += 1
+            _close(o_zu, o_corner, pend_lo, pend_hi)
+            return S.STUCK
         # ---- escape and finiteness of the reference state ---------------------------
         if mode == FREE:
             amp = max(math.sqrt(za * za + (ya / w1) ** 2), math.sqrt(ua * ua + (va / w2) ** 2))

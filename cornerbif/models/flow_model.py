@@ -81,6 +81,8 @@ class FlowModel(Model):
         ints[P.I_RECORD] = scene.record
         ints[P.I_MAX_EVENTS] = scene.max_events
         per_pieces = 4  # at most 4 pieces per obstacle period (triangle, sine: 2)
+        # the budget at the obstacle's time scale; the kernel stretches it per point to the
+        # oscillator's period 2 pi / k where that is slower (oscillator.budget_pieces)
         ints[P.I_MAX_PIECES] = scene.max_periods * per_pieces
         return ints
 

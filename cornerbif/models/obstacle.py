@@ -4,8 +4,8 @@ Every per-obstacle quantity of the kernels lives here, the only module that read
 obstacle code ``P.OBSTACLE``: the piece lengths (``piece_lengths``), the height and its
 derivatives (``z_state``; ``sine_amp``, ``sine_part`` for sinusoidal pieces), the bounds
 of the certified searches (``zpp_range``, ``zppp_max``, ``zpppp_max``, ``contact_npp``,
-``sturm_floors``), the nearest corner of an event (``corner_of``) and the per-run
-switches of the flow kernel (``cycle_lag``, ``sinusoidal``).  A new obstacle adds a
+``sturm_floors``, ``contact_floor``), the nearest corner of an event (``corner_of``) and
+the per-run switches of the flow kernel (``cycle_lag``, ``sinusoidal``).  A new obstacle adds a
 branch to each of them, and its Python declaration (name, code, period, pieces per
 period) in ``models/params.py``; docs/kernels.md says what each must return.
 
@@ -98,6 +98,31 @@ def sturm_floors(p, d):
     w = p[P.OMEGA]
     a = p[P.BETA] * (w * w - k * k) / (k * k)
     return -kap + min(0.0, a), -kap + min(0.0, -a if ob == P.SINE else a)
+
+
+@jit
+def contact_floor(p):
+    """A certified lower bound of the contact force N = z'' + 2 sigma z' + k^2 z - f over
+    all future time, for obstacles whose slope never jumps; -inf where it does.
+
+    A particle stuck where this is > 0 stays stuck for good: N never changes sign (no
+    release) and no corner kicks it off or drops it.  ``sine`` (no corners) and a flat
+    ``rectified_sine`` (beta = 0: z = kappa) qualify; there, with z = kappa + b sin(omega t),
+    N = k^2 kappa + b ((k^2 - omega^2) sin + 2 sigma omega cos)(omega t) - F cos(Omega t + phi)
+    >= k^2 kappa - beta hypot(k^2 - omega^2, 2 sigma omega) - |F|, less a relative margin of
+    1e-12 for the rounding of that sum (a flat wall without forcing: exactly k^2 kappa,
+    the N the kernel evaluates).  ``triangle`` (slopes theta1, theta2 > 0) and a
+    rectified_sine with beta > 0 have corners: -inf.
+    """
+    ob = p[P.OBSTACLE]
+    b = p[P.BETA]
+    if ob == P.TRIANGLE or (ob == P.RECTIFIED_SINE and b != 0.0):
+        return -math.inf
+    k2 = p[P.K] * p[P.K]
+    w = p[P.OMEGA]
+    a = k2 * p[P.KAPPA]
+    osc = b * math.hypot(k2 - w * w, 2.0 * p[P.SIGMA] * w) + abs(p[P.F_AMP])
+    return a - osc - 1e-12 * (abs(a) + osc)
 
 
 @jit

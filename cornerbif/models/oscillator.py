@@ -74,6 +74,41 @@ def derive(p):
     return d
 
 
+MAX_BUDGET = 2 ** 62   # the largest piece budget (int64 with room to count past it)
+
+
+@jit
+def time_scale(p):
+    """The oscillator's own time scale (eq 4): its natural period 2 pi / k (k > 0), else
+    the forcing's period 2 pi / Omega (F != 0), else 0 (a free particle has none)."""
+    if p[P.K] > 0.0:
+        return 2.0 * math.pi / p[P.K]
+    if p[P.F_AMP] != 0.0:
+        return 2.0 * math.pi / p[P.F_OMEGA]
+    return 0.0
+
+
+@jit
+def budget_pieces(p, d, pieces):
+    """The time budget of a run in obstacle pieces (``run.max_periods``).
+
+    ``pieces`` = 4 max_periods (``FlowModel.int_settings``) counts the budget at the
+    obstacle's time scale: 4 pieces, 2 D_PERIOD of time, per unit.  Each unit lasts the
+    slower of that and the oscillator's ``time_scale``: when the obstacle is fast (omega
+    large against k) a flight between impacts spans many pieces, and the budget grows by
+    time_scale / (2 D_PERIOD) (rounded up, at most MAX_BUDGET).  Where the obstacle is the
+    slower (omega <= 2k for sine and rectified_sine, omega <= k for triangle) it is
+    ``pieces``, as before.
+    """
+    scale = time_scale(p) / (2.0 * d[D_PERIOD])
+    if not scale > 1.0:
+        return pieces
+    x = math.ceil(pieces * scale)
+    if x >= MAX_BUDGET:
+        return np.int64(MAX_BUDGET)
+    return np.int64(x)
+
+
 @jit
 def particular(p, d, t):
     """Particular solution (u_p, u_p') at absolute time t."""
