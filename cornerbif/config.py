@@ -246,6 +246,13 @@ def parse_override(text: str):
 
 
 # --------------------------------------------------------------------------- TOML out
+# TOML basic strings: backslash, quote and every control character escaped, so any string
+# (a title with a NUL or an ESC in it) round-trips and fits an HDF5 attribute
+_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
+            "\r": "\\r"}
+_ESCAPES.update({chr(c): f"\\u{c:04x}" for c in (*range(0x20), 0x7F) if chr(c) not in _ESCAPES})
+
+
 def _toml_value(v):
     if isinstance(v, bool):
         return "true" if v else "false"
@@ -258,7 +265,7 @@ def _toml_value(v):
             return "inf" if v > 0 else "-inf"
         return repr(v)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + "".join(_ESCAPES.get(c, c) for c in v) + '"'
     if isinstance(v, (list, tuple)):
         if all(type(x) is float for x in v):      # an axis: up to 10^6 values, one repr each
             return "[" + ", ".join(map(repr, v)) + "]"

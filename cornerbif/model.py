@@ -232,6 +232,14 @@ def positive(v):
     return v > 0
 
 
+def frequency(v):
+    """A frequency: positive, with a finite period (2 pi / 5e-324 overflows to inf)."""
+    return v > 0 and math.isfinite(2.0 * math.pi / v)
+
+
+FREQUENCY = "> 0 (its period 2 pi / value finite)"
+
+
 def nonnegative(v):
     return v >= 0
 

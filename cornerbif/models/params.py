@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from .._jit import jit
-from ..model import Obstacle, Param, anything, nonnegative, positive, unit_interval
+from ..model import FREQUENCY, Obstacle, Param, anything, frequency, nonnegative, positive, unit_interval
 
 # --- indices into the packed vector --------------------------------------------------
 OMEGA = 0      # obstacle frequency omega (eq 8)
@@ -69,7 +69,7 @@ OBSTACLES = {
 AUTO_SECTION = ("rectified_sine",)
 
 PARAMS = {p.name: p for p in (
-    Param("omega", 2.0, "> 0", positive, "obstacle frequency", "eq 8"),
+    Param("omega", 2.0, FREQUENCY, frequency, "obstacle frequency", "eq 8"),
     Param("kappa", 0.0, "any finite number", anything, "obstacle offset", "eq 8"),
     Param("beta", 1.0, ">= 0", nonnegative, "obstacle amplitude", "eq 8"),
     Param("r", 0.8, "in [0, 1]", unit_interval, "coefficient of restitution", "eq 5"),
@@ -77,7 +77,7 @@ PARAMS = {p.name: p for p in (
     Param("k", 1.0, ">= 0", nonnegative, "natural frequency", "eq 4"),
     Param("F", 0.0, "any finite number", anything, "forcing amplitude: f = F cos(Omega t + phi)",
           "eq 4"),
-    Param("Omega", 1.0, "> 0", positive, "forcing frequency", "eq 4"),
+    Param("Omega", 1.0, FREQUENCY, frequency, "forcing frequency", "eq 4"),
     Param("phi", 0.0, "any finite number", anything, "forcing phase", "eq 4"),
     Param("theta1", None, "> 0 (default beta * omega, the slope of eq (8) at its corners)",
           positive, "triangle: slope magnitude before each corner", "eq 7",

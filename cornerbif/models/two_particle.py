@@ -28,14 +28,14 @@ import math
 import numpy as np
 
 from .._jit import jit
-from ..model import Param, anything, nonnegative, positive, unit_interval
+from ..model import FREQUENCY, Param, anything, frequency, nonnegative, positive, unit_interval
 from .impact import restitution
 
 # --- the declarations (read by config through the registry) ------------------------------
 PARAMS = {p.name: p for p in (
-    Param("omega0", 2.0, "> 0", positive, "wall frequency", "eq 72"),
-    Param("omega1", 1.001, "> 0", positive, "natural frequency of the heavy particle z", "eq 73"),
-    Param("omega2", 1.0, "> 0", positive, "natural frequency of the light particle u", "eq 73"),
+    Param("omega0", 2.0, FREQUENCY, frequency, "wall frequency", "eq 72"),
+    Param("omega1", 1.001, FREQUENCY, frequency, "natural frequency of the heavy particle z", "eq 73"),
+    Param("omega2", 1.0, FREQUENCY, frequency, "natural frequency of the light particle u", "eq 73"),
     Param("mu", 1000.0, "> 0 (inf allowed: law (74) becomes law (5))", positive,
           "mass ratio M/m", "eq 74", inf_ok=True),
     Param("r1", 0.8, "in [0, 1]", unit_interval, "restitution of w-z impacts", "eq 5"),
@@ -46,10 +46,10 @@ PARAMS = {p.name: p for p in (
     Param("sigma1", 0.0, ">= 0", nonnegative, "damping of z", "eq 4"),
     Param("sigma2", 0.0, ">= 0", nonnegative, "damping of u", "eq 4"),
     Param("F1", 0.0, "any finite number", anything, "forcing of z per unit mass", "eq 4"),
-    Param("Omega1", 1.0, "> 0", positive, "forcing frequency of z", "eq 4"),
+    Param("Omega1", 1.0, FREQUENCY, frequency, "forcing frequency of z", "eq 4"),
     Param("phi1", 0.0, "any finite number", anything, "forcing phase of z", "eq 4"),
     Param("F2", 0.0, "any finite number", anything, "forcing of u per unit mass", "eq 4"),
-    Param("Omega2", 1.0, "> 0", positive, "forcing frequency of u", "eq 4"),
+    Param("Omega2", 1.0, FREQUENCY, frequency, "forcing frequency of u", "eq 4"),
     Param("phi2", 0.0, "any finite number", anything, "forcing phase of u", "eq 4"),
 )}
 
