@@ -83,6 +83,17 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         return
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
+    from .sweep import duration, estimate_seconds
+    eta = estimate_seconds(scene, threads or cores)
+    if eta > 60 and not resume:
+        click.echo(f"this sweep will take about {duration(eta)} on {threads or cores} thread(s) "
+                   "(cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps every finished "
+                   "point, --resume completes it)", err=True)
+    import signal
+    if hasattr(signal, "SIGXFSZ"):
+        # past a file-size limit (ulimit -f) a write fails with EFBIG and the sweep stops with
+        # a message, instead of the process being killed by the signal
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     from .engine import kernel_cache_cold
     if kernel_cache_cold(scene):
         click.echo("compiling the numba kernels: the first run after an install takes tens of "
