@@ -10,8 +10,8 @@ A model is one object (a ``Model`` subclass instance) that declares
   to the file (``Field``: name, source array, units, long name);
 * its checks (``check``: what a scene of this model must satisfy beyond each value's
   range, e.g. undamped resonance, starts above the obstacle);
-* its kernel entry (``pack_points``, ``int_settings``, ``run_items``, ``kernel``)
-  and its Python ``simulate``.
+* its kernel entry (``pack_values``, ``pack_points``, ``int_settings``, ``run_items``,
+  ``kernel``), through which ``cornerbif.simulate(model=name)`` runs it from Python.
 
 Config (``cornerbif.config``), the engine (``cornerbif.engine``), the file schema
 (``cornerbif.io``), ``cornerbif info`` and the plots read these declarations; none of
@@ -139,8 +139,9 @@ class Model:
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
-    ``int_settings``, ``run_items``, ``kernel``; ``simulate`` is shared
-    (``cornerbif.api.simulate``) and a model may override it.
+    ``int_settings``, ``run_items``, ``kernel``.  From Python every model runs through
+    the one ``cornerbif.simulate(*starts, model=name, ...)`` (``cornerbif/api.py``), which
+    validates as a scene and calls these methods.
     """
 
     name: str
@@ -216,11 +217,6 @@ class Model:
     def kernel(self):
         """The compiled kernel entry (for the cold-cache notice)."""
         raise NotImplementedError
-
-    def simulate(self, *starts, **kw) -> dict:
-        """Run the model from Python: ``cornerbif.simulate(*starts, model=name, **kw)``."""
-        from .api import simulate
-        return simulate(*starts, model=self.name, **kw)
 
 
 # ------------------------------------------------------------------ small shared helpers
