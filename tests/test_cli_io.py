@@ -90,6 +90,16 @@ def test_xarray_opens_root_and_groups(tiny, tmp_path):
     assert imp["u"].dims == ("kappa", "ic", "record")
     sec = xr.open_dataset(out, engine="h5netcdf", group="section")
     assert sec["v"].dims == ("kappa", "ic", "record")
+    # every group carries its coordinates: select by value, as in the root
+    k = float(ds["kappa"][3])
+    near = imp["u"].sel(kappa=k + 1e-9, method="nearest")
+    with h5py.File(out) as f:
+        assert np.array_equal(near.values, f["impacts/u"][3], equal_nan=True)
+        assert np.array_equal(sec["kappa"].values, f["kappa"][...])
+    ini = xr.open_dataset(out, engine="h5netcdf", group="initial")
+    assert set(ini["u"].coords) == {"kappa", "ic"}
+    # the words read back as text
+    assert ds["symbols"].dtype.kind == "U" or isinstance(ds["symbols"].values.flat[0], str)
 
 
 def test_overrides_and_rerun_reproduces_bitwise(tiny, tmp_path):
