@@ -28,6 +28,9 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
     """
     from .analysis import words
     from .config import SceneError, from_dict
+    if model not in registry.models():
+        raise ValueError(f"simulate(model={model!r}): not a model; allowed: "
+                         + ", ".join(registry.models()))
     spec = registry.get(model)
     coords = spec.coords
     named = {c: system.pop(f"{c}0") for c in coords if f"{c}0" in system}
@@ -51,6 +54,9 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
     arrays = {k: np.atleast_1d(np.asarray(v, float)) for k, v in system.items() if v is not None}
     x0 = [np.atleast_1d(np.asarray(named[c], float)) for c in coords]
     shape = np.broadcast_shapes(*[a.shape for a in x0], *[a.shape for a in arrays.values()])
+    if 0 in shape:
+        raise ValueError(f"simulate(): nothing to run (the starts and parameters broadcast to "
+                         f"shape {shape})")
     flat = {k: np.broadcast_to(a, shape).ravel() for k, a in arrays.items()}
     n = int(np.prod(shape))
     for k, a in flat.items():

@@ -89,6 +89,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         click.echo(f"this sweep will take about {duration(eta)} on {threads or cores} thread(s) "
                    "(cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps every finished "
                    "point, --resume completes it)", err=True)
+    sys.unraisablehook = _quiet_failed_hdf5
     import signal
     if hasattr(signal, "SIGXFSZ"):
         # past a file-size limit (ulimit -f) a write fails with EFBIG and the sweep stops with
@@ -119,6 +120,16 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         # failed chunks on a cluster: a run-time failure (1), not bad input (2)
         _fail(str(e), 1 if getattr(e, "failures", None) else 2)
     click.echo(f"wrote {path}")
+
+
+def _quiet_failed_hdf5(unraisable):
+    """After a write failed inside HDF5, h5py's objects fail again as they are freed
+    ("Can't decrement id ref count"), each printing a traceback; the sweep reports the
+    failure itself, in one message."""
+    text = str(unraisable.exc_value)
+    if isinstance(unraisable.exc_value, RuntimeError) and "id ref count" in text:
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _check_threads(threads):

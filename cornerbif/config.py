@@ -653,6 +653,14 @@ def _read_output(w):
         w.run["stop"] = "period" if (w.spec.early_stop and not w.keep) else "none"
 
 
+def _plain(v) -> bool:
+    """A value the scene as run can hold: a string, a finite-width number, or a list of them
+    (not a date, a table or None)."""
+    if isinstance(v, list):
+        return all(_plain(x) for x in v)
+    return isinstance(v, (str, bool)) or _is_number(v)
+
+
 def _normal_form_needs():
     """Which models (and obstacles) the (a0, b1)-plane figures accept, in words."""
     parts = []
@@ -677,6 +685,12 @@ def _read_plot(w):
             v = plot[lim]
             if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v) and v[0] < v[1]):
                 problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
+    for k, v in plot.items():
+        if not _plain(v):
+            problems.append(f"plot.{k}: {_fmt(v)[:60]} must be a string, a number or a list "
+                            "of them")
+    if "title" in plot and not isinstance(plot["title"], str):
+        problems.append(f"plot.title: {_fmt(plot['title'])[:60]} must be a string")
     kind = plot.get("kind", "diagram")
     if kind in NORMAL_FORM_KINDS:
         if not w.spec.has_normal_form(w.obstacle):

@@ -231,7 +231,7 @@ def check_readable(path):
     try:
         f = h5py.File(path, "r", locking=False)
     except Exception as e0:  # noqa: BLE001 - h5py raises a zoo of errors for damaged files
-        if "already open for write" not in str(e0):
+        if "already open for write" not in str(e0) and "truncated file" not in str(e0):
             raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e0})") from None
         try:
             # a sweep killed while writing leaves HDF5's "open for writing" flags set;
@@ -342,9 +342,13 @@ def open_partial(partial, scene, command=""):
     every dataset is in place and single-writer/multiple-reader mode is on."""
     init = partial + ".init"
     ensure_room(init, 0)
-    f = create(init, scene, scene.n_ic, command=command, versions=versions())
-    f.swmr_mode = True
+    with create(init, scene, scene.n_ic, command=command, versions=versions()):
+        pass
     os.replace(init, partial)
+    # opened again under its own name (messages name the file that exists), then
+    # single-writer/multiple-reader mode before the first block is written
+    f = h5py.File(partial, "r+", libver="latest")
+    f.swmr_mode = True
     return f
 
 
@@ -368,27 +372,47 @@ def reopen(partial, scene):
 
 
 def rebuild(partial, scene):
-    """Copy the finished points of a killed writer's partial file into a fresh one."""
+    """Copy the finished points of a killed writer's partial file into a fresh one.
+
+    A source that cannot be read is refused (start again with --overwrite); a copy that
+    cannot be written (no room) leaves the partial file as it was, to resume once there
+    is room."""
     try:
         src = h5py.File(partial, "r", swmr=True, locking=False)
     except OSError as e:
         raise SweepError(f"{partial}: cannot be read to resume ({e}); start again with "
                          "--overwrite") from None
+    tmp = partial + ".rebuild"
     try:
-        return _copy_done(src, partial, scene)
+        ensure_room(tmp, os.path.getsize(partial))
+        return _copy_done(src, partial, scene, tmp)
     except SweepError:
+        _remove(tmp)
         raise
+    except (OSError, RuntimeError) as e:       # writing the copy failed: keep the partial file
+        _remove(tmp)
+        raise WriteFailed(f"{partial}: resuming needs a copy of its finished points, and "
+                          f"writing it failed ({reason(e)}); the partial file is kept as it "
+                          "was: free space and run the same command with --resume",
+                          broken=True) from None
     except Exception as e:  # noqa: BLE001
+        _remove(tmp)
         raise SweepError(f"{partial}: cannot be read to resume ({e}); start again with "
                          "--overwrite") from None
 
 
-def _copy_done(src, partial, scene):
+def _remove(path):
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
+def _copy_done(src, partial, scene, tmp):
     with src:
         if src.attrs.get("scene_hash") != scene.hash:
             raise SweepError(f"{partial}: the scene differs from the one this file was started "
                              "with; --resume needs the same scene (or --overwrite to start again)")
-        tmp = partial + ".rebuild"
         dst = create(tmp, scene, scene.n_ic, command=src.attrs.get("command", ""),
                      versions=versions())
         dst.attrs["created"] = src.attrs.get("created", "")

@@ -221,7 +221,14 @@ class Model:
 
 # ------------------------------------------------------------------ small shared helpers
 def is_number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
+    """An int or a float (not a bool) that a float can hold (10**400 cannot)."""
+    if not isinstance(x, (int, float)) or isinstance(x, bool):
+        return False
+    try:
+        float(x)
+    except OverflowError:
+        return False
+    return True
 
 
 def positive(v):

@@ -114,7 +114,7 @@ def check_output(out_path: str, overwrite: bool, inputs=()):
     ``.partial.rebuild`` suffix a sweep may need), the scene file itself (or another input),
     an existing file without ``--overwrite``, or an existing file that is not a cornerbif
     output (``--overwrite`` replaces only those)."""
-    d = os.path.dirname(os.path.abspath(out_path))
+    d = os.path.dirname(out_path) or "."       # as the OS will resolve it (no text '..')
     if not os.path.isdir(d):
         raise SweepError(f"-o {out_path}: the directory {d} does not exist")
     if not os.access(d, os.W_OK | os.X_OK):
@@ -278,4 +278,5 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
 def simulate(*starts, **kw):
     """The ``flow`` model from Python: ``cornerbif.simulate(*starts, model="flow", **kw)``."""
     from .api import simulate as _simulate
-    return _simulate(*starts, model="flow", **kw)
+    kw.setdefault("model", "flow")
+    return _simulate(*starts, **kw)
