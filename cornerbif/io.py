@@ -231,7 +231,9 @@ def check_readable(path):
     try:
         f = h5py.File(path, "r", locking=False)
     except Exception as e0:  # noqa: BLE001 - h5py raises a zoo of errors for damaged files
-        if "already open for write" not in str(e0) and "truncated file" not in str(e0):
+        # (a truncated file is not retried in SWMR mode: its reader retries checksums
+        # without end on a file cut short)
+        if "already open for write" not in str(e0):
             raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e0})") from None
         try:
             # a sweep killed while writing leaves HDF5's "open for writing" flags set;
