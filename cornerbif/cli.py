@@ -199,12 +199,12 @@ def plot(files, out, y, title):
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".png", ".pdf", ".svg"):
         _fail(f"-o {out}: the figure must be .png, .pdf or .svg")
-    d = os.path.dirname(os.path.abspath(out))
-    if not os.path.isdir(d):
-        _fail(f"-o {out}: the directory {d} does not exist")
-    if not os.access(d, os.W_OK | os.X_OK):
-        _fail(f"-o {out}: the directory {d} is not writable (read-only filesystem or no "
-              "permission)")
+    from .errors import SweepError
+    from .sweep import check_directory
+    try:
+        check_directory(out)
+    except SweepError as e:
+        _fail(str(e))
     if any(os.path.exists(x) and os.path.exists(out) and os.path.samefile(x, out) for x in files):
         _fail(f"-o {out}: that is one of the files to draw; name another figure")
     try:

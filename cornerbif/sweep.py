@@ -108,18 +108,24 @@ def is_cornerbif_file(path: str) -> bool:
         return False
 
 
-def check_output(out_path: str, overwrite: bool, inputs=()):
-    """Refuse, before any work, an output the sweep could not write or should not replace:
-    a missing or read-only directory, a name too long for the filesystem (with the
-    ``.partial.rebuild`` suffix a sweep may need), the scene file itself (or another input),
-    an existing file without ``--overwrite``, or an existing file that is not a cornerbif
-    output (``--overwrite`` replaces only those)."""
+def check_directory(out_path: str) -> str:
+    """The directory of an output file, refused unless it exists and is writable."""
     d = os.path.dirname(out_path) or "."       # as the OS will resolve it (no text '..')
     if not os.path.isdir(d):
         raise SweepError(f"-o {out_path}: the directory {d} does not exist")
     if not os.access(d, os.W_OK | os.X_OK):
         raise SweepError(f"-o {out_path}: the directory {d} is not writable (read-only "
                          "filesystem or no permission)")
+    return d
+
+
+def check_output(out_path: str, overwrite: bool, inputs=()):
+    """Refuse, before any work, an output the sweep could not write or should not replace:
+    a missing or read-only directory, a name too long for the filesystem (with the
+    ``.partial.rebuild`` suffix a sweep may need), the scene file itself (or another input),
+    an existing file without ``--overwrite``, or an existing file that is not a cornerbif
+    output (``--overwrite`` replaces only those)."""
+    d = check_directory(out_path)
     try:
         name_max = os.pathconf(d, "PC_NAME_MAX")
     except (OSError, ValueError):
