@@ -48,10 +48,7 @@ with open(os.path.join(R.ROOT, "configs", {scene!r} + ".toml"), "rb") as fh:
     axis = next(k for k in tomllib.load(fh)["sweep"] if k != "follow")   # the first axis
 sc = R._scene({scene!r}, **{{f"sweep.{{axis}}.num": {num}}})
 import time, numba
-try:
-    from cornerbif import engine as sweep
-except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
-    from cornerbif import sweep
+sweep = R.engine()
 numba.set_num_threads(1)
 prm, ics = R._items(sc)
 ints = sweep.int_settings(sc)

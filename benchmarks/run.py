@@ -38,20 +38,33 @@ def _scene(name, **over):
     return config.load(os.path.join(ROOT, "configs", f"{name}.toml"), sets)
 
 
+def engine():
+    """The module with ``run_items``, ``pack_points``, ...: ``cornerbif.engine``, or
+    ``cornerbif.sweep`` in a tree from before the engine split (benchmarks/ab.py compares
+    trees; an editable install may offer this checkout's ``engine`` to an older tree)."""
+    import cornerbif
+    try:
+        from cornerbif import engine as mod
+        if os.path.dirname(mod.__file__) == os.path.dirname(cornerbif.__file__):
+            return mod
+    except ImportError:
+        pass
+    from cornerbif import sweep as mod
+    return mod
+
+
 def _items(scene):
     """Parameter rows and initial conditions of a whole scene (no file I/O)."""
-    try:
-        from cornerbif import engine as sweep
-    except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
-        from cornerbif import sweep
+    sweep = engine()
     G = scene.shape
     idx = [tuple(i) for i in np.ndindex(*G)]
     params = sweep.pack_points(scene, idx)
     flat = np.arange(len(idx))
     try:
         from cornerbif import registry
+        assert os.path.dirname(registry.__file__) == os.path.dirname(sweep.__file__)
         wall = registry.get(scene.model).wall_at_start(params)
-    except ImportError:  # a tree from before the registry (benchmarks/ab.py compares trees)
+    except (ImportError, AssertionError):  # a tree from before the registry (benchmarks/ab.py compares trees)
         from cornerbif.models import params as P
         from cornerbif.models import two_particle as TP
         wall = params[:, TP.KAPPA if scene.model == "two_particle" else P.KAPPA]
