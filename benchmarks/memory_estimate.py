@@ -1,4 +1,5 @@
-"""The memory estimate against the measured peak: one grid point with 10^6 starts per model.
+"""The memory estimate against the measured peak: one grid point with 10^6 starts per model,
+and a grid of many blocks (the local backend's writer holds two at once).
 
     python benchmarks/memory_estimate.py [--starts 1000000] [--out benchmarks/results]
 
@@ -6,7 +7,9 @@ For each model (flow, map2d, two_particle) a scene of one grid point with ``--st
 starts (transient 20, record 20, every observable kept) is swept by the command under
 ``/usr/bin/time -v`` (peak resident memory of the whole process), after a warm-up that fills
 numba's cache; ``cornerbif sweep --dry-run`` gives the estimate (``sweep.estimate_memory``,
-which includes the process's own baseline).  The report gives estimate / peak: the issue of
+which includes the process's own baseline).  The grid scene (``flow grid``: 40 000 values of
+omega, 4 starts, 100 impacts recorded, impacts and section kept) runs many blocks, so one is
+written while the next computes.  The report gives estimate / peak: the issue of
 reliability asks for it within 1.5x, and an estimate below the peak is the dangerous side.
 """
 
@@ -37,13 +40,24 @@ def cli(*args, timed=False):
     return r
 
 
+GRID = ('[scene]\nname = "g"\nmodel = "flow"\n[system]\nkappa = 0.0\n[sweep]\n'
+        'omega = { start = 1.5, stop = 2.5, num = 40000 }\n[initial]\ncount = 4\n'
+        '[run]\ntransient = 20\nrecord = 100\n[output]\nkeep = ["impacts", "section"]\n')
+
+
 def measure(model, starts, tmp):
-    scene = os.path.join(tmp, f"{model}.toml")
+    name = model.replace(" ", "_")
+    scene = os.path.join(tmp, f"{name}.toml")
     with open(scene, "w") as fh:
-        fh.write(SCENES[model] + f"[initial]\ncount = {starts}\n[run]\ntransient = 20\n"
-                 "record = 20\n")
-    out = os.path.join(tmp, f"{model}.h5")
-    cli("sweep", scene, "-o", out, "--overwrite", "--set", "initial.count=2")     # warm-up
+        if model == "flow grid":
+            fh.write(GRID)
+            starts = 40000 * 4
+        else:
+            fh.write(SCENES[model] + f"[initial]\ncount = {starts}\n[run]\ntransient = 20\n"
+                     "record = 20\n")
+    out = os.path.join(tmp, f"{name}.h5")
+    cli("sweep", scene, "-o", out, "--overwrite", "--set", "initial.count=2",      # warm-up
+        *(["--set", "sweep.omega.num=2"] if model == "flow grid" else []))
     dry = cli("sweep", scene, "-o", out, "--overwrite", "--dry-run").stdout
     est = float(re.search(r"working memory: about ([\d.]+) MiB", dry).group(1))
     r = cli("sweep", scene, "-o", out, "--overwrite", "--no-progress", timed=True)
@@ -61,7 +75,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for model in SCENES:
+        for model in [*SCENES, "flow grid"]:
             rows.append(measure(model, args.starts, tmp))
             r = rows[-1]
             print(f"{model:13s} starts {r['starts']}: estimate {r['estimate_mib']:8.1f} MiB, "

@@ -16,7 +16,9 @@ import numpy as np
 from . import registry
 from .config import Scene
 
-BLOCK_BYTES = 48 * 2**20     # working memory per block (kernel outputs)
+BLOCK_BYTES = 24 * 2**20     # working memory per block (kernel outputs); the local backend
+                             # holds two (one computing, one being written)
+CHUNK_BYTES = 256 * 2**10    # uncompressed bytes of one chunk of a per-event dataset
 ITEM_OVERHEAD = 64           # bytes per item beyond its recorded events (status, period, ...)
 
 
@@ -101,15 +103,31 @@ def item_bytes(scene: Scene) -> int:
     return scene.record * registry.get(scene.model).bytes_per_event + ITEM_OVERHEAD
 
 
+def block_points_max(scene: Scene) -> int:
+    """Grid points a block holds at most: as many as fit in BLOCK_BYTES of kernel output
+    (at least one), a whole number of event chunks (``chunk_points``) where one fits."""
+    fit = max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
+    return fit - fit % event_chunk_points(scene)
+
+
+def event_chunk_points(scene: Scene) -> int:
+    """Grid points (along the last axis) of one chunk of a per-event dataset: about
+    CHUNK_BYTES, and never more than a block holds.  Blocks are whole numbers of chunks,
+    so the writer compresses whole chunks itself (``cornerbif.chunkwrite``)."""
+    per_point = max(1, scene.n_ic * scene.record * 8)
+    fit = max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
+    return max(1, min(CHUNK_BYTES // per_point, fit))
+
+
 def blocks(scene: Scene, block_points: int | None = None):
     """Grid slabs in execution order: list of index tuples (of slices).
 
-    A slab holds at most ``block_points`` grid points (default: as many as fit
-    in BLOCK_BYTES of kernel output); a followed sweep runs one value of the
-    first axis at a time, in the direction of ``follow``.
+    A slab holds at most ``block_points`` grid points (default: ``block_points_max``);
+    a followed sweep runs one value of the first axis at a time, in the direction of
+    ``follow``.
     """
     G = scene.shape
-    max_points = max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
+    max_points = block_points_max(scene)
     if block_points:
         max_points = min(max_points, int(block_points))
     if not G:

@@ -43,7 +43,7 @@ import sys
 import h5py
 import numpy as np
 
-from . import FORMAT_VERSION, __version__, registry
+from . import FORMAT_VERSION, __version__, chunkwrite, engine, registry
 from . import status as S
 from .errors import SweepError, WriteFailed
 
@@ -110,13 +110,16 @@ def create(path, scene, n_ic, command="", versions=None):
             scales = [local(sc, name.split("/")[0]) for sc in scales]
         nb = np.dtype(dtype).itemsize
         trailing = int(np.prod(shape[len(G):])) if len(shape) > len(G) else 1
-        per = max(1, (256 * 1024) // max(1, trailing * nb))
+        per = max(1, engine.CHUNK_BYTES // max(1, trailing * nb))
+        if len(shape) > len(G) + 1:          # per event: whole chunks in a block
+            per = engine.event_chunk_points(scene)
         ch = [1] * len(G) + list(shape[len(G):])
         if G:
             ch[len(G) - 1] = min(G[-1], per)
         kw = dict(chunks=tuple(ch) if shape else None)
         ds = f.create_dataset(name, shape=shape, dtype=dtype, fillvalue=fill,
-                              compression="gzip", compression_opts=4, shuffle=True, **kw)
+                              compression="gzip", compression_opts=chunkwrite.LEVEL,
+                              shuffle=True, **kw)
         for i, sc in enumerate(scales):
             ds.dims[i].attach_scale(sc)
         for k, v in attrs.items():
@@ -206,7 +209,7 @@ def write_block(f, index, block):
     try:
         for name, arr in block.items():
             if name in f:
-                f[name][index] = arr
+                chunkwrite.write_slab(f[name], index, arr)
         f.flush()
         f["done"][index] = 1
         f.flush()

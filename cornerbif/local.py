@@ -1,19 +1,26 @@
 """The local backend: the sweep's blocks computed in this process (numba threads).
 
 Every unfinished block of the file in execution order goes through
-``engine.compute_block`` and is written by ``io.write_pending``; a followed sweep
-carries each slab's final states to the next.  The Dask backend
-(``cornerbif.distributed``) runs the same blocks on a cluster.
+``engine.compute_block`` in the calling thread, and one writer thread (``BlockWriter``,
+the file's single writer) writes the finished blocks through ``io.write_pending`` while
+the next ones compute: the kernels release the GIL, so the file's compression runs
+beside them instead of after them.  A followed sweep carries each slab's final states
+to the next.  The Dask backend (``cornerbif.distributed``) runs the same blocks on a
+cluster.
 """
 
 from __future__ import annotations
 
 import sys
-import time
+import threading
 
 from . import engine, io
 
 FOLLOW_BATCH = 256   # followed slabs written together at most
+# items a numba thread takes at a time from a block (dynamic scheduling): the writer thread
+# takes a core from the kernels' threads now and then, and with the default static split
+# the whole block waits for the thread it slowed
+PARALLEL_CHUNK = 16
 
 
 def progress_bar(scene, total, already):
@@ -34,8 +41,91 @@ def carry_from_file(scene, f, every, first_todo):
     return engine.block_carry(scene, io.read_block(f, every[i - 1], engine.carry_names(scene)))
 
 
+def block_nbytes(block):
+    """Bytes of a computed block's arrays."""
+    return sum(a.nbytes for a in block.values())
+
+
+class BlockWriter:
+    """The file's one writer while blocks compute: a thread that writes finished blocks,
+    in the order they were handed over, while the caller computes the next.
+
+    Memory stays bounded: ``wait_for_room`` lets the caller start a block only while the
+    blocks waiting to be written take less than ``engine.BLOCK_BYTES`` together with it
+    (a full-size block thus waits until the writer has taken the one before: one block
+    is written while the next computes, never more).  Thin followed slabs queue up to
+    that size and are written together (at most FOLLOW_BATCH in one write): writing
+    each alone costs more than computing it.  A write that fails stops the writer; the
+    caller gets its exception from the next ``wait_for_room`` or from ``close``, and
+    every block marked done before it stays in the file.
+    """
+
+    def __init__(self, f):
+        self.f = f
+        self.queue = []            # (block index, block) handed over, not yet taken
+        self.queued = 0            # their bytes
+        self.closing = False
+        self.error = None
+        self.cv = threading.Condition()
+        self.thread = threading.Thread(target=self._run, name="cornerbif-writer")
+        self.thread.start()
+
+    def _run(self):
+        while True:
+            with self.cv:
+                while not self.queue and not self.closing:
+                    self.cv.wait()
+                if not self.queue:
+                    return
+                take = self.queue[:FOLLOW_BATCH]
+                del self.queue[:FOLLOW_BATCH]
+                self.queued -= sum(block_nbytes(b) for _, b in take)
+                self.cv.notify_all()
+            try:
+                io.write_pending(self.f, take)
+            except BaseException as e:  # noqa: BLE001 - handed to the caller's thread
+                with self.cv:
+                    self.error = e
+                    self.queue.clear()
+                    self.queued = 0
+                    self.cv.notify_all()
+                return
+
+    def _raise(self):
+        if self.error is not None:
+            err, self.error = self.error, None
+            raise err
+
+    def wait_for_room(self, nbytes):
+        """Block until a new block of ``nbytes`` fits beside the ones waiting to be written;
+        raises the writer's error if a write failed."""
+        with self.cv:
+            while (self.error is None and self.queue
+                   and self.queued + nbytes > engine.BLOCK_BYTES):
+                self.cv.wait()
+            self._raise()
+
+    def put(self, index, block):
+        """Hand a finished block to the writer."""
+        with self.cv:
+            self._raise()
+            self.queue.append((index, block))
+            self.queued += block_nbytes(block)
+            self.cv.notify_all()
+
+    def close(self):
+        """Write every block handed over, stop the thread, and raise a failed write's error."""
+        with self.cv:
+            self.closing = True
+            self.cv.notify_all()
+        self.thread.join()
+        with self.cv:
+            self._raise()
+
+
 def run_blocks(scene, f, progress=False, block_points=None):
-    """Every unfinished block of ``f`` in order, computed here and written."""
+    """Every unfinished block of ``f`` in order, computed here and written by a
+    ``BlockWriter`` while the next computes."""
     ints = engine.int_settings(scene)
     every = engine.blocks(scene, block_points)
     todo = [every[i] for i in io.unfinished(every, f)]
@@ -43,25 +133,25 @@ def run_blocks(scene, f, progress=False, block_points=None):
     carry = None  # follow: final states of the previous grid slab
     if scene.follow != "none" and todo:
         carry = carry_from_file(scene, f, every, todo[0])
-    # a followed sweep computes one thin slab at a time; writing each alone costs more
-    # than computing it, so consecutive slabs are written together, at least once a second
-    pending = []
-    last = time.monotonic()
+    import numba
+    writer = BlockWriter(f)
+    last = 0
+    chunk = numba.get_parallel_chunksize()
+    numba.set_parallel_chunksize(PARALLEL_CHUNK)
     try:
         for blk in todo:
+            writer.wait_for_room(last)
             block = engine.compute_block(scene, blk, carry, ints)
-            pending.append((blk, block))
             if scene.follow != "none":
                 carry = engine.block_carry(scene, block)
-            if (scene.follow == "none" or len(pending) >= FOLLOW_BATCH
-                    or time.monotonic() - last > 1.0):
-                io.write_pending(f, pending)
-                last = time.monotonic()
+            last = block_nbytes(block)
+            writer.put(blk, block)
             if bar is not None:
                 bar.update(1)
     finally:
+        numba.set_parallel_chunksize(chunk)
         try:
-            io.write_pending(f, pending)       # finished slabs are kept on an interrupt too
+            writer.close()        # finished blocks are kept on an interrupt too
         finally:
             if bar is not None:
                 bar.__exit__(None, None, None)

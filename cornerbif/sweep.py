@@ -36,35 +36,40 @@ def estimate_bytes(scene: Scene) -> int:
 
 # the peak memory of a sweep's process: its baseline (interpreter, numpy, numba, h5py and the
 # compiled kernels: 173 MiB measured for a tiny warm sweep, benchmarks/same_output.py
-# --peak-memory) and 1.3 times one block of kernel outputs (the writer's and the analysis'
-# copies: 1.06 to 1.27 times the block measured at 10^6 starts, benchmarks/memory_estimate.py)
-PROCESS_BASELINE = 180 * 2**20
+# --peak-memory; and 26 MiB more at 10^6 starts since the writer is a thread of its own,
+# whose allocations glibc serves from another arena) and 1.3 times the blocks of kernel outputs alive at once (two: one computing,
+# one being written, cornerbif.local.BlockWriter; with the analysis' copies, measured at 10^6
+# starts by benchmarks/memory_estimate.py)
+PROCESS_BASELINE = 200 * 2**20
 BLOCK_FACTOR = 1.3
+BLOCKS_IN_FLIGHT = 2
 
 
 def estimate_memory(scene: Scene) -> int:
-    """Upper estimate of the sweep's peak memory (the whole process): its baseline, one
-    block of kernel outputs (bounded by BLOCK_BYTES, but never less than one grid point with
-    all its starts) times BLOCK_FACTOR, and what grows with the grid (the done mask and the
+    """Upper estimate of the sweep's peak memory (the whole process): its baseline, two
+    blocks of kernel outputs (each bounded by BLOCK_BYTES, but never less than one grid point
+    with all its starts) times BLOCK_FACTOR, and what grows with the grid (the done mask and the
     block list, ~200 bytes a grid row)."""
     points = int(np.prod(scene.shape or (1,)))
     per_item = engine.item_bytes(scene)
     per_point = per_item * scene.n_ic
-    block = per_point * max(1, min(points, engine.BLOCK_BYTES // per_point))
+    block = per_point * max(1, min(points, engine.block_points_max(scene)))
+    in_flight = min(BLOCKS_IN_FLIGHT, -(-points // max(1, engine.block_points_max(scene))))
     rows = points if len(scene.shape) < 2 else scene.shape[0] * max(1, scene.shape[1] // max(
-        1, engine.BLOCK_BYTES // (per_item * scene.n_ic)))
-    return int(PROCESS_BASELINE + BLOCK_FACTOR * block) + points + 200 * rows
+        1, engine.block_points_max(scene)))
+    return int(PROCESS_BASELINE + BLOCK_FACTOR * in_flight * block) + points + 200 * rows
 
 
-# writing the file: gzip level 4 with shuffle takes about 45 MB of uncompressed data a second
-# on this machine (the rewrite of a Fig. 4(c)-like sweep's datasets: 91 MB in 2.0 s)
-WRITE_BYTES_PER_SECOND = 45e6
+# writing the file (shuffle and deflate of whole chunks by ISA-L, cornerbif.chunkwrite): about
+# 450 MB of uncompressed data a second of the writer thread's CPU on this machine (93 MB of a
+# Fig. 4(c)-like sweep in 0.18-0.21 s, benchmarks/run.py's end-to-end section)
+WRITE_BYTES_PER_SECOND = 400e6
 
 
 def estimate_seconds(scene: Scene, threads: int) -> float:
     """Time of the sweep on ``threads`` cores: the kernels at the model's measured events per
     second (an upper bound for scenes that stop early, ``run.stop = "period"``) and the
-    writer (serial) at WRITE_BYTES_PER_SECOND."""
+    writer at WRITE_BYTES_PER_SECOND (as if it did not run beside them: an upper bound)."""
     spec = registry.get(scene.model)
     items = int(np.prod(scene.shape or (1,))) * scene.n_ic
     compute = items * (scene.transient + scene.record) / (spec.events_per_second

@@ -1,0 +1,108 @@
+"""Whole chunks compressed by the writer itself and written past HDF5's filter pipeline.
+
+The per-event datasets are the bulk of a sweep's file, and compressing them took the
+writer longer than the kernel took to compute them (zlib, even at level 1, deflates about
+0.3 GB/s).  A slab that covers whole chunks of a dataset is therefore shuffled and
+deflated here and handed to HDF5 as finished chunks (``write_direct_chunk``): the bytes
+are exactly what HDF5's own shuffle + deflate filters would have stored, readable by
+any HDF5 reader (h5py, xarray, netCDF, HDFView) with no plugin, but deflated by ISA-L
+(the ``isal`` package) when it is installed, at about 1.5 GB/s for the same size as
+zlib's level 1 (``benchmarks/compression.py`` measures the trade).  Chunks a slab
+covers only in part (its ragged ends: a followed slab, a ``--block-points`` that is
+not a whole number of chunks, a file of another layout) go through HDF5 as before.
+
+Blocks are laid out as whole numbers of chunks (``engine.event_chunk_points``), so a
+sweep's blocks take the direct path everywhere but at the grid's last edge.
+"""
+
+from __future__ import annotations
+
+import itertools
+import zlib
+
+import h5py
+import numpy as np
+
+try:                                  # ISA-L: the same deflate streams, several times faster
+    from isal import isal_zlib as _deflate
+    DEFLATE = "isal"
+except ImportError:                   # pragma: no cover - isal is a dependency
+    _deflate = zlib
+    DEFLATE = "zlib"
+
+LEVEL = 1     # deflate level of the files written (HDF5's own writes use it too)
+
+
+def shuffle(buf: np.ndarray) -> np.ndarray:
+    """HDF5's shuffle filter (H5Z_FILTER_SHUFFLE) on a contiguous chunk: byte j of every
+    element first, for j = 0 .. itemsize - 1."""
+    size = buf.dtype.itemsize
+    if size == 1 or buf.size <= 1:
+        return buf.reshape(-1).view(np.uint8)
+    return np.ascontiguousarray(buf.reshape(-1).view(np.uint8).reshape(-1, size).T)
+
+
+def deflate_level(ds: h5py.Dataset, arr: np.ndarray, grid_axes: int):
+    """The deflate level with which whole chunks of ``ds`` may be written here, or None
+    when they may not: the dataset must be chunked only along the last grid axis
+    (extent 1 on the others, whole along the trailing axes), filtered by nothing but
+    shuffle and deflate, and of ``arr``'s dtype."""
+    ch = ds.chunks
+    if (ch is None or ds.compression != "gzip" or ds.fletcher32 or ds.scaleoffset is not None
+            or arr.dtype != ds.dtype or arr.dtype.kind not in "fiu" or grid_axes == 0):
+        return None
+    if any(c != 1 for c in ch[:grid_axes - 1]) or tuple(ch[grid_axes:]) != ds.shape[grid_axes:]:
+        return None
+    return int(ds.compression_opts)
+
+
+def compress(chunk: np.ndarray, shuffled: bool, level: int) -> bytes:
+    """The stored bytes of one chunk: shuffled (if the dataset shuffles), then deflated
+    (zlib stream, as HDF5's deflate filter writes it)."""
+    data = shuffle(chunk) if shuffled else chunk.reshape(-1).view(np.uint8)
+    if DEFLATE == "isal":
+        level = min(level, 3)         # ISA-L's levels are 0 .. 3
+    return _deflate.compress(data, level)
+
+
+def write_slab(ds: h5py.Dataset, index: tuple, arr) -> None:
+    """``ds[index] = arr`` for a slab of the grid (``index``: one slice per grid axis;
+    ``arr``: the slab's shape plus the dataset's trailing axes), with every chunk the
+    slab covers whole compressed here and written directly."""
+    arr = np.asarray(arr)
+    g = len(index)
+    level = deflate_level(ds, arr, g)
+    if level is None:
+        ds[index] = arr
+        return
+    extent = ds.chunks[g - 1]
+    n = ds.shape[g - 1]
+    a, b = index[-1].start, index[-1].stop
+    first = -(-a // extent) * extent          # the first chunk boundary at or after a
+    whole = []                                # (lo, hi) of the chunks covered whole
+    lo = first
+    while lo < b and min(lo + extent, n) <= b:
+        whole.append((lo, min(lo + extent, n)))
+        lo += extent
+    if not whole:
+        ds[index] = arr
+        return
+    lead = index[:-1]
+    head = (a, whole[0][0])
+    tail = (whole[-1][1], b)
+    for lo, hi in (head, tail):               # the ragged ends, through HDF5
+        if hi > lo:
+            ds[lead + (slice(lo, hi),)] = arr[(slice(None),) * (g - 1) + (slice(lo - a, hi - a),)]
+    trailing = ds.shape[g:]
+    fill = ds.fillvalue
+    zeros = (0,) * len(trailing)
+    for pos in itertools.product(*[range(s.stop - s.start) for s in lead]):
+        offset = tuple(s.start + p for s, p in zip(lead, pos))
+        for lo, hi in whole:
+            part = arr[pos + (slice(lo - a, hi - a),)]
+            if hi - lo < extent:              # the grid's edge: HDF5 stores whole chunks
+                full = np.full((extent,) + trailing, fill, ds.dtype)
+                full[:hi - lo] = part
+                part = full
+            data = compress(np.ascontiguousarray(part), ds.shuffle, level)
+            ds.id.write_direct_chunk(offset + (lo,) + zeros, data)
