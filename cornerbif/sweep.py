@@ -37,9 +37,9 @@ def estimate_bytes(scene: Scene) -> int:
 # the peak memory of a sweep's process: its baseline (interpreter, numpy, numba, h5py and the
 # compiled kernels: 173 MiB measured for a tiny warm sweep, benchmarks/same_output.py
 # --peak-memory; and 26 MiB more at 10^6 starts since the writer is a thread of its own,
-# whose allocations glibc serves from another arena) and 1.3 times the blocks of kernel outputs alive at once (two: one computing,
-# one being written, cornerbif.local.BlockWriter; with the analysis' copies, measured at 10^6
-# starts by benchmarks/memory_estimate.py)
+# whose allocations glibc serves from another arena) and 1.3 times the blocks of kernel
+# outputs alive at once (two: one computing, one being written, cornerbif.local.BlockWriter;
+# with the analysis' copies, measured at 10^6 starts by benchmarks/memory_estimate.py)
 PROCESS_BASELINE = 200 * 2**20
 BLOCK_FACTOR = 1.3
 BLOCKS_IN_FLIGHT = 2

@@ -374,33 +374,61 @@ def forces(c, sn):
     return (c[C_N1A] + c[C_N1B] * sn, c[C_N2A] + c[C_N2B] * sn, c[C_N12A] + c[C_N12B] * sn)
 
 
-@jit
-def evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s):
-    """Value f, slope f' and forcing F = f'' + f0^2 f of the searched function at s.
+# --- the undamped search's constants (``search_constants``): a tuple of 7 floats ---------
+X_W0 = 0      # omega0
+X_W1 = 1      # omega1
+X_W2 = 2      # omega2
+X_OM = 3      # Omega, the stuck pair's frequency
+X_BETA = 4
+X_KAPPA = 5
+X_D21 = 6     # omega2^2 - omega1^2
 
-    Undamped and unforced the frequency f0 is the one of ``kind_bounds`` (the Sturm
-    comparison of the module docstring); otherwise f0 = 0 and F = f'' (``_evaluate_g``).
+
+@jit
+def search_constants(p, c):
+    """The constants the undamped searches read (X_*), as a tuple: a call passes these 7
+    values, not the whole parameter and constant tuples."""
+    return (p[P.OMEGA0], p[P.OMEGA1], p[P.OMEGA2], c[C_OM], p[P.BETA], p[P.KAPPA], c[C_D21])
+
+
+@jit_inline
+def freq(x, r):
+    """Undamped frequency of row r: omega1 (RZ), omega2 (RU), Omega (RP), as Q[r, K] of
+    ``oscillators`` (x: ``search_constants``)."""
+    if r == RZ:
+        return x[X_W1]
+    if r == RU:
+        return x[X_W2]
+    return x[X_OM]
+
+
+@jit_inline
+def evaluate(kind, x, ph, tau_ref, a0, a1, a2, a3, s):
+    """Value f, slope f' and forcing F = f'' + f0^2 f of the searched function at s,
+    undamped and unforced, with f0 the frequency of ``kind_bounds`` (the Sturm
+    comparison of the module docstring); with damping or forcing see ``_evaluate_g``.
+    x: ``search_constants``.
     """
     if kind == K_GP:
-        z, y = harm(a0, a1, p[P.OMEGA1], s)
-        u, v = harm(a2, a3, p[P.OMEGA2], s)
-        return u - z, v - y, -c[C_D21] * z
+        z, y = harm(a0, a1, x[X_W1], s)
+        u, v = harm(a2, a3, x[X_W2], s)
+        return u - z, v - y, -x[X_D21] * z
     if kind == K_HM:
-        x, v = harm(a0, a1, Q[int(a2), FP.K], s)
-        return a3 * x, a3 * v, 0.0
-    w0 = p[P.OMEGA0]
+        xh, v = harm(a0, a1, freq(x, int(a2)), s)
+        return a3 * xh, a3 * v, 0.0
+    w0 = x[X_W0]
     th = w0 * (tau_ref + s) + ph
     sn = math.sin(th)
     cs = math.cos(th)
     if kind == K_WF:
         return a2 * (a0 + a1 * sn), a2 * a1 * w0 * cs, a2 * a0 * w0 * w0
     # K_GW
-    f = Q[int(a2), FP.K]
-    x, v = harm(a0, a1, f, s)
-    b = p[P.BETA]
-    w = p[P.KAPPA] + b * sn
+    f = freq(x, int(a2))
+    xh, v = harm(a0, a1, f, s)
+    b = x[X_BETA]
+    w = x[X_KAPPA] + b * sn
     wp = b * w0 * cs
-    return x - w, v - wp, -f * f * p[P.KAPPA] - b * (f * f - w0 * w0) * sn
+    return xh - w, v - wp, -f * f * x[X_KAPPA] - b * (f * f - w0 * w0) * sn
 
 
 @jit
@@ -430,28 +458,25 @@ def _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s):
     return x - w, v - wp, a - wpp
 
 
-@jit
-def kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3):
-    """(f0, F_min, F_max, m1) of the searched function over the whole flight.
-
-    With damping or forcing: f0 = 0, |F| = |f''| <= M2 and |F'| <= M3 from the
-    derivative bounds of every flight (``oscillator.deriv_bound``), i.e. the
-    quadratic search of ``roots`` (DESIGN 2) with local third-order tightening.
-    """
-    w0 = p[P.OMEGA0]
+@jit_inline
+def kind_bounds(kind, x, a0, a1, a2, a3):
+    """(f0, F_min, F_max, m1) of the searched function over the whole flight, undamped
+    and unforced (module docstring; x: ``search_constants``); with damping or forcing see
+    ``_kind_bounds_g``."""
+    w0 = x[X_W0]
     if kind == K_GP:
-        w1 = p[P.OMEGA1]
+        w1 = x[X_W1]
         az = math.sqrt(a0 * a0 + (a1 / w1) ** 2)
-        q = abs(c[C_D21]) * az
-        return p[P.OMEGA2], -q, q, q * w1
+        q = abs(x[X_D21]) * az
+        return x[X_W2], -q, q, q * w1
     if kind == K_HM:
-        return Q[int(a2), FP.K], 0.0, 0.0, 0.0
+        return freq(x, int(a2)), 0.0, 0.0, 0.0
     if kind == K_WF:
         F = a2 * a0 * w0 * w0
         return w0, F, F, 0.0
-    f = Q[int(a2), FP.K]
-    q = abs(p[P.BETA] * (f * f - w0 * w0))
-    base = -f * f * p[P.KAPPA]
+    f = freq(x, int(a2))
+    q = abs(x[X_BETA] * (f * f - w0 * w0))
+    base = -f * f * x[X_KAPPA]
     return f, base - q, base + q, q * w0
 
 
@@ -500,8 +525,38 @@ def sturm_root(g, gp, f, F):
     return 2.0 * math.atan(t) / f
 
 
+@jit_inline
+def sturm_t(g, gp2, ff, F):
+    """t = tan(f h/2) of ``sturm_root``'s root h, from g >= 0, gp2 = 2 gp/f and ff = f^2
+    (f > 0): the same operations, so half_angle(t, f) is sturm_root's value bit for bit."""
+    c = F / ff
+    return quad_first_root(g, gp2, 2.0 * (2.0 * c - g))
+
+
+@jit_inline
+def atan_floor(t):
+    """A lower bound of atan(t) for t >= 0, below libm's rounded value (NaN for NaN): the
+    larger of 3 t/(3 + t^2) (atan minus it has the derivative 4 t^4/((1 + t^2)(3 + t^2)^2)
+    >= 0) and pi/2 - 1/t (atan(1/t) <= 1/t), less 1e-12 relative.  With it the values
+    2 atan(t)/f of ``sturm_root`` are bounded from below by the same rounded operations
+    (each monotone), so a test it settles is settled for the exact value too."""
+    if t <= 1.37:
+        a = 3.0 * t / (3.0 + t * t)
+    else:
+        a = 1.5707963267948966 - 1.0 / t
+    return a * (1.0 - 1e-12)
+
+
+@jit_inline
+def half_angle(t, f):
+    """h = 2 atan(t)/f (inf for t = inf), the last step of ``sturm_root``."""
+    if t == math.inf:
+        return math.inf
+    return 2.0 * math.atan(t) / f
+
+
 @jit
-def first_root(kind, smooth, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
+def first_root(kind, x, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
     """Certified first root of ``kind`` on [s0, s_end] (module docstring).
 
     Returns (code, s): FOUND with the root (lower end of a bracket narrower than
@@ -509,21 +564,133 @@ def first_root(kind, smooth, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end,
     not finite.  At s0 a value f <= 0 counts as a root only when f is moving
     into the contact (f' < 0, or f' = 0 and f'' < 0); otherwise it is the point
     just after an impact or a release and is skipped.
-    ``smooth`` (no damping, no forcing) selects the undamped closed forms
-    (``evaluate``, ``kind_bounds``); otherwise ``_evaluate_g``, ``_kind_bounds_g``.
+    Undamped and unforced (``evaluate``, ``kind_bounds``; x: ``search_constants``, no
+    array is passed; every f0 there is a frequency > 0); with damping or forcing see
+    ``first_root_g``.
     """
     if s0 >= s_end:
         return NONE, s_end
-    if smooth:
-        f0, Fmin, Fmax, m1 = kind_bounds(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
-    else:
-        f0, Fmin, Fmax, m1 = _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    f0, Fmin, Fmax, m1 = kind_bounds(kind, x, a0, a1, a2, a3)
     half = math.pi / f0 if f0 > 0.0 else math.inf
     s = s0
-    if smooth:
-        g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
-    else:
-        g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+    g, gp, F = evaluate(kind, x, ph, tau_ref, a0, a1, a2, a3, s)
+    if not (g == g and gp == gp and F == F):
+        return FAIL, s
+    if g <= 0.0:
+        gpp = F - f0 * f0 * g
+        if gp < 0.0 or (gp == 0.0 and gpp < 0.0):
+            return FOUND, s
+    local = m1 > 0.0
+    ff = f0 * f0
+    for _ in range(MAXIT):
+        rest = s_end - s
+        # sturm_root(g, gp, f0, F) = 2 atan(t)/f0 of t = sturm_t(F): the parts common to
+        # the roots below are formed once, and an arc tangent is taken only where the
+        # value is used, i.e. where the lower bound atan_floor does not settle the test
+        # it enters (every step below is the one sturm_root's values take, bit for bit)
+        gc = g
+        if gc < 0.0:
+            gc = 0.0
+        gp2 = 2.0 * gp / f0
+        t_lo = sturm_t(gc, gp2, ff, Fmin)
+        if t_lo != math.inf and half >= rest and 2.0 * atan_floor(t_lo) / f0 >= rest:
+            return NONE, s_end        # hlo >= rest for certain
+        hlo_raw = half_angle(t_lo, f0)
+        hlo = hlo_raw
+        if hlo > half:
+            hlo = half
+        if hlo >= rest:
+            return NONE, s_end
+        t_up = sturm_t(gc, gp2, ff, Fmax)
+        hup = math.inf
+        lazy_up = t_up != math.inf     # hup = half_angle(t_up, f0), not taken yet
+        if local:
+            t_F = sturm_t(gc, gp2, ff, F)
+            wide = False
+            if t_F != math.inf:
+                # H >= Hl: when Hl already puts F -+ m1 H beyond [Fmin, Fmax], the local
+                # bounds are the global ones (h1 = hlo, h2 = hup) and H is not needed
+                Hl = 1.25 * (2.0 * atan_floor(t_F) / f0)
+                if Hl > half:
+                    Hl = half
+                if Hl > rest:
+                    Hl = rest
+                wide = Hl > hlo and F - m1 * Hl <= Fmin and F + m1 * Hl >= Fmax
+            if not wide:
+                H = 1.25 * half_angle(t_F, f0)
+                if H > half:
+                    H = half
+                if H > rest:
+                    H = rest
+                if H > hlo:
+                    Flo = F - m1 * H
+                    if Flo < Fmin:
+                        Flo = Fmin
+                    if Flo == Fmin:
+                        h1 = hlo_raw
+                    else:
+                        h1 = half_angle(sturm_t(gc, gp2, ff, Flo), f0)
+                    if h1 >= H:
+                        h1 = H            # no root in [s, s + H]
+                        if H == rest:
+                            return NONE, s_end
+                    if h1 > hlo:
+                        hlo = h1
+                    Fhi = F + m1 * H
+                    if Fhi < Fmax:        # Fhi = Fmax: h2 = hup, which stays
+                        t2 = sturm_t(gc, gp2, ff, Fhi)
+                        if 2.0 * atan_floor(min(t2, t_up)) / f0 - hlo > tol:
+                            # hup - hlo > tol for certain, be hup h2 or the global one:
+                            # the bracket stays open and neither value is needed
+                            hup = math.inf
+                            lazy_up = False
+                        else:
+                            h2 = half_angle(t2, f0)
+                            if (h2 <= H and lazy_up
+                                    and not t_up - t2 > 1e-15 * (1.0 + t_up * t_up)
+                                    and not (h2 - hlo <= tol and h2 <= rest)):
+                                # the arc tangents of t2 < t_up may round to either
+                                # order, and the order decides the test below
+                                hup = half_angle(t_up, f0)
+                                lazy_up = False
+                            # otherwise h2 <= hup for certain, or both pass the test
+                            if h2 <= H and (lazy_up or h2 < hup):
+                                hup = h2
+                                lazy_up = False
+        if lazy_up:
+            if 2.0 * atan_floor(t_up) / f0 - hlo > tol:
+                hup = math.inf        # hup - hlo > tol for certain
+            else:
+                hup = half_angle(t_up, f0)
+        if hup - hlo <= tol and hup <= rest:
+            return FOUND, s + hlo
+        if hlo < tol:
+            gpp = F - f0 * f0 * g
+            if gp < 0.0 or (gpp < 0.0 and gp <= 0.0):
+                return FOUND, s + hlo
+            s = s + tol
+            if s >= s_end:
+                return NONE, s_end
+        else:
+            s = s + hlo
+        g, gp, F = evaluate(kind, x, ph, tau_ref, a0, a1, a2, a3, s)
+        if not (g == g and gp == gp):
+            return FAIL, s
+        if g <= 0.0:
+            return FOUND, s
+    return FAIL, s
+
+
+@jit
+def first_root_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end, tol):
+    """``first_root`` with damping or forcing: the same steps with f0 = 0 and the bounds of
+    ``_kind_bounds_g`` (the quadratic search of ``roots``), values from ``_evaluate_g``."""
+    if s0 >= s_end:
+        return NONE, s_end
+    f0, Fmin, Fmax, m1 = _kind_bounds_g(kind, p, c, Q, D, tau_ref, a0, a1, a2, a3)
+    half = math.pi / f0 if f0 > 0.0 else math.inf
+    s = s0
+    g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
     if not (g == g and gp == gp and F == F):
         return FAIL, s
     if g <= 0.0:
@@ -573,10 +740,7 @@ def first_root(kind, smooth, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end,
                 return NONE, s_end
         else:
             s = s + hlo
-        if smooth:
-            g, gp, F = evaluate(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
-        else:
-            g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
+        g, gp, F = _evaluate_g(kind, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s)
         if not (g == g and gp == gp):
             return FAIL, s
         if g <= 0.0:
@@ -584,9 +748,24 @@ def first_root(kind, smooth, p, c, Q, D, ph, tau_ref, a0, a1, a2, a3, s0, s_end,
     return FAIL, s
 
 
-@jit
-def state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, s):
-    """(z, y, u, v) a time s after the reference of the current mode."""
+@jit_inline
+def state_at(mode, smooth, p, c, Q, D, ph, tau_ref, za, ya, ua, va, s):
+    """(z, y, u, v) a time s after the reference of the current mode (``smooth``: undamped
+    and unforced, the frequencies from the tuples)."""
+    if smooth:
+        if mode == FREE:
+            z, y = harm(za, ya, p[P.OMEGA1], s)
+            u, v = harm(ua, va, p[P.OMEGA2], s)
+            return z, y, u, v
+        if mode == WALL:
+            w, wp, _, _ = wall(p, tau_ref + s, ph)
+            u, v = harm(ua, va, p[P.OMEGA2], s)
+            return w, wp, u, v
+        if mode == PAIR:
+            z, y = harm(za, ya, c[C_OM], s)
+            return z, y, z, y
+        w, wp, _, _ = wall(p, tau_ref + s, ph)
+        return w, wp, w, wp
     if mode == FREE:
         z, y = fly(c, Q, D, RZ, tau_ref, za, ya, s)
         u, v = fly(c, Q, D, RU, tau_ref, ua, va, s)
@@ -711,6 +890,7 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     p = P.as_tuple(p_row)
     c = constants_tuple(derive(p_row))
     Q, D = oscillators(p, c)
+    xs = search_constants(p, c)
     smooth = c[C_SMOOTH] == 1.0
     # sign and vanishing of the pair's contact force h (``pair_force``)
     hsgn = (1.0 if c[C_D21] > 0.0 else -1.0) if smooth else 1.0
@@ -814,8 +994,12 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- a pending free-gap window (after a release or a slow separation) -------
         if win_target != 0:
-            code, sb = first_root(win_kind, smooth, p, c, Q, D, ph, tau_ref, win_a0, win_a1,
-                                  win_a2, win_a3, 0.0, win_end, tol)
+            if smooth:
+                code, sb = first_root(win_kind, xs, ph, tau_ref, win_a0, win_a1, win_a2, win_a3,
+                                      0.0, win_end, tol)
+            else:
+                code, sb = first_root_g(win_kind, p, c, Q, D, ph, tau_ref, win_a0, win_a1, win_a2,
+                                        win_a3, 0.0, win_end, tol)
             if win_target == 1:
                 s1s = sb
             else:
@@ -842,13 +1026,17 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         else:
             kA, A0, A1, A2, A3, sA = K_WF, c[C_N12A], c[C_N12B], 1.0, float(RP), 0.0
             kB, B0, B1, B2, B3, sB = K_WF, c[C_N2A], c[C_N2B], 1.0, float(RU), 0.0
-        codeA, tA = first_root(kA, smooth, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest,
-                               tol)
+        if smooth:
+            codeA, tA = first_root(kA, xs, ph, tau_ref, A0, A1, A2, A3, sA, rest, tol)
+        else:
+            codeA, tA = first_root_g(kA, p, c, Q, D, ph, tau_ref, A0, A1, A2, A3, sA, rest, tol)
         limB = rest
         if codeA == FOUND:
             limB = min(tA + tol, rest) if mode == FREE else tA
-        codeB, tB = first_root(kB, smooth, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB,
-                               tol)
+        if smooth:
+            codeB, tB = first_root(kB, xs, ph, tau_ref, B0, B1, B2, B3, sB, limB, tol)
+        else:
+            codeB, tB = first_root_g(kB, p, c, Q, D, ph, tau_ref, B0, B1, B2, B3, sB, limB, tol)
         fail = codeA == FAIL or codeB == FAIL
         if mode == FREE:
             if codeB == FOUND and (codeA != FOUND or tB < tA - tol):
@@ -872,7 +1060,7 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- section crossing -------------------------------------------------------------
         if ev == EV_SECTION:
-            z, y, u, v = state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, rest)
+            z, y, u, v = state_at(mode, smooth, p, c, Q, D, ph, tau_ref, za, ya, ua, va, rest)
             n += 1
             periods += 1
             tau_ref = 0.0
@@ -927,7 +1115,7 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- w-z impact (z free, or a stuck pair) -----------------------------------------
         if ev == EV_WZ:
-            z, y, u, v = state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, se)
+            z, y, u, v = state_at(mode, smooth, p, c, Q, D, ph, tau_ref, za, ya, ua, va, se)
             w, wp, _, sn = wall(p, tau, ph)
             y_in = y
             y_out = restitution(y_in, wp, r1)
@@ -1009,7 +1197,7 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
 
         # ---- z-u impact (z free, or z stuck on the wall) -------------------------------
         if ev == EV_ZU:
-            z, y, u, v = state_at(mode, p, c, Q, D, ph, tau_ref, za, ya, ua, va, se)
+            z, y, u, v = state_at(mode, smooth, p, c, Q, D, ph, tau_ref, za, ya, ua, va, se)
             w, wp, _, sn = wall(p, tau, ph)
             y_in = y
             v_in = v
