@@ -46,10 +46,10 @@ def deflate_level(ds: h5py.Dataset, arr: np.ndarray, grid_axes: int):
     """The deflate level with which whole chunks of ``ds`` may be written here, or None
     when they may not: the dataset must be chunked only along the last grid axis
     (extent 1 on the others, whole along the trailing axes), filtered by nothing but
-    shuffle and deflate, and of ``arr``'s dtype."""
+    shuffle and deflate, and of ``arr``'s dtype (numbers or fixed-length strings)."""
     ch = ds.chunks
     if (ch is None or ds.compression != "gzip" or ds.fletcher32 or ds.scaleoffset is not None
-            or arr.dtype != ds.dtype or arr.dtype.kind not in "fiu" or grid_axes == 0):
+            or arr.dtype != ds.dtype or arr.dtype.kind not in "fiuS" or grid_axes == 0):
         return None
     if any(c != 1 for c in ch[:grid_axes - 1]) or tuple(ch[grid_axes:]) != ds.shape[grid_axes:]:
         return None

@@ -108,11 +108,11 @@ def create(path, scene, n_ic, command="", versions=None):
     def make(name, shape, dtype, fill, scales, **attrs):
         if "/" in name:
             scales = [local(sc, name.split("/")[0]) for sc in scales]
-        nb = np.dtype(dtype).itemsize
-        trailing = int(np.prod(shape[len(G):])) if len(shape) > len(G) else 1
-        per = max(1, engine.CHUNK_BYTES // max(1, trailing * nb))
-        if len(shape) > len(G) + 1:          # per event: whole chunks in a block
-            per = engine.event_chunk_points(scene)
+        # blocks are whole numbers of chunks, so the writer compresses whole chunks itself
+        # (cornerbif.chunkwrite): per event ~CHUNK_BYTES, per run one block
+        per = engine.event_chunk_points(scene)
+        if len(shape) == len(G) + 1:
+            per = engine.block_points_max(scene)
         ch = [1] * len(G) + list(shape[len(G):])
         if G:
             ch[len(G) - 1] = min(G[-1], per)

@@ -133,14 +133,24 @@ def test_other_filters_are_left_to_hdf5(tmp_path, filters):
         assert np.array_equal(ds[...], arr, equal_nan=True)
 
 
-def test_strings_and_other_dtypes_are_left_to_hdf5(tmp_path):
+def test_fixed_length_strings_are_written_directly(tmp_path):
+    """The cycle words (fixed-length ASCII): whole chunks written here, shuffled by the
+    string's length, read back by HDF5 and decoded independently."""
     with h5py.File(tmp_path / "d.h5", "w", libver="latest") as f:
         ds = f.create_dataset("s", shape=(10, 2), dtype=h5py.string_dtype("ascii", 4),
-                              chunks=(5, 2), compression="gzip", shuffle=True)
-        words = np.array([[b"ab", b"bbg"]] * 10, dtype="S4")
-        assert chunkwrite.deflate_level(ds, words, 1) is None
+                              chunks=(5, 2), compression="gzip", compression_opts=1,
+                              shuffle=True, fillvalue=b"")
+        words = np.array([[b"ab", b"bbg"], [b"g", b"abgb"]] * 5, dtype="S4")
+        assert chunkwrite.deflate_level(ds, words, 1) == 1
         chunkwrite.write_slab(ds, (slice(0, 10),), words)
         assert (ds[...] == words).all()
+        mask, raw = ds.id.read_direct_chunk((5, 0))
+        plain = _unshuffle_slow(zlib.decompress(raw), 4, 10)
+        assert np.frombuffer(plain, "S4").tolist() == words[5:].ravel().tolist()
+
+
+def test_another_dtype_is_left_to_hdf5(tmp_path):
+    with h5py.File(tmp_path / "d.h5", "w", libver="latest") as f:
         ds = _dataset(f, "y", (10,), (2,), 5)
         ints = np.arange(20, dtype=np.int32).reshape(10, 2)
         assert chunkwrite.deflate_level(ds, ints, 1) is None      # not the dataset's dtype

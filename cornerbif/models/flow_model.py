@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis import detect_cycles
+from ..kernels.fill import full
 from ..kernels.flow import run_batch
 from ..model import Coord, Field, Model
 from . import params as P
@@ -122,7 +123,7 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     recorded impact)."""
     n = params.shape[0]
     rec = scene.record
-    out = {k: np.full((n, rec), np.nan) if k in fill else np.empty((n, rec))
+    out = {k: full((n, rec), np.nan) if k in fill else np.empty((n, rec))
            for k in ("t", "u", "v_in", "v_out", "corner_offset", "su", "sv")}
     corner = np.empty((n, rec), np.int64)
     st = np.zeros(n, np.int8)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..analysis import detect_cycles
 from ..kernels import two_particle as K
+from ..kernels.fill import full
 from ..model import Coord, Field, Model
 from . import two_particle as TP
 from .flow_model import IMPACT_FIELDS, SECTION_FIELDS, U, V
@@ -103,10 +104,10 @@ class TwoParticleModel(Model):
         n = params.shape[0]
         rec = scene.record
         cap = wall_capacity(rec)
-        o_zu = np.full((n, rec, K.NZU), np.nan)
-        corner = np.full((n, rec), -1, np.int64)
-        o_wz = np.full((n, cap, K.NWZ), np.nan)
-        o_sec = np.full((n, rec, K.NSEC), np.nan)
+        o_zu = full((n, rec, K.NZU), np.nan)
+        corner = full((n, rec), -1, np.int64)
+        o_wz = full((n, cap, K.NWZ), np.nan)
+        o_sec = full((n, rec, K.NSEC), np.nan)
         st = np.zeros(n, np.int8)
         final = np.full((n, 4), np.nan)
         K.run_batch(np.ascontiguousarray(params), ints, np.ascontiguousarray(ics), o_zu, corner,
