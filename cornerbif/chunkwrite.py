@@ -3,9 +3,10 @@
 The per-event datasets are the bulk of a sweep's file, and compressing them took the
 writer longer than the kernel took to compute them (zlib, even at level 1, deflates about
 0.3 GB/s).  A slab that covers whole chunks of a dataset is therefore shuffled and
-deflated here and handed to HDF5 as finished chunks (``write_direct_chunk``): the bytes
-are exactly what HDF5's own shuffle + deflate filters would have stored, readable by
-any HDF5 reader (h5py, xarray, netCDF, HDFView) with no plugin, but deflated by ISA-L
+deflated here and handed to HDF5 as finished chunks (``write_direct_chunk``): chunks in
+the format of the dataset's own filters (HDF5's shuffle, then a zlib stream, as its
+deflate filter writes one), readable by any HDF5 reader (h5py, xarray, netCDF, HDFView)
+with no plugin, but deflated by ISA-L
 (the ``isal`` package) when it is installed, at about 1.5 GB/s for the same size as
 zlib's level 1 (``benchmarks/compression.py`` measures the trade).  Chunks a slab
 covers only in part (its ragged ends: a followed slab, a ``--block-points`` that is
