@@ -54,14 +54,15 @@ class BlockWriter:
     blocks waiting to be written take less than ``engine.BLOCK_BYTES`` together with it
     (a full-size block thus waits until the writer has taken the one before: one block
     is written while the next computes, never more).  Thin followed slabs queue up to
-    that size and are written together (at most FOLLOW_BATCH in one write): writing
-    each alone costs more than computing it.  A write that fails stops the writer; the
+    that size and are written together (``batch``, FOLLOW_BATCH, in one write at most):
+    writing each alone costs more than computing it.  A write that fails stops the writer; the
     caller gets its exception from the next ``wait_for_room`` or from ``close``, and
     every block marked done before it stays in the file.
     """
 
-    def __init__(self, f):
+    def __init__(self, f, batch=1):
         self.f = f
+        self.batch = batch         # blocks written together at most (FOLLOW_BATCH: thin slabs)
         self.queue = []            # (block index, block) handed over, not yet taken
         self.queued = 0            # their bytes
         self.closing = False
@@ -77,8 +78,8 @@ class BlockWriter:
                     self.cv.wait()
                 if not self.queue:
                     return
-                take = self.queue[:FOLLOW_BATCH]
-                del self.queue[:FOLLOW_BATCH]
+                take = self.queue[:self.batch]
+                del self.queue[:self.batch]
                 self.queued -= sum(block_nbytes(b) for _, b in take)
                 self.cv.notify_all()
             try:
@@ -134,7 +135,9 @@ def run_blocks(scene, f, progress=False, block_points=None):
     if scene.follow != "none" and todo:
         carry = carry_from_file(scene, f, every, todo[0])
     import numba
-    writer = BlockWriter(f)
+    # full blocks are written one by one (each marked done as soon as it is written);
+    # thin followed slabs together
+    writer = BlockWriter(f, FOLLOW_BATCH if scene.follow != "none" else 1)
     last = 0
     chunk = numba.get_parallel_chunksize()
     numba.set_parallel_chunksize(PARALLEL_CHUNK)

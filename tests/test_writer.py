@@ -41,10 +41,10 @@ def _block(i, nbytes):
     return {"id": np.full(max(1, nbytes // 8), i, np.int64)}
 
 
-def _run(monkeypatch, log, n, nbytes, compute_seconds, budget):
+def _run(monkeypatch, log, n, nbytes, compute_seconds, budget, batch=1):
     monkeypatch.setattr(io, "write_pending", log.write_pending)
     monkeypatch.setattr(engine, "BLOCK_BYTES", budget)
-    w = local.BlockWriter(f=None)
+    w = local.BlockWriter(f=None, batch=batch)
     computed = []       # (start, end) of each computation
     alive = []          # blocks handed over and not yet written, when each computation starts
     try:
@@ -80,14 +80,22 @@ def test_full_blocks_overlap_in_order_and_two_at_most(monkeypatch):
 
 
 def test_thin_slabs_are_written_together(monkeypatch):
-    """Slabs of 1 % of BLOCK_BYTES computed faster than one write: the writer takes what
-    waits, many slabs in one write, and never holds more than BLOCK_BYTES waiting."""
+    """Followed slabs of 1 % of BLOCK_BYTES computed faster than one write: the writer takes
+    what waits, many slabs in one write, and never holds more than BLOCK_BYTES waiting."""
     log = Log(0.05)
-    _, alive = _run(monkeypatch, log, 60, 10, 0.002, 1000)
+    _, alive = _run(monkeypatch, log, 60, 10, 0.002, 1000, batch=local.FOLLOW_BATCH)
     order = [i for *_, ids in log.calls for i in ids]
     assert order == list(range(60))
     assert max(len(ids) for *_, ids in log.calls) > 5
     assert max(alive) * 10 <= 1000 + 10
+
+
+def test_full_blocks_are_written_one_by_one(monkeypatch):
+    """Blocks computed faster than they are written are still written one per write (each
+    marked done at once: a disk that fills loses at most the block being written)."""
+    log = Log(0.05)
+    _run(monkeypatch, log, 8, 100, 0.0, 1000)
+    assert [ids for *_, ids in log.calls] == [[i] for i in range(8)]
 
 
 def test_a_failed_write_reaches_the_caller_and_keeps_the_blocks_before(monkeypatch):
