@@ -270,12 +270,32 @@ def info(file):
                 kept = [k for k in spec.observables if any(n.startswith(k + "/") for n in names)]
                 click.echo(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
                            f"state {', '.join(spec.coords)}")
+            if "stability/status" in f:
+                click.echo("  " + _stability_summary(f))
             click.echo(f"  datasets: {', '.join(sorted(n for n in names if not f[n].is_scale))}")
         from .plot import PlotData, attractor_summary
         click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
     except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
         _fail(f"{file}: cannot be summarised ({type(e).__name__}: {e}); the file is damaged "
               "or was not written by cornerbif")
+
+
+def _stability_summary(f):
+    """One line on the stored Floquet multipliers: how they were found, and the largest
+    modulus of the runs' cycles (stable below 1)."""
+    import numpy as np
+
+    from .stability import REASONS
+    st = f["stability/status"][...].ravel()
+    counts = {REASONS.get(int(c), "not run").split(":")[0]: int((st == c).sum())
+              for c in np.unique(st)}
+    mod = np.hypot(f["stability/multiplier_re"][..., 0], f["stability/multiplier_im"][..., 0])
+    mod = mod.ravel()[st == 0]
+    line = f"stability: {counts}"
+    if mod.size:
+        line += (f"; largest |multiplier| of a cycle: median {np.median(mod):.4g}, max "
+                 f"{mod.max():.4g} ({int((mod >= 1).sum())} of {mod.size} cycles not stable)")
+    return line
 
 
 def _names(f):

@@ -99,6 +99,8 @@ def _all_models():
 MODELS = registry.names()
 # every observable any model has, in the file's order
 KEEP = _union(m.observables for m in _all_models())
+# what a scene without [output] keep keeps: every observable but the opt-in ones
+KEEP_DEFAULT = tuple(k for k in KEEP if not any(k in m.opt_in for m in _all_models()))
 OBSTACLES = tuple(registry.get(registry.DEFAULT_MODEL).obstacles)
 TABLES = {
     "scene": ("name", "title", "model"),
@@ -634,7 +636,7 @@ def _read_run(w):
 def _read_output(w):
     outp = w.table("output")
     w.unknown("output", TABLES["output"])
-    keep = outp.get("keep", list(KEEP))
+    keep = outp.get("keep", list(KEEP_DEFAULT))
     if not isinstance(keep, list) or not all(isinstance(x, str) for x in keep):
         w.problems.append(f"output.keep: {_fmt(keep)} must be a list drawn from {list(KEEP)}")
         keep = list(KEEP)

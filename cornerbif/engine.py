@@ -190,7 +190,7 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
                   "impacts_per_cycle": ipc.reshape(shape),
                   "symbols": symbol_bytes(sym, scene.record).reshape(shape)})
     for fld in spec.fields(scene.keep):
-        block[fld.name] = out[fld.source].reshape(shape + (scene.record,))
+        block[fld.name] = out[fld.source].reshape(shape + fld.trailing(scene.record))
     return block
 
 

@@ -95,6 +95,14 @@ def create(path, scene, n_ic, command="", versions=None):
     recd.make_scale("record")
     recd.attrs["long_name"] = "recorded event index"
 
+    def axis_scale(name, size):
+        """A root dimension scale 0 .. size - 1 for a per-run field's trailing axis."""
+        if name not in f:
+            ds = f.create_dataset(name, data=np.arange(size, dtype=np.int32))
+            ds.make_scale(name)
+            ds.attrs["long_name"] = f"{name} index"
+        return f[name]
+
     def local(scale, group):
         """The group's own copy of a root dimension scale: xarray opens a group
         (``group="impacts"``) with coordinate values only from scales inside it."""
@@ -105,14 +113,12 @@ def create(path, scene, n_ic, command="", versions=None):
             ds.make_scale(name.rsplit("/", 1)[-1])
         return f[name]
 
-    def make(name, shape, dtype, fill, scales, **attrs):
+    def make(name, shape, dtype, fill, scales, event=False, **attrs):
         if "/" in name:
             scales = [local(sc, name.split("/")[0]) for sc in scales]
         # blocks are whole numbers of chunks, so the writer compresses whole chunks itself
         # (cornerbif.chunkwrite): per event ~CHUNK_BYTES, per run one block
-        per = engine.event_chunk_points(scene)
-        if len(shape) == len(G) + 1:
-            per = engine.block_points_max(scene)
+        per = engine.event_chunk_points(scene) if event else engine.block_points_max(scene)
         ch = [1] * len(G) + list(shape[len(G):])
         if G:
             ch[len(G) - 1] = min(G[-1], per)
@@ -133,7 +139,13 @@ def create(path, scene, n_ic, command="", versions=None):
         make(f"initial/{c.name}", per_run, "f8", np.nan, gsc + [ic], long_name=c.initial_doc)
     for fld in spec.fields(scene.keep):
         units = {"units": fld.units} if fld.units else {}
-        make(fld.name, per_event, "f8", np.nan, gsc + [ic, recd], **units,
+        if fld.axis is None:
+            shape, scales = per_event, gsc + [ic, recd]
+        elif not fld.axis:
+            shape, scales = per_run, gsc + [ic]
+        else:
+            shape, scales = per_run + (fld.axis[1],), gsc + [ic, axis_scale(*fld.axis)]
+        make(fld.name, shape, fld.dtype, fld.fill, scales, event=fld.axis is None, **units,
              long_name=fld.long_name)
     for c in spec.state:
         make(f"final/{c.name}", per_run, "f8", np.nan, gsc + [ic], long_name=c.final_doc)

@@ -85,12 +85,27 @@ class Coord:
 @dataclass(frozen=True)
 class Field:
     """One stored dataset of an observable: ``name`` in the file, ``source`` the key of
-    the kernel output (``Model.run_items``) it is read from, per recorded event."""
+    the kernel output (``Model.run_items``) it is read from.
+
+    ``axis`` None: one value per recorded event (dims grid + (ic, record)); otherwise one
+    value per run, ``()`` alone (grid + (ic,)) or with a trailing axis ``(name, size)``
+    (grid + (ic, name)), e.g. the Floquet multipliers of the run's cycle.  ``dtype`` and
+    ``fill`` are the dataset's.
+    """
 
     name: str
     source: str
     long_name: str
     units: str | None = None
+    axis: tuple | None = None
+    dtype: str = "f8"
+    fill: float = float("nan")
+
+    def trailing(self, record: int) -> tuple:
+        """The dataset's shape after the grid's and the starts' axes."""
+        if self.axis is None:
+            return (record,)
+        return () if not self.axis else (self.axis[1],)
 
 
 @dataclass(frozen=True)
@@ -135,7 +150,9 @@ class Model:
     recorded event, counted from the arrays ``run_items`` allocates; the peak memory of a
     large sweep against the estimate: ``benchmarks/same_output.py --peak-memory``),
     ``events_per_second`` (impacts, or map steps, per second on one core, as
-    ``benchmarks/run.py`` measured them: the time estimate of ``--dry-run``).
+    ``benchmarks/run.py`` measured them: the time estimate of ``--dry-run``), ``opt_in``
+    (observables kept only when ``[output] keep`` names them: a scene without ``keep``
+    keeps the others).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -159,6 +176,7 @@ class Model:
     keep_hint: str = ""
     bytes_per_event: int = 72
     events_per_second: float = 1e6
+    opt_in: tuple = ()
 
     # --- declared facts, derived ------------------------------------------------------
     @property

@@ -14,6 +14,7 @@ from ..analysis import detect_cycles
 from ..kernels.fill import full
 from ..kernels.flow import run_batch
 from ..model import Coord, Field, Model
+from ..stability import batch_multipliers
 from . import params as P
 from .params import OBSTACLES
 
@@ -33,6 +34,17 @@ IMPACT_FIELDS = (
 SECTION_FIELDS = (
     Field("section/u", "su", "u at the Poincare section t = nT"),
     Field("section/v", "sv", "v at the Poincare section t = nT"),
+)
+STABILITY_FIELDS = (
+    Field("stability/multiplier_re", "mu_re", "real part of the Floquet multipliers of the "
+          "run's cycle, by decreasing modulus (docs/stability.md)", axis=("multiplier", 2)),
+    Field("stability/multiplier_im", "mu_im", "imaginary part of the Floquet multipliers",
+          axis=("multiplier", 2)),
+    Field("stability/cycle_duration", "cycle_duration", "duration of the cycle", "time",
+          axis=()),
+    Field("stability/status", "stability_status", "how the multipliers were found: 0 ok, "
+          "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none)",
+          axis=(), dtype="i1", fill=-1),
 )
 U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
           "u at the last section crossed (the state a followed sweep carries on)")
@@ -112,9 +124,22 @@ class FlowModel(Model):
                 out[k][redo] = again[0][k]
             for whole, part in zip(res[1:], again[1:]):
                 whole[redo] = part
+        if "stability" in scene.keep:
+            out.update(_stability(params, out, ipc))
         if not cornered.all():
             out["corner_offset"][~cornered] = np.nan
         return out, st, final, period, ipc, sym
+
+
+def _stability(params, out, ipc):
+    """The Floquet multipliers of each run's cycle (cornerbif.stability)."""
+    n = params.shape[0]
+    res = {"mu_re": np.empty((n, 2)), "mu_im": np.empty((n, 2)),
+           "cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8)}
+    batch_multipliers(params, out["t"], out["u"], out["v_in"], out["v_out"],
+                      out["corner_offset"], ipc, res["mu_re"], res["mu_im"],
+                      res["cycle_duration"], res["stability_status"])
+    return res
 
 
 def _run_flow(params, ics, ints, scene, fill, cornered):
@@ -144,7 +169,9 @@ MODEL = FlowModel(
     doc="one particle and a moving obstacle with corners (sections 2-3, eqs 4-9)",
     params=P.PARAMS,
     state=(U, V),
-    observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS},
+    observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS,
+                 "stability": STABILITY_FIELDS},
+    opt_in=("stability",),
     system_extra={"obstacle": "rectified_sine", "section_period": None},
     obstacles=OBSTACLES,
     events_per_impact=10,
