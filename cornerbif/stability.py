@@ -139,11 +139,13 @@ def cycle_jacobian(p, t, u, v_in, v_out, offset, first, n, grazing_tol):
 @jit
 def multipliers(j11, j12, j21, j22):
     """The eigenvalues of a real 2x2 matrix, sorted by decreasing modulus:
-    (re1, im1, re2, im2).  From the trace and determinant; the smaller real root from
-    det / (larger) to avoid cancellation."""
+    (re1, im1, re2, im2).  The discriminant from the entries, ((j11 - j22)/2)^2 + j12 j21
+    (not tr^2/4 - det, which cancels: a triangular matrix keeps real eigenvalues); the
+    smaller real root as det / (larger), without cancellation."""
     tr = j11 + j22
     det = j11 * j22 - j12 * j21
-    disc = 0.25 * tr * tr - det
+    half = 0.5 * (j11 - j22)
+    disc = half * half + j12 * j21
     if disc >= 0.0:
         s = math.sqrt(disc)
         big = 0.5 * tr + (s if tr >= 0.0 else -s)
@@ -232,3 +234,40 @@ def cycle_multipliers(params, t, u, v_in, v_out, offset, first, n, grazing_tol=G
             "multipliers": np.array([complex(re1, im1), complex(re2, im2)]),
             "duration": dur, "status": REASONS[st],
             "det_closed_form": math.exp(-2.0 * sig * dur) * params[P.R] ** (2 * n)}
+
+
+# ------------------------------------------------------------------ the maps alpha, beta, gamma
+@jit
+def map_cycle_multipliers(omega1, r, regions, period):
+    """The multipliers of the last ``period`` recorded steps of the local maps (eqs 56-60):
+    the eigenvalues of the product of their linear parts s [[1, 0], [h, 1]], h = pi omega1/2,
+    s = r (beta, gamma), -r^2 (alpha) (eq 57; ``theory.map_matrices``), the later steps on
+    the left: (re1, im1, re2, im2, period, status)."""
+    nan = math.nan
+    n = regions.shape[0]
+    if period <= 0 or period > n:
+        return nan, nan, nan, nan, nan, NO_CYCLE
+    h = 0.5 * math.pi * omega1
+    a, b, c, d = 1.0, 0.0, 0.0, 1.0
+    for i in range(n - period, n):
+        g = regions[i]
+        if g < 0:
+            return nan, nan, nan, nan, nan, NO_CYCLE
+        s = -r * r if g == 0 else r
+        a, b, c, d = s * a, s * b, s * (h * a + c), s * (h * b + d)
+    re1, im1, re2, im2 = multipliers(a, b, c, d)
+    return re1, im1, re2, im2, float(period), OK
+
+
+@pjit
+def batch_map_multipliers(params, regions, period, o_re, o_im, o_dur, o_status):
+    """``map_cycle_multipliers`` for every item (row of ``params`` = [omega1, kappa1, r])."""
+    for i in prange(params.shape[0]):
+        re1, im1, re2, im2, dur, st = map_cycle_multipliers(params[i, 0], params[i, 2],
+                                                            regions[i], period[i])
+        o_re[i, 0] = re1
+        o_re[i, 1] = re2
+        o_im[i, 0] = im1
+        o_im[i, 1] = im2
+        o_dur[i] = dur
+        o_status[i] = st

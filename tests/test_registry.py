@@ -70,6 +70,26 @@ def test_a_block_fills_exactly_the_schema_and_simulate_agrees(name, tmp_path):
 
 
 @pytest.mark.parametrize("name", registry.names())
+def test_every_observable_opt_in_included_fills_the_schema(name, tmp_path):
+    """With every observable kept (the opt-in ones too, e.g. stability) a block holds
+    exactly the datasets the file declares, with their shapes and dtypes; without keep
+    the opt-in ones are left out."""
+    spec = registry.get(name)
+    sc = tiny(name, output={"keep": list(spec.observables)})
+    with io.create(str(tmp_path / "s.h5"), sc, sc.n_ic) as f:
+        names = []
+        f.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        schema = {n: (f[n].shape, f[n].dtype) for n in names
+                  if not f[n].is_scale and n != "done"}
+    block = engine.compute_block(sc, engine.blocks(sc)[0])
+    assert set(block) == set(schema)
+    for n, a in block.items():
+        assert a.shape == schema[n][0], n
+        assert a.dtype.kind == schema[n][1].kind, n
+    assert not set(spec.opt_in) & set(tiny(name).keep)
+
+
+@pytest.mark.parametrize("name", registry.names())
 def test_bad_values_name_key_value_and_range(name):
     spec = registry.get(name)
     k, p = next((k, p) for k, p in spec.params.items() if p.ok(-1.0) is False)

@@ -201,3 +201,50 @@ def test_a_sweep_keeping_stability_stores_each_runs_multipliers(tmp_path):
     assert r.exit_code == 0, r.output
     with h5py.File(tmp_path / "n.h5") as f:
         assert "impacts" in f and "section" in f and "stability" not in f
+
+
+# ---------------------------------------------------------------- the maps alpha, beta, gamma
+def test_map2d_multipliers_are_those_of_the_words_linear_parts(tmp_path):
+    """A map2d sweep keeping stability over the corner range (omega = 1.999): each cycle's
+    Jacobian is the product of the linear parts Q of its word (theory.map_matrices, eq 57);
+    trace and determinant of that product equal the stored multipliers' sum and product to
+    1e-12 relative, and since every Q is s [[1, 0], [h, 1]] the product is
+    prod(s) [[1, 0], [n h, 1]]: a double multiplier prod(s) = r^(#b + #g) (-r^2)^(#a),
+    found to rounding (1e-13: the product is triangular, so its eigenvalues are its
+    diagonal and no square root of rounding enters, as it would for a defective pair
+    from trace and determinant)."""
+    import h5py
+    from click.testing import CliRunner
+
+    from cornerbif import theory
+    from cornerbif.cli import main
+    scene = tmp_path / "m.toml"
+    scene.write_text('[scene]\nname = "m"\nmodel = "map2d"\n[system]\nomega = 1.999\n'
+                     '[sweep]\nkappa = { start = -0.0141, stop = -0.004, num = 25 }\n'
+                     '[initial]\ncount = 3\n[run]\ntransient = 2000\nrecord = 200\n'
+                     '[output]\nkeep = ["section", "stability"]\n')
+    out = tmp_path / "m.h5"
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    seen = set()
+    with h5py.File(out) as f:
+        kap = f["kappa"][...]
+        st = f["stability/status"][...]
+        mu = f["stability/multiplier_re"][...] + 1j * f["stability/multiplier_im"][...]
+        words = f["symbols"][...]
+        assert (st == S.OK).sum() > 60
+        for i, j in zip(*np.nonzero(st == S.OK)):
+            w = words[i, j].decode()
+            Q = np.eye(2)
+            for ch in w:         # any rotation of the word: the same trace and determinant
+                Q = theory.map_matrices(ch, 1.999 - 2.0, float(kap[i]), 0.8)[0] @ Q
+            m = mu[i, j]
+            assert math.isclose((m[0] + m[1]).real, np.trace(Q), rel_tol=1e-12)
+            assert math.isclose((m[0] * m[1]).real, np.linalg.det(Q), rel_tol=1e-12)
+            s = 0.8 ** (w.count("b") + w.count("g")) * (-0.64) ** w.count("a")
+            assert m[0].imag == m[1].imag == 0.0
+            assert math.isclose(m[0].real, s, rel_tol=1e-13)
+            assert math.isclose(m[1].real, s, rel_tol=1e-13)
+            assert f["stability/cycle_duration"][i, j] == len(w)
+            seen.add(w)
+    assert len(seen) >= 3, seen

@@ -13,8 +13,9 @@ import numpy as np
 
 from .. import status as S
 from ..maps2d import detect_map_cycles, iterate_batch
-from ..model import Coord, Model, Param, anything, positive
-from .flow_model import SECTION_FIELDS, U
+from ..model import Coord, Field, Model, Param, anything, positive
+from ..stability import batch_map_multipliers
+from .flow_model import SECTION_FIELDS, STABILITY_FIELDS, U
 
 PARAMS = {p.name: p for p in (
     Param("omega", 1.999, "> 0 (the map uses omega1 = omega - 2)", positive,
@@ -25,6 +26,9 @@ PARAMS = {p.name: p for p in (
           "eq 5"),
 )}
 V = Coord("v", (-0.05, 0.05), 1, None, "initial velocity v(0)", "v at the last section crossed")
+# the flow's stability datasets, the cycle's duration in iterates of the map
+STABILITY = tuple(Field(f.name, f.source, "period of the cycle in iterates", None, axis=())
+                  if f.source == "cycle_duration" else f for f in STABILITY_FIELDS)
 NO_OBSTACLE = -np.inf   # any (a0, b1) is a start
 
 
@@ -67,6 +71,11 @@ class Map2dModel(Model):
         final = np.stack([a[:, -1], b[:, -1]], axis=1)
         sym_full = np.zeros((n, rec), np.uint8)
         sym_full[:, :sym.shape[1]] = sym
+        if "stability" in scene.keep:
+            stab = {"mu_re": np.empty((n, 2)), "mu_im": np.empty((n, 2)),
+                    "cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8)}
+            batch_map_multipliers(np.ascontiguousarray(params), reg, period, *stab.values())
+            out.update(stab)
         return out, st, final, period, ipc, sym_full
 
 
@@ -76,7 +85,8 @@ MODEL = Map2dModel(
         "eqs 56-60)",
     params=PARAMS,
     state=(U, V),
-    observables={"section": SECTION_FIELDS},
+    observables={"section": SECTION_FIELDS, "stability": STABILITY},
+    opt_in=("stability",),
     normal_form_role="map",
     default_y="section_v",
     keep_hint=" (the map's iterates are stored as section/u = a_n, section/v = b_n)",
