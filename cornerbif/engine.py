@@ -103,10 +103,15 @@ def item_bytes(scene: Scene) -> int:
     return scene.record * registry.get(scene.model).bytes_per_event + ITEM_OVERHEAD
 
 
+def points_fit(scene: Scene) -> int:
+    """Grid points whose kernel output fits in BLOCK_BYTES (at least one)."""
+    return max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
+
+
 def block_points_max(scene: Scene) -> int:
     """Grid points a block holds at most: as many as fit in BLOCK_BYTES of kernel output
-    (at least one), a whole number of event chunks (``chunk_points``) where one fits."""
-    fit = max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
+    (at least one), a whole number of event chunks (``event_chunk_points``)."""
+    fit = points_fit(scene)
     return fit - fit % event_chunk_points(scene)
 
 
@@ -115,8 +120,7 @@ def event_chunk_points(scene: Scene) -> int:
     CHUNK_BYTES, and never more than a block holds.  Blocks are whole numbers of chunks,
     so the writer compresses whole chunks itself (``cornerbif.chunkwrite``)."""
     per_point = max(1, scene.n_ic * scene.record * 8)
-    fit = max(1, BLOCK_BYTES // (item_bytes(scene) * scene.n_ic))
-    return max(1, min(CHUNK_BYTES // per_point, fit))
+    return max(1, min(CHUNK_BYTES // per_point, points_fit(scene)))
 
 
 def blocks(scene: Scene, block_points: int | None = None):

@@ -63,7 +63,7 @@ class BlockWriter:
     def __init__(self, f, batch=1):
         self.f = f
         self.batch = batch         # blocks written together at most (FOLLOW_BATCH: thin slabs)
-        self.queue = []            # (block index, block) handed over, not yet taken
+        self.queue = []            # (block index, block, bytes) handed over, not yet taken
         self.queued = 0            # their bytes
         self.closing = False
         self.error = None
@@ -80,10 +80,10 @@ class BlockWriter:
                     return
                 take = self.queue[:self.batch]
                 del self.queue[:self.batch]
-                self.queued -= sum(block_nbytes(b) for _, b in take)
+                self.queued -= sum(n for *_, n in take)
                 self.cv.notify_all()
             try:
-                io.write_pending(self.f, take)
+                io.write_pending(self.f, [(index, block) for index, block, _ in take])
             except BaseException as e:  # noqa: BLE001 - handed to the caller's thread
                 with self.cv:
                     self.error = e
@@ -106,12 +106,13 @@ class BlockWriter:
                 self.cv.wait()
             self._raise()
 
-    def put(self, index, block):
-        """Hand a finished block to the writer."""
+    def put(self, index, block, nbytes=None):
+        """Hand a finished block (of ``nbytes``, default counted here) to the writer."""
+        nbytes = block_nbytes(block) if nbytes is None else nbytes
         with self.cv:
             self._raise()
-            self.queue.append((index, block))
-            self.queued += block_nbytes(block)
+            self.queue.append((index, block, nbytes))
+            self.queued += nbytes
             self.cv.notify_all()
 
     def close(self):
@@ -148,7 +149,7 @@ def run_blocks(scene, f, progress=False, block_points=None):
             if scene.follow != "none":
                 carry = engine.block_carry(scene, block)
             last = block_nbytes(block)
-            writer.put(blk, block)
+            writer.put(blk, block, last)
             if bar is not None:
                 bar.update(1)
     finally:

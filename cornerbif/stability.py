@@ -24,6 +24,7 @@ from numba import prange
 from ._jit import jit, pjit
 from .models import params as P
 from .models.obstacle import piece_lengths, z_state
+from .models.oscillator import derive, forcing, homogeneous, particular
 
 # how a cycle's multipliers were found (``stability/status`` in the file)
 OK = 0
@@ -100,14 +101,6 @@ def obstacle_at_offset(p, offset):
 
 
 @jit
-def forcing(p, t):
-    """f(t) = F cos(Omega t + phi) (eq 4)."""
-    if p[P.F_AMP] == 0.0:
-        return 0.0
-    return p[P.F_AMP] * math.cos(p[P.F_OMEGA] * t + p[P.F_PHI])
-
-
-@jit
 def cycle_jacobian(p, t, u, v_in, v_out, offset, first, n, grazing_tol):
     """The monodromy of a cycle of ``n`` recorded impacts starting after impact ``first``:
     J = S_(first+n) M_(first+n) ... S_(first+1) M_(first+1), M the flight matrices
@@ -156,28 +149,15 @@ def multipliers(j11, j12, j21, j22):
 
 
 @jit
-def free_flight_misses(p, t0, u0, v0, t1, u1, v1):
-    """Whether the free flight from (u0, v0) at t0 misses the recorded impact state
+def free_flight_misses(p, d, t0, u0, v0, t1, u1, v1):
+    """Whether the free flight (``models.oscillator``: particular + homogeneous parts; ``d``
+    the run's ``derive``d constants) from (u0, v0) at t0 misses the recorded impact state
     (u1, v1-) at t1 by more than FLIGHT_TOL: then the particle stuck in between."""
-    sig = p[P.SIGMA]
-    k = p[P.K]
-    F = p[P.F_AMP]
-    X = Y = 0.0
-    W = p[P.F_OMEGA]
-    if F != 0.0:                       # particular solution X cos + Y sin (eq 4)
-        a = k * k - W * W
-        b = 2.0 * sig * W
-        den = a * a + b * b
-        X, Y = F * a / den, F * b / den
-    ph0 = W * t0 + p[P.F_PHI]
-    ph1 = W * t1 + p[P.F_PHI]
-    up0 = X * math.cos(ph0) + Y * math.sin(ph0)
-    vp0 = W * (Y * math.cos(ph0) - X * math.sin(ph0))
-    up1 = X * math.cos(ph1) + Y * math.sin(ph1)
-    vp1 = W * (Y * math.cos(ph1) - X * math.sin(ph1))
-    m11, m12, m21, m22 = flight_matrix(sig, k, t1 - t0)
-    u = up1 + m11 * (u0 - up0) + m12 * (v0 - vp0)
-    v = vp1 + m21 * (u0 - up0) + m22 * (v0 - vp0)
+    up0, vp0 = particular(p, d, t0)
+    uh, vh = homogeneous(p, d, u0 - up0, v0 - vp0, t1 - t0)
+    up1, vp1 = particular(p, d, t1)
+    u = up1 + uh
+    v = vp1 + vh
     scale = 1.0 + abs(u1) + abs(v1)
     return not (abs(u - u1) <= FLIGHT_TOL * scale and abs(v - v1) <= FLIGHT_TOL * scale)
 
@@ -193,8 +173,9 @@ def run_cycle_multipliers(p, t, u, v_in, v_out, offset, ipc):
     if ipc <= 0 or n < ipc + 1:
         return nan, nan, nan, nan, nan, NO_CYCLE
     first = n - 1 - ipc
+    d = derive(p)
     for i in range(first + 1, first + ipc + 1):
-        if free_flight_misses(p, t[i - 1], u[i - 1], v_out[i - 1], t[i], u[i], v_in[i]):
+        if free_flight_misses(p, d, t[i - 1], u[i - 1], v_out[i - 1], t[i], u[i], v_in[i]):
             return 0.0, 0.0, 0.0, 0.0, t[first + ipc] - t[first], STICKING
     j11, j12, j21, j22, dur, st = cycle_jacobian(p, t, u, v_in, v_out, offset, first, ipc,
                                                  GRAZING_TOL)
@@ -204,18 +185,31 @@ def run_cycle_multipliers(p, t, u, v_in, v_out, offset, ipc):
     return re1, im1, re2, im2, dur, OK
 
 
+def new_outputs(n):
+    """The arrays of the ``stability`` observable for n items, keyed by the Fields'
+    sources (``flow_model.STABILITY_FIELDS``), in the order the batch kernels fill them."""
+    return {"mu_re": np.empty((n, 2)), "mu_im": np.empty((n, 2)),
+            "cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8)}
+
+
+@jit
+def store(i, res, o_re, o_im, o_dur, o_status):
+    """Item i's (re1, im1, re2, im2, duration, status) into the outputs."""
+    re1, im1, re2, im2, dur, st = res
+    o_re[i, 0] = re1
+    o_re[i, 1] = re2
+    o_im[i, 0] = im1
+    o_im[i, 1] = im2
+    o_dur[i] = dur
+    o_status[i] = st
+
+
 @pjit
 def batch_multipliers(params, t, u, v_in, v_out, offset, ipc, o_re, o_im, o_dur, o_status):
     """``run_cycle_multipliers`` for every item (row) in parallel."""
     for i in prange(params.shape[0]):
-        re1, im1, re2, im2, dur, st = run_cycle_multipliers(params[i], t[i], u[i], v_in[i],
-                                                            v_out[i], offset[i], ipc[i])
-        o_re[i, 0] = re1
-        o_re[i, 1] = re2
-        o_im[i, 0] = im1
-        o_im[i, 1] = im2
-        o_dur[i] = dur
-        o_status[i] = st
+        store(i, run_cycle_multipliers(params[i], t[i], u[i], v_in[i], v_out[i], offset[i],
+                                       ipc[i]), o_re, o_im, o_dur, o_status)
 
 
 def cycle_multipliers(params, t, u, v_in, v_out, offset, first, n, grazing_tol=GRAZING_TOL):
@@ -263,11 +257,5 @@ def map_cycle_multipliers(omega1, r, regions, period):
 def batch_map_multipliers(params, regions, period, o_re, o_im, o_dur, o_status):
     """``map_cycle_multipliers`` for every item (row of ``params`` = [omega1, kappa1, r])."""
     for i in prange(params.shape[0]):
-        re1, im1, re2, im2, dur, st = map_cycle_multipliers(params[i, 0], params[i, 2],
-                                                            regions[i], period[i])
-        o_re[i, 0] = re1
-        o_re[i, 1] = re2
-        o_im[i, 0] = im1
-        o_im[i, 1] = im2
-        o_dur[i] = dur
-        o_status[i] = st
+        store(i, map_cycle_multipliers(params[i, 0], params[i, 2], regions[i], period[i]),
+              o_re, o_im, o_dur, o_status)

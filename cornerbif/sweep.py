@@ -53,10 +53,10 @@ def estimate_memory(scene: Scene) -> int:
     points = int(np.prod(scene.shape or (1,)))
     per_item = engine.item_bytes(scene)
     per_point = per_item * scene.n_ic
-    block = per_point * max(1, min(points, engine.block_points_max(scene)))
-    in_flight = min(BLOCKS_IN_FLIGHT, -(-points // max(1, engine.block_points_max(scene))))
-    rows = points if len(scene.shape) < 2 else scene.shape[0] * max(1, scene.shape[1] // max(
-        1, engine.block_points_max(scene)))
+    most = max(1, engine.block_points_max(scene))
+    block = per_point * min(points, most)
+    in_flight = min(BLOCKS_IN_FLIGHT, -(-points // most))
+    rows = points if len(scene.shape) < 2 else scene.shape[0] * max(1, scene.shape[1] // most)
     return int(PROCESS_BASELINE + BLOCK_FACTOR * in_flight * block) + points + 200 * rows
 
 

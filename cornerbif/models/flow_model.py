@@ -14,7 +14,7 @@ from ..analysis import detect_cycles
 from ..kernels.fill import full
 from ..kernels.flow import run_batch
 from ..model import Coord, Field, Model
-from ..stability import batch_multipliers
+from ..stability import batch_multipliers, new_outputs
 from . import params as P
 from .params import OBSTACLES
 
@@ -133,12 +133,9 @@ class FlowModel(Model):
 
 def _stability(params, out, ipc):
     """The Floquet multipliers of each run's cycle (cornerbif.stability)."""
-    n = params.shape[0]
-    res = {"mu_re": np.empty((n, 2)), "mu_im": np.empty((n, 2)),
-           "cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8)}
+    res = new_outputs(params.shape[0])
     batch_multipliers(params, out["t"], out["u"], out["v_in"], out["v_out"],
-                      out["corner_offset"], ipc, res["mu_re"], res["mu_im"],
-                      res["cycle_duration"], res["stability_status"])
+                      out["corner_offset"], ipc, *res.values())
     return res
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from .. import status as S
 from ..maps2d import detect_map_cycles, iterate_batch
 from ..model import Coord, Field, Model, Param, anything, positive
-from ..stability import batch_map_multipliers
+from ..stability import batch_map_multipliers, new_outputs
 from .flow_model import SECTION_FIELDS, STABILITY_FIELDS, U
 
 PARAMS = {p.name: p for p in (
@@ -72,8 +72,7 @@ class Map2dModel(Model):
         sym_full = np.zeros((n, rec), np.uint8)
         sym_full[:, :sym.shape[1]] = sym
         if "stability" in scene.keep:
-            stab = {"mu_re": np.empty((n, 2)), "mu_im": np.empty((n, 2)),
-                    "cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8)}
+            stab = new_outputs(n)
             batch_map_multipliers(np.ascontiguousarray(params), reg, period, *stab.values())
             out.update(stab)
         return out, st, final, period, ipc, sym_full
