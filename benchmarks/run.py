@@ -270,7 +270,30 @@ def bench_tolerance(n_runs, n_impacts, tols):
     return rows
 
 
-SECTIONS = ("speed", "end_to_end", "siconos", "tolerance", "transient", "map_vs_flow",
+def bench_stability(smoke, rounds=None):
+    """What keeping ``"stability"`` costs (issue 17): the flow kernel and analysis on
+    Fig. 4(c) (and two_particle on Fig. 19(a)) without and with the observable, on one
+    thread, in paired rounds (the ratio of each round is kept)."""
+    import dataclasses
+
+    out = {}
+    cases = (("flow_fig04c", _scene("fig04c", **({"sweep.omega.num": 20} if smoke else {}))),
+             ("two_particle_fig19a", _scene("fig19a", **({"sweep.omega0.num": 10} if smoke
+                                                          else {"sweep.omega0.num": 200}))))
+    for name, scene in cases:
+        with_stab = dataclasses.replace(scene, keep=tuple(scene.keep) + ("stability",))
+        rows = []
+        for _ in range(rounds or (1 if smoke else 5)):
+            a = bench_flow(scene, 1, 1)
+            b = bench_flow(with_stab, 1, 1)
+            rows.append({"without": a["seconds"], "with": b["seconds"],
+                         "ratio": b["seconds"] / a["seconds"]})
+        out[name] = {"impacts": a["impacts"], "rounds": rows,
+                     "ratio": float(np.median([r["ratio"] for r in rows]))}
+    return out
+
+
+SECTIONS = ("speed", "end_to_end", "stability", "siconos", "tolerance", "transient", "map_vs_flow",
             "chatter", "profile")
 
 
@@ -337,6 +360,9 @@ def main(argv=None):
     if "end_to_end" in only:
         print("end to end (cornerbif sweep) ...", flush=True)
         res["end_to_end"] = bench_end_to_end(smoke, ncores)
+    if "stability" in only:
+        print("stability (cost of keeping it) ...", flush=True)
+        res["stability"] = bench_stability(smoke)
     import trade
     with tempfile.TemporaryDirectory() as tmp:
         if "speed" in only:
@@ -439,6 +465,8 @@ def render(r):
         L += render_speed(r)
     if "end_to_end" in r:
         L += render_end_to_end(r["end_to_end"])
+    if "stability" in r:
+        L += render_stability(r["stability"])
     L += render_siconos(r)
     if "tolerance" in r:
         L += ["## Event tolerance against impact-time error and throughput", "",
@@ -591,6 +619,22 @@ def render_end_to_end(e):
     row("command / kernel throughput, 1 thread", "command_to_kernel", "{:.2f}")
     row(f"command speed-up, {e['threads']} threads over 1", "speedup", "{:.2f}")
     row("command per core / DOP853 loop", "command_to_dop853", "{:.0f}")
+    return L + [""]
+
+
+def render_stability(s):
+    L = ["## What keeping `stability` costs", "",
+         "Kernel and cycle analysis on one thread, without and with the observable "
+         "(multipliers of the last cycle and the Lyapunov spectrum over the recorded window), "
+         "in paired rounds.", "",
+         "| scene | impacts | without (s) | with (s) | ratio (median) | rounds |",
+         "|---|---|---|---|---|---|"]
+    for name, c in s.items():
+        r = c["rounds"]
+        L.append(f"| {name} | {c['impacts'] / 1e6:.1f} M | "
+                 f"{np.median([x['without'] for x in r]):.2f} | "
+                 f"{np.median([x['with'] for x in r]):.2f} | {c['ratio']:.3f} | "
+                 + ", ".join(f"{x['ratio']:.3f}" for x in r) + " |")
     return L + [""]
 
 

@@ -11,7 +11,7 @@ RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
 
 def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=1e-6,
              escape=1e6, period_tol=1e-6, max_events=None, max_periods=None, stop="none",
-             **system):
+             keep=None, **system):
     """Run ``model`` for one or many initial states at t = 0.
 
     ``starts`` are the state coordinates at t = 0 in the model's order
@@ -25,6 +25,9 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
     v_out, corner_offset, su, sv; ``two_particle`` adds sz, sy and the wall impacts
     wz_*; ``map2d`` stores a_n, b_n in su, sv) shaped ``shape + (record,)``, and
     status, final (``shape + (state size,)``), period, impacts_per_cycle, symbols.
+    ``keep`` names observables as a scene's ``[output] keep`` does; the opt-in ones add
+    their per-run arrays (``keep=["stability"]``: mu_re, mu_im (``shape + (2,)``),
+    cycle_duration, stability_status, lyapunov, lyapunov_window, lyapunov_status).
     """
     from .analysis import words
     from .config import SceneError, from_dict
@@ -51,6 +54,8 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
         raw["run"]["max_events"] = max_events
     if max_periods is not None:
         raw["run"]["max_periods"] = max_periods
+    if keep is not None:
+        raw["output"] = {"keep": list(keep)}
     arrays = {k: np.atleast_1d(np.asarray(v, float)) for k, v in system.items() if v is not None}
     x0 = [np.atleast_1d(np.asarray(named[c], float)) for c in coords]
     shape = np.broadcast_shapes(*[a.shape for a in x0], *[a.shape for a in arrays.values()])
@@ -83,7 +88,7 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
     out, st, final, period, ipc, sym = spec.run_items(np.ascontiguousarray(params),
                                                       np.ascontiguousarray(ics),
                                                       spec.int_settings(scene), scene)
-    res = {k: v.reshape(shape + (record,)) for k, v in out.items()}
+    res = {k: v.reshape(shape + v.shape[1:]) for k, v in out.items()}
     res.update(status=st.reshape(shape), final=final.reshape(shape + (len(coords),)),
                period=period.reshape(shape), impacts_per_cycle=ipc.reshape(shape),
                symbols=words(sym).reshape(shape))

@@ -196,7 +196,11 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
                                              "winding", "period"]),
               help="What to draw against the swept parameter.")
 @click.option("--title", help="Figure title (default: the scene's).")
-def plot(files, out, y, title):
+@click.option("--color-by", "color_by", type=click.Choice(["lyapunov", "multiplier"]),
+              help="Colour the diagram (or the chart's left panel) by each run's largest "
+                   "Lyapunov exponent or largest |Floquet multiplier| (files kept with "
+                   "\"stability\").")
+def plot(files, out, y, title, color_by):
     """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down)."""
     from .io import FileFormatError
     from .plot import figure
@@ -213,7 +217,7 @@ def plot(files, out, y, title):
     if any(os.path.exists(x) and os.path.exists(out) and os.path.samefile(x, out) for x in files):
         _fail(f"-o {out}: that is one of the files to draw; name another figure")
     try:
-        figure(list(files), out, y=y, title=title)
+        figure(list(files), out, y=y, title=title, color_by=color_by)
     except (FileFormatError, ValueError) as e:
         _fail(str(e))
     except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
@@ -286,8 +290,9 @@ def info(file):
 
 
 def _stability_summary(f):
-    """One line on the stored Floquet multipliers: how they were found, and the largest
-    modulus of the runs' cycles (stable below 1)."""
+    """One line on the stored stability: how the multipliers were found, the largest
+    modulus of the runs' cycles (stable below 1), and the largest Lyapunov exponents
+    (positive: chaotic)."""
     import numpy as np
 
     from .stability import REASONS
@@ -300,6 +305,17 @@ def _stability_summary(f):
     if mod.size:
         line += (f"; largest |multiplier| of a cycle: median {np.median(mod):.4g}, max "
                  f"{mod.max():.4g} ({int((mod >= 1).sum())} of {mod.size} cycles not stable)")
+    if "stability/lyapunov" in f:
+        lst = f["stability/lyapunov_status"][...].ravel()
+        lam = f["stability/lyapunov"][..., 0].ravel()
+        fin = lam[(lst == 0) & np.isfinite(lam)]
+        line += (f"; largest Lyapunov exponent over the window: {fin.size} runs, "
+                 f"{int((fin > 0).sum())} positive (chaotic)")
+        if fin.size:
+            line += f", median {np.median(fin):.4g}, max {fin.max():.4g}"
+        stuck = int((lst == 2).sum())
+        if stuck:
+            line += f", {stuck} -inf (the window sticks)"
     return line
 
 

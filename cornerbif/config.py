@@ -77,7 +77,9 @@ MAX_INT = 2**62
 # the time budget: the kernels count it in smooth pieces of the obstacle (a few per period)
 MAX_PERIODS = 2**58
 PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
-             "max_panels")
+             "max_panels", "color_by")
+# [plot] color_by: a diagram's or a chart's colour from the stability observable
+PLOT_COLOR_BY = ("lyapunov", "multiplier")
 PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
 # [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
 PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit")
@@ -680,6 +682,13 @@ def _read_plot(w):
     w.unknown("plot", TABLES["plot"])
     plot = dict(pl)
     problems = w.problems
+    if "color_by" in plot:
+        if plot["color_by"] not in PLOT_COLOR_BY:
+            problems.append(f"plot.color_by: {_fmt(plot['color_by'])} is not allowed; allowed: "
+                            + ", ".join(PLOT_COLOR_BY))
+        elif "stability" not in w.keep:
+            problems.append("plot.color_by: colours come from the stability datasets; "
+                            "output.keep must contain \"stability\"")
     if "y" in plot and plot["y"] not in PLOT_Y:
         problems.append(f"plot.y: {_fmt(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
     for lim in ("xlim", "ylim"):

@@ -57,6 +57,12 @@ class PlotData:
                     self.data[name] = f[name][...]
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
             self.complete = bool(f.attrs.get("completed", ""))
+            # the stability observable (docs/stability.md), per run
+            self.stability = {}
+            if "stability/lyapunov" in f:
+                self.stability["lyapunov"] = f["stability/lyapunov"][..., 0]
+                self.stability["multiplier"] = np.hypot(f["stability/multiplier_re"][..., 0],
+                                                        f["stability/multiplier_im"][..., 0])
             self.period_tol = float(self.scene.get("run", {}).get("period_tol", 1e-6))
         self._attractors = None
 
@@ -142,6 +148,90 @@ def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=
         arts += ax.plot(xs, ys, ls="none", marker=".", mew=0, ms=ms * 1.3, color=c,
                         label=f"attractor {rank + 1} where $\\geq$2 coexist", rasterized=True)
     return arts
+
+
+# [plot] color_by: what colours a diagram or a chart, per run (docs/stability.md)
+COLOR_BY = {
+    "lyapunov": (r"largest Lyapunov exponent $\lambda_1$", 0.0),
+    "multiplier": (r"largest Floquet multiplier $|\mu_1|$", 1.0),
+}
+
+
+def stability_values(data: PlotData, what: str):
+    """The per-run values ``what`` ("lyapunov" or "multiplier") of a file kept with
+    ``"stability"``, or a ValueError that says how to get them."""
+    if what not in data.stability:
+        raise ValueError(f"{data.path}: no stability/ datasets to colour by {what!r}; re-run "
+                         "the scene with output.keep containing \"stability\"")
+    return data.stability[what]
+
+
+def stability_norm(values, centre):
+    """A diverging colour scale with its neutral colour at ``centre`` (lambda = 0,
+    |mu| = 1: the stability boundary); each side spans its own values (2nd and 98th
+    percentiles), so stable cycles and chaos both reach a saturated colour."""
+    import matplotlib.colors as mcolors
+    fin = values[np.isfinite(values)]
+    lo = np.percentile(fin, 2) if fin.size else centre - 1.0
+    hi = np.percentile(fin, 98) if fin.size else centre + 1.0
+    # a side with no values keeps a quarter of the other's span, so the bar still reads
+    span = max(hi - lo, 1e-12)
+    return mcolors.TwoSlopeNorm(vcenter=centre, vmin=min(lo, centre - 0.25 * span),
+                                vmax=max(hi, centre + 0.25 * span))
+
+
+def draw_bifurcation_colored(ax, data: PlotData, y, what, ms=0.6):
+    """A diagram (one sweep axis) whose points carry their run's largest Lyapunov exponent
+    or largest |multiplier| as colour (diverging, centred on the stability boundary);
+    runs without a value (no cycle, grazing) grey, runs that stick (lambda = -inf,
+    mu = 0) black.  Returns the scatter (for the colour bar)."""
+    a = data.axes[0]
+    yv = data.y(y)
+    val = stability_values(data, what)
+    cval = np.broadcast_to(val[..., None], yv.shape)
+    x = np.broadcast_to(data.values[a].reshape((-1,) + (1,) * (yv.ndim - 1)), yv.shape)
+    ok = np.isfinite(yv)
+    label, centre = COLOR_BY[what]
+    stuck = ok & ((cval == -np.inf) | ((what == "multiplier") & (cval == 0.0)))
+    none = ok & ~np.isfinite(cval) & ~stuck
+    s = (ms * 1.2) ** 2
+    if none.any():
+        ax.scatter(x[none], yv[none], s=s, c="0.75", lw=0, rasterized=True,
+                   label="no value (no cycle, grazing)")
+    if stuck.any():
+        ax.scatter(x[stuck], yv[stuck], s=s, c="k", lw=0, rasterized=True,
+                   label="sticks: " + (r"$\lambda = -\infty$" if what == "lyapunov"
+                                       else r"$\mu = 0$"))
+    fin = ok & np.isfinite(cval) & ~stuck
+    sc = ax.scatter(x[fin], yv[fin], s=s, c=cval[fin], cmap="coolwarm",
+                    norm=stability_norm(cval[fin], centre), lw=0, rasterized=True)
+    return sc
+
+
+def draw_plane_stability(ax, data: PlotData, what):
+    """Two-axis sweep: the largest Lyapunov exponent (or |multiplier|), the largest over
+    the starts at each point (the least stable attractor found there)."""
+    a, b = data.axes[:2]
+    val = stability_values(data, what).astype(float)
+    with np.errstate(invalid="ignore"):
+        import warnings
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            show = np.nanmax(np.where(np.isneginf(val), np.nan, val), axis=-1)
+    x, y = data.values[a], data.values[b]
+    label, centre = COLOR_BY[what]
+    im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap="coolwarm",
+                       norm=stability_norm(show, centre))
+    fin = show[np.isfinite(show)]
+    if fin.size and fin.max() < centre:
+        sym = r"\lambda_1" if what == "lyapunov" else r"|\mu_1|"
+        ax.text(0.99, 0.01, f"every attractor found is stable: ${sym}$ < {centre:g} "
+                f"(max {fin.max():.3g})", transform=ax.transAxes, ha="right", va="bottom",
+                fontsize=7, color="0.15", bbox=dict(fc="w", ec="none", alpha=0.7))
+    ax.set_xlabel(LABELS.get(a, a))
+    ax.set_ylabel(LABELS.get(b, b))
+    draw_plane_curves(ax, data)
+    return im
 
 
 def attractor_summary(data: PlotData, tex: bool = True) -> str:
@@ -304,13 +394,15 @@ def draw_comparison(fig, datas, kind, plot_cfg):
     return axs
 
 
-def figure(paths, out, y=None, title=None, plot_cfg=None):
+def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None):
     """Draw one or more files of the same kind into ``out`` (png, pdf or svg).
 
     ``plot_cfg`` replaces the file's ``[plot]`` table (the gallery passes the
     committed scene's, so a figure setting never forces a new sweep).
     ``[plot] kind``: "diagram" (default: bifurcation diagram or parameter plane),
     "timeseries" (Figs 1b, 5, 6d, 17) or "corner_curves" (Fig. 7a).
+    ``color_by`` (or ``[plot] color_by``): "lyapunov" or "multiplier" colours a diagram's
+    points, or the left panel of an (omega, kappa) chart, by the run's stability.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -320,6 +412,10 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
     kind_ = plot_cfg.get("kind", "diagram")
+    color_by = color_by or plot_cfg.get("color_by")
+    if color_by is not None and color_by not in COLOR_BY:
+        raise ValueError(f"color_by: {color_by!r} is not allowed; allowed: "
+                         + ", ".join(COLOR_BY))
     if kind_ in plot_normal_form.KINDS:
         return plot_normal_form.figure(datas, out, plot_cfg, title)
     if kind_ in ("timeseries", "corner_curves"):
@@ -348,8 +444,12 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
         return out
     if len(d0.axes) == 2:
         fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), dpi=150)
-        im = draw_plane(ax, d0)
-        fig.colorbar(im, ax=ax, label="period (clusters per cycle; max over starts)")
+        if color_by:
+            im = draw_plane_stability(ax, d0, color_by)
+            fig.colorbar(im, ax=ax, label=COLOR_BY[color_by][0] + ", max over starts")
+        else:
+            im = draw_plane(ax, d0)
+            fig.colorbar(im, ax=ax, label="period (clusters per cycle; max over starts)")
         im2 = draw_plane_count(ax2, d0)
         fig.colorbar(im2, ax=ax2, label="distinct cycle words among the starts",
                      ticks=range(int(im2.norm.vmax + 0.5)))
@@ -362,7 +462,17 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
             raise ValueError(f"{d0.path}: no recorded observable to draw (output.keep was empty); "
                              "re-run with output.keep = [\"impacts\"]")
         colors = ["k", "tab:orange", "tab:green", "tab:purple"]
-        for i, d in enumerate(datas):
+        if color_by:
+            if len(datas) > 1:
+                plt.close(fig)
+                raise ValueError(f"color_by: draws one file, got {len(datas)}")
+            sc = draw_bifurcation_colored(ax, d0, kind, color_by,
+                                          ms=plot_cfg.get("marker_size", 0.6))
+            fig.colorbar(sc, ax=ax, label=COLOR_BY[color_by][0], extend="both")
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
+                          frameon=False, markerscale=3)
+        for i, d in enumerate(datas if not color_by else []):
             lab = None
             if len(datas) > 1:
                 lab = f"follow {d.follow}" if d.follow != "none" else d.scene["scene"]["name"]
@@ -387,7 +497,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None):
                 ax.text(0.99, 0.99, f"{n_out} of {int(np.isfinite(yv).sum())} values outside the "
                         "y window", transform=ax.transAxes, ha="right", va="top", fontsize=6,
                         color="0.3")
-        if ax.get_legend_handles_labels()[0]:
+        if ax.get_legend_handles_labels()[0] and not color_by:
             ax.legend(loc="best", fontsize=7, markerscale=8)
     elif len(d0.axes) != 2:
         plt.close(fig)

@@ -20,8 +20,8 @@ from cornerbif.models import params as P
 
 
 @pytest.mark.parametrize("sigma,k", [(0.0, 1.0), (0.1, 1.0), (1.0, 1.0), (1.7, 1.0),
-                                     (0.0, 0.0), (0.3, 0.0), (0.05, 2.5)])
-@pytest.mark.parametrize("tau", [0.0, 0.3, 2.0, 7.5])
+                                     (0.0, 0.0), (0.3, 0.0), (0.05, 2.5), (3.0, 0.5)])
+@pytest.mark.parametrize("tau", [0.0, 0.3, 2.0, 7.5, 400.0])
 def test_flight_matrix_is_the_matrix_exponential(sigma, k, tau):
     """exp(A tau), A = [[0, 1], [-k^2, -2 sigma]]: under-, critically and over-damped, and
     the free particle; against scipy.linalg.expm to 1e-12 (relative to the largest entry)."""
@@ -97,13 +97,17 @@ def test_the_multipliers_do_not_depend_on_the_impact_the_cycle_starts_from():
 
 
 def test_a_grazing_impact_gives_no_multipliers():
-    t = np.array([0.0, 1.0, 2.0])
-    u = np.zeros(3)
+    """A record whose impact 1 is reached by the free flight from impact 0 (k = 1, no
+    forcing: u = u0 cos t + v0 sin t) with exactly the obstacle's velocity: w- = 0."""
     prm = P.pack(dict(omega=2.0, kappa=0.0), "rectified_sine", 1e-12, 1e-6, 1e6, None)
     zp, _ = S.obstacle_at_offset(prm, 0.3)
-    v_in = np.array([-1.0, zp, -1.0])          # impact 1 arrives with the wall's velocity
+    v0 = zp / np.cos(1.0)
+    t = np.array([0.0, 1.0, 2.0])
+    u = np.array([0.0, v0 * np.sin(1.0), 0.0])
+    v_in = np.array([-1.0, v0 * np.cos(1.0), -1.0])
+    v_out = np.array([v0, 0.0, 0.0])
     off = np.array([0.3, 0.3, 0.3])
-    out = S.cycle_multipliers(prm, t, u, v_in, v_in, off, 0, 2)
+    out = S.cycle_multipliers(prm, t, u, v_in, v_out, off, 0, 1)
     assert out["status"].startswith("grazing") and np.isnan(out["jacobian"]).all()
 
 
@@ -117,7 +121,7 @@ def _fd_multipliers(omega, kappa, res, n, system):
     t, u, v = res["t"][0], res["u"][0], res["v_out"][0]
     i = 3
     t0 = 0.5 * (t[i] + t[i + 1])
-    kw = {k: system[k] for k in ("sigma", "k") if k in system}
+    kw = {k: system[k] for k in ("sigma", "k", "F", "Omega", "phi") if k in system}
     u0, v0 = naive.free_flight(t0, t[i], u[i], v[i], **kw)
     J, err = FD.fd_jacobian("rectified_sine", omega, kappa, 1.0, 0.8, u0, v0, t0,
                             t[i + n] - t[i], **kw)
@@ -126,6 +130,8 @@ def _fd_multipliers(omega, kappa, res, n, system):
 
 @pytest.mark.parametrize("omega,kappa,system", [
     (2.3, 0.0, {}), (1.8, 0.0, {}), (2.3, 0.0, {"sigma": 0.03}),
+    # harmonic forcing at the obstacle's frequency (period 2 pi/omega: two humps)
+    (2.3, 0.0, {"sigma": 0.03, "F": 0.3, "Omega": 2.3, "phi": 0.4}),
     # the single-impact orbit a distance 1e-6 below its corner collision kappa_C (eq 11):
     # its impact lies 5e-7 after the corner (impacts/corner_offset)
     (1.999, "kappa_C - 1e-6", {}), (2.001, "kappa_C - 1e-6", {}),
@@ -134,7 +140,8 @@ def test_multipliers_match_the_slow_reference(omega, kappa, system):
     """The multipliers equal the eigenvalues of tests/fd_reference.py's Jacobian (central
     differences with step control through the exhaustive simulator tests/naive.py, no code
     of cornerbif) to 1e-6, on stable cycles of one and of four impacts, damped and not,
-    and on cycles whose impact lies within 1e-6 of a corner."""
+    forced (the acceleration a- of the saltation holds f(t)), and on cycles whose impact
+    lies within 1e-6 of a corner."""
     from cornerbif import theory
     start = {}
     if isinstance(kappa, str):
@@ -189,10 +196,25 @@ def test_a_sweep_keeping_stability_stores_each_runs_multipliers(tmp_path):
                                            f["impacts/corner_offset"][i, j], last, n)
                 got = mre[i, j] + 1j * mim[i, j]
                 assert np.allclose(got, want["multipliers"], rtol=1e-12, atol=1e-15)
+        # the exponents: those run_lyapunov computes from the same file's record
+        lam, lst = f["stability/lyapunov"][...], f["stability/lyapunov_status"][...]
+        assert (lst == S.OK).sum() >= 20
+        for i in range(12):
+            for j in range(2):
+                prm = P.pack(dict(omega=float(om[i]), kappa=0.0), "rectified_sine", 1e-12,
+                             1e-6, 1e6, None)
+                want = S.run_lyapunov(prm, f["impacts/t"][i, j], f["impacts/u"][i, j],
+                                      f["impacts/v_in"][i, j], f["impacts/v_out"][i, j],
+                                      f["impacts/corner_offset"][i, j],
+                                      int(f["impacts_per_cycle"][i, j]), S.WARMUP_SHARE)
+                assert lst[i, j] == want[3]
+                assert np.array_equal(lam[i, j], want[:2], equal_nan=True)
     xr = pytest.importorskip("xarray")
     pytest.importorskip("h5netcdf")
     ds = xr.open_dataset(out, engine="h5netcdf", group="stability")
     assert ds["multiplier_re"].dims == ("omega", "ic", "multiplier")
+    assert ds["lyapunov"].dims == ("omega", "ic", "exponent")
+    assert ds["lyapunov_window"].dims == ("omega", "ic")
     plain = tmp_path / "plain.toml"          # no [output] keep: every observable but opt-ins
     plain.write_text('[scene]\nname = "plain"\nmodel = "flow"\n[initial]\ncount = 1\n'
                      '[run]\ntransient = 10\nrecord = 10\n')
@@ -248,3 +270,45 @@ def test_map2d_multipliers_are_those_of_the_words_linear_parts(tmp_path):
             assert f["stability/cycle_duration"][i, j] == len(w)
             seen.add(w)
     assert len(seen) >= 3, seen
+
+
+# ---------------------------------------------------------------- the flow's limit: the maps
+def _ray_errors(side):
+    """|mu_flow - mu_map| (largest over the pair) and |tr J_flow - tr J_map| along the ray
+    (omega, kappa) = (2 + side eps, -2 eps): the beta orbit (one impact, word 'b') for
+    omega > 2, the alpha orbit ('a') for omega < 2, the map2d's cycle of the same word."""
+    from cornerbif import theory
+    eps = np.array([1e-3, 1e-4, 1e-5, 1e-6])
+    d_mu, d_tr = [], []
+    for e in eps:
+        om, ka = 2.0 + side * e, -2.0 * e
+        if side > 0:
+            u0, v0 = theory.single_impact_orbit(om, ka, 0.8, exact=True)[:2]
+            tr = 200
+        else:
+            u0, v0, tr = 0.0, 0.0, 3000
+        f = cornerbif.simulate([u0], [v0], omega=om, kappa=ka, transient=tr, record=60,
+                               keep=["stability"])
+        m = cornerbif.simulate([0.0], [0.0], model="map2d", omega=om, kappa=ka,
+                               transient=300, record=40, keep=["stability"])
+        assert f["symbols"][0] == m["symbols"][0] == ("b" if side > 0 else "a")
+        mf = np.sort_complex(f["mu_re"][0] + 1j * f["mu_im"][0])
+        mm = np.sort_complex(m["mu_re"][0] + 1j * m["mu_im"][0])
+        d_mu.append(np.abs(mf - mm).max())
+        d_tr.append(abs(mf.sum() - mm.sum()))
+    return eps, np.array(d_mu), np.array(d_tr)
+
+
+@pytest.mark.parametrize("side", [+1, -1])
+def test_flow_multipliers_converge_to_the_maps_on_a_ray(side):
+    """As (omega, kappa) -> (2, 0) on a ray the flow's multipliers tend to the local
+    maps' double multiplier (r for beta, -r^2 for alpha, eq 57; a Jordan block): the
+    eigenvalues to first order in eps (measured |mu_flow - mu_map| = 2.70 eps for beta,
+    2.51 eps for alpha: the flow splits the double multiplier into a pair r e^(+-i 3.4 eps)
+    and a real pair), the trace to second order (9.1 eps^2, 9.8 eps^2).  Orders fitted on
+    eps = 1e-3 .. 1e-6: 1.00 and 2.00 to 0.02."""
+    eps, d_mu, d_tr = _ray_errors(side)
+    order_mu = np.polyfit(np.log(eps), np.log(d_mu), 1)[0]
+    order_tr = np.polyfit(np.log(eps), np.log(d_tr), 1)[0]
+    assert abs(order_mu - 1.0) < 0.02 and abs(order_tr - 2.0) < 0.02, (order_mu, order_tr)
+    assert np.all(d_mu / eps < 3.0)

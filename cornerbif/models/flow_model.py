@@ -14,7 +14,7 @@ from ..analysis import detect_cycles
 from ..kernels.fill import full
 from ..kernels.flow import run_batch
 from ..model import Coord, Field, Model
-from ..stability import batch_multipliers, new_outputs
+from ..stability import batch_stability, new_outputs
 from . import params as P
 from .params import OBSTACLES
 
@@ -43,7 +43,18 @@ STABILITY_FIELDS = (
     Field("stability/cycle_duration", "cycle_duration", "duration of the cycle", "time",
           axis=()),
     Field("stability/status", "stability_status", "how the multipliers were found: 0 ok, "
-          "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none)",
+          "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none), 5 a "
+          "particle sticks (two_particle: none)",
+          axis=(), dtype="i1", fill=-1),
+    Field("stability/lyapunov", "lyapunov", "Lyapunov exponents over the recorded window, "
+          "largest first, per unit time (QR through flights and impacts, docs/stability.md)",
+          "1/time", axis=("exponent", 2)),
+    Field("stability/lyapunov_window", "lyapunov_window", "time over which the Lyapunov "
+          "exponents are averaged (after the warm-up, whole cycles where there is one)",
+          "time", axis=()),
+    Field("stability/lyapunov_status", "lyapunov_status", "how the exponents were found: 0 "
+          "ok, 1 grazing impact (none), 2 the window sticks (-inf), 4 too few impacts (none), "
+          "5 a particle sticks (two_particle: none)",
           axis=(), dtype="i1", fill=-1),
 )
 U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
@@ -132,9 +143,10 @@ class FlowModel(Model):
 
 
 def _stability(params, out, ipc):
-    """The Floquet multipliers of each run's cycle (cornerbif.stability)."""
+    """The Floquet multipliers of each run's cycle and its Lyapunov spectrum over the
+    recorded window (cornerbif.stability)."""
     res = new_outputs(params.shape[0])
-    batch_multipliers(params, out["t"], out["u"], out["v_in"], out["v_out"],
+    batch_stability(params, out["t"], out["u"], out["v_in"], out["v_out"],
                       out["corner_offset"], ipc, *res.values())
     return res
 

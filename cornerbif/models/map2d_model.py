@@ -14,7 +14,7 @@ import numpy as np
 from .. import status as S
 from ..maps2d import detect_map_cycles, iterate_batch
 from ..model import Coord, Field, Model, Param, anything, positive
-from ..stability import batch_map_multipliers, new_outputs
+from ..stability import batch_map_stability, new_outputs
 from .flow_model import SECTION_FIELDS, STABILITY_FIELDS, U
 
 PARAMS = {p.name: p for p in (
@@ -26,9 +26,14 @@ PARAMS = {p.name: p for p in (
           "eq 5"),
 )}
 V = Coord("v", (-0.05, 0.05), 1, None, "initial velocity v(0)", "v at the last section crossed")
-# the flow's stability datasets, the cycle's duration in iterates of the map
-STABILITY = tuple(Field(f.name, f.source, "period of the cycle in iterates", None, axis=())
-                  if f.source == "cycle_duration" else f for f in STABILITY_FIELDS)
+# the flow's stability datasets, durations in iterates of the map
+PER_ITERATE = {"cycle_duration": ("period of the cycle in iterates", None),
+               "lyapunov": ("Lyapunov exponents over the recorded iterates, per iterate "
+                            "(exact: the maps' linear parts share an invariant direction, "
+                            "docs/stability.md)", "1/iterate"),
+               "lyapunov_window": ("iterates over which the exponents are averaged", None)}
+STABILITY = tuple(Field(f.name, f.source, *PER_ITERATE[f.source], axis=f.axis)
+                  if f.source in PER_ITERATE else f for f in STABILITY_FIELDS)
 NO_OBSTACLE = -np.inf   # any (a0, b1) is a start
 
 
@@ -73,7 +78,7 @@ class Map2dModel(Model):
         sym_full[:, :sym.shape[1]] = sym
         if "stability" in scene.keep:
             stab = new_outputs(n)
-            batch_map_multipliers(np.ascontiguousarray(params), reg, period, *stab.values())
+            batch_map_stability(np.ascontiguousarray(params), reg, period, *stab.values())
             out.update(stab)
         return out, st, final, period, ipc, sym_full
 

@@ -18,8 +18,9 @@ from ..analysis import detect_cycles
 from ..kernels import two_particle as K
 from ..kernels.fill import full
 from ..model import Coord, Field, Model
+from ..stability import two_particle_outputs
 from . import two_particle as TP
-from .flow_model import IMPACT_FIELDS, SECTION_FIELDS, U, V
+from .flow_model import IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
 
 # the parameters that decide an undamped resonance (models.two_particle.resonance_problems)
 RESONANCE_PARAMS = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
@@ -39,6 +40,12 @@ WALL_IMPACT_FIELDS = (
     Field("wall_impacts/y_in", "wz_y_in", "velocity of z before the impact"),
     Field("wall_impacts/y_out", "wz_y_out", "velocity of z after the impact (law 5, r1)"),
 )
+
+# the flow's stability datasets with four multipliers and exponents (x = (z, y, u, v)), the
+# cycle and the window counted in z-u impacts
+STABILITY = tuple(Field(f.name, f.source, f.long_name, f.units, axis=(f.axis[0], 4),
+                        dtype=f.dtype, fill=f.fill) if f.axis else f
+                  for f in STABILITY_FIELDS)
 
 
 class TwoParticleModel(Model):
@@ -127,6 +134,10 @@ class TwoParticleModel(Model):
         t = np.where(np.isnan(out["corner_offset"]), np.nan, out["t"])
         detect_cycles(t, out["v_in"], out["corner_offset"], corner, np.ones(n, np.bool_),
                       scene.period_tol, period, ipc, sym)
+        if "stability" in scene.keep:
+            stab = two_particle_outputs(np.ascontiguousarray(params), o_zu, o_wz, ipc)
+            stab.pop("monodromy")
+            out.update(stab)
         return out, st, final, period, ipc, sym
 
 
@@ -147,7 +158,8 @@ MODEL = TwoParticleModel(
     params=TP.PARAMS,
     state=(Z, Y, U_ABOVE_Z, V),
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS + SECTION_ZY,
-                 "wall_impacts": WALL_IMPACT_FIELDS},
+                 "wall_impacts": WALL_IMPACT_FIELDS, "stability": STABILITY},
+    opt_in=("stability",),
     events_per_impact=40,
     bytes_per_event=BYTES_PER_EVENT,
     # u-z impacts, benchmarks/run.py, Fig. 19(a), one core (benchmarks/results/results.json)
