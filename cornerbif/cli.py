@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from .config import SceneError
+from .config import PLOT_COLOR_BY, SceneError
 
 
 def _fail(msg, code=2):
@@ -196,7 +196,7 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
                                              "winding", "period"]),
               help="What to draw against the swept parameter.")
 @click.option("--title", help="Figure title (default: the scene's).")
-@click.option("--color-by", "color_by", type=click.Choice(["lyapunov", "multiplier"]),
+@click.option("--color-by", "color_by", type=click.Choice(list(PLOT_COLOR_BY)),
               help="Colour the diagram (or the chart's left panel) by each run's largest "
                    "Lyapunov exponent or largest |Floquet multiplier| (files kept with "
                    "\"stability\").")

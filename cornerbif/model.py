@@ -152,7 +152,8 @@ class Model:
     ``events_per_second`` (impacts, or map steps, per second on one core, as
     ``benchmarks/run.py`` measured them: the time estimate of ``--dry-run``), ``opt_in``
     (observables kept only when ``[output] keep`` names them: a scene without ``keep``
-    keeps the others).
+    keeps the others), ``continuation`` (``cornerbif continue`` solves and continues the
+    model's periodic orbits: ``cornerbif.continuation``).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -177,6 +178,7 @@ class Model:
     bytes_per_event: int = 72
     events_per_second: float = 1e6
     opt_in: tuple = ()
+    continuation: bool = False
 
     # --- declared facts, derived ------------------------------------------------------
     @property

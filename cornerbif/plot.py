@@ -61,6 +61,7 @@ class PlotData:
             self.stability = {}
             if "stability/lyapunov" in f:
                 self.stability["lyapunov"] = f["stability/lyapunov"][..., 0]
+            if "stability/multiplier_re" in f:
                 self.stability["multiplier"] = np.hypot(f["stability/multiplier_re"][..., 0],
                                                         f["stability/multiplier_im"][..., 0])
             self.period_tol = float(self.scene.get("run", {}).get("period_tol", 1e-6))
@@ -150,7 +151,8 @@ def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=
     return arts
 
 
-# [plot] color_by: what colours a diagram or a chart, per run (docs/stability.md)
+# [plot] color_by (config.PLOT_COLOR_BY): what colours a diagram or a chart, per run, its
+# label and the neutral value (docs/stability.md)
 COLOR_BY = {
     "lyapunov": (r"largest Lyapunov exponent $\lambda_1$", 0.0),
     "multiplier": (r"largest Floquet multiplier $|\mu_1|$", 1.0),
@@ -188,7 +190,7 @@ def draw_bifurcation_colored(ax, data: PlotData, y, what, ms=0.6):
     a = data.axes[0]
     yv = data.y(y)
     val = stability_values(data, what)
-    cval = np.broadcast_to(val[..., None], yv.shape)
+    cval = np.broadcast_to(val.reshape(val.shape + (1,) * (yv.ndim - val.ndim)), yv.shape)
     x = np.broadcast_to(data.values[a].reshape((-1,) + (1,) * (yv.ndim - 1)), yv.shape)
     ok = np.isfinite(yv)
     label, centre = COLOR_BY[what]
@@ -213,14 +215,16 @@ def draw_plane_stability(ax, data: PlotData, what):
     the starts at each point (the least stable attractor found there)."""
     a, b = data.axes[:2]
     val = stability_values(data, what).astype(float)
-    with np.errstate(invalid="ignore"):
-        import warnings
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            show = np.nanmax(np.where(np.isneginf(val), np.nan, val), axis=-1)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)      # points with no value at all
+        show = np.nanmax(val, axis=-1)
     x, y = data.values[a], data.values[b]
     label, centre = COLOR_BY[what]
-    im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap="coolwarm",
+    import matplotlib
+    # -inf (every start sticks: lambda = -inf) below the scale, drawn black
+    cmap = matplotlib.colormaps["coolwarm"].with_extremes(under="k")
+    im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap=cmap,
                        norm=stability_norm(show, centre))
     fin = show[np.isfinite(show)]
     if fin.size and fin.max() < centre:

@@ -31,7 +31,7 @@ from .kernels import two_particle as TK
 from .models import params as P
 from .models import two_particle as TP
 from .models.obstacle import piece_lengths, z_state
-from .models.oscillator import derive, forcing, particular
+from .models.oscillator import acceleration, derive, particular
 
 # how a cycle's multipliers were found (``stability/status`` in the file)
 OK = 0
@@ -39,18 +39,24 @@ GRAZING = 1        # an impact with relative velocity ~0: the saltation diverges
 STICKING = 2       # the cycle sticks: its monodromy is zero, multipliers exactly (0, 0)
 NO_CYCLE = 3       # no cycle of at least one impact in the record (NaN)
 NO_WINDOW = 4      # fewer than two recorded impacts after the warm-up: no exponents (NaN)
+PARTICLE_STICKS = 5  # two_particle: z on the wall or u on z, a partial collapse (NaN)
+TABLE_FULL = 6     # two_particle: the w-z table filled before the window's end (NaN)
 REASONS = {OK: "ok", GRAZING: "grazing impact (relative velocity ~0): none",
            STICKING: "sticks to the obstacle: multipliers exactly 0, exponents -inf",
            NO_CYCLE: "no cycle with impacts in the record: none",
-           NO_WINDOW: "too few recorded impacts for exponents: none"}
+           NO_WINDOW: "too few recorded impacts for exponents: none",
+           PARTICLE_STICKS: "a particle sticks (z on the wall or u on z): partial collapse, "
+                            "not derived: none",
+           TABLE_FULL: "the w-z impact table filled before the window's end: none"}
 # the share of a run's recorded impacts that aligns the Lyapunov basis before the exponents
 # are averaged (docs/stability.md, "Lyapunov exponents")
 WARMUP_SHARE = 0.25
 # a generic first basis vector (not an eigenvector of a triangular or diagonal step)
 START_U, START_V = 0.6, 0.8
 GRAZING_TOL = 1e-9   # |w-| below this times the impact's velocity scale counts as grazing
-FLIGHT_TOL = 1e-7    # a recorded impact further than this (relative) from the free flight
-                     # of the one before was reached through sticking
+FLIGHT_TOL = 1e-7    # a recorded impact further than this from the free flight of the one
+                     # before (relative to its position and to its velocity) was reached
+                     # through sticking
 
 
 @jit
@@ -123,6 +129,13 @@ def obstacle_at_offset(p, offset):
 
 
 @jit
+def grazes(w, a, b):
+    """Whether a relative impact velocity w is zero to GRAZING_TOL of the velocities a, b
+    of the two sides: the saltation (a- - z'')/w diverges there."""
+    return not abs(w) > GRAZING_TOL * (abs(a) + abs(b) + 1.0)
+
+
+@jit
 def flight_misses(p, d, m11, m12, m21, m22, t0, u0, v0, t1, u1, v1):
     """Whether the free flight of the oscillator ``p`` (a ``flow`` row; ``d`` its
     ``derive``d constants) from (u0, v0) at t0 misses the recorded (u1, v1) at t1 by more
@@ -132,8 +145,8 @@ def flight_misses(p, d, m11, m12, m21, m22, t0, u0, v0, t1, u1, v1):
     up1, vp1 = particular(p, d, t1)
     uf = up1 + m11 * (u0 - up0) + m12 * (v0 - vp0)
     vf = vp1 + m21 * (u0 - up0) + m22 * (v0 - vp0)
-    scale = FLIGHT_TOL * (1.0 + abs(u1) + abs(v1))
-    return not (abs(uf - u1) <= scale and abs(vf - v1) <= scale)
+    return not (abs(uf - u1) <= FLIGHT_TOL * (1.0 + abs(u1))
+                and abs(vf - v1) <= FLIGHT_TOL * (1.0 + abs(v1)))
 
 
 @jit
@@ -153,10 +166,10 @@ def impact_step(p, d, t0, u0, v0, t1, u1, v1, offset1, grazing_tol):
         return 0.0, 0.0, 0.0, 0.0, STICKING
     zp, zpp = obstacle_at_offset(p, offset1)
     w = v1 - zp
-    if not abs(w) > grazing_tol * (abs(v1) + abs(zp) + 1.0):
+    if not abs(w) > grazing_tol * (abs(v1) + abs(zp) + 1.0):     # grazes(), own tolerance
         nan = math.nan
         return nan, nan, nan, nan, GRAZING
-    acc = forcing(p, t1) - 2.0 * sig * v1 - k * k * u1
+    acc = acceleration(p, t1, u1, v1)
     s11, s12, s21, s22 = impact_saltation(p[P.R], sig, w, acc, zpp)
     return (s11 * m11 + s12 * m21, s11 * m12 + s12 * m22, s21 * m11 + s22 * m21,
             s21 * m12 + s22 * m22, OK)
@@ -208,12 +221,38 @@ def multipliers(j11, j12, j21, j22):
 
 
 @jit
-def run_cycle_multipliers(p, t, u, v_in, v_out, offset, ipc):
-    """The multipliers of one run's cycle of ``ipc`` impacts, the last complete one in
-    its record: (re1, im1, re2, im2, duration, status)."""
+def recorded_count(t):
+    """The number of recorded events: the entries of ``t`` before the first NaN."""
     n = 0
     while n < t.shape[0] and t[n] == t[n]:
         n += 1
+    return n
+
+
+@jit
+def lyapunov_window(steps, ipc, warmup_share):
+    """The first step of the averaging window over ``steps`` recorded steps: after the
+    warm-up (``warmup_share`` of them), trimmed to whole cycles of ``ipc`` steps ending at
+    the last when the run has a cycle; -1 when no step is left."""
+    w0 = int(warmup_share * steps)
+    if steps - w0 < 1:
+        return -1
+    if ipc > 0 and (steps - w0) >= ipc:
+        return steps - ((steps - w0) // ipc) * ipc
+    return w0
+
+
+@jit
+def log_or_minus_inf(x):
+    """log(x) for x > 0, -inf for x = 0 (an exact collapse: r = 0 makes det S = 0)."""
+    return math.log(x) if x > 0.0 else -math.inf
+
+
+@jit
+def run_cycle_multipliers(p, t, u, v_in, v_out, offset, ipc):
+    """The multipliers of one run's cycle of ``ipc`` impacts, the last complete one in
+    its record: (re1, im1, re2, im2, duration, status)."""
+    n = recorded_count(t)
     nan = math.nan
     if ipc <= 0 or n < ipc + 1:
         return nan, nan, nan, nan, nan, NO_CYCLE
@@ -236,23 +275,19 @@ def run_lyapunov(p, t, u, v_in, v_out, offset, ipc, warmup_share):
     The tangent is carried impact to impact by ``impact_step`` (S M) with Gram-Schmidt
     re-orthonormalisation at every impact: in two dimensions the first column q of the
     orthonormal basis is all there is to carry (q <- J q / |J q|, R11 = |J q|), and
-    R22 = |det J| / R11.  The first ``warmup_share`` of the recorded impacts only align
-    q; the logarithms are averaged over the rest, trimmed to whole cycles when the run
-    has one (``ipc`` impacts per cycle), so that on a periodic orbit with real
-    multipliers lambda_i -> log|mu_i| / duration geometrically (docs/stability.md).
-    Exponents -inf (STICKING) where the window sticks; NaN with GRAZING or NO_WINDOW.
+    R22 = |det J| / R11.  The warm-up (``lyapunov_window``) only aligns q; the logarithms
+    are averaged over the window, trimmed to whole cycles when the run has one, so that on
+    a periodic orbit with real multipliers lambda_i -> log|mu_i| / duration geometrically
+    (docs/stability.md).  A stick or a grazing impact during the warm-up restarts the
+    basis; in the window a stick gives -inf (STICKING, exact) and a grazing NaN (GRAZING).
     """
-    n = 0
-    while n < t.shape[0] and t[n] == t[n]:
-        n += 1
+    n = recorded_count(t)
     nan = math.nan
     steps = n - 1
-    w0 = int(warmup_share * steps)
-    if steps - w0 < 1:
+    start = lyapunov_window(steps, ipc, warmup_share)
+    if start < 0 or not t[steps] > t[start]:
         return nan, nan, nan, NO_WINDOW
-    start = w0
-    if ipc > 0 and (steps - w0) >= ipc:
-        start = steps - ((steps - w0) // ipc) * ipc
+    dur = t[steps] - t[start]
     d = derive(p)
     qu, qv = START_U, START_V
     sum1 = 0.0
@@ -261,24 +296,28 @@ def run_lyapunov(p, t, u, v_in, v_out, offset, ipc, warmup_share):
     for i in range(1, n):
         j11, j12, j21, j22, st = impact_step(p, d, t[i - 1], u[i - 1], v_out[i - 1], t[i],
                                              u[i], v_in[i], offset[i], GRAZING_TOL)
-        if st == STICKING:
+        if st == STICKING and i > start:
+            # the tangent collapses to zero (exact), whatever else the window holds
+            return -math.inf, -math.inf, dur, STICKING
+        if st != OK:
             if i > start:
-                # the tangent collapses to zero (exact), whatever else the window holds
-                return -math.inf, -math.inf, t[steps] - t[start], STICKING
-            qu, qv = START_U, START_V      # a stick before the window: the basis restarts
-            continue
-        if st == GRAZING:
-            grazing = True
+                grazing = True
+            qu, qv = START_U, START_V      # before the window: the basis restarts
             continue
         xu = j11 * qu + j12 * qv
         xv = j21 * qu + j22 * qv
         r11 = math.hypot(xu, xv)
+        if r11 == 0.0:
+            # J q = 0: every direction collapses (r = 0 at two impacts in a row)
+            if i > start:
+                return -math.inf, -math.inf, dur, OK
+            qu, qv = START_U, START_V
+            continue
         qu = xu / r11
         qv = xv / r11
         if i > start:
             sum1 += math.log(r11)
-            sumdet += math.log(abs(j11 * j22 - j12 * j21))
-    dur = t[steps] - t[start]
+            sumdet += log_or_minus_inf(abs(j11 * j22 - j12 * j21))
     if grazing:
         return nan, nan, dur, GRAZING
     return sum1 / dur, (sumdet - sum1) / dur, dur, OK
@@ -358,16 +397,24 @@ def map_cycle_multipliers(omega1, r, regions, period):
         g = regions[i]
         if g < 0:
             return nan, nan, nan, nan, nan, NO_CYCLE
-        s = -r * r if g == 0 else r
+        s = map_slope(g, r)
         a, b, c, d = s * a, s * b, s * (h * a + c), s * (h * b + d)
     re1, im1, re2, im2 = multipliers(a, b, c, d)
     return re1, im1, re2, im2, float(period), OK
 
 
 @jit
+def map_slope(region, r):
+    """The factor s of a map's linear part s [[1, 0], [h, 1]] (eq 57): -r^2 for alpha
+    (region 0), r for beta and gamma."""
+    return -r * r if region == 0 else r
+
+
+@jit
 def map_lyapunov(r, regions):
-    """The Lyapunov spectrum (per iterate) of the local maps over the recorded steps:
-    (lambda1, lambda2, number of steps, status).
+    """The Lyapunov spectrum (per iterate) of the local maps over the recorded steps (the
+    finite ones: a region < 0 marks an iterate that was not): (lambda1, lambda2, number of
+    steps, status).
 
     Every linear part s [[1, 0], [h, 1]] (eq 57) maps e2 = (0, 1) to s e2: the maps share
     the invariant direction e2, so with the Gram-Schmidt basis started at (e2, e1) the
@@ -375,13 +422,13 @@ def map_lyapunov(r, regions):
     the mean of log|s| over the window (log r for beta and gamma, 2 log r for alpha), with
     no warm-up: on a cycle, log|mu| / period for its double multiplier s^period (a
     Jordan block: a generic start basis would converge only like log(N)/N)."""
-    n = regions.shape[0]
+    n = 0
     total = 0.0
-    for i in range(n):
-        g = regions[i]
-        if g < 0:
-            return math.nan, math.nan, math.nan, NO_WINDOW
-        total += 2.0 * math.log(r) if g == 0 else math.log(r)
+    while n < regions.shape[0] and regions[n] >= 0:
+        total += log_or_minus_inf(abs(map_slope(regions[n], r)))
+        n += 1
+    if n == 0:
+        return math.nan, math.nan, math.nan, NO_WINDOW
     lam = total / n
     return lam, lam, float(n), OK
 
@@ -398,11 +445,6 @@ def batch_map_stability(params, regions, period, o_re, o_im, o_dur, o_status, o_
 
 
 # ------------------------------------------------------------------ two particles (section 6)
-# A particle sticks in the cycle or the window (z on the wall, u on z): the state collapses
-# only in part (the stuck particle's), a Jacobian through the stuck phase is not derived
-PARTICLE_STICKS = 5
-REASONS[PARTICLE_STICKS] = ("a particle sticks (z on the wall or u on z): partial collapse, "
-                            "not derived: none")
 
 
 @jit
@@ -426,12 +468,11 @@ def zu_saltation(mu, r2, sigma1, sigma2, rho, a_z, a_u):
     S[1, 3] = A
     S[3, 1] = B
     S[3, 3] = 1.0 - B
-    dy = A * rho
-    dv = -B * rho
-    c0 = dy / rho
-    c1 = (-2.0 * sigma1 * dy + A * (a_z - a_u)) / rho
-    c2 = dv / rho
-    c3 = (-2.0 * sigma2 * dv + B * (a_u - a_z)) / rho
+    # c / rho with dy = A rho, dv = -B rho
+    c0 = A
+    c1 = -2.0 * sigma1 * A + A * (a_z - a_u) / rho
+    c2 = -B
+    c3 = 2.0 * sigma2 * B + B * (a_u - a_z) / rho
     S[0, 0] -= c0
     S[0, 2] += c0
     S[1, 0] -= c1
@@ -465,7 +506,12 @@ def two_particle_steps(p, zu, wz, i0, i1):
     (``zu_saltation``).  Returns (G (m, 4, 4), event times (m,), status):
     PARTICLE_STICKS where a recorded event is not reached by the free flight of z from
     the event before, or of u from the z-u impact before; GRAZING where an impact's
-    relative velocity is below GRAZING_TOL times its velocity scale."""
+    relative velocity is below GRAZING_TOL times its velocity scale; TABLE_FULL where the
+    w-z table filled before z-u impact ``i1`` (w-z impacts may be missing)."""
+    last = wz.shape[0] - 1
+    if last >= 0 and wz[last, TK.WZ_T] == wz[last, TK.WZ_T] and \
+            wz[last, TK.WZ_T] < zu[i1, TK.ZU_T]:
+        return np.zeros((0, 4, 4)), np.zeros(0), TABLE_FULL
     c = TK.derive(p)
     Q, D = TK.oscillators(p, c)
     s1, w1 = p[TP.SIGMA1], p[TP.OMEGA1]
@@ -505,9 +551,9 @@ def two_particle_steps(p, zu, wz, i0, i1):
                              y_in):
                 return G, times, PARTICLE_STICKS
             rel = y_in - wp
-            if not abs(rel) > GRAZING_TOL * (abs(y_in) + abs(wp) + 1.0):
+            if grazes(rel, y_in, wp):
                 return G, times, GRAZING
-            a_z = forcing(Q[TK.RZ], te) - 2.0 * s1 * y_in - w1 * w1 * zrec
+            a_z = acceleration(Q[TK.RZ], te, zrec, y_in)
             a11, a12, a21, a22 = impact_saltation(p[TP.R1], s1, rel, a_z, wpp)
             _block(G[m], 0, a11 * z11 + a12 * z21, a11 * z12 + a12 * z22,
                    a21 * z11 + a22 * z21, a21 * z12 + a22 * z22)
@@ -524,10 +570,10 @@ def two_particle_steps(p, zu, wz, i0, i1):
             if flight_misses(Q[TK.RU], D[TK.RU], f11, f12, f21, f22, tu, uu, vu, te, x, v_in):
                 return G, times, PARTICLE_STICKS
             rho = v_in - y_in
-            if not abs(rho) > GRAZING_TOL * (abs(v_in) + abs(y_in) + 1.0):
+            if grazes(rho, v_in, y_in):
                 return G, times, GRAZING
-            a_z = forcing(Q[TK.RZ], te) - 2.0 * s1 * y_in - w1 * w1 * x
-            a_u = forcing(Q[TK.RU], te) - 2.0 * s2 * v_in - w2 * w2 * x
+            a_z = acceleration(Q[TK.RZ], te, x, y_in)
+            a_u = acceleration(Q[TK.RU], te, x, v_in)
             S = zu_saltation(p[TP.MU], p[TP.R2], s1, s2, rho, a_z, a_u)
             F = np.zeros((4, 4))
             _block(F, 0, z11, z12, z21, z22)
@@ -543,10 +589,7 @@ def two_particle_steps(p, zu, wz, i0, i1):
 @jit
 def recorded(zu):
     """The number of recorded z-u impacts (rows before the first NaN time)."""
-    n = 0
-    while n < zu.shape[0] and zu[n, TK.ZU_T] == zu[n, TK.ZU_T]:
-        n += 1
-    return n
+    return recorded_count(zu[:, TK.ZU_T])
 
 
 @jit
@@ -585,45 +628,56 @@ def gram_schmidt(A, logs):
         for r in range(A.shape[0]):
             nrm += A[r, a] * A[r, a]
         nrm = math.sqrt(nrm)
+        if nrm == 0.0:
+            logs[a] += -math.inf      # an exact collapse (r1 or r2 = 0): the column stays 0
+            continue
         logs[a] += math.log(nrm)
         for r in range(A.shape[0]):
             A[r, a] /= nrm
 
 
 @jit
+def generic_basis(n):
+    """A fixed orthonormal n x n basis aligned with no coordinate block (the Gram-Schmidt
+    start of the Lyapunov spectrum)."""
+    B = np.empty((n, n))
+    for a in range(n):
+        for b in range(n):
+            B[a, b] = 1.0 / (1.0 + a + 2.0 * b) + (1.0 if a == b else 0.0)
+    gram_schmidt(B, np.zeros(n))
+    return B
+
+
+@jit
 def two_particle_lyapunov(p, zu, wz, ipc, warmup_share, out):
     """The Lyapunov spectrum (into ``out``, 4, per unit time, largest first) over one
     run's recorded z-u impacts, by QR re-orthonormalisation (modified Gram-Schmidt) after
-    every event; the first ``warmup_share`` of the impacts align the basis, the logarithms
-    are averaged over the rest (whole cycles where the run has one): (window, status)."""
+    every event; the warm-up (``lyapunov_window``) aligns the basis, the logarithms are
+    averaged over the window (whole cycles where the run has one): (window, status).  A
+    problem during the warm-up restarts the basis at the window; one in the window gives
+    NaN and its status."""
     n = recorded(zu)
     steps = n - 1
-    w0 = int(warmup_share * steps)
     out[:] = math.nan
-    if steps - w0 < 1:
+    start = lyapunov_window(steps, ipc, warmup_share)
+    if start < 0 or not zu[steps, TK.ZU_T] > zu[start, TK.ZU_T]:
         return math.nan, NO_WINDOW
-    start = w0
-    if ipc > 0 and (steps - w0) >= ipc:
-        start = steps - ((steps - w0) // ipc) * ipc
-    G, times, st = two_particle_steps(p, zu, wz, 0, steps)
     win = zu[steps, TK.ZU_T] - zu[start, TK.ZU_T]
+    G, _, st = two_particle_steps(p, zu, wz, start, steps)
     if st != OK:
         return win, st
-    # a generic orthonormal start basis (not aligned with the particles' blocks)
-    Qb = np.empty((4, 4))
-    for a in range(4):
-        for b in range(4):
-            Qb[a, b] = 1.0 / (1.0 + a + 2.0 * b) + (1.0 if a == b else 0.0)
-    dummy = np.zeros(4)
-    gram_schmidt(Qb, dummy)
+    Qb = generic_basis(4)
+    discard = np.zeros(4)
+    if start > 0:
+        Gw, _, st_w = two_particle_steps(p, zu, wz, 0, start)
+        if st_w == OK:
+            for m in range(Gw.shape[0]):
+                Qb = Gw[m] @ Qb
+                gram_schmidt(Qb, discard)
     logs = np.zeros(4)
-    t_start = zu[start, TK.ZU_T]
     for m in range(G.shape[0]):
         Qb = G[m] @ Qb
-        if times[m] > t_start:
-            gram_schmidt(Qb, logs)
-        else:
-            gram_schmidt(Qb, dummy)
+        gram_schmidt(Qb, logs)
     logs.sort()
     for a in range(4):
         out[a] = logs[3 - a] / win      # largest first

@@ -77,6 +77,7 @@ def test_monodromy_determinant_is_the_closed_form(name):
     sig = p.get("sigma1", 0.0) + p.get("sigma2", 0.0)
     want = math.exp(-2 * sig * (t1 - t0)) * p["r1"] ** (2 * n_wz) * p["r2"] ** (2 * ipc[0])
     assert math.isclose(np.linalg.det(out["monodromy"][0]), want, rel_tol=1e-10)
+    # the model's run_items gives the file the same numbers (wiring, not a second check)
     assert np.allclose(out["mu_re"][0], res["mu_re"][0], rtol=0, atol=0)
 
 
@@ -106,9 +107,9 @@ def test_exponents_sum_to_the_determinant_and_bracket_the_multipliers(name):
 
 
 def test_a_two_particle_sweep_stores_four_multipliers_and_exponents(tmp_path):
-    """Fig. 19(a), shrunk, keeping "stability": four multipliers and exponents per run
-    under stability/ with their scales (xarray), those two_particle_outputs computes for
-    the same runs from the kernel's tables; `cornerbif info` summarises them."""
+    """Fig. 19(a), shrunk, keeping "stability": four multipliers (sorted, all stable) and
+    exponents (sorted, negative) per run under stability/ with their scales (xarray);
+    `cornerbif info` summarises them."""
     import h5py
     from click.testing import CliRunner
 
@@ -137,3 +138,70 @@ def test_a_two_particle_sweep_stores_four_multipliers_and_exponents(tmp_path):
         assert ds["lyapunov"].dims == ("omega0", "ic", "exponent")
     r = CliRunner().invoke(main, ["info", str(out)])
     assert "largest Lyapunov exponent over the window" in r.output
+
+
+def _tables(p, x0, record=12):
+    from cornerbif.kernels import two_particle as K
+    r = K.simulate_two_particle(*x0, transient=0, record=record, **p)
+    zu = np.stack([r[k].reshape(-1) for k in ("t", "u", "v_in", "v_out", "y_in", "y_out",
+                                              "corner_offset")], -1)
+    wz = np.stack([r[k].reshape(-1) for k in ("wz_t", "wz_z", "wz_y_in", "wz_y_out")], -1)
+    return zu, wz
+
+
+def _flights(p, tau):
+    """blockdiag(M_z(tau), M_u(tau)) (tau may be negative: a flight run backwards)."""
+    F = np.zeros((4, 4))
+    F[:2, :2] = np.reshape(S.flight_matrix(p.get("sigma1", 0.0), p["omega1"], tau), (2, 2))
+    F[2:, 2:] = np.reshape(S.flight_matrix(p.get("sigma2", 0.0), p["omega2"], tau), (2, 2))
+    return F
+
+
+@pytest.mark.parametrize("case", ["forced", "mu_inf"])
+def test_steps_between_mid_flight_times_match_the_fd_reference(case):
+    """Beyond cycles: the product of two_particle_steps over a stretch of a transient (the
+    forced and damped case of the reference's self-tests, mu = 5, and Fig. 19 with
+    mu = inf, law (74) as law (5) against z), conjugated by the flights to mid-flight
+    times t_a (after the stretch's first z-u impact) and t_b (after its last), equals the
+    reference's central-difference Jacobian of the time map t_a -> t_b to 1e-7."""
+    from test_fd_reference_two_particle import FORCED
+
+    from cornerbif.models import two_particle as TP
+    if case == "forced":
+        p, x0 = dict(FORCED), [1.0, 0.5, 3.0, -1.0]
+    else:
+        p, x0 = dict(ATTRACTORS["fig19_w2.000_P1"][0], mu=math.inf), [0.3, 1.0, 2.0, 3.0]
+    full = {k: v.default for k, v in TP.PARAMS.items()} | p
+    zu, wz = _tables(full, x0)
+    i0, i1 = 0, 2
+    G, times, st = S.two_particle_steps(TP.pack(full), zu, wz, i0, i1)
+    assert st == S.OK and len(G) >= 2
+    t_i0, t_i1 = zu[i0, 0], zu[i1, 0]
+    nxt = zu[i1 + 1, 0] if np.isfinite(zu[i1 + 1, 0]) else t_i1 + 0.2
+    later = [t for t in wz[:, 0] if np.isfinite(t) and t > t_i1]
+    t_b = 0.5 * (t_i1 + min([nxt] + later))
+    t_a = 0.5 * (t_i0 + times[0])      # after impact i0, before the next event
+    P = np.eye(4)
+    for g in G:
+        P = g @ P
+    J = _flights(full, t_b - t_i1) @ P @ _flights(full, t_i0 - t_a)
+    xa = FR.state_at(full, np.array(x0), 0.0, t_a).x
+    Jfd, err = FR.fd_jacobian(full, xa, t_a, t_b - t_a)
+    assert np.abs(J - Jfd).max() < 1e-7 * max(1.0, np.abs(Jfd).max()), (J, Jfd, err.max())
+
+
+def test_a_full_wall_table_is_said_not_read_as_sticking():
+    """When the w-z table filled before the cycle's end (its last row is recorded and
+    earlier than the last z-u impact), impacts may be missing: status TABLE_FULL, not a
+    particle that sticks."""
+    from cornerbif.models import two_particle as TP
+    p, _, _, x0, _ = ATTRACTORS["fig19_w1.999_P3"]
+    full = {k: v.default for k, v in TP.PARAMS.items()} | p
+    zu, wz = _tables(full, x0, record=40)
+    n_wz = int(np.isfinite(wz[:, 0]).sum())
+    short = np.ascontiguousarray(wz[: n_wz // 2])          # a full table of half the rows
+    out = S.two_particle_outputs(TP.pack(full)[None], zu[None], short[None],
+                                 np.array([3], np.int64))
+    assert out["stability_status"][0] == S.TABLE_FULL
+    assert out["lyapunov_status"][0] == S.TABLE_FULL
+    assert np.isnan(out["mu_re"][0]).all()

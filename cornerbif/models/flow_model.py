@@ -43,8 +43,8 @@ STABILITY_FIELDS = (
     Field("stability/cycle_duration", "cycle_duration", "duration of the cycle", "time",
           axis=()),
     Field("stability/status", "stability_status", "how the multipliers were found: 0 ok, "
-          "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none), 5 a "
-          "particle sticks (two_particle: none)",
+          "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none); "
+          "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
           axis=(), dtype="i1", fill=-1),
     Field("stability/lyapunov", "lyapunov", "Lyapunov exponents over the recorded window, "
           "largest first, per unit time (QR through flights and impacts, docs/stability.md)",
@@ -53,8 +53,8 @@ STABILITY_FIELDS = (
           "exponents are averaged (after the warm-up, whole cycles where there is one)",
           "time", axis=()),
     Field("stability/lyapunov_status", "lyapunov_status", "how the exponents were found: 0 "
-          "ok, 1 grazing impact (none), 2 the window sticks (-inf), 4 too few impacts (none), "
-          "5 a particle sticks (two_particle: none)",
+          "ok, 1 grazing impact (none), 2 the window sticks (-inf), 4 too few impacts (none); "
+          "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
           axis=(), dtype="i1", fill=-1),
 )
 U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
@@ -181,6 +181,7 @@ MODEL = FlowModel(
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS,
                  "stability": STABILITY_FIELDS},
     opt_in=("stability",),
+    continuation=True,
     system_extra={"obstacle": "rectified_sine", "section_period": None},
     obstacles=OBSTACLES,
     events_per_impact=10,

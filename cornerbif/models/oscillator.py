@@ -129,6 +129,12 @@ def forcing(p, t):
     return p[P.F_AMP] * math.cos(p[P.F_OMEGA] * t + p[P.F_PHI])
 
 
+@jit
+def acceleration(p, t, u, v):
+    """u'' = f(t) - 2 sigma u' - k^2 u in free flight (eq 4)."""
+    return forcing(p, t) - 2.0 * p[P.SIGMA] * v - p[P.K] * p[P.K] * u
+
+
 SMALL_ANGLE = 0.25   # |x| up to which small_sincos is used: its remainder is below 1e-21
 
 
