@@ -201,7 +201,8 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
                    "Lyapunov exponent or largest |Floquet multiplier| (files kept with "
                    "\"stability\").")
 def plot(files, out, y, title, color_by):
-    """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down)."""
+    """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down);
+    continuation files (``cornerbif continue``) are drawn over the diagram, or alone."""
     from .io import FileFormatError
     from .plot import figure
     out = out or os.path.splitext(files[0])[0] + ".png"
@@ -216,14 +217,55 @@ def plot(files, out, y, title, color_by):
         _fail(str(e))
     if any(os.path.exists(x) and os.path.exists(out) and os.path.samefile(x, out) for x in files):
         _fail(f"-o {out}: that is one of the files to draw; name another figure")
+    from .plot import figure_branches, is_continuation
+    conts = [x for x in files if is_continuation(x)]
+    sweeps = [x for x in files if x not in conts]
     try:
-        figure(list(files), out, y=y, title=title, color_by=color_by)
+        if sweeps:
+            figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts)
+        else:
+            figure_branches(conts, out, y=y, title=title)
     except (FileFormatError, ValueError) as e:
         _fail(str(e))
     except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
         _fail(f"{', '.join(files)}: cannot be drawn ({type(e).__name__}: {e}); the file is "
               "damaged or was not written by cornerbif")
     click.echo(f"wrote {out}")
+
+
+@main.command("continue")
+@click.argument("scene_path", metavar="SCENE.toml", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", "out", type=click.Path(dir_okay=False),
+              help="Output HDF5 file (default: the scene's name + '_continue.h5').")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="Override a scene key, e.g. --set continue.range=[-0.02,0.01].")
+@click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
+def continue_(scene_path, out, sets, overwrite):
+    """Continue the periodic orbits of SCENE.toml's [continue] table: every attractor found
+    at the start (or the seed words), both ways in the parameter, stable or not, through
+    corner collisions, grazings, folds and period doublings (docs/continuation.md)."""
+    from .config import load
+    try:
+        scene = load(scene_path, sets)
+    except SceneError as e:
+        _fail("the scene cannot be run:\n  " + "\n  ".join(e.problems))
+    if not scene.cont:
+        _fail(f"{scene_path}: no [continue] table (parameter, range, ...: "
+              "docs/continuation.md)")
+    out = out or f"{scene.name}_continue.h5"
+    from .errors import SweepError
+    from .sweep import check_directory
+    try:
+        check_directory(out)
+    except SweepError as e:
+        _fail(str(e))
+    if os.path.exists(out) and not overwrite:
+        _fail(f"{out} exists; pass --overwrite to replace it")
+    from . import continuation as C
+    res = C.run_scene(scene, log=click.echo)
+    C.write(res, out)
+    click.echo(f"wrote {out}: {len(res.branches)} branches, "
+               f"{sum(len(b.events) for b in res.branches)} events, {len(res.curves)} curves")
 
 
 @main.command()

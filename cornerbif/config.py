@@ -112,7 +112,11 @@ TABLES = {
     "run": ("preset",) + tuple(RUN_DEFAULTS),
     "output": ("keep",),
     "plot": PLOT_KEYS,
+    "continue": ("parameter", "range", "start", "seed", "ds", "ds_min", "ds_max", "events",
+                 "switch", "curve", "curve_range", "over"),
 }
+# [continue] events: what cornerbif continue watches on a branch (cornerbif.continuation)
+CONTINUE_EVENTS = ("corner", "grazing", "zero_velocity", "fold", "period_doubling", "torus")
 
 
 class SceneError(ValueError):
@@ -160,6 +164,7 @@ class Scene:
     text : the TOML text as run (defaults made explicit); ``hash`` is its SHA-256.
     preset : the ``run.preset`` the run settings were resolved from.
     stop : ``run.stop`` resolved: "period" (early stop) or "none".
+    cont : the ``[continue]`` table resolved (``cornerbif continue``), empty without one.
     """
 
     name: str
@@ -186,6 +191,7 @@ class Scene:
     text: str = ""
     preset: str = DEFAULT_PRESET
     stop: str = "none"
+    cont: dict = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple:
@@ -745,6 +751,93 @@ def _read_plot(w):
     w.plot = plot
 
 
+def _read_continue(w):
+    """``[continue]``: one-parameter continuation of the periodic orbits found at the
+    start (``cornerbif continue``, cornerbif.continuation)."""
+    w.cont = {}
+    if "continue" not in w.raw:
+        return
+    c = w.table("continue")
+    w.unknown("continue", TABLES["continue"])
+    pr = w.problems
+    if not w.spec.continuation:
+        which = " or ".join(repr(m.name) for m in _all_models() if m.continuation)
+        pr.append(f"continue: model {w.model!r} has no orbit solver yet; continuation runs "
+                  f"model {which}")
+        return
+    name = c.get("parameter")
+    numeric = [k for k in w.spec.params]
+    if name not in numeric:
+        pr.append(f"continue.parameter: {_fmt(name)} is not a numeric parameter of model "
+                  f"{w.model!r}{_suggest(str(name), numeric)}; allowed: {', '.join(numeric)}")
+        return
+    if any(a.name == name for a in w.axes):
+        pr.append(f"continue.parameter: {name!r} is also swept ([sweep] {name}); continue "
+                  "from one point: remove the axis")
+    out = {"parameter": name}
+    rng = c.get("range")
+    if not (isinstance(rng, list) and len(rng) == 2 and all(_is_number(x) for x in rng)
+            and rng[0] < rng[1]):
+        pr.append(f"continue.range: {_fmt(rng)} must be [low, high] with low < high")
+        return
+    out["range"] = [float(rng[0]), float(rng[1])]
+    start = c.get("start", w.system.get(name))
+    if not _is_number(start) or not rng[0] <= start <= rng[1]:
+        pr.append(f"continue.start: {_fmt(start)} must be a number within continue.range "
+                  f"{_fmt(rng)} (default: system.{name})")
+        return
+    w.param(name, start, "continue.start")
+    out["start"] = float(start)
+    seed = c.get("seed", "all")
+    seeds = seed if isinstance(seed, list) else [seed]
+    if not seeds or not all(isinstance(s, str) and s for s in seeds):
+        pr.append(f"continue.seed: {_fmt(seed)} must be \"all\" or a cycle word (or a list "
+                  "of words), e.g. \"b\", \"a\", \"b^5 g\"")
+    else:
+        from .analysis import parse_word
+        for s in seeds:
+            if s != "all" and set(s) != {"x"}:      # x: a cluster of a smooth obstacle
+                try:
+                    parse_word(s)
+                except ValueError as e:
+                    pr.append(f"continue.seed: {s!r}: {e} (or x for a smooth obstacle)")
+    out["seed"] = seed
+    width = out["range"][1] - out["range"][0]
+    for k, default in (("ds", width / 200.0), ("ds_min", width * 1e-9),
+                       ("ds_max", width / 20.0)):
+        v = c.get(k, default)
+        if not (_is_number(v) and math.isfinite(v) and v > 0):
+            pr.append(f"continue.{k}: {_fmt(v)} must be a number > 0")
+        out[k] = float(v) if _is_number(v) else default
+    ev = c.get("events", list(CONTINUE_EVENTS))
+    if not (isinstance(ev, list) and all(x in CONTINUE_EVENTS for x in ev)):
+        pr.append(f"continue.events: {_fmt(ev)} must be a list drawn from "
+                  + ", ".join(CONTINUE_EVENTS))
+    out["events"] = list(ev) if isinstance(ev, list) else list(CONTINUE_EVENTS)
+    sw = c.get("switch", True)
+    if not isinstance(sw, bool):
+        pr.append(f"continue.switch: {_fmt(sw)} must be true or false")
+    out["switch"] = bool(sw)
+    if "curve" in c:
+        cv = c["curve"]
+        if cv not in numeric or cv == name:
+            pr.append(f"continue.curve: {_fmt(cv)} must be another numeric parameter of "
+                      f"model {w.model!r} (the second parameter of the corner-collision "
+                      "curves)")
+        crng = c.get("curve_range")
+        if not (isinstance(crng, list) and len(crng) == 2 and all(_is_number(x) for x in crng)
+                and crng[0] < crng[1] and crng[0] <= w.system.get(cv, math.nan) <= crng[1]):
+            pr.append(f"continue.curve_range: {_fmt(crng)} must be [low, high] around "
+                      f"system.{cv} = {_fmt(w.system.get(cv))}")
+        out["curve"] = cv
+        out["curve_range"] = crng
+    if "over" in c:
+        if not isinstance(c["over"], str):
+            pr.append(f"continue.over: {_fmt(c['over'])} must be the name of a scene")
+        out["over"] = c["over"]
+    w.cont = out
+
+
 def _read_model_checks(w):
     """The model's own cross-checks (``Model.check``)."""
     w.problems += w.spec.check(CheckContext(w))
@@ -753,7 +846,7 @@ def _read_model_checks(w):
 # the declared tables, walked in this order
 READERS = (("scene", _read_scene), ("system", _read_system), ("sweep", _read_sweep),
            ("initial", _read_initial), ("run", _read_run), ("output", _read_output),
-           ("plot", _read_plot), (None, _read_model_checks))
+           ("plot", _read_plot), ("continue", _read_continue), (None, _read_model_checks))
 
 
 def from_dict(raw, drawn_starts: bool = True) -> Scene:
@@ -804,10 +897,13 @@ def _scene(w) -> Scene:
         as_run["system"]["section_period"] = w.section_period
     if w.plot:
         as_run["plot"] = w.plot
+    if w.cont:
+        as_run["continue"] = w.cont
     return Scene(name=w.name, title=w.title, model=w.model, obstacle=w.obstacle,
                  system=w.system, section_period=w.section_period, axes=tuple(w.axes),
                  follow=w.follow, n_ic=w.n_ic, seed=w.seed, initial=w.ranges,
                  transient=run["transient"], record=run["record"], tol=run["tol"],
                  chatter=run["chatter"], escape=run["escape"], period_tol=run["period_tol"],
                  max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
-                 plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"])
+                 plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"],
+                 cont=w.cont)

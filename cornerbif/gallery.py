@@ -82,6 +82,14 @@ def file_matches(h5: str, scene: C.Scene) -> bool:
     from .io import FileFormatError, check_readable
     if not os.path.exists(h5):
         return False
+    if scene.cont:
+        import h5py
+        try:
+            with h5py.File(h5, "r") as f:
+                return (bool(f.attrs.get("completed", ""))
+                        and _without_plot(f.attrs["scene"]) == _without_plot(scene.text))
+        except (OSError, KeyError):
+            return False
     try:
         with check_readable(h5) as f:
             if not f.attrs.get("completed", ""):
@@ -128,6 +136,27 @@ def run(config_dir="configs", out="docs/gallery", data="gallery_data", only=(), 
             h5 = os.path.join(data, f"{s}.h5")
             files.append(h5)
             t = time.perf_counter()
+            if scene.cont:
+                # a continuation scene: its branches, drawn over the sweep it names
+                action = "reused" if file_matches(h5, scene) else "continued"
+                if action == "continued":
+                    from . import continuation
+                    continuation.write(continuation.run_scene(scene, log=lambda *a: None), h5)
+                over = scene.cont.get("over")
+                if over:
+                    if over not in scenes:
+                        raise ValueError(f"{s}: continue.over = {over!r} is not a scene in "
+                                         f"{config_dir}")
+                    oscene = load_scene(scenes[over], smoke)
+                    oh5 = os.path.join(data, f"{over}.h5")
+                    if not file_matches(oh5, oscene):
+                        run_sweep(oscene, oh5, threads=threads, overwrite=True,
+                                  progress=False, command="cornerbif gallery (for " + s + ")")
+                    files.insert(0, oh5)
+                dt = time.perf_counter() - t
+                rec["scenes"][s] = {"action": action, "seconds": round(dt, 2)}
+                echo(f"{s}: {action} ({dt:.1f} s)")
+                continue
             if file_matches(h5, scene):
                 action = "reused"
             else:
@@ -151,10 +180,19 @@ def run(config_dir="configs", out="docs/gallery", data="gallery_data", only=(), 
         png = os.path.join(out, f"{fig_name}.png")
         t = time.perf_counter()
         plot_cfg = load_scene(scenes[names[0]], smoke).plot
-        figure(files, png, plot_cfg=plot_cfg)
+        from .plot import figure_branches, is_continuation
+        conts = [f for f in files if is_continuation(f)]
+        sweeps = [f for f in files if f not in conts]
+        if sweeps:
+            title = load_scene(scenes[names[0]], smoke).title if conts else None
+            figure(sweeps, png, plot_cfg=plot_cfg, branches=conts, title=title)
+        else:
+            figure_branches(conts, png, plot_cfg=plot_cfg)
         rec["png"] = png
         rec["plot_seconds"] = round(time.perf_counter() - t, 2)
-        rec["facts"] = {s: facts(f) for s, f in zip(names, files)}
+        own = {s: os.path.join(data, f"{s}.h5") for s in names}
+        rec["facts"] = {s: (continuation_facts(f) if f in conts else facts(f))
+                        for s, f in own.items()}
         echo(f"  -> {png} ({rec['plot_seconds']:.1f} s)")
         records.append(rec)
     return records
@@ -214,3 +252,17 @@ def facts(h5: str) -> dict:
         top = sorted(zip(c.tolist(), vals.tolist()), reverse=True)[:10]
         out["periods"] = {int(v): int(n) for n, v in top}
     return out
+
+
+def continuation_facts(h5: str) -> dict:
+    """What the notes quote of a continuation file: per branch its word and range, and
+    the located events."""
+    from .continuation import read
+    c = read(h5)
+    return {"parameter": c["parameter"],
+            "branches": [{"word": str(b["word"]), "from": float(b["param"].min()),
+                          "to": float(b["param"].max()), "points": int(len(b["param"])),
+                          "stable_points": int(b["stable"].sum())} for b in c["branches"]],
+            "events": [{"branch": e["branch"], "kind": e["kind"], "param": e["param"],
+                        "detail": e["detail"]} for e in c["events"] if e["kind"] != "end"],
+            "curves": len(c["curves"])}

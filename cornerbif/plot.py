@@ -238,6 +238,158 @@ def draw_plane_stability(ax, data: PlotData, what):
     return im
 
 
+# ------------------------------------------------------------------ continuation branches
+EVENT_MARKERS = {"corner": ("D", "tab:red", "corner collision"),
+                 "fold": ("^", "tab:purple", "fold"),
+                 "period_doubling": ("s", "tab:orange", "period doubling"),
+                 "torus": ("o", "tab:green", "torus"),
+                 "grazing": ("X", "tab:blue", "grazing"),
+                 "zero_velocity": ("v", "tab:brown", "zero-velocity impact")}
+BRANCH_Y = {"impact_u": "impact_u", "impact_v": "impact_v_in", "section_u": "section_u",
+            "section_v": "section_v"}
+
+
+def is_continuation(path) -> bool:
+    """Whether ``path`` is a ``cornerbif continue`` file (root attribute ``format``)."""
+    import h5py
+
+    from .continuation import FORMAT
+    try:
+        with h5py.File(path, "r") as f:
+            return f.attrs.get("format") == FORMAT
+    except OSError:
+        return False
+
+
+def _runs(mask):
+    """(start, stop) of the runs of True in a boolean array."""
+    out, i = [], 0
+    while i < len(mask):
+        if mask[i]:
+            j = i
+            while j < len(mask) and mask[j]:
+                j += 1
+            out.append((i, j))
+            i = j
+        else:
+            i += 1
+    return out
+
+
+BRANCH_COLORS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
+
+
+def _word_label(word) -> str:
+    """A cycle word in the paper's notation (b^3 g -> beta^3 gamma)."""
+    w = run_length(str(word), tex=True, empty="?")
+    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
+        w = w.replace(a, b)
+    return "$" + w.replace("$", "").replace(" ", r"\,") + "$" if word else "?"
+
+
+def draw_branches(ax, cont: dict, y="impact_u", offset=0):
+    """Continued branches over a diagram: each impact's height (or the section state, or
+    the impact velocity) against the parameter, one colour per branch (its word in the
+    legend), stable solid, unstable dashed, events marked."""
+    key = BRANCH_Y.get(y)
+    if key is None:
+        raise ValueError(f"branches draw y = {', '.join(BRANCH_Y)}, not {y!r}")
+    arts = []
+    seen = set()
+    any_unstable = False
+    for b, br in enumerate(cont["branches"]):
+        color = BRANCH_COLORS[(b + offset) % len(BRANCH_COLORS)]
+        x = br["param"]
+        vals = br[key]
+        vals = vals[:, None] if vals.ndim == 1 else vals
+        st = br["stable"].astype(bool)
+        any_unstable |= not st.all()
+        label = f"branch {b}: {_word_label(br['word'])}"
+        for q in range(vals.shape[1]):
+            for stable in (True, False):
+                m = st if stable else ~st
+                # segments include the neighbour point so that solid and dashed join
+                for a, e in _runs(m):
+                    lo, hi = max(a - 1, 0), min(e + 1, len(x))
+                    arts += ax.plot(x[lo:hi], vals[lo:hi, q], "-" if stable else "--",
+                                    color=color, lw=1.1,
+                                    label=None if label in seen else label)
+                    seen.add(label)
+    if any_unstable:
+        arts += ax.plot([], [], "--", color="0.3", lw=1.1, label="unstable (dashed)")
+    for e in cont["events"]:
+        if e["kind"] not in EVENT_MARKERS:
+            continue
+        mk, c, lab = EVENT_MARKERS[e["kind"]]
+        br = cont["branches"][e["branch"]]
+        i = int(np.argmin(np.abs(br["param"] - e["param"])))
+        vals = br[key][i] if br[key].ndim == 1 else br[key][i].min()
+        arts += ax.plot([e["param"]], [vals], mk, color=c, ms=6, mec="k", mew=0.5,
+                        label=None if lab in seen else lab, zorder=5)
+        seen.add(lab)
+    return arts
+
+
+def figure_branches(paths, out, y=None, title=None, plot_cfg=None):
+    """Continuation files drawn alone: branches against the parameter, and the corner
+    curves in the plane of the two parameters when the files have them."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .continuation import read
+    conts = [read(p) for p in paths]
+    curves = any(c["curves"] for c in conts)
+    fig, axs = plt.subplots(1, 2 if curves else 1, figsize=(12 if curves else 7, 4.5),
+                            dpi=150, squeeze=False)
+    ax = axs[0, 0]
+    plot_cfg = plot_cfg or {}
+    kind = y or plot_cfg.get("y") or "impact_u"
+    title = title or plot_cfg.get("title")
+    for c in conts:
+        draw_branches(ax, c, kind)
+    name = conts[0]["parameter"]
+    ax.set_xlabel(LABELS.get(name, name))
+    ax.set_ylabel(YLABELS.get(kind, kind))
+    ax.legend(loc="best", fontsize=7)
+    if curves:
+        draw_corner_curves_continued(axs[0, 1], conts)
+    sc = tomllib.loads(conts[0]["scene"]).get("scene", {})
+    import textwrap
+    fig.suptitle("\n".join(textwrap.wrap(title or sc.get("title", ""), 100)), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def draw_corner_curves_continued(ax, conts):
+    """The corner-collision curves continued in two parameters, with eqs (11) and (17)
+    where the plane is (omega, kappa) on the rectified sine."""
+    arts = []
+    for c in conts:
+        for cv in c["curves"]:
+            x, yv = cv["param"], cv["event_param"]
+            b = int(cv["branch"])
+            word = c["branches"][b]["word"]
+            arts += ax.plot(x, yv, "-", color=BRANCH_COLORS[b % len(BRANCH_COLORS)], lw=1.2,
+                            label=f"branch {b} ({_word_label(word)}): {cv['what']} at "
+                                  "its corner, continued")
+    sys_ = tomllib.loads(conts[0]["scene"]).get("system", {})
+    cv0 = conts[0]["curves"][0]
+    if sys_.get("obstacle", "rectified_sine") == "rectified_sine":
+        r, beta = sys_.get("r", 0.8), sys_.get("beta", 1.0)
+        w = np.linspace(cv0["param"].min(), cv0["param"].max(), 300)
+        arts += ax.plot(w, [theory.kappa_C(t, r, beta) for t in w], ":", color="tab:red",
+                        lw=2, label=r"$\kappa_C$, eq (11)")
+        arts += ax.plot(w, [theory.kappa_CC(t, r, beta) for t in w], ":", color="tab:blue",
+                        lw=2, label=r"$\kappa_{CC}$, eq (17)")
+    ax.set_xlabel(LABELS["omega"])
+    ax.set_ylabel(LABELS["kappa"])
+    ax.legend(loc="best", fontsize=7)
+    return arts
+
+
 def attractor_summary(data: PlotData, tex: bool = True) -> str:
     """One line: how many attractors coexist, and where (for the figure and ``cornerbif info``)."""
     labels, count = data.attractors()
@@ -398,7 +550,7 @@ def draw_comparison(fig, datas, kind, plot_cfg):
     return axs
 
 
-def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None):
+def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):
     """Draw one or more files of the same kind into ``out`` (png, pdf or svg).
 
     ``plot_cfg`` replaces the file's ``[plot]`` table (the gallery passes the
@@ -407,6 +559,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None):
     "timeseries" (Figs 1b, 5, 6d, 17) or "corner_curves" (Fig. 7a).
     ``color_by`` (or ``[plot] color_by``): "lyapunov" or "multiplier" colours a diagram's
     points, or the left panel of an (omega, kappa) chart, by the run's stability.
+    ``branches``: continuation files (``cornerbif continue``) drawn over a diagram.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -486,6 +639,17 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None):
         if len(datas) == 1:
             ax.text(0.01, 0.01, attractor_summary(d0), transform=ax.transAxes, fontsize=6,
                     va="bottom", ha="left", color="0.2")
+        branch_arts = []
+        if branches:
+            from .continuation import read
+            for bp in branches:
+                cont = read(bp)
+                if cont["parameter"] != d0.axes[0]:
+                    plt.close(fig)
+                    raise ValueError(f"{bp}: its branches are continued in "
+                                     f"{cont['parameter']!r}, the diagram sweeps "
+                                     f"{d0.axes[0]!r}")
+                branch_arts += draw_branches(ax, cont, kind)
         if kind in ("impact_u", "winding", "section_v", "period"):
             draw_corner_points(ax, d0, corner_line=kind == "impact_u")
         a = d0.axes[0]
@@ -502,7 +666,15 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None):
                         "y window", transform=ax.transAxes, ha="right", va="top", fontsize=6,
                         color="0.3")
         if ax.get_legend_handles_labels()[0] and not color_by:
-            ax.legend(loc="best", fontsize=7, markerscale=8)
+            hs, ls = ax.get_legend_handles_labels()
+            keep = [(h, lab) for h, lab in zip(hs, ls) if h not in branch_arts]
+            leg = ax.legend(*zip(*keep), loc="best", fontsize=7, markerscale=8) if keep else None
+            extra = [(h, lab) for h, lab in zip(hs, ls) if h in branch_arts]
+            if extra:
+                # the branches' own legend, markers at their size
+                if leg is not None:
+                    ax.add_artist(leg)
+                ax.legend(*zip(*extra), loc="lower right", fontsize=7, framealpha=0.9)
     elif len(d0.axes) != 2:
         plt.close(fig)
         raise ValueError(f"{d0.path}: a scene without a sweep axis has nothing to draw")

@@ -1,0 +1,969 @@
+"""Periodic orbits of any itinerary, stable or not, and their continuation through corner
+events (issue 18, docs/continuation.md).
+
+A periodic orbit of the ``flow`` model is a closed chain of impacts: impact i lies on the
+obstacle's piece j_i at local time tau_i and leaves it with velocity v_i (law 5); the
+exact free flight (eq 4) from it meets the obstacle at impact i + 1; the chain closes after
+m obstacle periods.  The unknowns X = (tau_0, v_0, tau_1, v_1, ...) solve 2N equations
+
+    u_f(t_(i+1)) - z(t_(i+1)) = 0,   v_(i+1) - (1 + r) z'(t_(i+1)) + r v_f(t_(i+1)) = 0,
+
+(x_f the flight from impact i), whose Jacobian is written in closed form
+(``FlowOrbit.jacobian``): the flight matrix of ``stability.flight_matrix`` and the vector
+field at both ends.  Nothing asks the orbit to be stable: Newton's method finds saddles
+as well as attractors, and the itinerary (the pieces j_i) fixes on which side of each corner
+every impact lies, so an orbit can be followed up to the parameter where one of its
+impacts reaches a corner (tau_i -> 0 or L), and past it on the side where the orbit of the
+new itinerary exists.
+
+``continue_branch`` is pseudo-arclength continuation in one numeric scene parameter with
+adaptive steps; along the branch it watches the distance of every impact to its corners,
+the smallest gap of every flight to the obstacle (grazing: an impact is born), the
+relative velocity of every impact (a zero-velocity impact), and the Floquet multipliers
+(fold: det(J - I) = 0; period doubling: det(J + I) = 0; torus: a complex pair on the unit
+circle), and locates each sign change by the secant method on the arclength.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .models import params as P
+from .models.obstacle import corner_of, piece_start, z_state
+from .models.oscillator import acceleration, derive, particular
+from .models.params import OBSTACLES
+from .stability import flight_matrix, impact_saltation, multipliers
+
+NEWTON_TOL = 1e-12     # |residual| (scaled) at which Newton stops
+NEWTON_MAX = 30
+GAP_SAMPLES = 48       # samples per flight in the grazing monitor
+
+
+class OrbitError(RuntimeError):
+    """Newton did not converge to an orbit of the itinerary."""
+
+
+# ------------------------------------------------------------------ the flow's orbit
+@dataclass
+class FlowOrbit:
+    """The periodic-orbit problem of one itinerary of the ``flow`` model.
+
+    ``values``: the scene's [system] values (named, as ``params.pack`` takes them) with
+    ``param`` the one continued; ``obstacle``; ``pieces``: the piece j_i of each impact of
+    one cycle (nondecreasing, within one cycle); ``m``: obstacle periods per cycle.
+    """
+
+    values: dict
+    obstacle: str
+    param: str
+    pieces: np.ndarray
+    m: int
+    tol: float = 1e-12
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.pieces)
+
+    def packed(self, lam):
+        """(p, d): the packed parameter row at param = lam and its derived constants."""
+        key = float(lam)
+        if key not in self._cache:
+            if len(self._cache) > 64:
+                self._cache.clear()
+            vals = dict(self.values)
+            vals[self.param] = key
+            p = P.pack(vals, self.obstacle, self.tol, 1e-6, 1e6, None, 0.0)
+            self._cache[key] = (p, derive(p))
+        return self._cache[key]
+
+    def duration(self, lam) -> float:
+        p, d = self.packed(lam)
+        return self.m * (piece_start(d, 2) - piece_start(d, 0))
+
+    def times(self, X, lam):
+        """Absolute impact times t_i = start of piece j_i + tau_i."""
+        _, d = self.packed(lam)
+        return np.array([piece_start(d, int(j)) for j in self.pieces]) + X[0::2]
+
+    def _flight(self, p, d, t0, z0, v0, t1):
+        """The free flight from (z0, v0) at t0 to t1: (u, v, M)."""
+        M = flight_matrix(p[P.SIGMA], p[P.K], t1 - t0)
+        up0, vp0 = particular(p, d, t0)
+        up1, vp1 = particular(p, d, t1)
+        du, dv = z0 - up0, v0 - vp0
+        return (up1 + M[0] * du + M[1] * dv, vp1 + M[2] * du + M[3] * dv, M)
+
+    def residual(self, X, lam):
+        p, d = self.packed(lam)
+        r = p[P.R]
+        N = self.n
+        t = self.times(X, lam)
+        D = self.duration(lam)
+        R = np.empty(2 * N)
+        for i in range(N):
+            n = (i + 1) % N
+            tn = t[n] + (D if n == 0 else 0.0)
+            zi = z_state(p, int(self.pieces[i]), X[2 * i])
+            zn = z_state(p, int(self.pieces[n]), X[2 * n])
+            uf, vf, _ = self._flight(p, d, t[i], zi[0], X[2 * i + 1], tn)
+            R[2 * i] = uf - zn[0]
+            R[2 * i + 1] = X[2 * n + 1] - (1.0 + r) * zn[1] + r * vf
+        return R
+
+    def jacobian(self, X, lam):
+        """dR/dX in closed form: with x_f = x_p(t') + M (x_i - x_p(t_i)), x_i = (z(t_i), v_i),
+        dx_f/dtau_i = M ((z'(t_i), 0) - F(t_i, x_i)), dx_f/dv_i = M e2,
+        dx_f/dtau_(i+1) = F(t', x_f), F = (v, f(t) - 2 sigma v - k^2 u) (eq 4)."""
+        p, d = self.packed(lam)
+        r = p[P.R]
+        N = self.n
+        t = self.times(X, lam)
+        D = self.duration(lam)
+        Jm = np.zeros((2 * N, 2 * N))
+        for i in range(N):
+            n = (i + 1) % N
+            tn = t[n] + (D if n == 0 else 0.0)
+            zi, zpi, _, _ = z_state(p, int(self.pieces[i]), X[2 * i])
+            zn, zpn, zppn, _ = z_state(p, int(self.pieces[n]), X[2 * n])
+            vi = X[2 * i + 1]
+            uf, vf, M = self._flight(p, d, t[i], zi, vi, tn)
+            ai = acceleration(p, t[i], zi, vi)
+            af = acceleration(p, tn, uf, vf)
+            g0, g1 = zpi - vi, -ai
+            dti = (M[0] * g0 + M[1] * g1, M[2] * g0 + M[3] * g1)
+            Jm[2 * i, 2 * i] += dti[0]
+            Jm[2 * i, 2 * i + 1] += M[1]
+            Jm[2 * i, 2 * n] += vf - zpn
+            Jm[2 * i + 1, 2 * i] += r * dti[1]
+            Jm[2 * i + 1, 2 * i + 1] += r * M[3]
+            Jm[2 * i + 1, 2 * n] += -(1.0 + r) * zppn + r * af
+            Jm[2 * i + 1, 2 * n + 1] += 1.0
+        return Jm
+
+    def d_param(self, X, lam):
+        """dR/dparam by central differences (the parameter enters through the packed row)."""
+        h = 1e-6 * max(1.0, abs(lam))
+        return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
+
+    # --- what the orbit is -------------------------------------------------------------
+    def impacts(self, X, lam):
+        """Per impact of one cycle: t, u, v_in, v_out, the relative velocity w- (< 0 for a
+        real impact), the corner index and the signed corner offset (corner_of)."""
+        p, d = self.packed(lam)
+        N = self.n
+        t = self.times(X, lam)
+        D = self.duration(lam)
+        out = {k: np.empty(N) for k in ("t", "u", "v_in", "v_out", "w", "offset")}
+        out["corner"] = np.empty(N, np.int64)
+        for i in range(N):
+            n = (i + 1) % N
+            tn = t[n] + (D if n == 0 else 0.0)
+            zi = z_state(p, int(self.pieces[i]), X[2 * i])
+            zn = z_state(p, int(self.pieces[n]), X[2 * n])
+            _, vf, _ = self._flight(p, d, t[i], zi[0], X[2 * i + 1], tn)
+            out["v_in"][n] = vf
+            out["w"][n] = vf - zn[1]
+            out["t"][i] = t[i]
+            out["u"][i] = zi[0]
+            out["v_out"][i] = X[2 * i + 1]
+            c, off = corner_of(p, d, int(self.pieces[i]), X[2 * i])
+            out["corner"][i] = c
+            out["offset"][i] = off
+        return out
+
+    def monodromy(self, X, lam):
+        """J = prod S_i M_i over the cycle (stability's flight and saltation matrices, the
+        obstacle's slope and curvature on each impact's own piece: one-sided at a corner)."""
+        p, d = self.packed(lam)
+        r, sig, k = p[P.R], p[P.SIGMA], p[P.K]
+        imp = self.impacts(X, lam)
+        N = self.n
+        D = self.duration(lam)
+        J = np.eye(2)
+        for i in range(N):
+            n = (i + 1) % N
+            tn = imp["t"][n] + (D if n == 0 else 0.0)
+            M = np.array(flight_matrix(sig, k, tn - imp["t"][i])).reshape(2, 2)
+            _, zp, zpp, _ = z_state(p, int(self.pieces[n]), X[2 * n])
+            acc = acceleration(p, tn, imp["u"][n], imp["v_in"][n])
+            S = np.array(impact_saltation(r, sig, imp["w"][n], acc, zpp)).reshape(2, 2)
+            J = S @ M @ J
+        return J
+
+    def floquet(self, X, lam):
+        J = self.monodromy(X, lam)
+        re1, im1, re2, im2 = multipliers(J[0, 0], J[0, 1], J[1, 0], J[1, 1])
+        return np.array([complex(re1, im1), complex(re2, im2)]), J
+
+    def corner_distances(self, X, lam):
+        """Per impact, the signed distance in time to the corner on its side of the piece
+        (tau_i for the corner at the piece's start, L_j - tau_i for the one at its end,
+        whichever is nearer): negative once the impact has crossed it."""
+        p, d = self.packed(lam)
+        out = np.empty(self.n)
+        if not OBSTACLES[self.obstacle].corners:
+            out[:] = np.inf          # piece ends are no corners: reindex() crosses them
+            return out
+        for i, j in enumerate(self.pieces):
+            L = piece_start(d, int(j) + 1) - piece_start(d, int(j))
+            tau = X[2 * i]
+            out[i] = tau if tau < 0.5 * L else L - tau
+        return out
+
+    def reindex(self, X, lam):
+        """On an obstacle without corners (``sine``), an impact that left its piece is put
+        on the piece it now lies on (a piece end there is bookkeeping, not a corner):
+        (problem, X), a new problem where a piece changed."""
+        if OBSTACLES[self.obstacle].corners:
+            return self, X
+        p, d = self.packed(lam)
+        X = X.copy()
+        pieces = self.pieces.copy()
+        for i in range(self.n):
+            j = int(pieces[i])
+            while X[2 * i] < 0.0:
+                X[2 * i] += piece_start(d, j) - piece_start(d, j - 1)
+                j -= 1
+            while X[2 * i] >= piece_start(d, j + 1) - piece_start(d, j):
+                X[2 * i] -= piece_start(d, j + 1) - piece_start(d, j)
+                j += 1
+            pieces[i] = j
+        if np.array_equal(pieces, self.pieces):
+            return self, X
+        new = FlowOrbit(self.values, self.obstacle, self.param, pieces, self.m, self.tol)
+        new._cache = self._cache
+        return new, X
+
+    def smallest_gap(self, X, lam):
+        """The smallest gap u - z over the interior of every flight (sampled, then refined
+        by a parabola through the smallest sample): negative where the flight crosses the
+        obstacle (an impact the itinerary does not have), zero at a grazing."""
+        p, d = self.packed(lam)
+        imp = self.impacts(X, lam)
+        N = self.n
+        D = self.duration(lam)
+        per = piece_start(d, 2) - piece_start(d, 0)
+        L0 = piece_start(d, 1) - piece_start(d, 0)
+        best = math.inf
+        for i in range(N):
+            n = (i + 1) % N
+            t0 = imp["t"][i]
+            t1 = imp["t"][n] + (D if n == 0 else 0.0)
+            s = np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]
+            g = np.array([self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
+                                    t0 + x * (t1 - t0), per, L0) for x in s])
+            q = int(np.argmin(g))
+            gq = g[q]
+            if 0 < q < len(s) - 1:
+                a, b, c = g[q - 1], g[q], g[q + 1]
+                den = a - 2 * b + c
+                if den > 0:
+                    x = s[q] + 0.5 * (a - c) / den * (s[1] - s[0])
+                    gq = min(gq, self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
+                                           t0 + x * (t1 - t0), per, L0))
+            best = min(best, gq)
+        return best
+
+    def _gap(self, p, d, t0, u0, v0, t, per, L0):
+        uf, _, _ = self._flight(p, d, t0, u0, v0, t)
+        q = math.floor(t / per)
+        x = t - q * per
+        j = 2 * int(q) + (1 if x >= L0 else 0)
+        z = z_state(p, j, t - piece_start(d, j))[0]
+        return uf - z
+
+
+# ------------------------------------------------------------------ Newton
+def newton(problem, X, lam):
+    """Newton on R(X, lam) = 0 at fixed lam; OrbitError if it does not converge."""
+    X = np.array(X, float)
+    for _ in range(NEWTON_MAX):
+        R = problem.residual(X, lam)
+        if not np.all(np.isfinite(R)):
+            raise OrbitError("the residual is not finite")
+        scale = 1.0 + np.abs(X).max()
+        if np.abs(R).max() <= NEWTON_TOL * scale:
+            return X
+        dX = np.linalg.solve(problem.jacobian(X, lam), -R)
+        X = X + dX
+        if np.abs(dX).max() <= 1e-15 * scale:
+            return X
+    R = problem.residual(X, lam)
+    if np.abs(R).max() <= 1e-9 * (1.0 + np.abs(X).max()):
+        return X
+    raise OrbitError(f"Newton did not converge (residual {np.abs(R).max():.3g})")
+
+
+def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-12):
+    """A FlowOrbit and its solved X from one run's record (``cornerbif.simulate`` or a
+    sweep file: its last complete cycle of ``ipc`` impacts)."""
+    n = int(np.isfinite(t).sum())
+    if ipc <= 0 or n < ipc + 1:
+        raise OrbitError("the run has no cycle to seed from")
+    first = n - 1 - ipc
+    prob = FlowOrbit(dict(values), obstacle, param, np.zeros(ipc, np.int64), 1, tol)
+    lam = float(values[param])
+    p, d = prob.packed(lam)
+    per = piece_start(d, 2) - piece_start(d, 0)
+    L0 = piece_start(d, 1) - piece_start(d, 0)
+    dur = t[first + ipc] - t[first]
+    m = int(round(dur / per))
+    t0 = math.floor(t[first + 1] / per) * per
+    pieces = np.empty(ipc, np.int64)
+    X = np.empty(2 * ipc)
+    for q in range(ipc):
+        tt = t[first + 1 + q] - t0
+        k = math.floor(tt / per)
+        x = tt - k * per
+        j = 2 * k + (1 if x >= L0 else 0)
+        tau = tt - piece_start(d, j)
+        # an impact recorded at a corner lies on the side its offset says
+        L = piece_start(d, j + 1) - piece_start(d, j)
+        off = corner_offset[first + 1 + q]
+        if off == off and off < 0 and tau < 0.5 * L and obstacle == "rectified_sine":
+            j -= 1
+            tau += L
+        pieces[q] = j
+        X[2 * q] = tau
+        X[2 * q + 1] = v_out[first + 1 + q]
+    prob.pieces = pieces
+    prob.m = m
+    return prob, newton(prob, X, lam)
+
+
+# ------------------------------------------------------------------ pseudo-arclength
+EVENTS = ("corner", "grazing", "zero_velocity", "fold", "period_doubling", "torus")
+
+@dataclass
+class Point:
+    lam: float
+    X: np.ndarray
+    mu: np.ndarray
+    monitors: dict
+    problem: object = None     # the itinerary X refers to (pieces change on a smooth obstacle)
+
+
+@dataclass
+class Event:
+    kind: str          # corner, grazing, zero_velocity, fold, period_doubling, torus, end
+    lam: float
+    X: np.ndarray
+    detail: str = ""
+    problem: object = None
+
+
+def _monitors(problem, X, lam):
+    if hasattr(problem, "orbit"):        # a curve of events: watch the orbit on it
+        problem, X = problem.orbit(X, lam)
+    mu, J = problem.floquet(X, lam)
+    imp = problem.impacts(X, lam)
+    return {
+        "corner": problem.corner_distances(X, lam),
+        "grazing": np.array([problem.smallest_gap(X, lam)]),
+        "zero_velocity": np.array([-imp["w"].max()]),
+        "fold": np.array([np.linalg.det(J - np.eye(2))]),
+        "period_doubling": np.array([np.linalg.det(J + np.eye(2))]),
+        # a complex pair on the unit circle; a sign change with real multipliers (a
+        # neutral saddle) is dropped by _events_between
+        "torus": np.array([np.linalg.det(J) - 1.0]),
+    }, mu
+
+
+def _tangent(problem, X, lam, prev=None):
+    """The unit null vector of [dR/dX, dR/dlam], oriented along ``prev``."""
+    A = np.hstack([problem.jacobian(X, lam), problem.d_param(X, lam)[:, None]])
+    _, _, vt = np.linalg.svd(A)
+    T = vt[-1]
+    if prev is not None and T @ prev < 0:
+        T = -T
+    return T / np.linalg.norm(T)
+
+
+def _correct(problem, Y0, T, s, base):
+    """Newton on (R(Y) = 0, T . (Y - base) = s) from the predictor Y0."""
+    Y = Y0.copy()
+    n = len(Y) - 1
+    for _ in range(NEWTON_MAX):
+        X, lam = Y[:n], Y[n]
+        R = problem.residual(X, lam)
+        h = T @ (Y - base) - s
+        F = np.append(R, h)
+        if not np.all(np.isfinite(F)):
+            raise OrbitError("not finite")
+        if np.abs(F).max() <= NEWTON_TOL * (1.0 + np.abs(Y).max()):
+            return Y
+        A = np.vstack([np.hstack([problem.jacobian(X, lam),
+                                  problem.d_param(X, lam)[:, None]]), T])
+        dY = np.linalg.solve(A, -F)
+        Y = Y + dY
+        if np.abs(dY).max() <= 1e-15 * (1.0 + np.abs(Y).max()):
+            return Y
+    raise OrbitError("the corrector did not converge")
+
+
+def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun):
+    """The arclength s in (s_lo, s_hi) where fun(Y(s)) changes sign (Illinois secant)."""
+    side = 0
+    Y = None
+    for _ in range(80):
+        s = s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (s_lo + s_hi)
+        if not (min(s_lo, s_hi) < s < max(s_lo, s_hi)):
+            s = 0.5 * (s_lo + s_hi)
+        try:
+            Y = _correct(problem, Ya + s * T, T, s, Ya)
+        except (OrbitError, np.linalg.LinAlgError):
+            s = 0.5 * (s_lo + s_hi)
+            Y = _correct(problem, Ya + s * T, T, s, Ya)
+        f = fun(Y)
+        if f == 0.0 or abs(s_hi - s_lo) <= 1e-15 * (1.0 + abs(s)):
+            break
+        if (f > 0) == (f_hi > 0):
+            s_hi, f_hi = s, f
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            s_lo, f_lo = s, f
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
+            break
+    return Y
+
+
+def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-3,
+                    ds_min=1e-9, ds_max=None, max_steps=2000, events=EVENTS, log=None):
+    """Pseudo-arclength continuation of the orbit (X0, lam0) within param in ``lam_range``.
+
+    The first step goes along ``T0`` (a tangent) if given, else the way ``direction``
+    (+1, -1) moves the parameter.  Returns (points, events): the accepted points (Point:
+    param, X, multipliers, monitors) and the located events (Event).  The branch ends at
+    the range's end, at an event that ends this itinerary's orbit as the flow's (corner,
+    grazing, zero_velocity: its located point is the branch's last), or when the step
+    falls below ``ds_min``.
+    """
+    n = len(X0)
+    lo, hi = lam_range
+    ds_max = ds_max or 50 * ds
+    Y = np.append(np.asarray(X0, float), lam0)
+    mon, mu = _monitors(problem, Y[:n], Y[n])
+    points = [Point(lam0, Y[:n].copy(), mu, mon, problem)]
+    found = []
+    T = _tangent(problem, Y[:n], Y[n], T0)
+    if T0 is None and T[n] * direction < 0:
+        T = -T
+    h = ds
+    for _ in range(max_steps):
+        try:
+            Yn = _correct(problem, Y + h * T, T, h, Y)
+            if np.linalg.norm(Yn - (Y + h * T)) > h:
+                raise OrbitError("the corrector jumped away from the predictor")
+        except (OrbitError, np.linalg.LinAlgError):
+            h *= 0.5
+            if h < ds_min:
+                found.append(Event("end", Y[n], Y[:n].copy(), "the step fell below ds_min",
+                                   problem))
+                break
+            continue
+        out = Yn[n] > hi or Yn[n] < lo
+        if out:
+            edge = hi if Yn[n] > hi else lo
+
+            def sfun(Yv, edge=edge):
+                return Yv[n] - edge
+            Yn = _locate(problem, Y, T, 0.0, h, sfun(Y), sfun(Yn), sfun)
+        mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
+        ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n)
+        if ended:
+            e = found[-1]
+            m_e, mu_e = _monitors(problem, e.X, e.lam)
+            points.append(Point(e.lam, e.X.copy(), mu_e, m_e, problem))
+            break
+        points.append(Point(Yn[n], Yn[:n].copy(), mu_n, mon_n, problem))
+        if out:
+            found.append(Event("end", Yn[n], Yn[:n].copy(), "the end of the range", problem))
+            break
+        if log:
+            log(Yn[n])
+        problem, Yn[:n] = problem.reindex(Yn[:n], Yn[n])
+        Tn = _tangent(problem, Yn[:n], Yn[n], T)
+        # adapt: grow where the tangent turns little
+        turn = math.acos(max(-1.0, min(1.0, float(T @ Tn))))
+        h = min(ds_max, h * (1.5 if turn < 0.05 else 1.0 if turn < 0.2 else 0.5))
+        Y, T, mon = Yn, Tn, mon_n
+    return points, found
+
+
+@dataclass
+class Branch:
+    problem: FlowOrbit
+    points: list
+    events: list
+    word: str = ""
+    origin: str = ""
+
+
+def across_corner(problem, q, X, lam):
+    """The itinerary with impact q moved to the other side of the corner it reached (the
+    neighbouring piece, local time shifted by that piece's length): the problem and X."""
+    p, d = problem.packed(lam)
+    j = int(problem.pieces[q])
+    X = X.copy()
+    L = piece_start(d, j + 1) - piece_start(d, j)
+    pieces = problem.pieces.copy()
+    if X[2 * q] < 0.5 * L:
+        Lm = piece_start(d, j) - piece_start(d, j - 1)
+        pieces[q] = j - 1
+        X[2 * q] += Lm
+    else:
+        pieces[q] = j + 1
+        X[2 * q] -= L
+    new = FlowOrbit(problem.values, problem.obstacle, problem.param, pieces, problem.m,
+                    problem.tol)
+    return new, X
+
+
+def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branches=6,
+           **kw):
+    """Continue from (X0, lam0) and, at every corner collision, on along the branch of
+    the new itinerary (the impact on the other side of its corner) where it exists:
+    the tangent of the new itinerary at the collision, oriented so that the impact
+    moves into its new piece, says whether the new branch goes on in the same direction
+    (a persistence: the word changes) or turns back (a nonsmooth fold: the two branches
+    end together).  Returns the branches in order."""
+    out = []
+    todo = [(problem, X0, lam0, None, "start")]
+    while todo and len(out) < max_branches:
+        prob, X, lam, T0, origin = todo.pop(0)
+        pts, evs = continue_branch(prob, X, lam, lam_range, direction, T0, **kw)
+        out.append(Branch(prob, pts, evs, word_of(prob, pts[0].X, pts[0].lam), origin))
+        last = evs[-1] if evs else None
+        if not (switch and last is not None and last.kind == "corner"):
+            continue
+        q = int(last.detail.split()[-1])
+        new, Xn = across_corner(last.problem, q, last.X, last.lam)
+        n = len(Xn)
+        try:
+            Xn = newton(new, Xn, last.lam)
+            T = _tangent(new, Xn, last.lam)
+        except (OrbitError, np.linalg.LinAlgError) as e:
+            last.detail += f"; no orbit of the other side's itinerary ({e})"
+            continue
+        ok, why = admissible(new, Xn, last.lam)
+        if not ok:
+            last.detail += (f"; the other side's itinerary has no admissible orbit there "
+                            f"({why}): the orbit ends at the corner collision")
+            continue
+        # into the new piece: the corner distance of impact q must grow
+        p, d = new.packed(last.lam)
+        j = int(new.pieces[q])
+        L = piece_start(d, j + 1) - piece_start(d, j)
+        inward = -1.0 if Xn[2 * q] > 0.5 * L else 1.0
+        if T[2 * q] * inward < 0:
+            T = -T
+        kind = "persists" if T[n] * (last.lam - lam) > 0 else "turns back (nonsmooth fold)"
+        last.detail += f"; the other side's branch {kind}"
+        todo.append((new, Xn, last.lam, T, f"corner collision of impact {q} at "
+                                            f"{new.param} = {last.lam!r}: {kind}"))
+    return out
+
+
+ADMISSIBLE_TOL = 1e-9
+
+
+def admissible(problem, X, lam, tol=ADMISSIBLE_TOL):
+    """Whether the orbit is one of the flow: every impact on its own piece (corner
+    distances >= -tol), every flight above the obstacle (smallest gap >= -tol) and every
+    impact arriving from above (w- < tol).  Returns (ok, reason)."""
+    scale = 1.0 + np.abs(X).max()
+    cd = problem.corner_distances(X, lam)
+    if cd.min() < -tol:
+        return False, f"impact {int(np.argmin(cd))} beyond its corner by {-cd.min():.3g}"
+    g = problem.smallest_gap(X, lam)
+    if g < -tol * scale:
+        return False, f"a flight crosses the obstacle (gap {g:.3g})"
+    w = problem.impacts(X, lam)["w"]
+    if w.max() > tol * scale:
+        return False, f"impact {int(np.argmax(w))} arrives from below (w- = {w.max():.3g})"
+    return True, ""
+
+
+def word_of(problem, X, lam, cycles=4):
+    """The orbit's word in the engine's symbols (``analysis.detect_cycle`` on ``cycles``
+    repetitions of its impacts: clusters by nearest corner, a, b, g)."""
+    from .analysis import detect_cycles, words
+    imp = problem.impacts(X, lam)
+    N = problem.n
+    p, d = problem.packed(lam)
+    D = problem.duration(lam)
+    per_corners = round(D / (piece_start(d, 1) - piece_start(d, 0)))
+    if problem.obstacle != "rectified_sine":
+        per_corners = problem.m
+    reps = cycles * N + 2
+    t = np.full((1, reps), np.nan)
+    vin = np.full((1, reps), np.nan)
+    off = np.full((1, reps), np.nan)
+    corner = np.zeros((1, reps), np.int64)
+    for c in range(reps):
+        i, k = c % N, c // N
+        t[0, c] = imp["t"][i] + k * D
+        vin[0, c] = imp["v_in"][i]
+        off[0, c] = imp["offset"][i]
+        corner[0, c] = imp["corner"][i] + k * per_corners
+    per = np.zeros(1, np.int64)
+    ipc = np.zeros(1, np.int64)
+    sym = np.zeros((1, reps), np.uint8)
+    cornered = np.array([problem.obstacle != "sine"])
+    detect_cycles(t, vin, off, corner, cornered, 1e-9, per, ipc, sym)
+    return str(words(sym)[0])
+
+
+ENDING = ("corner", "grazing", "zero_velocity")
+
+
+def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n):
+    """Locate every sign change of a watched test function between two points; append
+    the events in arclength order.  Returns True when one of them ends the branch (its
+    located point becomes the branch's last)."""
+    hits = []
+    s_b = T @ (Yb - Ya)
+    for kind in kinds:
+        a, b = ma[kind], mb[kind]
+        for q in range(len(a)):
+            if (abs(a[q]) > 1e-12 and (a[q] > 0) != (b[q] > 0) and np.isfinite(a[q])
+                    and np.isfinite(b[q])):
+                def fun(Y, kind=kind, q=q):
+                    return _monitors(problem, Y[:n], Y[n])[0][kind][q]
+                Y = _locate(problem, Ya, T, 0.0, s_b, a[q], b[q], fun)
+                if not abs(fun(Y)) <= 1e-6 * max(1.0, abs(a[q]), abs(b[q])):
+                    continue      # a sign change through a pole (multipliers blowing up)
+                hits.append((T @ (Y - Ya), kind, q, Y))
+    hits.sort(key=lambda h: h[0])
+    for _, kind, q, Y in hits:
+        if kind == "torus" and problem.floquet(Y[:n], Y[n])[0][0].imag == 0.0:
+            continue          # det J = 1 with real multipliers: a neutral saddle
+        if kind in ENDING and kind != "corner" and hasattr(problem, "corner_distances"):
+            # a grazing or a zero-velocity impact exactly at a corner is a corner collision
+            # (two impacts straddling a corner merge there: the alpha orbit at kappa_CC)
+            cd = np.abs(problem.corner_distances(Y[:n], Y[n]))
+            if cd.min() <= 1e-9:
+                kind, q = "corner", int(np.argmin(cd))
+        detail = f"impact {q}" if kind == "corner" else ""
+        found.append(Event(kind, Y[n], Y[:n].copy(), detail, problem))
+        if kind in ENDING:
+            return True
+    return False
+
+
+# ------------------------------------------------------------------ two parameters
+@dataclass
+class CornerCurve:
+    """The corner collision of impact ``q`` as a curve in two parameters: impact q held
+    at its corner (tau_q = 0 at its piece's start, or L at its end) and ``param2`` free;
+    continued in the base problem's parameter.  X' is X with tau_q replaced by param2.
+    """
+
+    base: FlowOrbit
+    q: int
+    at_end: bool
+    param2: str
+
+    @property
+    def n(self) -> int:
+        return self.base.n
+
+    def _split(self, Xc, lam):
+        p, d = self.base.packed(lam)
+        X = Xc.copy()
+        j = int(self.base.pieces[self.q])
+        X[2 * self.q] = (piece_start(d, j + 1) - piece_start(d, j)) if self.at_end else 0.0
+        return X, Xc[2 * self.q]
+
+    def _problem(self, lam2):
+        vals = dict(self.base.values)
+        vals[self.param2] = float(lam2)
+        key = ("curve", float(lam2))
+        prob = self.base._cache.get(key)
+        if prob is None:
+            prob = FlowOrbit(vals, self.base.obstacle, self.base.param, self.base.pieces,
+                             self.base.m, self.base.tol)
+            if len(self.base._cache) > 256:
+                self.base._cache.clear()
+            self.base._cache[key] = prob
+        return prob
+
+    def residual(self, Xc, lam):
+        X, lam2 = self._split(Xc, lam)
+        return self._problem(lam2).residual(X, lam)
+
+    def jacobian(self, Xc, lam):
+        X, lam2 = self._split(Xc, lam)
+        Jm = self._problem(lam2).jacobian(X, lam)
+        h = 1e-6 * max(1.0, abs(lam2))
+        Jm[:, 2 * self.q] = (self._problem(lam2 + h).residual(X, lam)
+                             - self._problem(lam2 - h).residual(X, lam)) / (2.0 * h)
+        return Jm
+
+    def d_param(self, Xc, lam):
+        X, lam2 = self._split(Xc, lam)
+        return self._problem(lam2).d_param(X, lam)
+
+    def orbit(self, Xc, lam):
+        """(problem at param2, X) of the point of the curve."""
+        X, lam2 = self._split(Xc, lam)
+        return self._problem(lam2), X
+
+    def reindex(self, Xc, lam):
+        return self, Xc
+
+
+def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
+    """Continue a located corner collision (an Event of kind "corner" of a branch in
+    ``event.problem.param``) in the plane of that parameter and ``param``: returns the
+    curve's points as arrays (param values, event parameter values)."""
+    prob = event.problem
+    q = int(event.detail.split(";")[0].split()[-1])
+    p, d = prob.packed(event.lam)
+    j = int(prob.pieces[q])
+    L = piece_start(d, j + 1) - piece_start(d, j)
+    at_end = event.X[2 * q] > 0.5 * L
+    base_vals = dict(prob.values)
+    base_vals[prob.param] = event.lam
+    base = FlowOrbit(base_vals, prob.obstacle, param, prob.pieces.copy(), prob.m, prob.tol)
+    curve = CornerCurve(base, q, at_end, prob.param)
+    Xc = event.X.copy()
+    Xc[2 * q] = event.lam
+    lam0 = float(prob.values[param])
+    Xc = newton(curve, Xc, lam0)
+    pts, evs = continue_branch(curve, Xc, lam0, lam_range, direction, ds=ds,
+                               events=(), **kw)
+    return (np.array([pt.lam for pt in pts]), np.array([pt.X[2 * q] for pt in pts]),
+            curve, pts)
+
+
+# ------------------------------------------------------------------ a scene's continuation
+FORMAT = "cornerbif-continuation"
+FORMAT_VERSION = 1
+
+
+@dataclass
+class Result:
+    """What ``cornerbif continue`` found: the branches, their events, the corner curves."""
+
+    scene: object
+    branches: list
+    curves: list = field(default_factory=list)     # (event index, param, param2 arrays)
+    seeds: list = field(default_factory=list)      # the words found at the start
+
+
+def _matches(word: str, seed: str) -> bool:
+    """Whether a cycle word is the seed word up to rotation."""
+    from .analysis import parse_word
+    s = seed if set(seed) == {"x"} else parse_word(seed)
+    return len(s) == len(word) and s in word + word
+
+
+def find_seeds(scene):
+    """The distinct attractors reached from the scene's starts at the continuation's start
+    (the kernel and ``analysis.distinct_attractors``): a list of (word, one run's impacts t,
+    v_out, corner_offset, impacts per cycle)."""
+    import dataclasses
+
+    from . import engine
+    from .analysis import distinct_attractors, words
+    c = scene.cont
+    run_scene = dataclasses.replace(scene, keep=("impacts",), stop="none",
+                                    system=dict(scene.system) | {c["parameter"]: c["start"]})
+    spec = scene.spec
+    row = spec.pack_values(run_scene.system, run_scene)
+    params = np.repeat(row[None], scene.n_ic, axis=0)
+    ics = engine.draw_initial(run_scene, np.zeros(1, np.int64),
+                              spec.wall_at_start(params[:1])).reshape(scene.n_ic, -1)
+    out, _, _, period, ipc, sym = spec.run_items(params, np.ascontiguousarray(ics),
+                                                 spec.int_settings(run_scene), run_scene)
+    w = words(sym)
+    labels, count = distinct_attractors(period[None], ipc[None], w[None],
+                                        [(out["u"][None], "impacts"),
+                                         (out["v_in"][None], "impacts")],
+                                        100.0 * scene.period_tol)
+    found = []
+    for k in range(int(count[0])):
+        i = int(np.nonzero(labels[0] == k)[0][0])
+        found.append((str(w[i]), out["t"][i], out["v_out"][i], out["corner_offset"][i],
+                      int(ipc[i])))
+    seeds = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+    if "all" not in seeds:
+        found = [f for f in found if any(_matches(f[0], s) for s in seeds)]
+    return found
+
+
+def run_scene(scene, log=print):
+    """Seed, continue both ways, switch at corners, continue located corner collisions in
+    the second parameter: the ``Result`` of a scene's ``[continue]``."""
+    c = scene.cont
+    values = {k: v for k, v in scene.system.items() if v is not None}
+    values[c["parameter"]] = c["start"]
+    kw = dict(ds=c["ds"], ds_min=c["ds_min"], ds_max=c["ds_max"], events=tuple(c["events"]))
+    res = Result(scene, [])
+    found = find_seeds(scene)
+    res.seeds = [f[0] for f in found]
+    if not found:
+        want = c["seed"]
+        log(f"no attractor {'with word ' + repr(want) + ' ' if want != 'all' else ''}was "
+            f"found from the {scene.n_ic} starts at {c['parameter']} = {c['start']!r}")
+    for word, t, v_out, off, ipc in found:
+        try:
+            prob, X = seed_from_run(values, scene.obstacle, c["parameter"], t, v_out, off,
+                                    ipc, scene.tol)
+        except OrbitError as e:
+            log(f"seed {word!r}: {e}")
+            continue
+        both = []
+        for direction in (1.0, -1.0):
+            both.append(follow(prob, X, c["start"], tuple(c["range"]), direction,
+                               switch=c["switch"], **kw))
+        up, down = both
+        main = Branch(prob, down[0].points[::-1] + up[0].points[1:],
+                      down[0].events[::-1] + up[0].events, word,
+                      f"the attractor {word!r} at {c['parameter']} = {c['start']!r}")
+        for br in [main] + down[1:] + up[1:]:
+            res.branches.append(br)
+            log(f"branch {len(res.branches) - 1}: {br.word or '?'} over "
+                f"{c['parameter']} in [{min(p.lam for p in br.points):.10g}, "
+                f"{max(p.lam for p in br.points):.10g}], {len(br.points)} points; events: "
+                + (", ".join(f"{e.kind} at {e.lam:.12g}" for e in br.events) or "none"))
+    if "curve" in c:
+        for b, br in enumerate(res.branches):
+            for e in br.events:
+                if e.kind != "corner":
+                    continue
+                parts = []
+                for direction in (1.0, -1.0):
+                    try:
+                        x2, x1, _, _ = corner_curve(e, c["curve"], tuple(c["curve_range"]),
+                                                    direction, ds=abs(c["curve_range"][1]
+                                                                      - c["curve_range"][0])
+                                                    / 100.0)
+                        parts.append((x2, x1))
+                    except (OrbitError, np.linalg.LinAlgError) as err:
+                        log(f"corner curve of branch {b} at {e.lam!r}: {err}")
+                if parts:
+                    x2 = np.concatenate([p[0][::-1] for p in parts[1:]] + [parts[0][0]])
+                    x1 = np.concatenate([p[1][::-1] for p in parts[1:]] + [parts[0][1]])
+                    res.curves.append((b, e.lam, e.detail.split(";")[0], x2, x1))
+                    log(f"corner curve of branch {b} ({e.detail.split(';')[0]}): "
+                        f"{len(x2)} points over {c['curve']} in [{x2.min():.6g}, "
+                        f"{x2.max():.6g}]")
+    return res
+
+
+def section_state(problem, X, lam, section):
+    """The state (u, v) at the first section time n * section at or after the cycle's
+    first impact (the flight from the last impact before it)."""
+    p, d = problem.packed(lam)
+    imp = problem.impacts(X, lam)
+    D = problem.duration(lam)
+    ts = math.ceil(imp["t"][0] / section) * section
+    t = np.append(imp["t"], imp["t"][0] + D)
+    i = int(np.searchsorted(t, ts, side="right")) - 1
+    i = min(max(i, 0), problem.n - 1)
+    u, v, _ = problem._flight(p, d, imp["t"][i], imp["u"][i], imp["v_out"][i], ts)
+    return u, v
+
+
+def write(res, path):
+    """The continuation file (HDF5, docs/continuation.md): one group per branch, the events
+    table, the corner curves.  Written to ``path.partial`` and renamed when complete."""
+    import os
+    import time
+
+    import h5py
+
+    from . import __version__
+    scene = res.scene
+    c = scene.cont
+    section = scene.section_period
+    tmp = str(path) + ".partial"
+    with h5py.File(tmp, "w") as f:
+        f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, scene=scene.text,
+                       model=scene.model, obstacle=scene.obstacle, parameter=c["parameter"],
+                       cornerbif_version=__version__,
+                       created=time.strftime("%Y-%m-%dT%H:%M:%S"),
+                       seeds=", ".join(res.seeds))
+        ev_rows = []
+        for b, br in enumerate(res.branches):
+            g = f.create_group(f"branches/{b:03d}")
+            pts = br.points
+            N = pts[0].problem.n
+            lam = np.array([pt.lam for pt in pts])
+            mu = np.array([pt.mu for pt in pts])
+            imps = [pt.problem.impacts(pt.X, pt.lam) for pt in pts]
+            sec = []
+            for pt in pts:
+                T = section or 2.0 * math.pi / pt.problem.packed(pt.lam)[0][P.OMEGA]
+                sec.append(section_state(pt.problem, pt.X, pt.lam, T))
+            sec = np.array(sec)
+            g["param"] = lam
+            g["param"].attrs["name"] = c["parameter"]
+            g["impact_t"] = np.array([m["t"] for m in imps]).reshape(-1, N)
+            g["impact_u"] = np.array([m["u"] for m in imps]).reshape(-1, N)
+            g["impact_v_out"] = np.array([m["v_out"] for m in imps]).reshape(-1, N)
+            g["impact_v_in"] = np.array([m["v_in"] for m in imps]).reshape(-1, N)
+            g["section_u"] = sec[:, 0]
+            g["section_v"] = sec[:, 1]
+            g["cycle_duration"] = np.array([pt.problem.duration(pt.lam) for pt in pts])
+            g["multiplier_re"] = mu.real
+            g["multiplier_im"] = mu.imag
+            g["stable"] = (np.abs(mu).max(axis=1) < 1.0).astype(np.uint8)
+            g.attrs.update(word=br.word, origin=br.origin, impacts_per_cycle=N,
+                           periods_per_cycle=pts[0].problem.m,
+                           pieces=np.asarray(pts[0].problem.pieces))
+            for e in br.events:
+                imp = e.problem.impacts(e.X, e.lam)
+                ev_rows.append((b, e.kind, e.lam, e.detail, float(imp["u"].min())))
+        ev = f.create_group("events")
+        ev["branch"] = np.array([r[0] for r in ev_rows], np.int32)
+        ev["kind"] = np.array([r[1] for r in ev_rows], dtype=h5py.string_dtype())
+        ev["param"] = np.array([r[2] for r in ev_rows], float)
+        ev["detail"] = np.array([r[3] for r in ev_rows], dtype=h5py.string_dtype())
+        ev["impact_u"] = np.array([r[4] for r in ev_rows], float)
+        for k, (b, lam, what, x2, x1) in enumerate(res.curves):
+            g = f.create_group(f"curves/{k:03d}")
+            g["param"] = x2
+            g["param"].attrs["name"] = c["curve"]
+            g["event_param"] = x1
+            g["event_param"].attrs["name"] = c["parameter"]
+            g.attrs.update(kind="corner", branch=b, at=lam, what=what)
+        f.attrs["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+    os.replace(tmp, path)
+    return path
+
+
+def read(path):
+    """A continuation file as plain Python: {"parameter", "scene", "branches": [dict],
+    "events": [dict], "curves": [dict]}."""
+    import h5py
+    with h5py.File(path, "r") as f:
+        if f.attrs.get("format") != FORMAT:
+            raise ValueError(f"{path}: not a cornerbif continuation file")
+        out = {"parameter": str(f.attrs["parameter"]), "scene": str(f.attrs["scene"]),
+               "branches": [], "events": [], "curves": []}
+        for name in sorted(f.get("branches", {})):
+            g = f["branches"][name]
+            out["branches"].append({k: g[k][...] for k in g} | dict(g.attrs))
+        ev = f["events"]
+        for i in range(ev["param"].shape[0]):
+            out["events"].append({"branch": int(ev["branch"][i]),
+                                  "kind": ev["kind"][i].decode(),
+                                  "param": float(ev["param"][i]),
+                                  "detail": ev["detail"][i].decode(),
+                                  "impact_u": float(ev["impact_u"][i])})
+        for name in sorted(f.get("curves", {})):
+            g = f["curves"][name]
+            out["curves"].append({k: g[k][...] for k in g} | dict(g.attrs))
+    return out

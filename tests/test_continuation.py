@@ -1,0 +1,250 @@
+"""Periodic orbits of any itinerary and their continuation (cornerbif/continuation.py,
+docs/continuation.md).
+
+Every number is checked against something the continuation code does not compute: the
+paper's corner curves (11) and (17), the closed-form fold of the forced oscillator against
+a fixed wall (derived below), the independent finite-difference Jacobian of
+tests/fd_reference.py on unstable orbits, and the kernel's attractors.
+"""
+
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+import cornerbif
+from cornerbif import continuation as C
+from cornerbif import theory
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _seed(values, obstacle, param, word=None, starts=None, transient=1500, **run):
+    """A FlowOrbit seeded from the kernel's attractor (the first start reaching ``word``)."""
+    u0, v0 = starts if starts is not None else ([5.0], [0.0])
+    sys_ = {k: v for k, v in values.items()}
+    res = cornerbif.simulate(u0, v0, obstacle=obstacle, transient=transient, record=60,
+                             **sys_, **run)
+    words = list(res["symbols"])
+    i = words.index(word) if word is not None else 0
+    return C.seed_from_run(values, obstacle, param, res["t"][i], res["v_out"][i],
+                           res["corner_offset"][i], int(res["impacts_per_cycle"][i]))
+
+
+def _beta(omega, r, kappa):
+    a, b, _ = theory.single_impact_orbit(omega, kappa, r, exact=True)
+    return _seed(dict(omega=omega, kappa=kappa, beta=1.0, r=r), "rectified_sine", "kappa",
+                 starts=([a], [b]), transient=100)
+
+
+def _alpha(omega, r, kappa):
+    rng = np.random.default_rng(0)
+    starts = (rng.uniform(0, 20, 32), rng.uniform(-0.02, 0.02, 32))
+    return _seed(dict(omega=omega, kappa=kappa, beta=1.0, r=r), "rectified_sine", "kappa",
+                 word="a", starts=starts, transient=3000)
+
+
+@pytest.mark.parametrize("r", [0.5, 0.8, 0.95])
+def test_corner_collision_curves_are_eqs_11_and_17(r):
+    """The beta orbit (one impact just after the corner) continued in kappa at
+    omega = 1.999 ends where its impact reaches the corner: kappa_C of eq (11); the alpha
+    orbit (two impacts straddling it) at omega = 2.001 where both merge at it: kappa_CC of
+    eq (17).  Each located collision, continued in omega over [1.98, 2.02] with the impact
+    held at the corner (CornerCurve), equals the equation to 1e-10 in kappa at every point
+    (measured 2e-11 or better)."""
+    for seed, eq, om, direction in ((_beta, theory.kappa_C, 1.999, +1),
+                                    (_alpha, theory.kappa_CC, 2.001, -1)):
+        kc = eq(om, r)
+        start = kc - 0.01 if eq is theory.kappa_C else 0.5 * (theory.kappa_C(om, r) + kc)
+        prob, X = seed(om, r, start)
+        br = C.follow(prob, X, start, (-1.0, 1.0), direction, switch=False, ds=1e-3)[0]
+        ev = br.events[-1]
+        assert ev.kind == "corner" and abs(ev.lam - kc) < 1e-10, (ev.kind, ev.lam - kc)
+        for d in (+1, -1):
+            w, k, _, _ = C.corner_curve(ev, "omega", (1.98, 2.02), d, ds=1e-3)
+            assert len(w) >= 5 and (w.max() >= 2.02 - 1e-12 or w.min() <= 1.98 + 1e-12)
+            err = np.abs(k - np.array([eq(x, r) for x in w]))
+            assert err.max() < 1e-10, err.max()
+
+
+def _fold_closed_form(Om, r, F, m=1):
+    """The fold of the period-one impacting orbit of u'' + u = F cos(Omega t) against the
+    fixed wall u = kappa (law 5): with the impact at phase theta = Omega tau, the flight of
+    T = 2 pi m/Omega from (kappa, v+) back to kappa and law (5) give
+    kappa tan(T/2) = P (tan(T/2) cos theta + Omega K sin theta), P = F/(1 - Omega^2),
+    K = (1 + r)/(1 - r); a solution exists while |kappa tan(T/2)| <= |P| R,
+    R = sqrt(tan^2(T/2) + Omega^2 K^2): the two orbits merge at kappa = |P| R / |tan(T/2)|."""
+    T = 2 * math.pi * m / Om
+    K = (1 + r) / (1 - r)
+    P = F / (1 - Om ** 2)
+    return abs(P) * math.hypot(math.tan(T / 2), Om * K) / abs(math.tan(T / 2))
+
+
+def _fold_branch():
+    Om, r, F = 2.5, 0.8, 1.0
+    vals = dict(omega=Om, kappa=0.5, beta=0.0, r=r, sigma=0.0, F=F, Omega=Om)
+    prob, X = _seed(vals, "sine", "kappa", starts=([1.5], [0.0]), transient=3000)
+    return C.follow(prob, X, 0.5, (-3.0, 3.0), +1, ds=0.01)[0], _fold_closed_form(Om, r, F)
+
+
+def test_fold_and_its_saddle_branch():
+    """The forced oscillator against a fixed wall (beta = 0): the stable period-one
+    impacting orbit, continued in kappa, turns at a fold located at the closed form to
+    1e-10 (measured 3e-15) where one multiplier is 1; the saddle branch beyond it has a
+    multiplier > 1 and is continued until it ends, in a grazing (its flight touches the
+    wall: kappa = 0.3593)."""
+    br, kf = _fold_branch()
+    kinds = [e.kind for e in br.events]
+    assert kinds[:2] == ["fold", "grazing"], kinds
+    fold = br.events[0]
+    assert abs(fold.lam - kf) < 1e-10, fold.lam - kf
+    mu, _ = fold.problem.floquet(fold.X, fold.lam)
+    assert abs(mu[0] - 1.0) < 1e-7
+    after = [p for p in br.points if p.lam < fold.lam - 1e-3 and
+             p.lam > br.events[1].lam and abs(p.mu[0]) > 1.0]
+    assert after and all(abs(p.mu[0]) > 1.0 > abs(p.mu[1]) for p in after)
+
+
+def _fd_multipliers(prob, X, lam):
+    """Eigenvalues of tests/fd_reference.py's central-difference Jacobian of the time map
+    over one cycle from the orbit's section state (no code of cornerbif)."""
+    import fd_reference as FD
+    p, _ = prob.packed(lam)
+    vals = dict(prob.values, **{prob.param: lam})
+    T = 2 * math.pi / vals["omega"]
+    u, v = C.section_state(prob, X, lam, T)
+    t0 = math.ceil(prob.impacts(X, lam)["t"][0] / T) * T
+    kw = {k: vals[k] for k in ("sigma", "k", "F", "Omega", "phi") if k in vals}
+    J, err = FD.fd_jacobian(prob.obstacle, vals["omega"], vals["kappa"], vals["beta"],
+                            vals["r"], u, v, t0, prob.duration(lam), **kw)
+    return np.linalg.eigvals(J), err
+
+
+def test_unstable_orbits_multipliers_match_the_fd_reference():
+    """On unstable orbits too the solver's multipliers equal the eigenvalues of the
+    independent finite-difference Jacobian to 1e-6: the saddle of the fold above at
+    kappa = 1.0, and Fig. 1(a)'s period-one orbit at omega = 2.8, past its period
+    doubling at 2.653 (one multiplier below -1)."""
+    br, _ = _fold_branch()
+    pt = min((p for p in br.points if abs(p.mu[0]) > 1.2),
+             key=lambda p: abs(p.lam - 1.0))
+    sad = C.newton(pt.problem, pt.X, 1.0)
+    mu, _ = pt.problem.floquet(sad, 1.0)
+    fd, err = _fd_multipliers(pt.problem, sad, 1.0)
+    assert abs(mu[0]) > 1.0
+    assert np.allclose(np.sort_complex(mu), np.sort_complex(fd), atol=1e-6), (mu, fd, err)
+    prob, X = _seed(dict(omega=2.2, kappa=0.0, beta=1.0, r=0.8), "sine", "omega")
+    br = C.follow(prob, X, 2.2, (2.0, 2.8), +1, ds=0.01)[0]
+    assert [e.kind for e in br.events][:1] == ["period_doubling"]
+    end = br.points[-1]
+    mu, _ = end.problem.floquet(end.X, end.lam)
+    fd, err = _fd_multipliers(end.problem, end.X, end.lam)
+    assert mu.real.min() < -1.0
+    assert np.allclose(np.sort_complex(mu), np.sort_complex(fd), atol=1e-6), (mu, fd, err)
+
+
+def test_a_stable_branch_lies_on_the_kernels_attractor():
+    """The beta branch at omega = 1.999: at points along it the kernel, started anywhere in
+    the chart's box, settles on an attractor whose impacts are the branch's (height and
+    velocities to 1e-9)."""
+    prob, X = _beta(1.999, 0.8, -0.02)
+    br = C.follow(prob, X, -0.02, (-0.02, 0.0), +1, switch=False, ds=1e-3)[0]
+    for pt in br.points[1:-1:3]:
+        imp = pt.problem.impacts(pt.X, pt.lam)
+        res = cornerbif.simulate([7.0], [0.01], omega=1.999, kappa=pt.lam, r=0.8,
+                                 transient=1500, record=20)
+        assert res["impacts_per_cycle"][0] == 1
+        assert abs(res["u"][0][-1] - imp["u"][0]) < 1e-9
+        assert abs(res["v_out"][0][-1] - imp["v_out"][0]) < 1e-9
+        assert abs(res["v_in"][0][-1] - imp["v_in"][0]) < 1e-9
+
+
+def test_one_branch_from_two_starts():
+    """Continued from kappa = -0.02 upwards and from -0.016 downwards, the beta branch is
+    one branch: at kappa = -0.018 both give the same orbit to 1e-12 (relative)."""
+    pa, Xa = _beta(1.999, 0.8, -0.02)
+    pb, Xb = _beta(1.999, 0.8, -0.016)
+    a = C.follow(pa, Xa, -0.02, (-0.02, -0.018), +1, switch=False, ds=5e-4)[0]
+    b = C.follow(pb, Xb, -0.016, (-0.018, -0.016), -1, switch=False, ds=5e-4)[0]
+    ea, eb = a.points[-1], b.points[-1]
+    assert abs(ea.lam + 0.018) < 1e-12 and abs(eb.lam + 0.018) < 1e-12
+    ia, ib = ea.problem.impacts(ea.X, ea.lam), eb.problem.impacts(eb.X, eb.lam)
+    assert abs(ia["u"][0] - ib["u"][0]) < 1e-12
+    assert abs(ia["v_out"][0] - ib["v_out"][0]) < 1e-12 * (1.0 + abs(ia["v_out"][0]))
+
+
+def test_the_hysteresis_has_no_saddle_between_its_attractors():
+    """At omega = 2.001 the beta and alpha orbits coexist between kappa_CC and kappa_C.
+    Neither branch turns in a fold: beta ends at its corner collision kappa_C and alpha
+    at kappa_CC, and across each the other side's itinerary has no admissible orbit -- the
+    orbit is destroyed at a border collision, and the tool says so rather than inventing
+    a saddle between the two attractors."""
+    om, r = 2.001, 0.8
+    for seed, eq, d in ((_beta, theory.kappa_C, +1), (_alpha, theory.kappa_CC, -1)):
+        start = 0.008
+        prob, X = seed(om, r, start if seed is _alpha else theory.kappa_C(om, r) - 0.005)
+        brs = C.follow(prob, X, prob.values["kappa"], (-0.01, 0.03), d, ds=1e-3)
+        assert len(brs) == 1
+        kinds = [e.kind for e in brs[0].events]
+        assert "fold" not in kinds and kinds[-1] == "corner"
+        assert abs(brs[0].events[-1].lam - eq(om, r)) < 1e-10
+        assert "no admissible orbit" in brs[0].events[-1].detail
+
+
+# ------------------------------------------------------------------ the command
+def test_cornerbif_continue_writes_branches_and_plots_them(tmp_path):
+    """`cornerbif continue` on the beta scene writes one branch ending at kappa_C with its
+    events; `cornerbif plot` draws it alone and over a sweep of the same parameter."""
+    import h5py
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    run = CliRunner()
+    out = tmp_path / "c.h5"
+    r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"), "-o",
+                          str(out), "--set", "run.transient=300"])
+    assert r.exit_code == 0, r.output
+    cont = C.read(out)
+    assert len(cont["branches"]) == 1 and str(cont["branches"][0]["word"]) == "b"
+    kinds = [e["kind"] for e in cont["events"]]
+    assert "corner" in kinds
+    kc = [e["param"] for e in cont["events"] if e["kind"] == "corner"][0]
+    assert abs(kc - theory.kappa_C(1.999, 0.8)) < 1e-10
+    with h5py.File(out) as f:
+        assert f.attrs["format"] == C.FORMAT and f["branches/000/multiplier_re"].shape[1] == 2
+    r = run.invoke(main, ["plot", str(out), "-o", str(tmp_path / "alone.png")])
+    assert r.exit_code == 0, r.output
+    sw = tmp_path / "s.h5"
+    r = run.invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig06a.toml"), "-o", str(sw),
+                          "--no-progress", "--set", "sweep.kappa.num=30",
+                          "--set", "initial.count=2", "--set", "run.transient=200"])
+    assert r.exit_code == 0, r.output
+    r = run.invoke(main, ["plot", str(sw), str(out), "-o", str(tmp_path / "over.png")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "over.png").stat().st_size > 10_000
+    r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"), "-o",
+                          str(out)])
+    assert r.exit_code == 2 and "--overwrite" in r.output
+
+
+@pytest.mark.parametrize("sets,needle", [
+    (["continue.parameter=\"kapa\""], "continue.parameter: 'kapa' is not a numeric parameter"),
+    (["continue.range=[0.1, -0.1]"], "continue.range"),
+    (["continue.start=0.5"], "continue.start: 0.5 must be a number within continue.range"),
+    (["continue.seed=\"bq\""], "continue.seed"),
+    (["continue.events=[\"cusp\"]"], "continue.events"),
+    (["scene.model=\"map2d\"", "system.obstacle=\"rectified_sine\""], "no orbit solver yet"),
+])
+def test_bad_continue_tables_are_refused_before_any_work(sets, needle):
+    """A [continue] table that cannot run is refused with its key and value named."""
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    args = ["validate", os.path.join(ROOT, "configs", "cont_beta.toml")]
+    for s in sets:
+        args += ["--set", s]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and needle in r.output, r.output
