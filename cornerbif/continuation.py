@@ -276,6 +276,159 @@ class FlowOrbit:
         z = z_state(p, j, t - piece_start(d, j))[0]
         return uf - z
 
+    # --- what every orbit problem provides (FlowOrbit, MapOrbit) -----------------------
+    def word(self, X, lam):
+        return word_of(self, X, lam)
+
+    def itinerary(self) -> str:
+        """The pieces of the cycle's impacts and the periods per cycle, as text."""
+        return f"pieces {list(map(int, self.pieces))}, {self.m} obstacle period(s)"
+
+    def admissible(self, X, lam):
+        return admissible(self, X, lam)
+
+    def across(self, q, X, lam):
+        return across_corner(self, q, X, lam)
+
+    def store(self, X, lam, section):
+        """What the continuation file keeps of the orbit at one point (docs/continuation.md):
+        the cycle's impacts, the section state, the cycle's duration."""
+        imp = self.impacts(X, lam)
+        p, _ = self.packed(lam)
+        T = section or 2.0 * math.pi / p[P.OMEGA]
+        u, v = section_state(self, X, lam, T)
+        return {"impact_t": imp["t"], "impact_u": imp["u"], "impact_v_in": imp["v_in"],
+                "impact_v_out": imp["v_out"], "section_u": u, "section_v": v,
+                "cycle_duration": self.duration(lam)}
+
+
+# ------------------------------------------------------------------ the maps' orbit
+@dataclass
+class MapOrbit:
+    """The periodic orbit of a word of the local maps alpha, beta, gamma (eqs 56-60):
+    x_(i+1) = Q_i x_i + P_i over the word's letters, x = (a0, b1), each point in the
+    region its letter names.  The maps are affine, so the orbit is exact (one linear
+    solve, ``theory.word_orbit``); its corner collision is a point reaching a switching
+    line (Sigma_1: C x = kappa1, Sigma_2: a = E, eqs 56, 60)."""
+
+    values: dict
+    param: str
+    letters: str
+    obstacle: str = "map"
+
+    @property
+    def n(self) -> int:
+        return len(self.letters)
+
+    def _args(self, lam):
+        vals = dict(self.values)
+        vals[self.param] = float(lam)
+        return vals["omega"] - 2.0, vals["kappa"], vals["r"]
+
+    def _matrices(self, lam):
+        from .theory import map_matrices
+        w1, k1, r = self._args(lam)
+        return [map_matrices(ch, w1, k1, r) for ch in self.letters]
+
+    def residual(self, X, lam):
+        N = self.n
+        R = np.empty(2 * N)
+        for i, (Q, Pv) in enumerate(self._matrices(lam)):
+            nxt = (i + 1) % N
+            R[2 * nxt:2 * nxt + 2] = X[2 * nxt:2 * nxt + 2] - (Q @ X[2 * i:2 * i + 2] + Pv)
+        return R
+
+    def jacobian(self, X, lam):
+        N = self.n
+        Jm = np.zeros((2 * N, 2 * N))
+        for i, (Q, _) in enumerate(self._matrices(lam)):
+            nxt = (i + 1) % N
+            Jm[2 * nxt:2 * nxt + 2, 2 * nxt:2 * nxt + 2] += np.eye(2)
+            Jm[2 * nxt:2 * nxt + 2, 2 * i:2 * i + 2] -= Q
+        return Jm
+
+    def d_param(self, X, lam):
+        h = 1e-6 * max(1.0, abs(lam))
+        return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
+
+    def floquet(self, X, lam):
+        J = np.eye(2)
+        for Q, _ in self._matrices(lam):
+            J = Q @ J
+        re1, im1, re2, im2 = multipliers(J[0, 0], J[0, 1], J[1, 0], J[1, 1])
+        return np.array([complex(re1, im1), complex(re2, im2)]), J
+
+    def corner_distances(self, X, lam):
+        """Per point, its signed distance (in the region's own measure) to the switching
+        lines bounding its letter's region: C x - kappa1 for beta; min(kappa1 - C x,
+        E - a) for alpha; min(kappa1 - C x, a - E) for gamma (eqs 56, 60)."""
+        w1, k1, r = self._args(lam)
+        E = 2.0 + 4.0 / r
+        out = np.empty(self.n)
+        for i, ch in enumerate(self.letters):
+            a, b = X[2 * i], X[2 * i + 1]
+            c = 0.25 * math.pi * w1 * a + b - k1
+            out[i] = c if ch == "b" else min(-c, E - a) if ch == "a" else min(-c, a - E)
+        return out
+
+    def smallest_gap(self, X, lam):
+        return math.inf          # no flights
+
+    def impacts(self, X, lam):
+        return {"w": -np.ones(self.n)}   # no impact velocities to vanish
+
+    def reindex(self, X, lam):
+        return self, X
+
+    def word(self, X, lam):
+        from .analysis import smallest_rotation
+        codes = np.frombuffer(self.letters.encode(), np.uint8).copy()
+        k = smallest_rotation(codes, 0, len(codes))
+        return self.letters[k:] + self.letters[:k]
+
+    def itinerary(self) -> str:
+        return f"letters {self.letters}"
+
+    def admissible(self, X, lam):
+        cd = self.corner_distances(X, lam)
+        if cd.min() < -ADMISSIBLE_TOL:
+            i = int(np.argmin(cd))
+            return False, f"point {i} ({self.letters[i]}) outside its region by {-cd.min():.3g}"
+        return True, ""
+
+    def across(self, q, X, lam):
+        """The word with point q's letter the one of the region beyond the switching line
+        it reached: Sigma_1 (C x = kappa1) between beta and alpha or gamma (by a < E),
+        Sigma_2 (a = E) between alpha and gamma."""
+        w1, k1, r = self._args(lam)
+        E = 2.0 + 4.0 / r
+        a, b = X[2 * q], X[2 * q + 1]
+        c = 0.25 * math.pi * w1 * a + b - k1
+        ch = self.letters[q]
+        if ch == "b":
+            new = "a" if a < E else "g"
+        elif abs(c) <= abs(a - E):
+            new = "b"
+        else:
+            new = "g" if ch == "a" else "a"
+        letters = self.letters[:q] + new + self.letters[q + 1:]
+        return MapOrbit(self.values, self.param, letters), X.copy()
+
+    def store(self, X, lam, section):
+        return {"section_u": X[0::2].copy(), "section_v": X[1::2].copy(),
+                "cycle_duration": float(self.n)}
+
+
+def map_seed(values, param, word):
+    """A MapOrbit and its exact orbit (``theory.word_orbit``) for a word."""
+    from .analysis import parse_word
+    from .theory import word_orbit
+    letters = parse_word(word)
+    prob = MapOrbit(dict(values), param, letters)
+    w1, k1, r = prob._args(values[param])
+    x, _ = word_orbit(letters, w1, k1, r)
+    return prob, x.reshape(-1).copy()
+
 
 # ------------------------------------------------------------------ Newton
 def newton(problem, X, lam):
@@ -541,12 +694,12 @@ def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branche
     while todo and len(out) < max_branches:
         prob, X, lam, T0, origin = todo.pop(0)
         pts, evs = continue_branch(prob, X, lam, lam_range, direction, T0, **kw)
-        out.append(Branch(prob, pts, evs, word_of(prob, pts[0].X, pts[0].lam), origin))
+        out.append(Branch(prob, pts, evs, prob.word(pts[0].X, pts[0].lam), origin))
         last = evs[-1] if evs else None
         if not (switch and last is not None and last.kind == "corner"):
             continue
-        q = int(last.detail.split()[-1])
-        new, Xn = across_corner(last.problem, q, last.X, last.lam)
+        q = int(last.detail.split(";")[0].split()[-1])
+        new, Xn = last.problem.across(q, last.X, last.lam)
         n = len(Xn)
         try:
             Xn = newton(new, Xn, last.lam)
@@ -554,21 +707,21 @@ def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branche
         except (OrbitError, np.linalg.LinAlgError) as e:
             last.detail += f"; no orbit of the other side's itinerary ({e})"
             continue
-        ok, why = admissible(new, Xn, last.lam)
+        ok, why = new.admissible(Xn, last.lam)
         if not ok:
             last.detail += (f"; the other side's itinerary has no admissible orbit there "
                             f"({why}): the orbit ends at the corner collision")
             continue
-        # into the new piece: the corner distance of impact q must grow
-        p, d = new.packed(last.lam)
-        j = int(new.pieces[q])
-        L = piece_start(d, j + 1) - piece_start(d, j)
-        inward = -1.0 if Xn[2 * q] > 0.5 * L else 1.0
-        if T[2 * q] * inward < 0:
+        # into the new side: impact (point) q's distance to its corner must grow
+        eps = 1e-7 * (1.0 + np.abs(Xn).max())
+        Y = np.append(Xn, last.lam)
+        d_plus = new.corner_distances((Y + eps * T)[:n], (Y + eps * T)[n])[q]
+        d_minus = new.corner_distances((Y - eps * T)[:n], (Y - eps * T)[n])[q]
+        if d_minus > d_plus:
             T = -T
         kind = "persists" if T[n] * (last.lam - lam) > 0 else "turns back (nonsmooth fold)"
         last.detail += f"; the other side's branch {kind}"
-        todo.append((new, Xn, last.lam, T, f"corner collision of impact {q} at "
+        todo.append((new, Xn, last.lam, T, f"corner collision of {q} at "
                                             f"{new.param} = {last.lam!r}: {kind}"))
     return out
 
@@ -770,8 +923,8 @@ def _matches(word: str, seed: str) -> bool:
 
 def find_seeds(scene):
     """The distinct attractors reached from the scene's starts at the continuation's start
-    (the kernel and ``analysis.distinct_attractors``): a list of (word, one run's impacts t,
-    v_out, corner_offset, impacts per cycle)."""
+    (the kernel and ``analysis.distinct_attractors``): a list of (word, one run's record:
+    the model's outputs of that run and "ipc", its impacts per cycle)."""
     import dataclasses
 
     from . import engine
@@ -787,15 +940,15 @@ def find_seeds(scene):
     out, _, _, period, ipc, sym = spec.run_items(params, np.ascontiguousarray(ics),
                                                  spec.int_settings(run_scene), run_scene)
     w = words(sym)
-    labels, count = distinct_attractors(period[None], ipc[None], w[None],
-                                        [(out["u"][None], "impacts"),
-                                         (out["v_in"][None], "impacts")],
+    series = ([(out["u"][None], "impacts"), (out["v_in"][None], "impacts")]
+              if np.isfinite(out["u"]).any() else
+              [(out["su"][None], "section"), (out["sv"][None], "section")])
+    labels, count = distinct_attractors(period[None], ipc[None], w[None], series,
                                         100.0 * scene.period_tol)
     found = []
     for k in range(int(count[0])):
         i = int(np.nonzero(labels[0] == k)[0][0])
-        found.append((str(w[i]), out["t"][i], out["v_out"][i], out["corner_offset"][i],
-                      int(ipc[i])))
+        found.append((str(w[i]), {key: a[i] for key, a in out.items()} | {"ipc": int(ipc[i])}))
     seeds = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
     if "all" not in seeds:
         found = [f for f in found if any(_matches(f[0], s) for s in seeds)]
@@ -816,10 +969,9 @@ def run_scene(scene, log=print):
         want = c["seed"]
         log(f"no attractor {'with word ' + repr(want) + ' ' if want != 'all' else ''}was "
             f"found from the {scene.n_ic} starts at {c['parameter']} = {c['start']!r}")
-    for word, t, v_out, off, ipc in found:
+    for word, run in found:
         try:
-            prob, X = seed_from_run(values, scene.obstacle, c["parameter"], t, v_out, off,
-                                    ipc, scene.tol)
+            prob, X = scene.spec.orbit_seed(values, scene, c["parameter"], word, run)
         except OrbitError as e:
             log(f"seed {word!r}: {e}")
             continue
@@ -899,39 +1051,27 @@ def write(res, path):
         for b, br in enumerate(res.branches):
             g = f.create_group(f"branches/{b:03d}")
             pts = br.points
-            N = pts[0].problem.n
             lam = np.array([pt.lam for pt in pts])
             mu = np.array([pt.mu for pt in pts])
-            imps = [pt.problem.impacts(pt.X, pt.lam) for pt in pts]
-            sec = []
-            for pt in pts:
-                T = section or 2.0 * math.pi / pt.problem.packed(pt.lam)[0][P.OMEGA]
-                sec.append(section_state(pt.problem, pt.X, pt.lam, T))
-            sec = np.array(sec)
+            rows = [pt.problem.store(pt.X, pt.lam, section) for pt in pts]
             g["param"] = lam
             g["param"].attrs["name"] = c["parameter"]
-            g["impact_t"] = np.array([m["t"] for m in imps]).reshape(-1, N)
-            g["impact_u"] = np.array([m["u"] for m in imps]).reshape(-1, N)
-            g["impact_v_out"] = np.array([m["v_out"] for m in imps]).reshape(-1, N)
-            g["impact_v_in"] = np.array([m["v_in"] for m in imps]).reshape(-1, N)
-            g["section_u"] = sec[:, 0]
-            g["section_v"] = sec[:, 1]
-            g["cycle_duration"] = np.array([pt.problem.duration(pt.lam) for pt in pts])
+            for key in rows[0]:
+                g[key] = np.array([r_[key] for r_ in rows])
             g["multiplier_re"] = mu.real
             g["multiplier_im"] = mu.imag
             g["stable"] = (np.abs(mu).max(axis=1) < 1.0).astype(np.uint8)
-            g.attrs.update(word=br.word, origin=br.origin, impacts_per_cycle=N,
-                           periods_per_cycle=pts[0].problem.m,
-                           pieces=np.asarray(pts[0].problem.pieces))
+            g.attrs.update(word=br.word, origin=br.origin, points_per_cycle=pts[0].problem.n,
+                           itinerary=pts[0].problem.itinerary())
             for e in br.events:
-                imp = e.problem.impacts(e.X, e.lam)
-                ev_rows.append((b, e.kind, e.lam, e.detail, float(imp["u"].min())))
+                first = next(iter(e.problem.store(e.X, e.lam, section).values()))
+                ev_rows.append((b, e.kind, e.lam, e.detail, float(np.min(first))))
         ev = f.create_group("events")
         ev["branch"] = np.array([r[0] for r in ev_rows], np.int32)
         ev["kind"] = np.array([r[1] for r in ev_rows], dtype=h5py.string_dtype())
         ev["param"] = np.array([r[2] for r in ev_rows], float)
         ev["detail"] = np.array([r[3] for r in ev_rows], dtype=h5py.string_dtype())
-        ev["impact_u"] = np.array([r[4] for r in ev_rows], float)
+        ev["value"] = np.array([r[4] for r in ev_rows], float)
         for k, (b, lam, what, x2, x1) in enumerate(res.curves):
             g = f.create_group(f"curves/{k:03d}")
             g["param"] = x2
@@ -962,7 +1102,7 @@ def read(path):
                                   "kind": ev["kind"][i].decode(),
                                   "param": float(ev["param"][i]),
                                   "detail": ev["detail"][i].decode(),
-                                  "impact_u": float(ev["impact_u"][i])})
+                                  "value": float(ev["value"][i])})
         for name in sorted(f.get("curves", {})):
             g = f["curves"][name]
             out["curves"].append({k: g[k][...] for k in g} | dict(g.attrs))

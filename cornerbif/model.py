@@ -238,6 +238,12 @@ class Model:
         """The compiled kernel entry (for the cold-cache notice)."""
         raise NotImplementedError
 
+    def orbit_seed(self, values: dict, scene, param: str, word: str, run: dict):
+        """A periodic-orbit problem of ``cornerbif.continuation`` and its solved unknowns,
+        from one run's record at the continuation's start (models with
+        ``continuation = True``)."""
+        raise NotImplementedError
+
 
 # ------------------------------------------------------------------ small shared helpers
 def is_number(x) -> bool:

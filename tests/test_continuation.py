@@ -236,7 +236,7 @@ def test_cornerbif_continue_writes_branches_and_plots_them(tmp_path):
     (["continue.start=0.5"], "continue.start: 0.5 must be a number within continue.range"),
     (["continue.seed=\"bq\""], "continue.seed"),
     (["continue.events=[\"cusp\"]"], "continue.events"),
-    (["scene.model=\"map2d\"", "system.obstacle=\"rectified_sine\""], "no orbit solver yet"),
+    (["scene.model=\"two_particle\""], "has no orbit solver yet"),
 ])
 def test_bad_continue_tables_are_refused_before_any_work(sets, needle):
     """A [continue] table that cannot run is refused with its key and value named."""
@@ -248,3 +248,23 @@ def test_bad_continue_tables_are_refused_before_any_work(sets, needle):
         args += ["--set", s]
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 2 and needle in r.output, r.output
+
+
+@pytest.mark.parametrize("word,kappa", [("abbgb", -0.004), ("ab", -0.001), ("bbg", -0.0048)])
+def test_map2d_branches_end_where_theory_says(word, kappa):
+    """map2d: the orbit of a word is exact (the maps are affine), and its branch in kappa
+    ends where one of its points reaches a switching line: at the ends of
+    theory.word_interval (the exact interval of admissibility) to 1e-12."""
+    prob, X = C.map_seed(dict(omega=1.999, kappa=kappa, r=0.8), "kappa", word)
+    ok, why = prob.admissible(X, kappa)
+    assert ok, why
+    lo, hi = theory.word_interval(word, -0.001, 0.8)
+    ends = []
+    for d in (+1, -1):
+        br = C.follow(prob, X, kappa, (-0.03, 0.03), d, switch=False, ds=1e-4)[0]
+        assert br.events[-1].kind == "corner"
+        ends.append(br.events[-1].lam)
+    assert abs(ends[0] - hi) < 1e-12 and abs(ends[1] - lo) < 1e-12, (ends, lo, hi)
+    mu, _ = prob.floquet(X, kappa)
+    s = 0.8 ** (word.count("b") + word.count("g")) * (-0.64) ** word.count("a")
+    assert np.allclose(mu, [s, s], rtol=1e-12)

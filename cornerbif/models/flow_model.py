@@ -113,6 +113,11 @@ class FlowModel(Model):
     def kernel(self):
         return run_batch
 
+    def orbit_seed(self, values, scene, param, word, run):
+        from ..continuation import seed_from_run
+        return seed_from_run(values, scene.obstacle, param, run["t"], run["v_out"],
+                             run["corner_offset"], run["ipc"], scene.tol)
+
     def run_items(self, params, ics, ints, scene):
         # NaN marks "no impact" in what is stored and in t, where the analysis reads the end
         # of the recorded window; what is neither is left unfilled (a summary-only chart then

@@ -51,6 +51,10 @@ class Map2dModel(Model):
     def kernel(self):
         return iterate_batch
 
+    def orbit_seed(self, values, scene, param, word, run):
+        from ..continuation import map_seed
+        return map_seed(values, param, word)
+
     def run_items(self, params, ics, ints, scene):
         """Iterate the local maps (56) on n items; outputs shaped like the flow's.
 
@@ -91,6 +95,7 @@ MODEL = Map2dModel(
     state=(U, V),
     observables={"section": SECTION_FIELDS, "stability": STABILITY},
     opt_in=("stability",),
+    continuation=True,
     normal_form_role="map",
     default_y="section_v",
     keep_hint=" (the map's iterates are stored as section/u = a_n, section/v = b_n)",
