@@ -430,6 +430,267 @@ def map_seed(values, param, word):
     return prob, x.reshape(-1).copy()
 
 
+# ------------------------------------------------------------------ two particles' orbit
+@dataclass
+class TwoParticleOrbit:
+    """The periodic orbit of the ``two_particle`` model (section 6) as a closed chain of
+    events: event k is a w-z impact ("W": law 5 with r1 on the wall, eq 72) or a z-u
+    impact ("U": law 74); the unknowns per event are its time t_k and the state
+    x_k+ = (z, y, u, v) just after it; both particles fly in closed form between events
+    (``stability.flight_matrix`` and the oscillator rows of ``kernels.two_particle``).
+    Per event five equations: its gap vanishes at t_k for the state the flight brings,
+    and the state after it is the impact law of that state.  The cycle closes after m wall
+    periods.  The Jacobian is by central differences (the chain is short: 5 unknowns per
+    event).  A corner collision is two consecutive events meeting in time (a w-z and a
+    z-u impact: this system's corner); across it the two swap.
+    """
+
+    values: dict
+    param: str
+    kinds: str          # "W" / "U" per event of one cycle, in time order
+    m: int
+    obstacle: str = "two_particle"
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.kinds)
+
+    def packed(self, lam):
+        from .kernels import two_particle as TK
+        from .models import two_particle as TPM
+        key = float(lam)
+        if key not in self._cache:
+            if len(self._cache) > 64:
+                self._cache.clear()
+            vals = dict(self.values)
+            vals[self.param] = key
+            p = TPM.pack(vals)
+            c = TK.derive(p)
+            Q, D = TK.oscillators(p, c)
+            self._cache[key] = (p, Q, D)
+        return self._cache[key]
+
+    def duration(self, lam) -> float:
+        from .models import two_particle as TPM
+        p, _, _ = self.packed(lam)
+        return self.m * 2.0 * math.pi / p[TPM.OMEGA0]
+
+    def _fly(self, lam, t0, x, t1):
+        """Both particles' free flights from state x at t0 to t1."""
+        from .kernels import two_particle as TK
+        from .models import two_particle as TPM
+        p, Q, D = self.packed(lam)
+        out = np.empty(4)
+        for off, row, s, k in ((0, TK.RZ, p[TPM.SIGMA1], p[TPM.OMEGA1]),
+                               (2, TK.RU, p[TPM.SIGMA2], p[TPM.OMEGA2])):
+            M = flight_matrix(s, k, t1 - t0)
+            a0, b0 = particular(Q[row], D[row], t0)
+            a1, b1 = particular(Q[row], D[row], t1)
+            du, dv = x[off] - a0, x[off + 1] - b0
+            out[off] = a1 + M[0] * du + M[1] * dv
+            out[off + 1] = b1 + M[2] * du + M[3] * dv
+        return out
+
+    def _arrival(self, X, lam, k):
+        """(t_k, the state just before event k) from event k - 1's state after it."""
+        N = self.n
+        j = (k - 1) % N
+        tk = X[5 * k] + (self.duration(lam) if k == 0 else 0.0)
+        return tk, self._fly(lam, X[5 * j], X[5 * j + 1:5 * j + 5], tk)
+
+    def _law(self, lam, kind, t, xm):
+        """(gap, the state just after the event) for an event of ``kind`` at t."""
+        from .kernels import two_particle as TK
+        from .models import two_particle as TPM
+        p, _, _ = self.packed(lam)
+        z, y, u, v = xm
+        if kind == "W":
+            w, wp, _, _ = TK.wall(p, t, 0.0)
+            return z - w, np.array([z, (1.0 + p[TPM.R1]) * wp - p[TPM.R1] * y, u, v])
+        y2, v2 = TPM.mass_ratio_impact(y, v, p[TPM.MU], p[TPM.R2])
+        return u - z, np.array([z, y2, u, v2])
+
+    def residual(self, X, lam):
+        N = self.n
+        R = np.empty(5 * N)
+        for k in range(N):
+            t, xm = self._arrival(X, lam, k)
+            g, xp = self._law(lam, self.kinds[k], t, xm)
+            R[5 * k] = g
+            R[5 * k + 1:5 * k + 5] = X[5 * k + 1:5 * k + 5] - xp
+        return R
+
+    def jacobian(self, X, lam):
+        Jm = np.empty((5 * self.n, 5 * self.n))
+        for c in range(5 * self.n):
+            h = 1e-7 * max(1.0, abs(X[c]))
+            e = np.zeros_like(X)
+            e[c] = h
+            Jm[:, c] = (self.residual(X + e, lam) - self.residual(X - e, lam)) / (2.0 * h)
+        return Jm
+
+    def d_param(self, X, lam):
+        h = 1e-6 * max(1.0, abs(lam))
+        return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
+
+    def tables(self, X, lam):
+        """The orbit as the kernel's tables over one cycle and one event more (z-u rows:
+        t, u, v_in, v_out, y_in, y_out, offset; w-z rows: t, z, y_in, y_out), for
+        ``stability.two_particle_steps``."""
+        N = self.n
+        D = self.duration(lam)
+        zu, wz = [], []
+        for rep in range(2):
+            for k in range(N):
+                t, xm = self._arrival(X, lam, k)
+                t = X[5 * k] + rep * D
+                xp = X[5 * k + 1:5 * k + 5]
+                if self.kinds[k] == "U":
+                    zu.append([t, xm[0], xm[3], xp[3], xm[1], xp[1], 0.0])
+                else:
+                    wz.append([t, xm[0], xm[1], xp[1]])
+        # a NaN row: the table is not full (stability.two_particle_steps' TABLE_FULL test)
+        wz.append([math.nan] * 4)
+        return np.array(zu), np.array(wz).reshape(-1, 4)
+
+    def impacts(self, X, lam):
+        """Per event: its time and the relative velocity of its approach (< 0)."""
+        w = np.empty(self.n)
+        for k in range(self.n):
+            t, xm = self._arrival(X, lam, k)
+            if self.kinds[k] == "W":
+                from .kernels import two_particle as TK
+                p, _, _ = self.packed(lam)
+                w[k] = xm[1] - TK.wall(p, t, 0.0)[1]
+            else:
+                w[k] = xm[3] - xm[1]
+        return {"w": w, "t": X[0::5].copy()}
+
+    def floquet(self, X, lam):
+        from .stability import OK, sorted_eigenvalues, two_particle_steps
+        p, _, _ = self.packed(lam)
+        zu, wz = self.tables(X, lam)
+        n_zu = self.kinds.count("U")
+        if n_zu == 0:
+            nan = np.full(4, np.nan + 0j)
+            return nan, np.full((4, 4), np.nan)
+        G, _, st = two_particle_steps(p, np.ascontiguousarray(zu), np.ascontiguousarray(wz),
+                                      0, n_zu)
+        J = np.eye(4)
+        for g in G:
+            J = g @ J
+        if st != OK:
+            J[:] = np.nan
+        return sorted_eigenvalues(J[None])[0], J
+
+    def corner_distances(self, X, lam):
+        """Per event, the time to the next event (a w-z and a z-u impact meeting: the
+        system's corner; any two events meeting change the itinerary)."""
+        t = X[0::5]
+        D = self.duration(lam)
+        return np.append(np.diff(t), t[0] + D - t[-1])
+
+    def smallest_gap(self, X, lam):
+        """The smallest of both gaps z - w and u - z over the interior of every flight."""
+        from .kernels import two_particle as TK
+        p, _, _ = self.packed(lam)
+        N = self.n
+        D = self.duration(lam)
+        best = math.inf
+        for k in range(N):
+            t0 = X[5 * k]
+            t1 = X[5 * ((k + 1) % N)] + (D if k == N - 1 else 0.0)
+            x0 = X[5 * k + 1:5 * k + 5]
+            for s in np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]:
+                t = t0 + s * (t1 - t0)
+                x = self._fly(lam, t0, x0, t)
+                best = min(best, x[0] - TK.wall(p, t, 0.0)[0], x[2] - x[0])
+        return best
+
+    def reindex(self, X, lam):
+        return self, X
+
+    def word(self, X, lam):
+        """The itinerary: W and U in time order, grouped by wall period."""
+        return self.kinds
+
+    def itinerary(self) -> str:
+        return f"events {self.kinds}, {self.m} wall period(s)"
+
+    def admissible(self, X, lam):
+        return admissible(self, X, lam)
+
+    def across(self, q, X, lam):
+        """Events q and q + 1 swap their order (the z-u impact passes the w-z impact)."""
+        N = self.n
+        r = (q + 1) % N
+        kinds = list(self.kinds)
+        kinds[q], kinds[r] = kinds[r], kinds[q]
+        Xn = X.copy()
+        Xn[5 * q:5 * q + 5], Xn[5 * r:5 * r + 5] = X[5 * r:5 * r + 5], X[5 * q:5 * q + 5]
+        if r == 0:      # the last event passes the first one of the next cycle
+            D = self.duration(lam)
+            Xn[5 * q] = X[0] + D
+            Xn[0] = X[5 * q] - D
+        new = TwoParticleOrbit(self.values, self.param, "".join(kinds), self.m)
+        new._cache = self._cache
+        return new, Xn
+
+    def store(self, X, lam, section):
+        zu, _ = self.tables(X, lam)
+        n_zu = self.kinds.count("U")
+        return {"impact_t": zu[:n_zu, 0], "impact_u": zu[:n_zu, 1],
+                "impact_v_in": zu[:n_zu, 2], "impact_v_out": zu[:n_zu, 3],
+                "event_t": X[0::5].copy(), "cycle_duration": self.duration(lam)}
+
+
+def two_particle_seed(values, param, x_section, ipc):
+    """A TwoParticleOrbit and its solved unknowns from a state at a section time (the
+    system has the wall's period, so it is a state at t = 0): one cycle of ``ipc`` z-u
+    impacts run by the kernel from it, with the w-z impacts between."""
+    from .kernels.two_particle import simulate_two_particle
+    from .models import two_particle as TPM
+    kw = {k: v for k, v in values.items() if k in TPM.NAMES}
+    r = simulate_two_particle(*x_section, transient=0, record=ipc + 2, **kw)
+    zu_t = np.ravel(r["t"])
+    n = int(np.isfinite(zu_t).sum())
+    if n < ipc + 1:
+        raise OrbitError("the run from the section state has no cycle")
+    t0, t1 = zu_t[0], zu_t[ipc]
+    T = 2.0 * math.pi / values["omega0"]
+    m = int(round((t1 - t0) / T))
+    ev = []
+    for i in range(ipc):
+        ev.append((zu_t[i], 1, "U", [np.ravel(r["u"])[i], np.ravel(r["y_out"])[i],
+                                     np.ravel(r["u"])[i], np.ravel(r["v_out"])[i]]))
+    wz_t = np.ravel(r["wz_t"])
+    for j in range(int(np.isfinite(wz_t).sum())):
+        if t0 < wz_t[j] < t1:
+            ev.append((wz_t[j], 0, "W", [np.ravel(r["wz_z"])[j], np.ravel(r["wz_y_out"])[j],
+                                         math.nan, math.nan]))
+    ev.sort(key=lambda e: (e[0], e[1]))
+    prob = TwoParticleOrbit(dict(values), param, "".join(e[2] for e in ev), m)
+    lam = float(values[param])
+    # times within the first cycle: a periodic orbit's system has the cycle's period, and
+    # small times keep the unknowns' scale (d t / d omega0 grows with t)
+    shift = math.floor(ev[0][0] / prob.duration(lam)) * prob.duration(lam)
+    ev = [(t - shift, o, kind, x) for t, o, kind, x in ev]
+    X = np.empty(5 * len(ev))
+    last_u = None
+    for k, (t, _, kind, x) in enumerate(ev):
+        X[5 * k] = t
+        if kind == "U":
+            last_u = (t, x)
+            X[5 * k + 1:5 * k + 5] = x
+        else:
+            # u and v at a w-z impact: the flight of u from the z-u impact before it
+            tu, xu = last_u
+            fl = prob._fly(lam, tu, np.array(xu), t)
+            X[5 * k + 1:5 * k + 5] = [x[0], x[1], fl[2], fl[3]]
+    return prob, newton(prob, X, lam)
+
+
 # ------------------------------------------------------------------ Newton
 def newton(problem, X, lam):
     """Newton on R(X, lam) = 0 at fixed lam; OrbitError if it does not converge."""
@@ -512,45 +773,69 @@ class Event:
 def _monitors(problem, X, lam):
     if hasattr(problem, "orbit"):        # a curve of events: watch the orbit on it
         problem, X = problem.orbit(X, lam)
+    with np.errstate(invalid="ignore"):  # an orbit past an ending event: NaN multipliers
+        return _watch(problem, X, lam)
+
+
+def _watch(problem, X, lam):
     mu, J = problem.floquet(X, lam)
     imp = problem.impacts(X, lam)
     return {
         "corner": problem.corner_distances(X, lam),
         "grazing": np.array([problem.smallest_gap(X, lam)]),
         "zero_velocity": np.array([-imp["w"].max()]),
-        "fold": np.array([np.linalg.det(J - np.eye(2))]),
-        "period_doubling": np.array([np.linalg.det(J + np.eye(2))]),
-        # a complex pair on the unit circle; a sign change with real multipliers (a
-        # neutral saddle) is dropped by _events_between
-        "torus": np.array([np.linalg.det(J) - 1.0]),
+        "fold": np.array([np.linalg.det(J - np.eye(len(J)))]),
+        "period_doubling": np.array([np.linalg.det(J + np.eye(len(J)))]),
+        # a pair with mu_i mu_j = 1 (the bialternate product's determinant, det J - 1 in
+        # two dimensions): a complex pair on the unit circle; a real pair (a neutral
+        # saddle) is dropped by _events_between
+        "torus": np.array([_pairs_on_circle(mu)]),
     }, mu
 
 
-def _tangent(problem, X, lam, prev=None):
-    """The unit null vector of [dR/dX, dR/dlam], oriented along ``prev``."""
+def _pairs_on_circle(mu):
+    """prod over pairs i < j of (mu_i mu_j - 1): real (the multipliers of a real matrix),
+    zero when a pair multiplies to 1."""
+    out = 1.0 + 0j
+    for i in range(len(mu)):
+        for j in range(i + 1, len(mu)):
+            out *= mu[i] * mu[j] - 1.0
+    return float(out.real)
+
+
+def _wdot(W, a, b):
+    """The weighted inner product sum W_i^2 a_i b_i of the continuation's arclength."""
+    return float(np.sum(W * W * a * b))
+
+
+def _tangent(problem, X, lam, prev=None, W=None):
+    """The null vector of [dR/dX, dR/dlam], of unit weighted length, oriented along
+    ``prev``."""
     A = np.hstack([problem.jacobian(X, lam), problem.d_param(X, lam)[:, None]])
     _, _, vt = np.linalg.svd(A)
     T = vt[-1]
-    if prev is not None and T @ prev < 0:
+    W = np.ones_like(T) if W is None else W
+    if prev is not None and _wdot(W, T, prev) < 0:
         T = -T
-    return T / np.linalg.norm(T)
+    return T / math.sqrt(_wdot(W, T, T))
 
 
-def _correct(problem, Y0, T, s, base):
-    """Newton on (R(Y) = 0, T . (Y - base) = s) from the predictor Y0."""
+def _correct(problem, Y0, T, s, base, W):
+    """Newton on (R(Y) = 0, <T, Y - base>_W = s) from the predictor Y0."""
     Y = Y0.copy()
     n = len(Y) - 1
+    row = W * W * T
     for _ in range(NEWTON_MAX):
         X, lam = Y[:n], Y[n]
         R = problem.residual(X, lam)
-        h = T @ (Y - base) - s
+        h = row @ (Y - base) - s
         F = np.append(R, h)
         if not np.all(np.isfinite(F)):
             raise OrbitError("not finite")
         if np.abs(F).max() <= NEWTON_TOL * (1.0 + np.abs(Y).max()):
             return Y
         A = np.vstack([np.hstack([problem.jacobian(X, lam),
-                                  problem.d_param(X, lam)[:, None]]), T])
+                                  problem.d_param(X, lam)[:, None]]), row])
         dY = np.linalg.solve(A, -F)
         Y = Y + dY
         if np.abs(dY).max() <= 1e-15 * (1.0 + np.abs(Y).max()):
@@ -558,7 +843,7 @@ def _correct(problem, Y0, T, s, base):
     raise OrbitError("the corrector did not converge")
 
 
-def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun):
+def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
     """The arclength s in (s_lo, s_hi) where fun(Y(s)) changes sign (Illinois secant)."""
     side = 0
     Y = None
@@ -567,10 +852,10 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun):
         if not (min(s_lo, s_hi) < s < max(s_lo, s_hi)):
             s = 0.5 * (s_lo + s_hi)
         try:
-            Y = _correct(problem, Ya + s * T, T, s, Ya)
+            Y = _correct(problem, Ya + s * T, T, s, Ya, W)
         except (OrbitError, np.linalg.LinAlgError):
             s = 0.5 * (s_lo + s_hi)
-            Y = _correct(problem, Ya + s * T, T, s, Ya)
+            Y = _correct(problem, Ya + s * T, T, s, Ya, W)
         f = fun(Y)
         if f == 0.0 or abs(s_hi - s_lo) <= 1e-15 * (1.0 + abs(s)):
             break
@@ -593,32 +878,38 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
                     ds_min=1e-9, ds_max=None, max_steps=2000, events=EVENTS, log=None):
     """Pseudo-arclength continuation of the orbit (X0, lam0) within param in ``lam_range``.
 
-    The first step goes along ``T0`` (a tangent) if given, else the way ``direction``
-    (+1, -1) moves the parameter.  Returns (points, events): the accepted points (Point:
-    param, X, multipliers, monitors) and the located events (Event).  The branch ends at
-    the range's end, at an event that ends this itinerary's orbit as the flow's (corner,
-    grazing, zero_velocity: its located point is the branch's last), or when the step
-    falls below ``ds_min``.
+    The arclength is weighted: the parameter by the range's width, each unknown by
+    1 + its size at the start, so that ``ds`` (``ds_min``, ``ds_max``) are parameter
+    steps where the branch moves mostly in the parameter, whatever the unknowns' scales
+    (impact velocities of 100 beside times of 1).  The first step goes along ``T0`` (a
+    tangent) if given, else the way ``direction`` (+1, -1) moves the parameter.  Returns
+    (points, events): the accepted points (Point: param, X, multipliers, monitors) and the
+    located events (Event).  The branch ends at the range's end, at an event that ends
+    this itinerary's orbit as the flow's (corner, grazing, zero_velocity: its located
+    point is the branch's last), or when the step falls below ``ds_min``.
     """
     n = len(X0)
     lo, hi = lam_range
+    width = hi - lo
     ds_max = ds_max or 50 * ds
+    W = np.append(1.0 / (1.0 + np.abs(np.asarray(X0, float))), 1.0 / width)
+    h, h_min, h_max = ds / width, ds_min / width, ds_max / width
     Y = np.append(np.asarray(X0, float), lam0)
     mon, mu = _monitors(problem, Y[:n], Y[n])
     points = [Point(lam0, Y[:n].copy(), mu, mon, problem)]
     found = []
-    T = _tangent(problem, Y[:n], Y[n], T0)
+    T = _tangent(problem, Y[:n], Y[n], T0, W)
     if T0 is None and T[n] * direction < 0:
         T = -T
-    h = ds
     for _ in range(max_steps):
         try:
-            Yn = _correct(problem, Y + h * T, T, h, Y)
-            if np.linalg.norm(Yn - (Y + h * T)) > h:
+            Yn = _correct(problem, Y + h * T, T, h, Y, W)
+            jump = Yn - (Y + h * T)
+            if math.sqrt(_wdot(W, jump, jump)) > h:
                 raise OrbitError("the corrector jumped away from the predictor")
         except (OrbitError, np.linalg.LinAlgError):
             h *= 0.5
-            if h < ds_min:
+            if h < h_min:
                 found.append(Event("end", Y[n], Y[:n].copy(), "the step fell below ds_min",
                                    problem))
                 break
@@ -629,9 +920,9 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
 
             def sfun(Yv, edge=edge):
                 return Yv[n] - edge
-            Yn = _locate(problem, Y, T, 0.0, h, sfun(Y), sfun(Yn), sfun)
+            Yn = _locate(problem, Y, T, 0.0, h, sfun(Y), sfun(Yn), sfun, W)
         mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
-        ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n)
+        ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W)
         if ended:
             e = found[-1]
             m_e, mu_e = _monitors(problem, e.X, e.lam)
@@ -644,10 +935,10 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
         if log:
             log(Yn[n])
         problem, Yn[:n] = problem.reindex(Yn[:n], Yn[n])
-        Tn = _tangent(problem, Yn[:n], Yn[n], T)
+        Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
         # adapt: grow where the tangent turns little
-        turn = math.acos(max(-1.0, min(1.0, float(T @ Tn))))
-        h = min(ds_max, h * (1.5 if turn < 0.05 else 1.0 if turn < 0.2 else 0.5))
+        turn = math.acos(max(-1.0, min(1.0, _wdot(W, T, Tn))))
+        h = min(h_max, h * (1.5 if turn < 0.05 else 1.0 if turn < 0.2 else 0.5))
         Y, T, mon = Yn, Tn, mon_n
     return points, found
 
@@ -779,12 +1070,12 @@ def word_of(problem, X, lam, cycles=4):
 ENDING = ("corner", "grazing", "zero_velocity")
 
 
-def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n):
+def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W):
     """Locate every sign change of a watched test function between two points; append
     the events in arclength order.  Returns True when one of them ends the branch (its
     located point becomes the branch's last)."""
     hits = []
-    s_b = T @ (Yb - Ya)
+    s_b = _wdot(W, T, Yb - Ya)
     for kind in kinds:
         a, b = ma[kind], mb[kind]
         for q in range(len(a)):
@@ -792,10 +1083,10 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n):
                     and np.isfinite(b[q])):
                 def fun(Y, kind=kind, q=q):
                     return _monitors(problem, Y[:n], Y[n])[0][kind][q]
-                Y = _locate(problem, Ya, T, 0.0, s_b, a[q], b[q], fun)
+                Y = _locate(problem, Ya, T, 0.0, s_b, a[q], b[q], fun, W)
                 if not abs(fun(Y)) <= 1e-6 * max(1.0, abs(a[q]), abs(b[q])):
                     continue      # a sign change through a pole (multipliers blowing up)
-                hits.append((T @ (Y - Ya), kind, q, Y))
+                hits.append((_wdot(W, T, Y - Ya), kind, q, Y))
     hits.sort(key=lambda h: h[0])
     for _, kind, q, Y in hits:
         if kind == "torus" and problem.floquet(Y[:n], Y[n])[0][0].imag == 0.0:

@@ -236,7 +236,6 @@ def test_cornerbif_continue_writes_branches_and_plots_them(tmp_path):
     (["continue.start=0.5"], "continue.start: 0.5 must be a number within continue.range"),
     (["continue.seed=\"bq\""], "continue.seed"),
     (["continue.events=[\"cusp\"]"], "continue.events"),
-    (["scene.model=\"two_particle\""], "has no orbit solver yet"),
 ])
 def test_bad_continue_tables_are_refused_before_any_work(sets, needle):
     """A [continue] table that cannot run is refused with its key and value named."""
@@ -268,3 +267,40 @@ def test_map2d_branches_end_where_theory_says(word, kappa):
     mu, _ = prob.floquet(X, kappa)
     s = 0.8 ** (word.count("b") + word.count("g")) * (-0.64) ** word.count("a")
     assert np.allclose(mu, [s, s], rtol=1e-12)
+
+
+def test_two_particle_period_one_branch_ends_at_omega0_C():
+    """Fig. 19 (mu = 1000): the period-one orbit (a z-u impact just before each w-z impact
+    in the cycle's order, one of each per wall period) continued down in omega0 ends where
+    its z-u impact meets the w-z impact: the corner collision at omega0_C.  Against the
+    kernel alone: bisection on omega0 between the simple word 'b' and the period-adding
+    words below, to 1e-9 (tests/test_two_particle_scene.py's method); and at omega0 = 2 the
+    four multipliers equal tests/fd_reference_two_particle.py's to 1e-6."""
+    import fd_reference_two_particle as FR
+
+    from cornerbif.kernels.two_particle import simulate_two_particle
+    from cornerbif.models import two_particle as TPM
+    vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
+    x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
+    prob, X = C.two_particle_seed(vals, "omega0", x0, 1)
+    mu, _ = prob.floquet(X, 2.0)
+    J, _ = FR.fd_jacobian(vals, np.array(x0), 0.0, 2 * math.pi / 2.0)
+    fd = np.linalg.eigvals(J)
+    assert all(np.min(np.abs(fd - m)) < 1e-6 for m in mu), (mu, fd)
+    br = C.follow(prob, X, 2.0, (1.9995, 2.002), -1, ds=1e-4)[0]
+    ev = br.events[-1]
+    assert ev.kind == "corner" and "no admissible orbit" in ev.detail
+
+    r = simulate_two_particle(1.0, 0.0, 10.0, 0.0, transient=1000, record=60, omega0=1.9999)
+    xs = r["final"][0]
+
+    def is_b(w):
+        q = simulate_two_particle(*xs, transient=1500, record=80, omega0=w)
+        return q["symbols"][0] == "b"
+
+    lo, hi = 1.99975, 1.99976
+    assert not is_b(lo) and is_b(hi)
+    while hi - lo > 1e-9:
+        m = 0.5 * (lo + hi)
+        lo, hi = (lo, m) if is_b(m) else (m, hi)
+    assert lo - 2e-9 <= ev.lam <= hi + 2e-9, (ev.lam, lo, hi)

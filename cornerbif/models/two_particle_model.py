@@ -101,6 +101,12 @@ class TwoParticleModel(Model):
     def kernel(self):
         return K.run_batch
 
+    def orbit_seed(self, values, scene, param, word, run):
+        from ..continuation import two_particle_seed
+        n = int(np.isfinite(run["sz"]).sum())
+        x = [run[k][n - 1] for k in ("sz", "sy", "su", "sv")]
+        return two_particle_seed(values, param, x, run["ipc"])
+
     def run_items(self, params, ics, ints, scene):
         """The two-particle kernel (section 6) on n items; outputs shaped like the flow's.
 
@@ -160,6 +166,7 @@ MODEL = TwoParticleModel(
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS + SECTION_ZY,
                  "wall_impacts": WALL_IMPACT_FIELDS, "stability": STABILITY},
     opt_in=("stability",),
+    continuation=True,
     events_per_impact=40,
     bytes_per_event=BYTES_PER_EVENT,
     # u-z impacts, benchmarks/run.py, Fig. 19(a), one core (benchmarks/results/results.json)
