@@ -26,6 +26,7 @@ circle), and locates each sign change by the secant method on the arclength.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -1166,6 +1167,77 @@ class CornerCurve:
         return self, Xc
 
 
+@dataclass
+class FoldCurve:
+    """A fold (a multiplier at +1) as a curve in two parameters: the orbit's equations
+    and det(J - I) = 0 (J the monodromy), with ``param2`` free (the last unknown of X'),
+    continued in the base problem's parameter; the Jacobian by central differences."""
+
+    base: object
+    param2: str
+
+    @property
+    def n(self) -> int:
+        return self.base.n
+
+    def _problem(self, lam2):
+        vals = dict(self.base.values)
+        vals[self.param2] = float(lam2)
+        key = ("fold", float(lam2))
+        cache = getattr(self.base, "_cache", {})
+        prob = cache.get(key)
+        if prob is None:
+            prob = dataclasses.replace(self.base, values=vals, _cache={}) \
+                if hasattr(self.base, "_cache") else dataclasses.replace(self.base, values=vals)
+            if len(cache) > 256:
+                cache.clear()
+            cache[key] = prob
+        return prob
+
+    def residual(self, Xc, lam):
+        prob = self._problem(Xc[-1])
+        X = Xc[:-1]
+        _, J = prob.floquet(X, lam)
+        return np.append(prob.residual(X, lam), np.linalg.det(J - np.eye(len(J))))
+
+    def jacobian(self, Xc, lam):
+        m = len(Xc)
+        Jm = np.empty((m, m))
+        for c in range(m):
+            h = 1e-7 * max(1.0, abs(Xc[c]))
+            e = np.zeros(m)
+            e[c] = h
+            Jm[:, c] = (self.residual(Xc + e, lam) - self.residual(Xc - e, lam)) / (2.0 * h)
+        return Jm
+
+    def d_param(self, Xc, lam):
+        h = 1e-6 * max(1.0, abs(lam))
+        return (self.residual(Xc, lam + h) - self.residual(Xc, lam - h)) / (2.0 * h)
+
+    def orbit(self, Xc, lam):
+        return self._problem(Xc[-1]), Xc[:-1]
+
+    def reindex(self, Xc, lam):
+        return self, Xc
+
+
+def fold_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
+    """Continue a located fold (an Event of kind "fold" in ``event.problem.param``) in
+    the plane of that parameter and ``param``: (param values, fold parameter values)."""
+    prob = event.problem
+    base_vals = dict(prob.values)
+    base_vals[prob.param] = event.lam
+    base = dataclasses.replace(prob, values=base_vals, param=param)
+    if hasattr(base, "_cache"):
+        base._cache = {}
+    curve = FoldCurve(base, prob.param)
+    Xc = np.append(event.X, event.lam)
+    lam0 = float(prob.values[param])
+    Xc = newton(curve, Xc, lam0)
+    pts, _ = continue_branch(curve, Xc, lam0, lam_range, direction, ds=ds, events=(), **kw)
+    return np.array([pt.lam for pt in pts]), np.array([pt.X[-1] for pt in pts]), curve, pts
+
+
 def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     """Continue a located corner collision (an Event of kind "corner" of a branch in
     ``event.problem.param``) in the plane of that parameter and ``param``: returns the
@@ -1283,25 +1355,26 @@ def run_scene(scene, log=print):
     if "curve" in c:
         for b, br in enumerate(res.branches):
             for e in br.events:
-                if e.kind != "corner":
+                if e.kind not in ("corner", "fold"):
                     continue
+                follow_curve = corner_curve if e.kind == "corner" else fold_curve
+                what = e.detail.split(";")[0] if e.kind == "corner" else "fold"
                 parts = []
                 for direction in (1.0, -1.0):
                     try:
-                        x2, x1, _, _ = corner_curve(e, c["curve"], tuple(c["curve_range"]),
+                        x2, x1, _, _ = follow_curve(e, c["curve"], tuple(c["curve_range"]),
                                                     direction, ds=abs(c["curve_range"][1]
                                                                       - c["curve_range"][0])
                                                     / 100.0)
                         parts.append((x2, x1))
                     except (OrbitError, np.linalg.LinAlgError) as err:
-                        log(f"corner curve of branch {b} at {e.lam!r}: {err}")
+                        log(f"{e.kind} curve of branch {b} at {e.lam!r}: {err}")
                 if parts:
                     x2 = np.concatenate([p[0][::-1] for p in parts[1:]] + [parts[0][0]])
                     x1 = np.concatenate([p[1][::-1] for p in parts[1:]] + [parts[0][1]])
-                    res.curves.append((b, e.lam, e.detail.split(";")[0], x2, x1))
-                    log(f"corner curve of branch {b} ({e.detail.split(';')[0]}): "
-                        f"{len(x2)} points over {c['curve']} in [{x2.min():.6g}, "
-                        f"{x2.max():.6g}]")
+                    res.curves.append((b, e.lam, what, x2, x1, e.kind))
+                    log(f"{e.kind} curve of branch {b} ({what}): {len(x2)} points over "
+                        f"{c['curve']} in [{x2.min():.6g}, {x2.max():.6g}]")
     return res
 
 
@@ -1355,21 +1428,26 @@ def write(res, path):
             g.attrs.update(word=br.word, origin=br.origin, points_per_cycle=pts[0].problem.n,
                            itinerary=pts[0].problem.itinerary())
             for e in br.events:
-                first = next(iter(e.problem.store(e.X, e.lam, section).values()))
-                ev_rows.append((b, e.kind, e.lam, e.detail, float(np.min(first))))
+                got = e.problem.store(e.X, e.lam, section)
+                ev_rows.append((b, e.kind, e.lam, e.detail,
+                                {k: float(np.min(v)) for k, v in got.items()}))
         ev = f.create_group("events")
         ev["branch"] = np.array([r[0] for r in ev_rows], np.int32)
         ev["kind"] = np.array([r[1] for r in ev_rows], dtype=h5py.string_dtype())
         ev["param"] = np.array([r[2] for r in ev_rows], float)
         ev["detail"] = np.array([r[3] for r in ev_rows], dtype=h5py.string_dtype())
-        ev["value"] = np.array([r[4] for r in ev_rows], float)
-        for k, (b, lam, what, x2, x1) in enumerate(res.curves):
+        # each event's state, as the branch stores it (the smallest over the cycle's
+        # impacts where there are several)
+        for key in sorted({k for r in ev_rows for k in r[4]}):
+            ev[key] = np.array([r[4].get(key, math.nan) for r in ev_rows], float)
+        for k, (b, lam, what, x2, x1, kind) in enumerate(res.curves):
             g = f.create_group(f"curves/{k:03d}")
             g["param"] = x2
             g["param"].attrs["name"] = c["curve"]
             g["event_param"] = x1
             g["event_param"].attrs["name"] = c["parameter"]
-            g.attrs.update(kind="corner", branch=b, at=lam, what=what)
+            g.attrs.update(kind=kind, branch=b, at=lam, what=what, param_name=c["curve"],
+                           event_param_name=c["parameter"])
         f.attrs["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
     os.replace(tmp, path)
     return path
@@ -1388,12 +1466,13 @@ def read(path):
             g = f["branches"][name]
             out["branches"].append({k: g[k][...] for k in g} | dict(g.attrs))
         ev = f["events"]
+        extra = [k for k in ev if k not in ("branch", "kind", "param", "detail")]
         for i in range(ev["param"].shape[0]):
             out["events"].append({"branch": int(ev["branch"][i]),
                                   "kind": ev["kind"][i].decode(),
                                   "param": float(ev["param"][i]),
-                                  "detail": ev["detail"][i].decode(),
-                                  "value": float(ev["value"][i])})
+                                  "detail": ev["detail"][i].decode()}
+                                 | {k: float(ev[k][i]) for k in extra})
         for name in sorted(f.get("curves", {})):
             g = f["curves"][name]
             out["curves"].append({k: g[k][...] for k in g} | dict(g.attrs))

@@ -321,9 +321,12 @@ def draw_branches(ax, cont: dict, y="impact_u", offset=0):
         if e["kind"] not in EVENT_MARKERS:
             continue
         mk, c, lab = EVENT_MARKERS[e["kind"]]
-        br = cont["branches"][e["branch"]]
-        i = int(np.argmin(np.abs(br["param"] - e["param"])))
-        vals = br[key][i] if br[key].ndim == 1 else br[key][i].min()
+        if key in e and np.isfinite(e[key]):
+            vals = e[key]
+        else:
+            br = cont["branches"][e["branch"]]
+            i = int(np.argmin(np.abs(br["param"] - e["param"])))
+            vals = br[key][i] if br[key].ndim == 1 else br[key][i].min()
         arts += ax.plot([e["param"]], [vals], mk, color=c, ms=6, mec="k", mew=0.5,
                         label=None if lab in seen else lab, zorder=5)
         seen.add(lab)
@@ -364,28 +367,32 @@ def figure_branches(paths, out, y=None, title=None, plot_cfg=None):
 
 
 def draw_corner_curves_continued(ax, conts):
-    """The corner-collision curves continued in two parameters, with eqs (11) and (17)
-    where the plane is (omega, kappa) on the rectified sine."""
+    """The corner-collision and fold curves continued in two parameters, with eqs (11)
+    and (17) where the plane is (omega, kappa) on the rectified sine."""
     arts = []
+    names = None
     for c in conts:
         for cv in c["curves"]:
             x, yv = cv["param"], cv["event_param"]
             b = int(cv["branch"])
             word = c["branches"][b]["word"]
+            names = (str(cv.get("param_name", "omega")), str(cv.get("event_param_name",
+                                                                    c["parameter"])))
+            what = ("fold" if str(cv.get("kind", "corner")) == "fold"
+                    else f"{cv['what']} at its corner")
             arts += ax.plot(x, yv, "-", color=BRANCH_COLORS[b % len(BRANCH_COLORS)], lw=1.2,
-                            label=f"branch {b} ({_word_label(word)}): {cv['what']} at "
-                                  "its corner, continued")
+                            label=f"branch {b} ({_word_label(word)}): {what}, continued")
     sys_ = tomllib.loads(conts[0]["scene"]).get("system", {})
     cv0 = conts[0]["curves"][0]
-    if sys_.get("obstacle", "rectified_sine") == "rectified_sine":
+    if names == ("omega", "kappa") and sys_.get("obstacle", "rectified_sine") == "rectified_sine":
         r, beta = sys_.get("r", 0.8), sys_.get("beta", 1.0)
         w = np.linspace(cv0["param"].min(), cv0["param"].max(), 300)
         arts += ax.plot(w, [theory.kappa_C(t, r, beta) for t in w], ":", color="tab:red",
                         lw=2, label=r"$\kappa_C$, eq (11)")
         arts += ax.plot(w, [theory.kappa_CC(t, r, beta) for t in w], ":", color="tab:blue",
                         lw=2, label=r"$\kappa_{CC}$, eq (17)")
-    ax.set_xlabel(LABELS["omega"])
-    ax.set_ylabel(LABELS["kappa"])
+    ax.set_xlabel(LABELS.get(names[0], names[0]))
+    ax.set_ylabel(LABELS.get(names[1], names[1]))
     ax.legend(loc="best", fontsize=7)
     return arts
 
