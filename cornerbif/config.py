@@ -775,11 +775,19 @@ def _read_continue(w):
         pr.append(f"continue.parameter: {name!r} is also swept ([sweep] {name}); continue "
                   "from one point: remove the axis")
     out = {"parameter": name}
+    forced = [k for k in numeric if k.startswith("F") and w.system.get(k) not in (0, 0.0, None)]
+    if forced and name.lower().startswith("omega"):
+        pr.append(f"continue.parameter: {name!r} with forcing {forced[0]} = "
+                  f"{_fmt(w.system[forced[0]])}: a periodic orbit needs the forcing's period "
+                  "and the wall's commensurate, which continuing a frequency breaks; "
+                  "continue another parameter, or set the forcing to 0")
     rng = c.get("range")
     if not (isinstance(rng, list) and len(rng) == 2 and all(_is_number(x) for x in rng)
-            and rng[0] < rng[1]):
-        pr.append(f"continue.range: {_fmt(rng)} must be [low, high] with low < high")
+            and all(math.isfinite(x) for x in rng) and rng[0] < rng[1]):
+        pr.append(f"continue.range: {_fmt(rng)} must be [low, high], finite, low < high")
         return
+    for x in rng:
+        w.param(name, x, "continue.range")
     out["range"] = [float(rng[0]), float(rng[1])]
     start = c.get("start", w.system.get(name))
     if not _is_number(start) or not rng[0] <= start <= rng[1]:
@@ -809,6 +817,9 @@ def _read_continue(w):
         if not (_is_number(v) and math.isfinite(v) and v > 0):
             pr.append(f"continue.{k}: {_fmt(v)} must be a number > 0")
         out[k] = float(v) if _is_number(v) else default
+    if not out["ds_min"] <= out["ds"] <= out["ds_max"]:
+        pr.append(f"continue.ds: ds_min {out['ds_min']!r} <= ds {out['ds']!r} <= ds_max "
+                  f"{out['ds_max']!r} must hold")
     ev = c.get("events", list(CONTINUE_EVENTS))
     if not (isinstance(ev, list) and all(x in CONTINUE_EVENTS for x in ev)):
         pr.append(f"continue.events: {_fmt(ev)} must be a list drawn from "
@@ -831,6 +842,9 @@ def _read_continue(w):
                       f"system.{cv} = {_fmt(w.system.get(cv))}")
         out["curve"] = cv
         out["curve_range"] = crng
+    if "curve_range" in c and "curve" not in c:
+        pr.append(f"continue.curve_range: {_fmt(c['curve_range'])} without continue.curve "
+                  "(the second parameter of the curves)")
     if "over" in c:
         if not isinstance(c["over"], str):
             pr.append(f"continue.over: {_fmt(c['over'])} must be the name of a scene")

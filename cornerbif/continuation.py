@@ -295,9 +295,20 @@ class FlowOrbit:
         """What the continuation file keeps of the orbit at one point (docs/continuation.md):
         the cycle's impacts, the section state, the cycle's duration."""
         imp = self.impacts(X, lam)
-        p, _ = self.packed(lam)
-        T = section or 2.0 * math.pi / p[P.OMEGA]
-        u, v = section_state(self, X, lam, T)
+        p, d = self.packed(lam)
+        if section is None and self.obstacle in P.AUTO_SECTION:
+            # the kernel's section (flow.watch_for_cycle): the corners of the parity
+            # opposite to the first impact's corner, between the impact clusters
+            pps = P.section_pieces(self.obstacle, p[P.OMEGA], None)
+            c0 = int(imp["corner"][0])
+            phase = (c0 + pps // 2) % pps
+            j = c0 + 1
+            while (j - phase) % pps != 0:
+                j += 1
+            u, v = section_state(self, X, lam, None, at=piece_start(d, j))
+        else:
+            T = section or 2.0 * math.pi / p[P.OMEGA]
+            u, v = section_state(self, X, lam, T)
         return {"impact_t": imp["t"], "impact_u": imp["u"], "impact_v_in": imp["v_in"],
                 "impact_v_out": imp["v_out"], "section_u": u, "section_v": v,
                 "cycle_duration": self.duration(lam)}
@@ -413,7 +424,13 @@ class MapOrbit:
         else:
             new = "g" if ch == "a" else "a"
         letters = self.letters[:q] + new + self.letters[q + 1:]
-        return MapOrbit(self.values, self.param, letters), X.copy()
+        X = X.copy()
+        # a word repeating a shorter one ("aa") is that one's orbit
+        for k in range(1, len(letters)):
+            if len(letters) % k == 0 and letters == letters[:k] * (len(letters) // k):
+                letters, X = letters[:k], X[:2 * k]
+                break
+        return MapOrbit(self.values, self.param, letters), X
 
     def store(self, X, lam, section):
         return {"section_u": X[0::2].copy(), "section_v": X[1::2].copy(),
@@ -727,6 +744,12 @@ def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-
     L0 = piece_start(d, 1) - piece_start(d, 0)
     dur = t[first + ipc] - t[first]
     m = int(round(dur / per))
+    if p[P.F_AMP] != 0.0:
+        cycles = p[P.F_OMEGA] * m * per / (2.0 * math.pi)
+        if abs(cycles - round(cycles)) > 1e-9 * max(1.0, cycles):
+            raise OrbitError(f"the forcing's period 2 pi/Omega does not divide the cycle's "
+                             f"{m} obstacle period(s): no periodic orbit to continue")
+        per = m * per      # the system's period: shift times by whole cycles only
     t0 = math.floor(t[first + 1] / per) * per
     pieces = np.empty(ipc, np.int64)
     X = np.empty(2 * ipc)
@@ -748,6 +771,60 @@ def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-
     prob.pieces = pieces
     prob.m = m
     return prob, newton(prob, X, lam)
+
+
+def seed_from_word(values, obstacle, param, word, tol=1e-12, cycles=6):
+    """A FlowOrbit of a cluster word (``a``, ``b``, ``g`` letters, e.g. "b^5 g", "ab"),
+    stable or not, near (omega, kappa) = (2, 0) on the rectified sine: the kernel is run
+    from the 2D maps' orbit of the word (``theory.word_orbit``: (a0, b1) = (u, u')(0) at
+    the section corner, epsilon = 1) for a few cycles without transient, the first run of
+    clusters spelling the word (up to rotation) gives the pieces and the first guess, and
+    Newton finds the flow's orbit.  OrbitError when the run does not spell it."""
+    import cornerbif
+
+    from .analysis import parse_word
+    from .theory import word_orbit
+    if obstacle != "rectified_sine":
+        raise OrbitError(f"a word seeds an orbit on the rectified sine only (eq 8), not "
+                         f"{obstacle!r}")
+    letters = parse_word(word)
+    x, _ = word_orbit(letters, values["omega"] - 2.0, values["kappa"], values["r"])
+    sys_ = {k: v for k, v in values.items() if k in P.INDEX}
+    rec = cycles * (2 * len(letters) + 2)
+    res = cornerbif.simulate([x[0, 0]], [x[0, 1]], obstacle=obstacle, transient=0,
+                             record=rec, **sys_)
+    t, off = res["t"][0], res["corner_offset"][0]
+    n = int(np.isfinite(t).sum())
+    L = math.pi / values["omega"]
+    corner = np.rint((t[:n] - off[:n]) / L).astype(int)
+    # clusters: (first impact, count, symbol)
+    clusters = []
+    for i in range(n):
+        if clusters and corner[i] == corner[clusters[-1][0]]:
+            clusters[-1][1] += 1
+        else:
+            clusters.append([i, 1])
+    sym = []
+    for i0, c in clusters:
+        if c == 1:
+            sym.append("b" if off[i0] >= 0 else "g")
+        elif c == 2 and off[i0] < 0 <= off[i0 + 1]:
+            sym.append("a")
+        else:
+            sym.append("x")
+    K = len(letters)
+    rotations = {letters[k:] + letters[:k] for k in range(K)}
+    for s in range(1, len(clusters) - K):
+        if "".join(sym[s:s + K]) in rotations:
+            first = clusters[s][0]
+            nxt = clusters[s + K][0]
+            ipc = nxt - first
+            tt = np.concatenate([[t[first - 1]], t[first:nxt + 1]])
+            vv = np.concatenate([[res["v_out"][0][first - 1]], res["v_out"][0][first:nxt + 1]])
+            oo = np.concatenate([[off[first - 1]], off[first:nxt + 1]])
+            return seed_from_run(values, obstacle, param, tt, vv, oo, ipc, tol)
+    raise OrbitError(f"the run from the maps' orbit of {word!r} does not spell it "
+                     f"(clusters {''.join(sym)})")
 
 
 # ------------------------------------------------------------------ pseudo-arclength
@@ -856,7 +933,12 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
             Y = _correct(problem, Ya + s * T, T, s, Ya, W)
         except (OrbitError, np.linalg.LinAlgError):
             s = 0.5 * (s_lo + s_hi)
-            Y = _correct(problem, Ya + s * T, T, s, Ya, W)
+            try:
+                Y = _correct(problem, Ya + s * T, T, s, Ya, W)
+            except (OrbitError, np.linalg.LinAlgError):
+                if Y is None:
+                    raise
+                break         # the best located point so far
         f = fun(Y)
         if f == 0.0 or abs(s_hi - s_lo) <= 1e-15 * (1.0 + abs(s)):
             break
@@ -902,7 +984,14 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     T = _tangent(problem, Y[:n], Y[n], T0, W)
     if T0 is None and T[n] * direction < 0:
         T = -T
-    for _ in range(max_steps):
+    if (lam0 <= lo and T[n] < 0) or (lam0 >= hi and T[n] > 0):
+        found.append(Event("end", lam0, Y[:n].copy(), "the end of the range", problem))
+        return points, found
+    for step in range(max_steps + 1):
+        if step == max_steps:
+            found.append(Event("end", Y[n], Y[:n].copy(),
+                               f"the step budget ({max_steps} steps) ran out", problem))
+            break
         try:
             Yn = _correct(problem, Y + h * T, T, h, Y, W)
             jump = Yn - (Y + h * T)
@@ -985,16 +1074,22 @@ def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branche
     todo = [(problem, X0, lam0, None, "start")]
     while todo and len(out) < max_branches:
         prob, X, lam, T0, origin = todo.pop(0)
-        pts, evs = continue_branch(prob, X, lam, lam_range, direction, T0, **kw)
+        try:
+            pts, evs = continue_branch(prob, X, lam, lam_range, direction, T0, **kw)
+        except (OrbitError, np.linalg.LinAlgError) as e:
+            X = np.asarray(X, float).copy()
+            mon, mu = _monitors(prob, X, lam)
+            pts = [Point(lam, X, mu, mon, prob)]
+            evs = [Event("end", lam, X, f"the continuation failed ({e})", prob)]
         out.append(Branch(prob, pts, evs, prob.word(pts[0].X, pts[0].lam), origin))
         last = evs[-1] if evs else None
         if not (switch and last is not None and last.kind == "corner"):
             continue
         q = int(last.detail.split(";")[0].split()[-1])
-        new, Xn = last.problem.across(q, last.X, last.lam)
-        n = len(Xn)
+        new, Xs = last.problem.across(q, last.X, last.lam)
+        n = len(Xs)
         try:
-            Xn = newton(new, Xn, last.lam)
+            Xn = newton(new, Xs, last.lam)
             T = _tangent(new, Xn, last.lam)
         except (OrbitError, np.linalg.LinAlgError) as e:
             last.detail += f"; no orbit of the other side's itinerary ({e})"
@@ -1004,15 +1099,28 @@ def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branche
             last.detail += (f"; the other side's itinerary has no admissible orbit there "
                             f"({why}): the orbit ends at the corner collision")
             continue
-        # into the new side: impact (point) q's distance to its corner must grow
+        word = new.word(Xn, last.lam)
+        if np.abs(Xn - Xs).max() > 1e-6 * (1.0 + np.abs(Xs).max()):
+            # the map jumps at the corner (the one-sided slopes differ): the other side's
+            # orbit is another orbit, not this one going on; follow it both ways
+            last.detail += (f"; the map jumps there: the other side's itinerary has the "
+                            f"orbit {word!r}, continued both ways")
+            origin = (f"the orbit {word!r} on the other side of the corner collision of "
+                      f"{q} at {new.param} = {last.lam!r} (a jump)")
+            todo.append((new, Xn, last.lam, T, origin))
+            todo.append((new, Xn, last.lam, -T, origin))
+            continue
+        # a continuous crossing: the orbit goes on, into the new side (the distance of
+        # point q to its corner must grow)
         eps = 1e-7 * (1.0 + np.abs(Xn).max())
         Y = np.append(Xn, last.lam)
         d_plus = new.corner_distances((Y + eps * T)[:n], (Y + eps * T)[n])[q]
         d_minus = new.corner_distances((Y - eps * T)[:n], (Y - eps * T)[n])[q]
         if d_minus > d_plus:
             T = -T
-        kind = "persists" if T[n] * (last.lam - lam) > 0 else "turns back (nonsmooth fold)"
-        last.detail += f"; the other side's branch {kind}"
+        came = pts[-1].lam - pts[-2].lam if len(pts) > 1 else direction
+        kind = "persists" if T[n] * came > 0 else "turns back (nonsmooth fold)"
+        last.detail += f"; the orbit crosses continuously and {kind} as {word!r}"
         todo.append((new, Xn, last.lam, T, f"corner collision of {q} at "
                                             f"{new.param} = {last.lam!r}: {kind}"))
     return out
@@ -1155,8 +1263,10 @@ class CornerCurve:
         return Jm
 
     def d_param(self, Xc, lam):
-        X, lam2 = self._split(Xc, lam)
-        return self._problem(lam2).d_param(X, lam)
+        """dR/dparam of the curve's own residual: with the impact held at the end of its
+        piece, tau_q = L(param) moves with the parameter too."""
+        h = 1e-6 * max(1.0, abs(lam))
+        return (self.residual(Xc, lam + h) - self.residual(Xc, lam - h)) / (2.0 * h)
 
     def orbit(self, Xc, lam):
         """(problem at param2, X) of the point of the curve."""
@@ -1234,8 +1344,10 @@ def fold_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     Xc = np.append(event.X, event.lam)
     lam0 = float(prob.values[param])
     Xc = newton(curve, Xc, lam0)
-    pts, _ = continue_branch(curve, Xc, lam0, lam_range, direction, ds=ds, events=(), **kw)
-    return np.array([pt.lam for pt in pts]), np.array([pt.X[-1] for pt in pts]), curve, pts
+    pts, evs = continue_branch(curve, Xc, lam0, lam_range, direction, ds=ds, events=ENDING,
+                               **kw)
+    return (np.array([pt.lam for pt in pts]), np.array([pt.X[-1] for pt in pts]), curve, pts,
+            evs)
 
 
 def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
@@ -1256,10 +1368,13 @@ def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     Xc[2 * q] = event.lam
     lam0 = float(prob.values[param])
     Xc = newton(curve, Xc, lam0)
+    # the orbit along the curve must stay one of the flow: the other impacts' corners, the
+    # flights' gaps and the impact velocities end the curve (the held impact's own corner
+    # distance is 0 throughout and never changes sign)
     pts, evs = continue_branch(curve, Xc, lam0, lam_range, direction, ds=ds,
-                               events=(), **kw)
+                               events=ENDING, **kw)
     return (np.array([pt.lam for pt in pts]), np.array([pt.X[2 * q] for pt in pts]),
-            curve, pts)
+            curve, pts, evs)
 
 
 # ------------------------------------------------------------------ a scene's continuation
@@ -1327,6 +1442,11 @@ def run_scene(scene, log=print):
     kw = dict(ds=c["ds"], ds_min=c["ds_min"], ds_max=c["ds_max"], events=tuple(c["events"]))
     res = Result(scene, [])
     found = find_seeds(scene)
+    wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+    for s in wanted:
+        if s != "all" and not any(_matches(f[0], s) for f in found):
+            # not an attractor from these starts: the orbit of the word itself, stable or not
+            found.append((s, {"word_seed": True}))
     res.seeds = [f[0] for f in found]
     if not found:
         want = c["seed"]
@@ -1334,8 +1454,14 @@ def run_scene(scene, log=print):
             f"found from the {scene.n_ic} starts at {c['parameter']} = {c['start']!r}")
     for word, run in found:
         try:
-            prob, X = scene.spec.orbit_seed(values, scene, c["parameter"], word, run)
-        except OrbitError as e:
+            if run.get("word_seed"):
+                prob, X = scene.spec.word_seed(values, scene, c["parameter"], word)
+            else:
+                prob, X = scene.spec.orbit_seed(values, scene, c["parameter"], word, run)
+            ok, why = prob.admissible(X, c["start"])
+            if not ok:
+                raise OrbitError(f"its orbit is not admissible at the start ({why})")
+        except (OrbitError, NotImplementedError) as e:
             log(f"seed {word!r}: {e}")
             continue
         both = []
@@ -1359,32 +1485,35 @@ def run_scene(scene, log=print):
                     continue
                 follow_curve = corner_curve if e.kind == "corner" else fold_curve
                 what = e.detail.split(";")[0] if e.kind == "corner" else "fold"
-                parts = []
+                parts, ends = [], []
                 for direction in (1.0, -1.0):
                     try:
-                        x2, x1, _, _ = follow_curve(e, c["curve"], tuple(c["curve_range"]),
-                                                    direction, ds=abs(c["curve_range"][1]
-                                                                      - c["curve_range"][0])
-                                                    / 100.0)
+                        x2, x1, _, _, evs = follow_curve(
+                            e, c["curve"], tuple(c["curve_range"]), direction,
+                            ds=abs(c["curve_range"][1] - c["curve_range"][0]) / 100.0)
                         parts.append((x2, x1))
+                        ends += [f"{v.kind} at {c['curve']} = {v.lam:.10g}"
+                                 + (f" ({v.detail})" if v.detail else "") for v in evs]
                     except (OrbitError, np.linalg.LinAlgError) as err:
+                        ends.append(f"failed: {err}")
                         log(f"{e.kind} curve of branch {b} at {e.lam!r}: {err}")
                 if parts:
                     x2 = np.concatenate([p[0][::-1] for p in parts[1:]] + [parts[0][0]])
                     x1 = np.concatenate([p[1][::-1] for p in parts[1:]] + [parts[0][1]])
-                    res.curves.append((b, e.lam, what, x2, x1, e.kind))
+                    res.curves.append((b, e.lam, what, x2, x1, e.kind, "; ".join(ends)))
                     log(f"{e.kind} curve of branch {b} ({what}): {len(x2)} points over "
-                        f"{c['curve']} in [{x2.min():.6g}, {x2.max():.6g}]")
+                        f"{c['curve']} in [{x2.min():.6g}, {x2.max():.6g}]; ends: "
+                        + "; ".join(ends))
     return res
 
 
-def section_state(problem, X, lam, section):
+def section_state(problem, X, lam, section, at=None):
     """The state (u, v) at the first section time n * section at or after the cycle's
-    first impact (the flight from the last impact before it)."""
+    first impact, or at the time ``at`` (the flight from the last impact before it)."""
     p, d = problem.packed(lam)
     imp = problem.impacts(X, lam)
     D = problem.duration(lam)
-    ts = math.ceil(imp["t"][0] / section) * section
+    ts = at if at is not None else math.ceil(imp["t"][0] / section) * section
     t = np.append(imp["t"], imp["t"][0] + D)
     i = int(np.searchsorted(t, ts, side="right")) - 1
     i = min(max(i, 0), problem.n - 1)
@@ -1440,14 +1569,14 @@ def write(res, path):
         # impacts where there are several)
         for key in sorted({k for r in ev_rows for k in r[4]}):
             ev[key] = np.array([r[4].get(key, math.nan) for r in ev_rows], float)
-        for k, (b, lam, what, x2, x1, kind) in enumerate(res.curves):
+        for k, (b, lam, what, x2, x1, kind, ends) in enumerate(res.curves):
             g = f.create_group(f"curves/{k:03d}")
             g["param"] = x2
             g["param"].attrs["name"] = c["curve"]
             g["event_param"] = x1
             g["event_param"].attrs["name"] = c["parameter"]
             g.attrs.update(kind=kind, branch=b, at=lam, what=what, param_name=c["curve"],
-                           event_param_name=c["parameter"])
+                           event_param_name=c["parameter"], ends=ends)
         f.attrs["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
     os.replace(tmp, path)
     return path
@@ -1461,6 +1590,8 @@ def read(path):
         if f.attrs.get("format") != FORMAT:
             raise ValueError(f"{path}: not a cornerbif continuation file")
         out = {"parameter": str(f.attrs["parameter"]), "scene": str(f.attrs["scene"]),
+               "attrs": {k: (v.decode() if isinstance(v, bytes) else v)
+                         for k, v in f.attrs.items()},
                "branches": [], "events": [], "curves": []}
         for name in sorted(f.get("branches", {})):
             g = f["branches"][name]

@@ -238,6 +238,11 @@ class Model:
         """The compiled kernel entry (for the cold-cache notice)."""
         raise NotImplementedError
 
+    def word_seed(self, values: dict, scene, param: str, word: str):
+        """A periodic-orbit problem and its solved unknowns for a cycle word that no start
+        reached (stable or not), where the model can build one."""
+        raise NotImplementedError(f"model {self.name!r} seeds orbits from attractors only")
+
     def orbit_seed(self, values: dict, scene, param: str, word: str, run: dict):
         """A periodic-orbit problem of ``cornerbif.continuation`` and its solved unknowns,
         from one run's record at the continuation's start (models with

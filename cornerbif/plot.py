@@ -308,11 +308,12 @@ def draw_branches(ax, cont: dict, y="impact_u", offset=0):
         for q in range(vals.shape[1]):
             for stable in (True, False):
                 m = st if stable else ~st
-                # segments include the neighbour point so that solid and dashed join
+                # segments include the neighbour point so that solid and dashed join; a
+                # branch of one point (it ended where it started) is a marker
                 for a, e in _runs(m):
                     lo, hi = max(a - 1, 0), min(e + 1, len(x))
                     arts += ax.plot(x[lo:hi], vals[lo:hi, q], "-" if stable else "--",
-                                    color=color, lw=1.1,
+                                    color=color, lw=1.1, marker="." if len(x) == 1 else None,
                                     label=None if label in seen else label)
                     seen.add(label)
     if any_unstable:
@@ -347,10 +348,18 @@ def figure_branches(paths, out, y=None, title=None, plot_cfg=None):
                             dpi=150, squeeze=False)
     ax = axs[0, 0]
     plot_cfg = plot_cfg or {}
-    kind = y or plot_cfg.get("y") or "impact_u"
+    have = {k for c in conts for b in c["branches"] for k in b}
+    kind = y or plot_cfg.get("y") or ("impact_u" if "impact_u" in have or not have
+                                      else "section_v")
+    if have and BRANCH_Y.get(kind) not in have:
+        plt.close(fig)
+        raise ValueError(f"y = {kind!r}: the branches store "
+                         + ", ".join(k for k, v in BRANCH_Y.items() if v in have))
     title = title or plot_cfg.get("title")
+    offset = 0
     for c in conts:
-        draw_branches(ax, c, kind)
+        draw_branches(ax, c, kind, offset)
+        offset += len(c["branches"])
     name = conts[0]["parameter"]
     ax.set_xlabel(LABELS.get(name, name))
     ax.set_ylabel(YLABELS.get(kind, kind))
@@ -383,7 +392,7 @@ def draw_corner_curves_continued(ax, conts):
             arts += ax.plot(x, yv, "-", color=BRANCH_COLORS[b % len(BRANCH_COLORS)], lw=1.2,
                             label=f"branch {b} ({_word_label(word)}): {what}, continued")
     sys_ = tomllib.loads(conts[0]["scene"]).get("system", {})
-    cv0 = conts[0]["curves"][0]
+    cv0 = next(cv for c in conts for cv in c["curves"])
     if names == ("omega", "kappa") and sys_.get("obstacle", "rectified_sine") == "rectified_sine":
         r, beta = sys_.get("r", 0.8), sys_.get("beta", 1.0)
         w = np.linspace(cv0["param"].min(), cv0["param"].max(), 300)
@@ -647,6 +656,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
             ax.text(0.01, 0.01, attractor_summary(d0), transform=ax.transAxes, fontsize=6,
                     va="bottom", ha="left", color="0.2")
         branch_arts = []
+        offset = 0
         if branches:
             from .continuation import read
             for bp in branches:
@@ -656,7 +666,8 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
                     raise ValueError(f"{bp}: its branches are continued in "
                                      f"{cont['parameter']!r}, the diagram sweeps "
                                      f"{d0.axes[0]!r}")
-                branch_arts += draw_branches(ax, cont, kind)
+                branch_arts += draw_branches(ax, cont, kind, offset)
+                offset += len(cont["branches"])
         if kind in ("impact_u", "winding", "section_v", "period"):
             draw_corner_points(ax, d0, corner_line=kind == "impact_u")
         a = d0.axes[0]

@@ -64,7 +64,7 @@ def test_corner_collision_curves_are_eqs_11_and_17(r):
         ev = br.events[-1]
         assert ev.kind == "corner" and abs(ev.lam - kc) < 1e-10, (ev.kind, ev.lam - kc)
         for d in (+1, -1):
-            w, k, _, _ = C.corner_curve(ev, "omega", (1.98, 2.02), d, ds=1e-3)
+            w, k, _, _, _ = C.corner_curve(ev, "omega", (1.98, 2.02), d, ds=1e-3)
             assert len(w) >= 5 and (w.max() >= 2.02 - 1e-12 or w.min() <= 1.98 + 1e-12)
             err = np.abs(k - np.array([eq(x, r) for x in w]))
             assert err.max() < 1e-10, err.max()
@@ -103,9 +103,10 @@ def test_fold_and_its_saddle_branch():
     assert abs(fold.lam - kf) < 1e-10, fold.lam - kf
     mu, _ = fold.problem.floquet(fold.X, fold.lam)
     assert abs(mu[0] - 1.0) < 1e-7
-    after = [p for p in br.points if p.lam < fold.lam - 1e-3 and
-             p.lam > br.events[1].lam and abs(p.mu[0]) > 1.0]
-    assert after and all(abs(p.mu[0]) > 1.0 > abs(p.mu[1]) for p in after)
+    # past the fold (in the branch's order) every point is a saddle until the grazing
+    i_fold = min(range(len(br.points)), key=lambda i: abs(br.points[i].lam - fold.lam))
+    after = br.points[i_fold + 2:-1]
+    assert len(after) > 5 and all(abs(p.mu[0]) > 1.0 > abs(p.mu[1]) for p in after)
 
 
 def _fd_multipliers(prob, X, lam):
@@ -147,9 +148,9 @@ def test_unstable_orbits_multipliers_match_the_fd_reference():
 
 
 def test_a_stable_branch_lies_on_the_kernels_attractor():
-    """The beta branch at omega = 1.999: at points along it the kernel, started anywhere in
-    the chart's box, settles on an attractor whose impacts are the branch's (height and
-    velocities to 1e-9)."""
+    """The beta branch at omega = 1.999: at points along it the kernel, started elsewhere
+    (u = 7, v = 0.01, not on the orbit), settles on an attractor whose impacts are the
+    branch's (height and velocities to 1e-9)."""
     prob, X = _beta(1.999, 0.8, -0.02)
     br = C.follow(prob, X, -0.02, (-0.02, 0.0), +1, switch=False, ds=1e-3)[0]
     for pt in br.points[1:-1:3]:
@@ -232,10 +233,14 @@ def test_cornerbif_continue_writes_branches_and_plots_them(tmp_path):
 
 @pytest.mark.parametrize("sets,needle", [
     (["continue.parameter=\"kapa\""], "continue.parameter: 'kapa' is not a numeric parameter"),
-    (["continue.range=[0.1, -0.1]"], "continue.range"),
+    (["continue.range=[0.1, -0.1]"], "continue.range: [0.1, -0.1] must be"),
     (["continue.start=0.5"], "continue.start: 0.5 must be a number within continue.range"),
-    (["continue.seed=\"bq\""], "continue.seed"),
-    (["continue.events=[\"cusp\"]"], "continue.events"),
+    (["continue.seed=\"bq\""], "continue.seed: 'bq'"),
+    (["continue.events=[\"cusp\"]"], "continue.events: ['cusp'] must be"),
+    (["continue.parameter=\"r\"", "continue.range=[0.5, 1.5]", "continue.start=0.8"],
+     "continue.range: 1.5 is out of range"),
+    (["continue.ds=1.0", "continue.ds_max=0.1"], "continue.ds: ds_min"),
+    (["continue.curve_range=[1.9, 2.1]"], "without continue.curve"),
 ])
 def test_bad_continue_tables_are_refused_before_any_work(sets, needle):
     """A [continue] table that cannot run is refused with its key and value named."""
@@ -313,7 +318,110 @@ def test_fold_curve_in_two_parameters_is_the_closed_form():
     br, _ = _fold_branch()
     fold = br.events[0]
     for d in (+1, -1):
-        F, kap, _, _ = C.fold_curve(fold, "F", (0.5, 2.0), d, ds=0.02)
+        F, kap, _, _, _ = C.fold_curve(fold, "F", (0.5, 2.0), d, ds=0.02)
         assert len(F) >= 3 and (F.max() >= 2.0 - 1e-12 or F.min() <= 0.5 + 1e-12)
         err = np.abs(kap - np.array([_fold_closed_form(2.5, 0.8, f) for f in F]))
         assert err.max() < 1e-10, err.max()
+
+
+def test_a_corner_held_at_the_end_of_its_piece_and_the_curve_stays_admissible():
+    """The abg orbit at omega = 2.001 loses admissibility where its impact 3 reaches the
+    end of its piece (the corner after it): its corner curve, with that impact held at
+    L(omega) (the parameter moves the piece's end too), continues away from omega = 2.001,
+    and every point of the curve is an orbit of the flow: the curve stops where another
+    impact or a flight stops being admissible (located as an event).  Before the review
+    mend of CornerCurve.d_param (dL/domega missing) this curve had 1 point each way."""
+    rng = np.random.default_rng(0)
+    vals = dict(omega=2.001, kappa=0.008, beta=1.0, r=0.8)
+    prob, X = _seed(vals, "rectified_sine", "kappa", word="abg",
+                    starts=(rng.uniform(0, 20, 32), rng.uniform(-0.02, 0.02, 32)),
+                    transient=3000)
+    br = C.follow(prob, X, 0.008, (-0.01, 0.03), -1, switch=False, ds=1e-3)[0]
+    ev = br.events[-1]
+    assert ev.kind == "corner"
+    sizes = []
+    for d in (+1, -1):
+        w, k, curve, pts, evs = C.corner_curve(ev, "omega", (1.98, 2.02), d, ds=4e-4)
+        assert curve.at_end
+        sizes.append(len(pts))
+        for pt in pts:
+            prob_k, Xk = curve.orbit(pt.X, pt.lam)
+            ok, why = prob_k.admissible(Xk, pt.lam)
+            assert ok, (pt.lam, why)
+        assert evs[-1].kind in ("end", "corner", "grazing", "zero_velocity")
+    # measured: one way 34 points (through omega = 2.008 and back to a grazing at
+    # 1.99342), the other 4 (to another impact's corner at omega = 2)
+    assert max(sizes) > 20
+
+
+def test_switching_across_a_jump_follows_the_other_orbit_both_ways():
+    """map2d at omega = 1.999: the ab branch ends where its b point reaches Sigma_1
+    (kappa = 0.0020861, theory.word_interval); across it the letter b becomes a, and the
+    word aa is the alpha fixed point (a jump of the map: the point moves), which is then
+    followed both ways: down to its own collision at kappa_CC of the maps (-0.0031033,
+    theory.word_interval('a')) and up to the range's end."""
+    prob, X = C.map_seed(dict(omega=1.999, kappa=0.0, r=0.8), "kappa", "ab")
+    brs = C.follow(prob, X, 0.0, (-0.01, 0.01), +1, ds=1e-4)
+    words = [b.word for b in brs]
+    assert words[0] == "ab" and words.count("a") == 2, words
+    assert "jumps" in brs[0].events[-1].detail
+    lo, hi = theory.word_interval("a", -0.001, 0.8)
+    ends = sorted(e.lam for b in brs[1:] for e in b.events)
+    assert abs(ends[0] - lo) < 1e-12 and abs(ends[-1] - 0.01) < 1e-12
+
+
+def test_period_doubling_has_a_multiplier_at_minus_one():
+    """The smooth wall's period-one orbit (Fig. 1(a)) continued up from omega = 2.2 loses
+    stability in a period doubling: at the located point one multiplier is -1 to 1e-9, and
+    the independent finite-difference Jacobian agrees (-1 to 1e-6)."""
+    prob, X = _seed(dict(omega=2.2, kappa=0.0, beta=1.0, r=0.8), "sine", "omega")
+    br = C.follow(prob, X, 2.2, (2.0, 2.8), +1, ds=0.01)[0]
+    pd = next(e for e in br.events if e.kind == "period_doubling")
+    mu, _ = pd.problem.floquet(pd.X, pd.lam)
+    assert abs(mu.real.min() + 1.0) < 1e-9
+    fd, _ = _fd_multipliers(pd.problem, pd.X, pd.lam)
+    assert abs(fd.real.min() + 1.0) < 1e-6
+
+
+def test_a_map2d_scene_continues_and_reads_back(tmp_path):
+    """`cornerbif continue` on a map2d scene writes branches whose datasets read back as
+    written (the section values of every point of the cycle, those of theory.word_orbit),
+    a seed word whose orbit is not admissible at the start is said and skipped, and
+    `cornerbif plot` draws the branches alone (y = the maps' b)."""
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    scene = tmp_path / "m.toml"
+    scene.write_text("""[scene]
+name = "m"
+model = "map2d"
+[system]
+omega = 1.999
+kappa = -0.004
+r = 0.8
+[initial]
+count = 8
+u = [0.0, 8.0]
+v = [-0.05, 0.05]
+[run]
+transient = 2000
+record = 200
+[continue]
+parameter = "kappa"
+range = [-0.02, 0.01]
+seed = ["abbgb", "ab"]
+""")
+    out = tmp_path / "m.h5"
+    r = CliRunner().invoke(main, ["continue", str(scene), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    cont = C.read(out)
+    assert cont["attrs"]["model"] == "map2d" and cont["parameter"] == "kappa"
+    words = [str(b["word"]) for b in cont["branches"]]
+    # ab exists only for kappa in (-0.0035, 0.0021) (theory.word_interval): not at the start
+    assert words == ["abbgb"] and "'ab'" in r.output and "not admissible" in r.output
+    b = cont["branches"][0]
+    prob, X = C.map_seed(dict(omega=1.999, kappa=float(b["param"][3]), r=0.8), "kappa",
+                         "abbgb")
+    assert np.allclose(np.sort(b["section_v"][3]), np.sort(X[1::2]), rtol=0, atol=1e-12)
+    r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "m.png")])
+    assert r.exit_code == 0, r.output

@@ -113,6 +113,10 @@ class FlowModel(Model):
     def kernel(self):
         return run_batch
 
+    def word_seed(self, values, scene, param, word):
+        from ..continuation import seed_from_word
+        return seed_from_word(values, scene.obstacle, param, word, scene.tol)
+
     def orbit_seed(self, values, scene, param, word, run):
         from ..continuation import seed_from_run
         return seed_from_run(values, scene.obstacle, param, run["t"], run["v_out"],

@@ -55,6 +55,10 @@ class Map2dModel(Model):
         from ..continuation import map_seed
         return map_seed(values, param, word)
 
+    def word_seed(self, values, scene, param, word):
+        from ..continuation import map_seed
+        return map_seed(values, param, word)
+
     def run_items(self, params, ics, ints, scene):
         """Iterate the local maps (56) on n items; outputs shaped like the flow's.
 
