@@ -263,6 +263,8 @@ def continue_(scene_path, out, sets, overwrite):
         _fail(f"{out} exists; pass --overwrite to replace it")
     from . import continuation as C
     res = C.run_scene(scene, log=click.echo)
+    if not res.branches:
+        _fail("no branch to continue (see above): nothing written", code=1)
     C.write(res, out)
     click.echo(f"wrote {out}: {len(res.branches)} branches, "
                f"{sum(len(b.events) for b in res.branches)} events, {len(res.curves)} curves")

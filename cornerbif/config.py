@@ -112,8 +112,8 @@ TABLES = {
     "run": ("preset",) + tuple(RUN_DEFAULTS),
     "output": ("keep",),
     "plot": PLOT_KEYS,
-    "continue": ("parameter", "range", "start", "seed", "ds", "ds_min", "ds_max", "events",
-                 "switch", "curve", "curve_range", "over"),
+    "continue": ("parameter", "range", "start", "seed", "seed_file", "ds", "ds_min", "ds_max",
+                 "events", "switch", "curve", "curve_range", "over"),
 }
 # [continue] events: what cornerbif continue watches on a branch (cornerbif.continuation)
 CONTINUE_EVENTS = ("corner", "grazing", "zero_velocity", "fold", "period_doubling", "torus")
@@ -842,6 +842,12 @@ def _read_continue(w):
                       f"system.{cv} = {_fmt(w.system.get(cv))}")
         out["curve"] = cv
         out["curve_range"] = crng
+    if "seed_file" in c:
+        sf = c["seed_file"]
+        if not isinstance(sf, str) or not sf:
+            pr.append(f"continue.seed_file: {_fmt(sf)} must be the path of a sweep file "
+                      f"(cornerbif sweep) of this model over {name!r}")
+        out["seed_file"] = sf
     if "curve_range" in c and "curve" not in c:
         pr.append(f"continue.curve_range: {_fmt(c['curve_range'])} without continue.curve "
                   "(the second parameter of the curves)")

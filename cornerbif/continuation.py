@@ -1399,6 +1399,61 @@ def _matches(word: str, seed: str) -> bool:
     return len(s) == len(word) and s in word + word
 
 
+def seeds_from_file(scene):
+    """The runs of a sweep file (``[continue] seed_file``) at its grid value nearest the
+    continuation's start: (word, run dict keyed as the model's run_items outputs) per
+    distinct attractor.  The file must sweep the continued parameter alone, with this
+    model, and keep what the model's seed reads (the impacts for flow, the section for
+    two_particle)."""
+
+    from .analysis import distinct_attractors
+    from .io import FileFormatError, check_readable
+    c = scene.cont
+    path = c["seed_file"]
+    try:
+        f = check_readable(path)
+    except (FileFormatError, OSError) as e:
+        raise OrbitError(f"continue.seed_file: {path}: {e}") from None
+    with f:
+        model = f.attrs.get("model", "")
+        if model != scene.model:
+            raise OrbitError(f"continue.seed_file: {path} is a sweep of model {model!r}, "
+                             f"the scene's is {scene.model!r}")
+        if c["parameter"] not in f:
+            raise OrbitError(f"continue.seed_file: {path} does not sweep "
+                             f"{c['parameter']!r}")
+        import tomllib
+        theirs = tomllib.loads(str(f.attrs["scene"])).get("system", {})
+        ours = {k: v for k, v in scene.system.items() if v is not None}
+        if "obstacle" in scene.spec.system_extra:
+            ours["obstacle"] = scene.obstacle
+        for k in sorted(set(ours) | set(theirs)):
+            if k != c["parameter"] and k != "section_period" and theirs.get(k) != ours.get(k):
+                raise OrbitError(f"continue.seed_file: {path} was swept with system.{k} = "
+                                 f"{theirs.get(k)!r}, the scene has {ours.get(k)!r}")
+        x = f[c["parameter"]][...]
+        g = int(np.argmin(np.abs(x - c["start"])))
+        if f["period"].ndim != 2:
+            raise OrbitError(f"continue.seed_file: {path} has more than one sweep axis")
+        run_all = {"ipc": f["impacts_per_cycle"][g].astype(np.int64)}
+        for fld in scene.spec.fields(tuple(scene.spec.observables)):
+            if fld.name in f and fld.axis is None:
+                run_all[fld.source] = f[fld.name][g]
+        period = f["period"][g]
+        words = f["symbols"][g].astype(str)
+    series = ([(run_all["u"][None], "impacts"), (run_all["v_in"][None], "impacts")]
+              if "u" in run_all else
+              [(run_all["su"][None], "section"), (run_all["sv"][None], "section")]
+              if "su" in run_all else [])
+    labels, count = distinct_attractors(period[None], run_all["ipc"][None], words[None],
+                                        series, 100.0 * scene.period_tol)
+    found = []
+    for k in range(int(count[0])):
+        i = int(np.nonzero(labels[0] == k)[0][0])
+        found.append((str(words[i]), {key: a[i] for key, a in run_all.items()}))
+    return found, float(x[g])
+
+
 def find_seeds(scene):
     """The distinct attractors reached from the scene's starts at the continuation's start
     (the kernel and ``analysis.distinct_attractors``): a list of (word, one run's record:
@@ -1441,7 +1496,22 @@ def run_scene(scene, log=print):
     values[c["parameter"]] = c["start"]
     kw = dict(ds=c["ds"], ds_min=c["ds_min"], ds_max=c["ds_max"], events=tuple(c["events"]))
     res = Result(scene, [])
-    found = find_seeds(scene)
+    if "seed_file" in c:
+        try:
+            found, at = seeds_from_file(scene)
+        except OrbitError as e:
+            log(str(e))
+            return res
+        if at != c["start"]:
+            log(f"seeds from {c['seed_file']} at {c['parameter']} = {at!r} (the grid value "
+                f"nearest continue.start)")
+            values[c["parameter"]] = at
+            c = dict(c, start=at)
+        wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+        if "all" not in wanted:
+            found = [f for f in found if any(_matches(f[0], s) for s in wanted)]
+    else:
+        found = find_seeds(scene)
     wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
     for s in wanted:
         if s != "all" and not any(_matches(f[0], s) for f in found):

@@ -425,3 +425,30 @@ seed = ["abbgb", "ab"]
     assert np.allclose(np.sort(b["section_v"][3]), np.sort(X[1::2]), rtol=0, atol=1e-12)
     r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "m.png")])
     assert r.exit_code == 0, r.output
+
+
+def test_seeds_from_a_sweep_file(tmp_path):
+    """`[continue] seed_file`: the attractors of a sweep file at its grid value nearest the
+    start seed the branches (here Fig. 6(a)'s beta orbit at kappa = -0.02, ending at
+    kappa_C); a file swept with another system (here for the fold scene: another obstacle
+    and no forcing) is refused naming the first key that differs, and nothing is written."""
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    run = CliRunner()
+    sw = tmp_path / "s.h5"
+    r = run.invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig06a.toml"), "-o", str(sw),
+                          "--no-progress", "--set", "sweep.kappa.num=12",
+                          "--set", "initial.count=2", "--set", "run.transient=400"])
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "c.h5"
+    r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"), "-o",
+                          str(out), "--set", f'continue.seed_file="{sw}"'])
+    assert r.exit_code == 0, r.output
+    cont = C.read(out)
+    assert [str(b["word"]) for b in cont["branches"]] == ["b"]
+    kc = [e["param"] for e in cont["events"] if e["kind"] == "corner"][0]
+    assert abs(kc - theory.kappa_C(1.999, 0.8)) < 1e-10
+    r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_fold.toml"), "-o",
+                          str(tmp_path / "x.h5"), "--set", f'continue.seed_file="{sw}"'])
+    assert r.exit_code == 1 and "system.F" in r.output and "nothing written" in r.output
