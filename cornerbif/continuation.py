@@ -553,7 +553,7 @@ class TwoParticleOrbit:
         return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
 
     def tables(self, X, lam):
-        """The orbit as the kernel's tables over one cycle and one event more (z-u rows:
+        """The orbit as the kernel's tables over two cycles (z-u rows:
         t, u, v_in, v_out, y_in, y_out, offset; w-z rows: t, z, y_in, y_out), for
         ``stability.two_particle_steps``."""
         N = self.n
@@ -607,7 +607,13 @@ class TwoParticleOrbit:
         system's corner; any two events meeting change the itinerary)."""
         t = X[0::5]
         D = self.duration(lam)
-        return np.append(np.diff(t), t[0] + D - t[-1])
+        gaps = np.append(np.diff(t), t[0] + D - t[-1])
+        # two events of one kind meet only through a zero approach velocity (chatter or a
+        # graze, its own event), not at this system's corner
+        same = np.array([self.kinds[k] == self.kinds[(k + 1) % self.n]
+                         for k in range(self.n)])
+        gaps[same] = np.inf
+        return gaps
 
     def smallest_gap(self, X, lam):
         """The smallest of both gaps z - w and u - z over the interior of every flight."""
@@ -646,11 +652,17 @@ class TwoParticleOrbit:
         kinds = list(self.kinds)
         kinds[q], kinds[r] = kinds[r], kinds[q]
         Xn = X.copy()
-        Xn[5 * q:5 * q + 5], Xn[5 * r:5 * r + 5] = X[5 * r:5 * r + 5], X[5 * q:5 * q + 5]
+        # the guess: the two impact laws in the new order on the state the flight brings
+        tq, xm = self._arrival(X, lam, q)
+        tr = X[5 * r] + (self.duration(lam) if r == 0 else 0.0)
+        _, first = self._law(lam, kinds[q], tr, self._fly(lam, tq, xm, tr))
+        _, second = self._law(lam, kinds[r], tq, first)
+        Xn[5 * q], Xn[5 * q + 1:5 * q + 5] = tr, first
+        Xn[5 * r], Xn[5 * r + 1:5 * r + 5] = tq, second
         if r == 0:      # the last event passes the first one of the next cycle
             D = self.duration(lam)
-            Xn[5 * q] = X[0] + D
-            Xn[0] = X[5 * q] - D
+            Xn[5 * q] = tr
+            Xn[0] = tq - D
         new = TwoParticleOrbit(self.values, self.param, "".join(kinds), self.m)
         new._cache = self._cache
         return new, Xn
@@ -658,6 +670,7 @@ class TwoParticleOrbit:
     def store(self, X, lam, section):
         zu, _ = self.tables(X, lam)
         n_zu = self.kinds.count("U")
+        zu = zu.reshape(-1, 7)
         return {"impact_t": zu[:n_zu, 0], "impact_u": zu[:n_zu, 1],
                 "impact_v_in": zu[:n_zu, 2], "impact_v_out": zu[:n_zu, 3],
                 "event_t": X[0::5].copy(), "cycle_duration": self.duration(lam)}
@@ -670,6 +683,13 @@ def two_particle_seed(values, param, x_section, ipc):
     from .kernels.two_particle import simulate_two_particle
     from .models import two_particle as TPM
     kw = {k: v for k, v in values.items() if k in TPM.NAMES}
+    for F, W in (("F1", "Omega1"), ("F2", "Omega2")):
+        if kw.get(F, 0.0) != 0.0:
+            ratio = kw.get(W, 1.0) / kw["omega0"]
+            if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio) or round(ratio) < 1:
+                raise OrbitError(f"{F} != 0 with {W}/omega0 = {ratio!r} not a whole number: "
+                                 "the seed's section state (t = n 2 pi/omega0) would not be "
+                                 "a state at t = 0, nor the forcing periodic with the wall")
     r = simulate_two_particle(*x_section, transient=0, record=ipc + 2, **kw)
     zu_t = np.ravel(r["t"])
     n = int(np.isfinite(zu_t).sum())
@@ -1335,6 +1355,9 @@ def fold_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     """Continue a located fold (an Event of kind "fold" in ``event.problem.param``) in
     the plane of that parameter and ``param``: (param values, fold parameter values)."""
     prob = event.problem
+    if not isinstance(prob, FlowOrbit):
+        raise OrbitError(f"fold curves are continued for the flow model, not for "
+                         f"{type(prob).__name__}")
     base_vals = dict(prob.values)
     base_vals[prob.param] = event.lam
     base = dataclasses.replace(prob, values=base_vals, param=param)
@@ -1355,6 +1378,9 @@ def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     ``event.problem.param``) in the plane of that parameter and ``param``: returns the
     curve's points as arrays (param values, event parameter values)."""
     prob = event.problem
+    if not isinstance(prob, FlowOrbit):
+        raise OrbitError(f"corner curves are continued for the flow model, not for "
+                         f"{type(prob).__name__}")
     q = int(event.detail.split(";")[0].split()[-1])
     p, d = prob.packed(event.lam)
     j = int(prob.pieces[q])
@@ -1441,6 +1467,16 @@ def seeds_from_file(scene):
                 run_all[fld.source] = f[fld.name][g]
         period = f["period"][g]
         words = f["symbols"][g].astype(str)
+        lo, hi = c["range"]
+        if not lo <= float(x[g]) <= hi:
+            raise OrbitError(f"continue.seed_file: its grid value nearest continue.start, "
+                             f"{c['parameter']} = {float(x[g])!r}, is outside continue.range "
+                             f"{[lo, hi]}")
+    need = scene.spec.seed_observable
+    if need and not all(fld.source in run_all for fld in scene.spec.observables[need]):
+        raise OrbitError(f"continue.seed_file: {path} does not keep {need!r}, which a "
+                         f"{scene.model} seed reads; sweep with output.keep containing "
+                         f"{need!r}")
     series = ([(run_all["u"][None], "impacts"), (run_all["v_in"][None], "impacts")]
               if "u" in run_all else
               [(run_all["su"][None], "section"), (run_all["sv"][None], "section")]

@@ -153,7 +153,8 @@ class Model:
     ``benchmarks/run.py`` measured them: the time estimate of ``--dry-run``), ``opt_in``
     (observables kept only when ``[output] keep`` names them: a scene without ``keep``
     keeps the others), ``continuation`` (``cornerbif continue`` solves and continues the
-    model's periodic orbits: ``cornerbif.continuation``).
+    model's periodic orbits: ``cornerbif.continuation``), ``seed_observable`` (what a
+    sweep file must keep for ``orbit_seed`` to read a run: ``[continue] seed_file``).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -179,6 +180,7 @@ class Model:
     events_per_second: float = 1e6
     opt_in: tuple = ()
     continuation: bool = False
+    seed_observable: str = ""
 
     # --- declared facts, derived ------------------------------------------------------
     @property

@@ -452,3 +452,36 @@ def test_seeds_from_a_sweep_file(tmp_path):
     r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_fold.toml"), "-o",
                           str(tmp_path / "x.h5"), "--set", f'continue.seed_file="{sw}"'])
     assert r.exit_code == 1 and "system.F" in r.output and "nothing written" in r.output
+
+
+def test_two_particle_limits_are_said():
+    """What the two-particle continuation does not do is said, not crashed into: a corner
+    curve of its corner collision (curves are continued for the flow), and a forcing whose
+    frequency is not a whole multiple of omega0 (no periodic orbit to seed)."""
+    from cornerbif.models import two_particle as TPM
+    vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
+    x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
+    prob, X = C.two_particle_seed(vals, "omega0", x0, 1)
+    br = C.follow(prob, X, 2.0, (1.9995, 2.002), -1, ds=1e-4)[0]
+    with pytest.raises(C.OrbitError, match="flow model"):
+        C.corner_curve(br.events[-1], "kappa", (-0.01, 0.01))
+    with pytest.raises(C.OrbitError, match="not a whole number"):
+        C.two_particle_seed(vals | {"F1": 0.3, "Omega1": 1.3}, "kappa", x0, 1)
+
+
+def test_a_seed_file_without_what_the_seed_reads_is_refused(tmp_path):
+    """A flow sweep file that did not keep the impacts cannot seed: refused, naming the
+    observable to keep."""
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    sw = tmp_path / "s.h5"
+    r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig06a.toml"), "-o",
+                                  str(sw), "--no-progress", "--set", "sweep.kappa.num=5",
+                                  "--set", "initial.count=2", "--set", "run.transient=100",
+                                  "--set", "output.keep=[]"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"),
+                                  "-o", str(tmp_path / "c.h5"),
+                                  "--set", f'continue.seed_file="{sw}"'])
+    assert r.exit_code == 1 and "does not keep 'impacts'" in r.output, r.output

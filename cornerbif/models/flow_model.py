@@ -191,6 +191,7 @@ MODEL = FlowModel(
                  "stability": STABILITY_FIELDS},
     opt_in=("stability",),
     continuation=True,
+    seed_observable="impacts",
     system_extra={"obstacle": "rectified_sine", "section_period": None},
     obstacles=OBSTACLES,
     events_per_impact=10,

@@ -167,6 +167,7 @@ MODEL = TwoParticleModel(
                  "wall_impacts": WALL_IMPACT_FIELDS, "stability": STABILITY},
     opt_in=("stability",),
     continuation=True,
+    seed_observable="section",
     events_per_impact=40,
     bytes_per_event=BYTES_PER_EVENT,
     # u-z impacts, benchmarks/run.py, Fig. 19(a), one core (benchmarks/results/results.json)
