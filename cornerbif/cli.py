@@ -167,6 +167,15 @@ def _describe(scene, out, threads):
     early = " (at most: runs stop once their cycle is found)" if scene.stop == "period" else ""
     lines.append(f"time: about {duration(estimate_seconds(scene, threads))} on {threads} "
                  f"thread(s){early}, at this machine's measured speed (benchmarks/run.py)")
+    c = scene.cont
+    if c:
+        seeds = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+        lines.append(f"cornerbif continue: {c['parameter']} over {c['range']} from "
+                     f"{c['start']!r}, seeds {', '.join(map(str, seeds))}"
+                     + (f" (from {c['seed_file']})" if "seed_file" in c else "")
+                     + (f"; corner and fold curves in {c['curve']} over {c['curve_range']}"
+                        if "curve" in c else "")
+                     + f"; events {', '.join(c['events'])}")
     return lines
 
 

@@ -485,3 +485,16 @@ def test_a_seed_file_without_what_the_seed_reads_is_refused(tmp_path):
                                   "-o", str(tmp_path / "c.h5"),
                                   "--set", f'continue.seed_file="{sw}"'])
     assert r.exit_code == 1 and "does not keep 'impacts'" in r.output, r.output
+
+
+def test_validate_says_what_continue_will_do():
+    """`cornerbif validate` on a scene with [continue] adds a line with the parameter, the
+    range, the start, the seeds and the curves' parameter (the table as resolved)."""
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    r = CliRunner().invoke(main, ["validate", os.path.join(ROOT, "configs",
+                                                           "cont_hysteresis.toml")])
+    assert r.exit_code == 0, r.output
+    assert ("cornerbif continue: kappa over [-0.005, 0.025] from 0.008, seeds all; corner "
+            "and fold curves in omega over [1.98, 2.02]") in r.output
