@@ -310,10 +310,10 @@ def info(file):
             rn = sc.get("run", {})
             click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
                        f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
-            for k, v in sc.get("sweep", {}).items():
-                if k != "follow":
-                    vals = v["values"]
-                    click.echo(f"  axis {k}: {len(vals)} values in [{min(vals)}, {max(vals)}]")
+            from .config import sweep_items
+            for k, v in sweep_items(sc.get("sweep", {})):
+                vals = v["values"]
+                click.echo(f"  axis {k}: {len(vals)} values in [{min(vals)}, {max(vals)}]")
             done = f["done"][...]
             click.echo(f"  grid points done: {int(done.sum())} / {done.size}")
             st = f["status"][...].ravel()

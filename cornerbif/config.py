@@ -87,6 +87,26 @@ PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map",
 NORMAL_FORM_KINDS = ("regions", "return_map", "orbit")
 
 
+# [sweep] initial.<coordinate>: an axis over a coordinate of the start (issue 19)
+IC_PREFIX = "initial."
+
+
+def sweep_items(sweep: dict):
+    """The (axis name, spec) pairs of a raw [sweep] table, "follow" aside: parameters by
+    name, start coordinates as "initial.<c>" (the TOML ``initial.u = {...}``, a nested
+    table)."""
+    out = []
+    for k, spec in sweep.items():
+        if k == "follow":
+            continue
+        if k == "initial" and isinstance(spec, dict) and all(isinstance(v, dict)
+                                                             for v in spec.values()):
+            out += [(IC_PREFIX + c, s) for c, s in spec.items()]
+        else:
+            out.append((k, spec))
+    return out
+
+
 def _union(seqs):
     out = []
     for s in seqs:
@@ -207,11 +227,18 @@ class Scene:
         return registry.get(self.model)
 
     def point(self, index: tuple) -> dict:
-        """Named parameter values at a grid index."""
+        """Named parameter values at a grid index (swept start coordinates aside)."""
         vals = dict(self.system)
         for a, i in zip(self.axes, index):
-            vals[a.name] = a.values[i]
+            if not a.name.startswith(IC_PREFIX):
+                vals[a.name] = a.values[i]
         return vals
+
+    @property
+    def start_axes(self) -> dict:
+        """Swept start coordinates: coordinate -> (axis position, values)."""
+        return {a.name[len(IC_PREFIX):]: (i, a.array) for i, a in enumerate(self.axes)
+                if a.name.startswith(IC_PREFIX)}
 
 
 # --------------------------------------------------------------------------- helpers
@@ -448,9 +475,21 @@ def _read_system(w):
     w.obstacle, w.system, w.section_period = obstacle, system, section_period
 
 
-def _read_axis(w, k, spec):
-    """The values of one ``[sweep]`` axis, or None after a problem."""
+def _finite_value(w, key):
+    """A check of an axis value that is any finite number (a start coordinate)."""
+    def check(_, v, where):
+        if _is_number(v) and math.isfinite(v):
+            return True
+        w.problems.append(f"{where}: {_fmt(v)} must be a finite number")
+        return False
+    return check
+
+
+def _read_axis(w, k, spec, check=None):
+    """The values of one ``[sweep]`` axis, or None after a problem; ``check(name, value,
+    key)`` validates a value (default: the parameter's range)."""
     key = f"sweep.{k}"
+    check = check or w.param
     if not isinstance(spec, dict):
         w.problems.append(f"{key}: {_fmt(spec)} must be {{ start = .., stop = .., num = .. }} "
                           "or { values = [...] }")
@@ -470,7 +509,7 @@ def _read_axis(w, k, spec):
             w.problems.append(f"{key}.values: {len(vals)} values on one axis; at most "
                               f"{MAX_AXIS_VALUES}")
             return None
-        good = all(w.param(k, v, f"{key}.values") for v in vals)
+        good = all(check(k, v, f"{key}.values") for v in vals)
         return tuple(float(v) for v in vals) if good else None
     ok = True
     for part in ("start", "stop", "num"):
@@ -490,8 +529,8 @@ def _read_axis(w, k, spec):
         w.problems.append(f"{key}.num: {num} values on one axis; at most {MAX_AXIS_VALUES} "
                           "(the scene as run lists every value)")
         ok = False
-    a = w.param(k, spec["start"], f"{key}.start")
-    b = w.param(k, spec["stop"], f"{key}.stop")
+    a = check(k, spec["start"], f"{key}.start")
+    b = check(k, spec["stop"], f"{key}.stop")
     if not (ok and a and b):
         return None
     lo, hi = float(spec["start"]), float(spec["stop"])
@@ -513,8 +552,17 @@ def _read_sweep(w):
         w.problems.append(f"sweep.follow: {_fmt(follow)} is not allowed; allowed: {', '.join(FOLLOW)}")
         follow = "none"
     axes = []
-    for k, spec in sw.items():
-        if k == "follow":
+    for k, spec in sweep_items(sw):
+        if k.startswith(IC_PREFIX):
+            c = k[len(IC_PREFIX):]
+            if c not in w.spec.coords:
+                w.problems.append(f"sweep.{k}: {c!r} is not a start coordinate of model "
+                                  f"{w.model!r}; allowed: "
+                                  + ", ".join(IC_PREFIX + x for x in w.spec.coords))
+                continue
+            values = _read_axis(w, k, spec, _finite_value(w, k))
+            if values is not None:
+                axes.append(Axis(k, values))
             continue
         if k not in params:
             w.problems.append(f"sweep.{k}: {k!r} is not a parameter of model {w.model!r}"
@@ -543,6 +591,10 @@ def _read_sweep(w):
         w.problems.append(f"sweep: two axes name one parameter ({', '.join(names)})")
     if follow != "none" and not axes:
         w.problems.append(f"sweep.follow: {follow!r} needs a swept parameter")
+    if follow != "none" and any(a.name.startswith(IC_PREFIX) for a in axes):
+        w.problems.append(f"sweep.follow: {follow!r} carries the final state along an axis, "
+                          "which a swept start coordinate (sweep.initial.*) contradicts; "
+                          "use follow = \"none\"")
     sp = w.section_period
     if sp is not None and any(a.name == "omega" for a in axes):
         w.problems.append("system.section_period: cannot be fixed while omega is swept "
@@ -574,6 +626,17 @@ def _read_initial(w):
         if c in ini and c not in coords:
             w.problems.append(f"initial.{c}: not an initial coordinate of model {w.model!r}; "
                               f"allowed: {', '.join(coords)}")
+    swept = [a.name[len(IC_PREFIX):] for a in getattr(w, "axes", ())
+             if a.name.startswith(IC_PREFIX)]
+    for c in swept:
+        if c in ini:
+            w.problems.append(f"initial.{c}: {_fmt(ini[c])} but sweep.initial.{c} sweeps it; "
+                              "give one of the two")
+    if swept and set(swept) == set(coords):
+        if "count" in ini and n_ic != 1:
+            w.problems.append(f"initial.count: {n_ic} with every start coordinate swept "
+                              f"(sweep.initial.*): each cell is one start; use count = 1")
+        n_ic = 1
     ranges = {}
     for c in coords:                                        # the model's state order
         default = list(w.spec.coord(c).default)
@@ -903,7 +966,8 @@ def _scene(w) -> Scene:
         "system": system_text,
         "sweep": {**{a.name: {"values": list(a.values)} for a in w.axes}, "follow": w.follow},
         "initial": {"count": w.n_ic, "seed": w.seed,
-                    **{c: list(r) for c, r in w.ranges.items()}},
+                    **{c: list(r) for c, r in w.ranges.items()
+                       if not any(a.name == IC_PREFIX + c for a in w.axes)}},
         "run": {**({"preset": w.preset} if "preset" in w.run_given else {}),
                 **{k: v for k, v in run.items()
                    if v is not None and k not in ("stop", "max_events", "max_periods")},

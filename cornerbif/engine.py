@@ -48,14 +48,24 @@ def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray):
     A coordinate with a floor is uniform on the part of its ``[initial]`` range strictly
     above it (the same law as drawing on the whole range and redrawing points below):
     ``"wall"`` is the obstacle at t = 0 (``wall``, per point), otherwise another
-    coordinate drawn before it (two_particle: w(0) < z <= u).
+    coordinate drawn before it (two_particle: w(0) < z <= u).  A coordinate swept by the
+    scene (``[sweep] initial.<c>``) takes its cell's value for every start, with no floor:
+    a start below the obstacle gets the kernel's status for it.
     """
     spec = registry.get(scene.model)
     n = flat_points.shape[0]
     pts = np.repeat(flat_points.astype(np.uint64), scene.n_ic)
     ics = np.tile(np.arange(scene.n_ic, dtype=np.uint64), n)
     drawn = {}
+    swept = scene.start_axes
+    if swept:
+        grid_index = np.unravel_index(flat_points.astype(np.int64), scene.shape)
     for c in spec.state:
+        if c.name in swept:
+            # a swept start coordinate ([sweep] initial.<c>): the cell's value, every start
+            pos, values = swept[c.name]
+            drawn[c.name] = np.repeat(values[grid_index[pos]][:, None], scene.n_ic, axis=1)
+            continue
         x = uniform(scene.seed, pts, ics, c.draw).reshape(n, scene.n_ic)
         lo, hi = scene.initial[c.name]
         if c.floor is None:

@@ -41,8 +41,8 @@ SMOKE = {"axis_num": 3, "axis_values": 2, "count": 3, "transient": 40, "record":
 def smoke_raw(raw: dict) -> dict:
     """A tiny version of a scene: at most 3 values per axis, 3 starts, 40 + 40 impacts."""
     raw = json.loads(json.dumps(raw))
-    for k, spec in raw.get("sweep", {}).items():
-        if k == "follow" or not isinstance(spec, dict):
+    for _, spec in C.sweep_items(raw.get("sweep", {})):
+        if not isinstance(spec, dict):
             continue
         if "num" in spec:
             spec["num"] = min(spec["num"], SMOKE["axis_num"])

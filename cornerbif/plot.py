@@ -17,6 +17,8 @@ from .analysis import run_length
 from .io import check_readable
 
 LABELS = {
+    "initial.u": r"start $u(0)$", "initial.v": r"start $v(0)$",
+    "initial.z": r"start $z(0)$", "initial.y": r"start $y(0)$",
     "omega": r"$\omega$", "kappa": r"$\kappa$", "beta": r"$\beta$", "r": r"$r$",
     "sigma": r"$\sigma$", "k": r"$k$", "theta1": r"$\theta_1$", "theta2": r"$\theta_2$",
     "F": r"$F$", "Omega": r"$\Omega$", "phi": r"$\varphi$",
@@ -38,7 +40,8 @@ class PlotData:
         with check_readable(path) as f:
             self.path = str(path)
             self.scene = tomllib.loads(f.attrs["scene"])
-            self.axes = [k for k in self.scene.get("sweep", {}) if k != "follow"]
+            from .config import sweep_items
+            self.axes = [k for k, _ in sweep_items(self.scene.get("sweep", {}))]
             self.values = {a: f[a][...] for a in self.axes}
             self.status = f["status"][...]
             self.period = f["period"][...]
@@ -502,6 +505,43 @@ def draw_plane_curves(ax, data: PlotData):
         ax.legend(loc="upper left", fontsize=7)
 
 
+def draw_basin(ax, data: PlotData):
+    """Two swept start coordinates (``[sweep] initial.*``): each cell coloured by the cycle
+    word its start reached (categorical, the paper's notation in the legend, the most
+    frequent first), cells that found no cycle grey; the shares in the legend."""
+    import matplotlib.colors as mcolors
+    import matplotlib.patches as mpatches
+    a, b = data.axes[:2]
+    words = data.symbols[..., 0]
+    found = [w for w in np.unique(words) if w]
+    found.sort(key=lambda w: (-(words == w).sum(), w))
+    palette = ATTRACTOR_COLORS + ("tab:olive", "tab:cyan", "tab:pink", "k")
+    code = np.full(words.shape, 0, int)
+    for k, w in enumerate(found[:len(palette)]):
+        code[words == w] = k + 1
+    other = len(found) > len(palette)
+    colors = ["0.85"] + list(palette[:min(len(found), len(palette))])
+    cmap = mcolors.ListedColormap(colors)
+    x, y = data.values[a], data.values[b]
+    im = ax.pcolormesh(x, y, code.T, shading="nearest", cmap=cmap, vmin=-0.5,
+                       vmax=len(colors) - 0.5)
+    n = words.size
+    handles = [mpatches.Patch(color=colors[k + 1], label=f"{_word_label(w)}: "
+                              f"{(words == w).sum() / n:.1%}")
+               for k, w in enumerate(found[:len(palette)])]
+    none = int((words == "").sum())
+    if none:
+        handles.append(mpatches.Patch(color="0.85", label=f"no cycle: {none / n:.1%}"))
+    if other:
+        handles.append(mpatches.Patch(color="w", label=f"(+{len(found) - len(palette)} "
+                                      "rarer words drawn grey)"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
+              title="cycle reached", title_fontsize=7, frameon=False)
+    ax.set_xlabel(LABELS.get(a, a))
+    ax.set_ylabel(LABELS.get(b, b))
+    return im
+
+
 def coexisting_words(symbols):
     """Number of distinct non-empty cycle words among the starts of each grid point.
 
@@ -615,7 +655,11 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
         fig.savefig(out)
         plt.close(fig)
         return out
-    if len(d0.axes) == 2:
+    basin = len(d0.axes) == 2 and all(a.startswith("initial.") for a in d0.axes)
+    if basin:
+        fig, ax = plt.subplots(figsize=(8, 5.2), dpi=150)
+        draw_basin(ax, d0)
+    elif len(d0.axes) == 2:
         fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), dpi=150)
         if color_by:
             im = draw_plane_stability(ax, d0, color_by)

@@ -1,0 +1,105 @@
+"""Sweeps over initial conditions (issue 19, first part): [sweep] initial.<coordinate>.
+
+Each cell of a start-coordinate axis is one run from that start; checked against
+cornerbif.simulate from the same starts (the kernel's Python entry, not the sweep's
+engine) and against the scene validation's messages.
+"""
+
+import os
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import cornerbif
+from cornerbif import config
+from cornerbif.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCENE = os.path.join(ROOT, "configs", "basin_hysteresis.toml")
+
+
+def test_start_axes_are_read_and_written_back():
+    """initial.u and initial.v become axes 'initial.u', 'initial.v' (TOML's dotted keys);
+    the scene as run reads back to the same axes; count is 1 when every coordinate is
+    swept; Scene.point leaves them out of the parameters."""
+    sc = config.load(SCENE, ["sweep.initial.u.num=5", "sweep.initial.v.num=3"])
+    assert [a.name for a in sc.axes] == ["initial.u", "initial.v"] and sc.n_ic == 1
+    again = config.loads(sc.text)
+    assert [(a.name, a.values) for a in again.axes] == [(a.name, a.values) for a in sc.axes]
+    assert "initial.u" not in sc.point((1, 2)) and sc.start_axes["v"][0] == 1
+
+
+@pytest.mark.parametrize("sets,needle", [
+    (["sweep.initial.w={start=0, stop=1, num=2}"], "sweep.initial.w: 'w' is not a start "
+                                                   "coordinate of model 'flow'"),
+    (["sweep.follow=\"up\""], "sweep.follow: 'up' carries the final state"),
+    (["initial.count=4"], "initial.count: 4 with every start coordinate swept"),
+    (["initial.u=[0.0, 1.0]"], "initial.u: [0.0, 1.0] but sweep.initial.u sweeps it"),
+    (["sweep.initial.u={start=0, stop=1e400, num=2}"], "sweep.initial.u.stop"),
+])
+def test_bad_start_axes_are_refused(sets, needle):
+    args = ["validate", SCENE]
+    for s in sets:
+        args += ["--set", s]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and needle in r.output, r.output
+
+
+def test_each_cell_is_the_run_from_its_start(tmp_path):
+    """An 11 x 7 basin of the hysteresis wedge: every cell's stored start is its axis
+    values, and its cycle word and period are those cornerbif.simulate finds from that
+    start (all 77 cells); the basin image draws."""
+    out = tmp_path / "b.h5"
+    r = CliRunner().invoke(main, ["sweep", SCENE, "-o", str(out), "--no-progress",
+                                  "--set", "sweep.initial.u.num=11",
+                                  "--set", "sweep.initial.v.num=7",
+                                  "--set", "run.transient=1500"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        u, v = f["initial.u"][...], f["initial.v"][...]
+        assert np.array_equal(f["initial/u"][..., 0], np.repeat(u[:, None], 7, axis=1))
+        assert np.array_equal(f["initial/v"][..., 0], np.repeat(v[None, :], 11, axis=0))
+        words = f["symbols"][..., 0].astype(str)
+        period = f["period"][..., 0]
+    U, V = np.meshgrid(u, v, indexing="ij")
+    res = cornerbif.simulate(U, V, omega=2.001, kappa=0.008, r=0.8, transient=1500,
+                             record=60)
+    assert np.array_equal(res["symbols"], words)
+    assert np.array_equal(res["period"], period)
+    assert {"a", "b"} <= set(words.ravel())          # both attractors of the wedge
+    r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "b.png")])
+    assert r.exit_code == 0, r.output
+
+
+def test_a_start_axis_beside_a_parameter_axis(tmp_path):
+    """kappa x initial.u (v drawn from [initial]): each cell's u start is its axis value,
+    whatever kappa."""
+    scene = tmp_path / "s.toml"
+    scene.write_text("""[scene]
+name = "s"
+model = "flow"
+[system]
+omega = 2.001
+kappa = 0.008
+r = 0.8
+[sweep]
+kappa = { start = 0.004, stop = 0.012, num = 3 }
+initial.u = { start = 1.0, stop = 19.0, num = 4 }
+[initial]
+count = 2
+v = [-0.02, 0.02]
+[run]
+transient = 300
+record = 20
+""")
+    out = tmp_path / "s.h5"
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        assert f["initial/u"].shape == (3, 4, 2)
+        assert np.array_equal(f["initial/u"][...],
+                              np.broadcast_to(f["initial.u"][...][None, :, None], (3, 4, 2)))
+        iv = f["initial/v"][...]
+        assert (iv >= -0.02).all() and (iv <= 0.02).all() and np.unique(iv).size > 4
