@@ -47,6 +47,33 @@ class OrbitError(RuntimeError):
     """Newton did not converge to an orbit of the itinerary."""
 
 
+def central_d_param(residual, X, lam):
+    """dR/dparam by central differences (the parameter enters through packed rows)."""
+    h = 1e-6 * max(1.0, abs(lam))
+    return (residual(X, lam + h) - residual(X, lam - h)) / (2.0 * h)
+
+
+def central_jacobian(residual, X, lam):
+    """dR/dX by central differences, column by column (steps relative to each unknown)."""
+    Jm = np.empty((len(residual(X, lam)), len(X)))
+    for c in range(len(X)):
+        h = 1e-7 * max(1.0, abs(X[c]))
+        e = np.zeros(len(X))
+        e[c] = h
+        Jm[:, c] = (residual(X + e, lam) - residual(X - e, lam)) / (2.0 * h)
+    return Jm
+
+
+def cached(cache, key, build, limit=64):
+    """cache[key], built by ``build()`` the first time; the cache is emptied past
+    ``limit`` entries (a continuation visits a few parameter values at a time)."""
+    if key not in cache:
+        if len(cache) > limit:
+            cache.clear()
+        cache[key] = build()
+    return cache[key]
+
+
 # ------------------------------------------------------------------ the flow's orbit
 @dataclass
 class FlowOrbit:
@@ -71,15 +98,12 @@ class FlowOrbit:
 
     def packed(self, lam):
         """(p, d): the packed parameter row at param = lam and its derived constants."""
-        key = float(lam)
-        if key not in self._cache:
-            if len(self._cache) > 64:
-                self._cache.clear()
+        def build():
             vals = dict(self.values)
-            vals[self.param] = key
+            vals[self.param] = float(lam)
             p = P.pack(vals, self.obstacle, self.tol, 1e-6, 1e6, None, 0.0)
-            self._cache[key] = (p, derive(p))
-        return self._cache[key]
+            return p, derive(p)
+        return cached(self._cache, float(lam), build)
 
     def duration(self, lam) -> float:
         p, d = self.packed(lam)
@@ -146,9 +170,7 @@ class FlowOrbit:
         return Jm
 
     def d_param(self, X, lam):
-        """dR/dparam by central differences (the parameter enters through the packed row)."""
-        h = 1e-6 * max(1.0, abs(lam))
-        return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
+        return central_d_param(self.residual, X, lam)
 
     # --- what the orbit is -------------------------------------------------------------
     def impacts(self, X, lam):
@@ -360,8 +382,7 @@ class MapOrbit:
         return Jm
 
     def d_param(self, X, lam):
-        h = 1e-6 * max(1.0, abs(lam))
-        return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
+        return central_d_param(self.residual, X, lam)
 
     def floquet(self, X, lam):
         J = np.eye(2)
@@ -477,17 +498,12 @@ class TwoParticleOrbit:
     def packed(self, lam):
         from .kernels import two_particle as TK
         from .models import two_particle as TPM
-        key = float(lam)
-        if key not in self._cache:
-            if len(self._cache) > 64:
-                self._cache.clear()
+        def build():
             vals = dict(self.values)
-            vals[self.param] = key
+            vals[self.param] = float(lam)
             p = TPM.pack(vals)
-            c = TK.derive(p)
-            Q, D = TK.oscillators(p, c)
-            self._cache[key] = (p, Q, D)
-        return self._cache[key]
+            return (p, *TK.oscillators(p, TK.derive(p)))
+        return cached(self._cache, float(lam), build)
 
     def duration(self, lam) -> float:
         from .models import two_particle as TPM
@@ -540,17 +556,10 @@ class TwoParticleOrbit:
         return R
 
     def jacobian(self, X, lam):
-        Jm = np.empty((5 * self.n, 5 * self.n))
-        for c in range(5 * self.n):
-            h = 1e-7 * max(1.0, abs(X[c]))
-            e = np.zeros_like(X)
-            e[c] = h
-            Jm[:, c] = (self.residual(X + e, lam) - self.residual(X - e, lam)) / (2.0 * h)
-        return Jm
+        return central_jacobian(self.residual, X, lam)
 
     def d_param(self, X, lam):
-        h = 1e-6 * max(1.0, abs(lam))
-        return (self.residual(X, lam + h) - self.residual(X, lam - h)) / (2.0 * h)
+        return central_d_param(self.residual, X, lam)
 
     def tables(self, X, lam):
         """The orbit as the kernel's tables over two cycles (z-u rows:
@@ -1234,6 +1243,15 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W):
 
 
 # ------------------------------------------------------------------ two parameters
+def with_value(base, name, value):
+    """The orbit problem ``base`` with the (other) parameter ``name`` at ``value``: the
+    problems of a curve's second parameter, kept in the base's cache."""
+    def build():
+        return dataclasses.replace(base, values=dict(base.values) | {name: float(value)},
+                                   _cache={})
+    return cached(base._cache, (name, float(value)), build, limit=256)
+
+
 @dataclass
 class CornerCurve:
     """The corner collision of impact ``q`` as a curve in two parameters: impact q held
@@ -1258,17 +1276,7 @@ class CornerCurve:
         return X, Xc[2 * self.q]
 
     def _problem(self, lam2):
-        vals = dict(self.base.values)
-        vals[self.param2] = float(lam2)
-        key = ("curve", float(lam2))
-        prob = self.base._cache.get(key)
-        if prob is None:
-            prob = FlowOrbit(vals, self.base.obstacle, self.base.param, self.base.pieces,
-                             self.base.m, self.base.tol)
-            if len(self.base._cache) > 256:
-                self.base._cache.clear()
-            self.base._cache[key] = prob
-        return prob
+        return with_value(self.base, self.param2, lam2)
 
     def residual(self, Xc, lam):
         X, lam2 = self._split(Xc, lam)
@@ -1285,8 +1293,7 @@ class CornerCurve:
     def d_param(self, Xc, lam):
         """dR/dparam of the curve's own residual: with the impact held at the end of its
         piece, tau_q = L(param) moves with the parameter too."""
-        h = 1e-6 * max(1.0, abs(lam))
-        return (self.residual(Xc, lam + h) - self.residual(Xc, lam - h)) / (2.0 * h)
+        return central_d_param(self.residual, Xc, lam)
 
     def orbit(self, Xc, lam):
         """(problem at param2, X) of the point of the curve."""
@@ -1311,18 +1318,7 @@ class FoldCurve:
         return self.base.n
 
     def _problem(self, lam2):
-        vals = dict(self.base.values)
-        vals[self.param2] = float(lam2)
-        key = ("fold", float(lam2))
-        cache = getattr(self.base, "_cache", {})
-        prob = cache.get(key)
-        if prob is None:
-            prob = dataclasses.replace(self.base, values=vals, _cache={}) \
-                if hasattr(self.base, "_cache") else dataclasses.replace(self.base, values=vals)
-            if len(cache) > 256:
-                cache.clear()
-            cache[key] = prob
-        return prob
+        return with_value(self.base, self.param2, lam2)
 
     def residual(self, Xc, lam):
         prob = self._problem(Xc[-1])
@@ -1331,18 +1327,10 @@ class FoldCurve:
         return np.append(prob.residual(X, lam), np.linalg.det(J - np.eye(len(J))))
 
     def jacobian(self, Xc, lam):
-        m = len(Xc)
-        Jm = np.empty((m, m))
-        for c in range(m):
-            h = 1e-7 * max(1.0, abs(Xc[c]))
-            e = np.zeros(m)
-            e[c] = h
-            Jm[:, c] = (self.residual(Xc + e, lam) - self.residual(Xc - e, lam)) / (2.0 * h)
-        return Jm
+        return central_jacobian(self.residual, Xc, lam)
 
     def d_param(self, Xc, lam):
-        h = 1e-6 * max(1.0, abs(lam))
-        return (self.residual(Xc, lam + h) - self.residual(Xc, lam - h)) / (2.0 * h)
+        return central_d_param(self.residual, Xc, lam)
 
     def orbit(self, Xc, lam):
         return self._problem(Xc[-1]), Xc[:-1]
@@ -1360,9 +1348,7 @@ def fold_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
                          f"{type(prob).__name__}")
     base_vals = dict(prob.values)
     base_vals[prob.param] = event.lam
-    base = dataclasses.replace(prob, values=base_vals, param=param)
-    if hasattr(base, "_cache"):
-        base._cache = {}
+    base = dataclasses.replace(prob, values=base_vals, param=param, _cache={})
     curve = FoldCurve(base, prob.param)
     Xc = np.append(event.X, event.lam)
     lam0 = float(prob.values[param])
