@@ -268,3 +268,57 @@ def run_length(word: str, tex: bool = False, empty: str = "-") -> str:
         out.append(word[i] + ((f"$^{{{n}}}$" if tex else f"^{n}") if n > 1 else ""))
         i = j
     return " ".join(out)
+
+
+# ------------------------------------------------------------ a cycle's signature
+SIGNATURE = ("mean_a", "mean_b", "min_a", "max_a", "min_b", "max_b")
+
+
+@jit
+def cycle_signature_one(end, a, b, count, sig_out, point_out):
+    """The signature of one run's cycle: over the last ``count`` recorded entries (the
+    recorded window ends at the first NaN of ``end``), the mean, least and largest of
+    the two series a and b (``SIGNATURE``), unchanged by any shift along the cycle; and
+    a point of the cycle: (a, b) at the entry where b is largest (the first of equals).
+
+    NaN where the run has no cycle (``count`` 0) or the window holds fewer entries."""
+    sig_out[:] = np.nan
+    point_out[:] = np.nan
+    n = 0
+    while n < end.shape[0] and end[n] == end[n]:
+        n += 1
+    if count <= 0 or count > n:
+        return
+    sa = 0.0
+    sb = 0.0
+    lo_a = np.inf
+    hi_a = -np.inf
+    lo_b = np.inf
+    hi_b = -np.inf
+    best = n - count
+    for i in range(n - count, n):
+        x = a[i]
+        y = b[i]
+        sa += x
+        sb += y
+        lo_a = min(lo_a, x)
+        hi_a = max(hi_a, x)
+        lo_b = min(lo_b, y)
+        if y > hi_b:
+            hi_b = y
+            best = i
+    sig_out[0] = sa / count
+    sig_out[1] = sb / count
+    sig_out[2] = lo_a
+    sig_out[3] = hi_a
+    sig_out[4] = lo_b
+    sig_out[5] = hi_b
+    point_out[0] = a[best]
+    point_out[1] = b[best]
+
+
+@pjit
+def cycle_signatures(end, a, b, count, sig_out, point_out):
+    """``cycle_signature_one`` over all items in parallel."""
+    for i in prange(end.shape[0]):
+        cycle_signature_one(end[i], a[i], b[i], count[i], sig_out[i], point_out[i])

@@ -82,7 +82,8 @@ PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic",
 PLOT_COLOR_BY = ("lyapunov", "multiplier")
 PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
 # [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
-PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit")
+PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit",
+              "fractions")
 # the (a0, b1)-plane figures of the corner normal form (sections 4-5)
 NORMAL_FORM_KINDS = ("regions", "return_map", "orbit")
 
@@ -795,6 +796,10 @@ def _read_plot(w):
         if "impacts" not in w.keep:
             problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
                             "output.keep must contain \"impacts\"")
+    if kind == "fractions" and (len(w.axes) != 1 or w.axes[0].name.startswith(IC_PREFIX)):
+        problems.append("plot.kind: 'fractions' draws the share of the starts reaching each "
+                        "attractor against one swept parameter; this scene sweeps "
+                        + (", ".join(a.name for a in w.axes) or "nothing"))
     if "ic" in plot:
         v = plot["ic"]
         if not (v == "distinct" or (isinstance(v, list) and v and all(_is_int(i) and 0 <= i < w.n_ic

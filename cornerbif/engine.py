@@ -19,7 +19,8 @@ from .config import Scene
 BLOCK_BYTES = 24 * 2**20     # working memory per block (kernel outputs); the local backend
                              # holds two (one computing, one being written)
 CHUNK_BYTES = 256 * 2**10    # uncompressed bytes of one chunk of a per-event dataset
-ITEM_OVERHEAD = 64           # bytes per item beyond its recorded events (status, period, ...)
+ITEM_OVERHEAD = 128          # bytes per item beyond its recorded events (status, period, the
+                             # cycle's signature, ...)
 
 
 # ------------------------------------------------------------------ initial conditions
@@ -205,7 +206,26 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
                   "symbols": symbol_bytes(sym, scene.record).reshape(shape)})
     for fld in spec.fields(scene.keep):
         block[fld.name] = out[fld.source].reshape(shape + fld.trailing(scene.record))
+    if spec.cycle is not None:
+        sig, pt = cycle_signatures(spec.cycle, out, period, ipc)
+        block["cycle/signature"] = sig.reshape(shape + sig.shape[1:])
+        block["cycle/point"] = pt.reshape(shape + pt.shape[1:])
     return block
+
+
+def cycle_signatures(series, out, period, ipc):
+    """Per run, the signature of its cycle and a point of it (``analysis.cycle_signatures``
+    on the model's ``CycleSeries``): what tells two attractors with one word apart in the
+    file's attractor table (``cornerbif.attractors``)."""
+    from .analysis import SIGNATURE
+    from .analysis import cycle_signatures as kernel
+    n = period.shape[0]
+    sig = np.empty((n, len(SIGNATURE)))
+    pt = np.empty((n, 2))
+    count = np.ascontiguousarray(ipc if series.per == "impacts" else period, dtype=np.int64)
+    kernel(np.ascontiguousarray(out[series.end]), np.ascontiguousarray(out[series.a]),
+           np.ascontiguousarray(out[series.b]), count, sig, pt)
+    return sig, pt
 
 
 def carry_names(scene: Scene) -> list:

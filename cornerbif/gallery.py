@@ -212,7 +212,9 @@ def facts(h5: str) -> dict:
       distinct cycle words found at each point stays the same (longest first,
       the end points are grid values: the change lies between a run's end and
       the next grid value), and the largest number of coexisting attractors;
-    * a single point: each distinct attractor's period, impacts per cycle and word.
+    * a single point: each distinct attractor's period, impacts per cycle and word;
+    * the attractor table (``cornerbif.attractors``), where the file has one: per parameter
+      point its attractors' words and shares, with the runs that reached none.
     """
     from .plot import PlotData, attractor_summary
     d = PlotData(h5)
@@ -251,6 +253,17 @@ def facts(h5: str) -> dict:
         vals, c = np.unique(per, return_counts=True)
         top = sorted(zip(c.tolist(), vals.tolist()), reverse=True)[:10]
         out["periods"] = {int(v): int(n) for n, v in top}
+    from .attractors import read_table
+    table = read_table(h5)
+    if table is not None and table["outcomes"].shape[0] <= 4:
+        out["table"] = [{"point": int(p), "word": _rle(w), "share": round(float(f), 4),
+                         "standard_error": round(float(e), 4)}
+                        for p, w, f, e in zip(table["parameter_point"], table["word"],
+                                              table["fraction"], table["standard_error"])]
+    elif table is not None:
+        out["table"] = {"attractors": len(table["word"]),
+                        "most_per_point": int(np.bincount(table["parameter_point"]).max())
+                        if len(table["word"]) else 0}
     return out
 
 

@@ -43,7 +43,7 @@ import sys
 import h5py
 import numpy as np
 
-from . import FORMAT_VERSION, __version__, chunkwrite, engine, registry
+from . import FORMAT_VERSION, __version__, attractors, chunkwrite, engine, registry
 from . import status as S
 from .errors import SweepError, WriteFailed
 
@@ -160,6 +160,17 @@ def create(path, scene, n_ic, command="", versions=None):
     make("symbols", per_run, symbol_dtype(rec), b"", gsc + [ic],
          long_name="cycle word: a alpha, b beta, g gamma, x other; smallest rotation",
          _Encoding="ascii")      # read back as text (CF / xarray), not bytes
+    if spec.cycle is not None:
+        from .analysis import SIGNATURE
+        cs = spec.cycle
+        make("cycle/signature", per_run + (len(SIGNATURE),), "f8", np.nan,
+             gsc + [ic, axis_scale("statistic", len(SIGNATURE))],
+             long_name=f"the cycle's signature over one cycle, a = {cs.long_names[0]}, b = "
+                       f"{cs.long_names[1]}: " + ", ".join(SIGNATURE) + " (NaN: no cycle)",
+             names=json.dumps(SIGNATURE))
+        make("cycle/point", per_run + (2,), "f8", np.nan, gsc + [ic, axis_scale("coordinate", 2)],
+             long_name=f"a point of the cycle: ({cs.names[0]}, {cs.names[1]}) where "
+                       f"{cs.names[1]} is largest (NaN: no cycle)", names=json.dumps(cs.names))
     d = f.create_dataset("done", shape=G, dtype="u1", fillvalue=0,
                          chunks=(tuple([1] * (len(G) - 1) + [min(G[-1], 65536)]) if G else None))
     for i, sc in enumerate(gsc):
@@ -483,9 +494,12 @@ def read_block(f, blk, names):
     return {n: f[n][blk] for n in names}
 
 
-def finish(partial, out_path):
-    """Stamp a complete partial file (completion time, status counts) and rename it."""
+def finish(partial, out_path, scene=None):
+    """Stamp a complete partial file (its attractor table, completion time, status counts)
+    and rename it."""
     with h5py.File(partial, "r+") as g:
+        if scene is not None:
+            attractors.tabulate(g, scene)
         g.attrs["completed"] = _now()
         if "failed_chunks" in g.attrs:        # left by an earlier distributed run
             del g.attrs["failed_chunks"]

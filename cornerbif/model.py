@@ -132,6 +132,22 @@ class Obstacle:
         return self.period_pi * math.pi / omega
 
 
+@dataclass(frozen=True)
+class CycleSeries:
+    """What names a run's cycle in the attractor table (``cornerbif.attractors``): two
+    recorded series (kernel outputs ``a`` and ``b``, the file's ``names``), read over the
+    run's last cycle: ``per`` "impacts" (``impacts_per_cycle`` entries) or "period"
+    (``period`` entries, one per section crossing or map iterate); the recorded window
+    ends at the first NaN of the output ``end``."""
+
+    end: str
+    a: str
+    b: str
+    per: str
+    names: tuple
+    long_names: tuple
+
+
 # ------------------------------------------------------------------ the interface
 @dataclass(frozen=True)
 class Model:
@@ -154,7 +170,9 @@ class Model:
     (observables kept only when ``[output] keep`` names them: a scene without ``keep``
     keeps the others), ``continuation`` (``cornerbif continue`` solves and continues the
     model's periodic orbits: ``cornerbif.continuation``), ``seed_observable`` (what a
-    sweep file must keep for ``orbit_seed`` to read a run: ``[continue] seed_file``).
+    sweep file must keep for ``orbit_seed`` to read a run: ``[continue] seed_file``),
+    ``cycle`` (``CycleSeries``: the recorded values that tell one attractor from another
+    with the same word, ``cycle/signature`` and ``cycle/point`` in the file).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -181,6 +199,7 @@ class Model:
     opt_in: tuple = ()
     continuation: bool = False
     seed_observable: str = ""
+    cycle: CycleSeries | None = None
 
     # --- declared facts, derived ------------------------------------------------------
     @property

@@ -12,7 +12,7 @@ import tomllib
 
 import numpy as np
 
-from . import plot_normal_form, registry, theory
+from . import plot_attractors, plot_normal_form, registry, theory
 from .analysis import run_length
 from .io import check_readable
 
@@ -431,8 +431,9 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
     return "; ".join(parts)
 
 
-def draw_corner_points(ax, data: PlotData, corner_line=True):
-    """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis."""
+def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
+    """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis
+    (``mono``: in greys, beside curves coloured by attractor)."""
     sys_ = data.scene.get("system", {})
     if sys_.get("obstacle", "rectified_sine") != "rectified_sine":
         return []
@@ -457,9 +458,10 @@ def draw_corner_points(ax, data: PlotData, corner_line=True):
     if a == "kappa" and corner_line:
         # the height of the corner itself, z(t_k) = kappa (the solid line of Fig. 7b)
         arts += ax.plot([lo, hi], [lo, hi], color="0.6", lw=0.6, label=r"corner $z(t_k)=\kappa$")
-    for x, lab, c in marks:
+    for i, (x, lab, c) in enumerate(marks):
         if math.isfinite(x) and lo <= x <= hi:
-            arts.append(ax.axvline(x, color=c, lw=0.8, ls="--", label=f"{lab} = {x:.6g}"))
+            arts.append(ax.axvline(x, color="0.3" if mono else c, lw=0.8,
+                                   ls=("--", "-.")[i] if mono else "--", label=f"{lab} = {x:.6g}"))
     return arts
 
 
@@ -505,41 +507,12 @@ def draw_plane_curves(ax, data: PlotData):
         ax.legend(loc="upper left", fontsize=7)
 
 
-def draw_basin(ax, data: PlotData):
-    """Two swept start coordinates (``[sweep] initial.*``): each cell coloured by the cycle
-    word its start reached (categorical, the paper's notation in the legend, the most
-    frequent first), cells that found no cycle grey; the shares in the legend."""
-    import matplotlib.colors as mcolors
-    import matplotlib.patches as mpatches
-    a, b = data.axes[:2]
-    words = data.symbols[..., 0]
-    found = [w for w in np.unique(words) if w]
-    found.sort(key=lambda w: (-(words == w).sum(), w))
-    palette = ATTRACTOR_COLORS + ("tab:olive", "tab:cyan", "tab:pink", "k")
-    code = np.full(words.shape, 0, int)
-    for k, w in enumerate(found[:len(palette)]):
-        code[words == w] = k + 1
-    other = len(found) > len(palette)
-    colors = ["0.85"] + list(palette[:min(len(found), len(palette))])
-    cmap = mcolors.ListedColormap(colors)
-    x, y = data.values[a], data.values[b]
-    im = ax.pcolormesh(x, y, code.T, shading="nearest", cmap=cmap, vmin=-0.5,
-                       vmax=len(colors) - 0.5)
-    n = words.size
-    handles = [mpatches.Patch(color=colors[k + 1], label=f"{_word_label(w)}: "
-                              f"{(words == w).sum() / n:.1%}")
-               for k, w in enumerate(found[:len(palette)])]
-    none = int((words == "").sum())
-    if none:
-        handles.append(mpatches.Patch(color="0.85", label=f"no cycle: {none / n:.1%}"))
-    if other:
-        handles.append(mpatches.Patch(color="w", label=f"(+{len(found) - len(palette)} "
-                                      "rarer words drawn grey)"))
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
-              title="cycle reached", title_fontsize=7, frameon=False)
-    ax.set_xlabel(LABELS.get(a, a))
-    ax.set_ylabel(LABELS.get(b, b))
-    return im
+def _need_table(data: PlotData):
+    """Basin images and fractions read the file's attractor table (cornerbif.attractors)."""
+    with check_readable(data.path) as f:
+        if "attractors" not in f:
+            raise ValueError(f"{data.path}: has no attractor table (written by an older "
+                             "cornerbif, or not finished); run its sweep again")
 
 
 def coexisting_words(symbols):
@@ -656,9 +629,21 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
         plt.close(fig)
         return out
     basin = len(d0.axes) == 2 and all(a.startswith("initial.") for a in d0.axes)
-    if basin:
+    if kind_ == "fractions":
+        if len(datas) > 1 or len(d0.axes) != 1:
+            raise ValueError("plot kind 'fractions' draws one file swept over one parameter")
+        _need_table(d0)
+        fig, ax = plt.subplots(figsize=(8, 4.5), dpi=150)
+        plot_attractors.draw_fractions(ax, d0.path, d0.values[d0.axes[0]])
+        draw_corner_points(ax, d0, corner_line=False, mono=True)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+        ax.set_xlabel(LABELS.get(d0.axes[0], d0.axes[0]))
+    elif basin:
+        _need_table(d0)
         fig, ax = plt.subplots(figsize=(8, 5.2), dpi=150)
-        draw_basin(ax, d0)
+        plot_attractors.draw_basin(ax, d0.path, d0.axes, d0.values)
+        ax.set_xlabel(LABELS.get(d0.axes[0], d0.axes[0]))
+        ax.set_ylabel(LABELS.get(d0.axes[1], d0.axes[1]))
     elif len(d0.axes) == 2:
         fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), dpi=150)
         if color_by:
@@ -672,7 +657,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
                      ticks=range(int(im2.norm.vmax + 0.5)))
     else:
         fig, ax = plt.subplots(figsize=(7, 4.5), dpi=150)
-    if len(d0.axes) == 1:
+    if len(d0.axes) == 1 and kind_ != "fractions":
         kind = y or plot_cfg.get("y") or d0.default_y()
         if kind is None or d0.y(kind) is None:
             plt.close(fig)
@@ -737,7 +722,7 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
                 if leg is not None:
                     ax.add_artist(leg)
                 ax.legend(*zip(*extra), loc="lower right", fontsize=7, framealpha=0.9)
-    elif len(d0.axes) != 2:
+    elif len(d0.axes) not in (1, 2):
         plt.close(fig)
         raise ValueError(f"{d0.path}: a scene without a sweep axis has nothing to draw")
     if "xlim" in plot_cfg:

@@ -280,7 +280,7 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
                           broken=True) from None
     f.close()
     try:
-        io.finish(partial, out_path)
+        io.finish(partial, out_path, scene)
     except OSError as e:
         raise WriteFailed(f"finishing {partial} failed ({io.reason(e)}); every point is kept; "
                           "free space and run the same command with --resume") from None

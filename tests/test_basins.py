@@ -18,6 +18,24 @@ from cornerbif.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE = os.path.join(ROOT, "configs", "basin_hysteresis.toml")
+# kappa beside a swept start u (v drawn): the hysteresis wedge at omega = 2.001
+KAPPA_AND_U = """[scene]
+name = "s"
+model = "flow"
+[system]
+omega = 2.001
+kappa = 0.008
+r = 0.8
+[sweep]
+kappa = { start = 0.004, stop = 0.012, num = 3 }
+initial.u = { start = 1.0, stop = 19.0, num = 4 }
+[initial]
+count = 2
+v = [-0.02, 0.02]
+[run]
+transient = 300
+record = 20
+"""
 
 
 def test_start_axes_are_read_and_written_back():
@@ -77,23 +95,7 @@ def test_a_start_axis_beside_a_parameter_axis(tmp_path):
     """kappa x initial.u (v drawn from [initial]): each cell's u start is its axis value,
     whatever kappa."""
     scene = tmp_path / "s.toml"
-    scene.write_text("""[scene]
-name = "s"
-model = "flow"
-[system]
-omega = 2.001
-kappa = 0.008
-r = 0.8
-[sweep]
-kappa = { start = 0.004, stop = 0.012, num = 3 }
-initial.u = { start = 1.0, stop = 19.0, num = 4 }
-[initial]
-count = 2
-v = [-0.02, 0.02]
-[run]
-transient = 300
-record = 20
-""")
+    scene.write_text(KAPPA_AND_U)
     out = tmp_path / "s.h5"
     r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress"])
     assert r.exit_code == 0, r.output

@@ -13,7 +13,7 @@ import numpy as np
 from ..analysis import detect_cycles
 from ..kernels.fill import full
 from ..kernels.flow import run_batch
-from ..model import Coord, Field, Model
+from ..model import Coord, CycleSeries, Field, Model
 from ..stability import batch_stability, new_outputs
 from . import params as P
 from .params import OBSTACLES
@@ -57,6 +57,9 @@ STABILITY_FIELDS = (
           "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
           axis=(), dtype="i1", fill=-1),
 )
+# an attractor's identity beside its word: the impact heights and velocities over one cycle
+IMPACT_CYCLE = CycleSeries(end="t", a="u", b="v_in", per="impacts", names=("u", "v_in"),
+                           long_names=("impact height u", "velocity before impact v-"))
 U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
           "u at the last section crossed (the state a followed sweep carries on)")
 V = Coord("v", (-20.0, 20.0), 1, None, "initial velocity v(0)", "v at the last section crossed")
@@ -192,6 +195,7 @@ MODEL = FlowModel(
     opt_in=("stability",),
     continuation=True,
     seed_observable="impacts",
+    cycle=IMPACT_CYCLE,
     system_extra={"obstacle": "rectified_sine", "section_period": None},
     obstacles=OBSTACLES,
     events_per_impact=10,

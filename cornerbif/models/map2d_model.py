@@ -13,7 +13,7 @@ import numpy as np
 
 from .. import status as S
 from ..maps2d import detect_map_cycles, iterate_batch
-from ..model import Coord, Field, Model, Param, anything, positive
+from ..model import Coord, CycleSeries, Field, Model, Param, anything, positive
 from ..stability import batch_map_stability, new_outputs
 from .flow_model import SECTION_FIELDS, STABILITY_FIELDS, U
 
@@ -100,6 +100,9 @@ MODEL = Map2dModel(
     observables={"section": SECTION_FIELDS, "stability": STABILITY},
     opt_in=("stability",),
     continuation=True,
+    # an attractor's identity beside its word: its iterates (a_n, b_n) over one cycle
+    cycle=CycleSeries(end="su", a="su", b="sv", per="period", names=("a", "b"),
+                      long_names=("iterate a_n", "iterate b_n")),
     normal_form_role="map",
     default_y="section_v",
     keep_hint=" (the map's iterates are stored as section/u = a_n, section/v = b_n)",

@@ -20,7 +20,7 @@ from ..kernels.fill import full
 from ..model import Coord, Field, Model
 from ..stability import two_particle_outputs
 from . import two_particle as TP
-from .flow_model import IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
+from .flow_model import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
 
 # the parameters that decide an undamped resonance (models.two_particle.resonance_problems)
 RESONANCE_PARAMS = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
@@ -168,6 +168,7 @@ MODEL = TwoParticleModel(
     opt_in=("stability",),
     continuation=True,
     seed_observable="section",
+    cycle=IMPACT_CYCLE,      # the u-z impacts
     events_per_impact=40,
     bytes_per_event=BYTES_PER_EVENT,
     # u-z impacts, benchmarks/run.py, Fig. 19(a), one core (benchmarks/results/results.json)

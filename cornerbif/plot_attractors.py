@@ -1,0 +1,151 @@
+"""Figures of a file's attractor table (``cornerbif.attractors``): basin images and basin
+fractions against a parameter.
+
+Colours mean the same orbit everywhere: an attractor's colour is a function of its label
+(its word, and ``#2``, ``#3`` for the second and third attractor with that word at one
+parameter point, by the mean of the first cycle series), not of its rank in one figure
+(``attractor_colors``).  The runs that reached no attractor are drawn in greys, one per
+outcome code (``OUTCOME_COLORS``).
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+
+from .analysis import run_length
+from .attractors import CODES, ESCAPES, FAILED, NO_CYCLE, NOT_RUN, STICKS, read_table
+
+# tab20 without its two greys: dark and light of nine hues
+PALETTE = ("#1f77b4", "#aec7e8", "#ff7f0e", "#ffbb78", "#2ca02c", "#98df8a", "#d62728",
+           "#ff9896", "#9467bd", "#c5b0d5", "#8c564b", "#c49c94", "#e377c2", "#f7b6d2",
+           "#bcbd22", "#dbdb8d", "#17becf", "#9edae5")
+# the three one-cluster orbits of sections 4.2-4.4 keep fixed colours
+FIXED = {"b": 0, "a": 2, "g": 4}
+OUTCOME_COLORS = {NO_CYCLE: "0.8", STICKS: "0.45", ESCAPES: "0.1", FAILED: "#efe6c8",
+                  NOT_RUN: "w"}
+
+
+def attractor_labels(table) -> list:
+    """Each row's label: its word, with ``#k`` for the k-th attractor of that word at its
+    parameter point (k >= 2, in the table's order, i.e. by the mean of series a)."""
+    seen = {}
+    out = []
+    for p, w in zip(table["parameter_point"], table["word"]):
+        k = seen.get((int(p), w), 0) + 1
+        seen[(int(p), w)] = k
+        out.append(w if k == 1 else f"{w}#{k}")
+    return out
+
+
+def preferred_slot(label: str) -> int:
+    """The palette slot a label asks for: fixed for b, a, g, else a hash of the label
+    (crc32, the same in every process and on every machine)."""
+    if label in FIXED:
+        return FIXED[label]
+    return zlib.crc32(label.encode()) % len(PALETTE)
+
+
+def attractor_colors(labels) -> dict:
+    """A colour per distinct label: its preferred slot, or the next free one when another
+    label of the same figure holds it (labels taken in order of (length, label), so the
+    choice depends only on the set).  Past ``len(PALETTE)`` labels colours repeat."""
+    taken = {}
+    out = {}
+    for lab in sorted(set(labels), key=lambda s: (s not in FIXED, len(s), s)):
+        slot = preferred_slot(lab)
+        if len(taken) < len(PALETTE):
+            while slot in taken:
+                slot = (slot + 1) % len(PALETTE)
+        taken[slot] = lab
+        out[lab] = PALETTE[slot]
+    return out
+
+
+def label_tex(label: str) -> str:
+    """A label in the paper's notation: 'bbbg#2' -> '$\\beta^{3}\\gamma$ #2'."""
+    word, _, k = label.partition("#")
+    w = run_length(word, tex=True, empty="?")
+    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
+        w = w.replace(a, b)
+    w = "$" + w.replace("$", "").replace(" ", r"\,") + "$"
+    return f"{w} #{k}" if k else w
+
+
+def draw_basin(ax, path, axes, values, labels_of=None):
+    """Two swept start coordinates: each cell coloured by its attractor (the table's id,
+    colours by label), the outcomes without one in greys; the legend gives each
+    attractor's share of the cells with its standard error."""
+    import matplotlib.colors as mcolors
+    import matplotlib.patches as mpatches
+    table = read_table(path)
+    ids = table["ids"][..., 0]
+    labels = attractor_labels(table)
+    colors = attractor_colors(labels if labels_of is None else labels_of)
+    R = len(labels)
+    codes = sorted(CODES)                          # -5 .. -1
+    palette = [OUTCOME_COLORS[c] for c in codes] + [colors[lab] for lab in labels]
+    index = np.where(ids >= 0, ids + len(codes), ids - codes[0])
+    cmap = mcolors.ListedColormap(palette)
+    a, b = axes
+    im = ax.pcolormesh(values[a], values[b], index.T, shading="nearest", cmap=cmap,
+                       vmin=-0.5, vmax=len(palette) - 0.5, rasterized=True)
+    handles = []
+    for i in np.argsort(-table["runs"], kind="stable"):
+        handles.append(mpatches.Patch(
+            color=colors[labels[i]],
+            label=f"{label_tex(labels[i])}: {table['fraction'][i]:.1%} "
+                  f"$\\pm$ {table['standard_error'][i]:.1%}"))
+    n = ids.size
+    for c in reversed(codes):
+        k = int((ids == c).sum())
+        if k:
+            handles.append(mpatches.Patch(facecolor=OUTCOME_COLORS[c], edgecolor="0.6",
+                                          label=f"{CODES[c]}: {k / n:.1%}"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
+              title=f"attractor reached ({R} found)", title_fontsize=7, frameon=False)
+    return im
+
+
+def fraction_series(table, n_points):
+    """Per label, its fraction and standard error at each parameter point (NaN where the
+    label has no attractor): {label: (fraction (n_points,), error (n_points,))}."""
+    labels = attractor_labels(table)
+    out = {}
+    for lab, p, f, e in zip(labels, table["parameter_point"], table["fraction"],
+                            table["standard_error"]):
+        if lab not in out:
+            out[lab] = (np.full(n_points, np.nan), np.full(n_points, np.nan))
+        out[lab][0][p] = f
+        out[lab][1][p] = e
+    return out
+
+
+def draw_fractions(ax, path, x, min_share=0.0):
+    """Basin fractions against a swept parameter (random starts at each point): one line
+    per attractor label with a band of +-1 standard error, and the share of the starts
+    that found no attractor (dotted).  Labels whose largest fraction stays below
+    ``min_share`` are summed into one grey line."""
+    table = read_table(path)
+    series = fraction_series(table, x.size)
+    colors = attractor_colors(series)
+    rare = np.zeros(x.size)
+    order = sorted(series, key=lambda lab: -np.nanmax(series[lab][0]))
+    for lab in order:
+        f, e = series[lab]
+        if np.nanmax(f) < min_share:
+            rare += np.nan_to_num(f)
+            continue
+        ax.plot(x, f, "-", lw=1.0, color=colors[lab], label=label_tex(lab))
+        ax.fill_between(x, f - e, f + e, color=colors[lab], alpha=0.25, lw=0)
+    if rare.any():
+        ax.plot(x, rare, "-", lw=0.8, color="0.5", label=f"others (each < {min_share:.0%})")
+    out = table["outcomes"]
+    none = 1.0 - out[:, 0] / out.sum(axis=1)
+    if np.any(none > 0):
+        ax.plot(x, none, ":", lw=1.0, color="k", label="no attractor")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel(f"fraction of starts ({table['runs_per_point']} per point; band: "
+                  r"$\pm$1 s.e.)")
+    return series
