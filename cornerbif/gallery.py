@@ -23,6 +23,7 @@ import tomllib
 import numpy as np
 
 from . import config as C
+from . import registry
 from .analysis import run_length
 
 # figures drawn from several scenes: name -> scenes (overlaid, or flow against map)
@@ -78,7 +79,8 @@ def _without_plot(text: str) -> dict:
 
 
 def file_matches(h5: str, scene: C.Scene) -> bool:
-    """True when ``h5`` is a complete cornerbif file of this scene ([plot] aside)."""
+    """True when ``h5`` is a complete cornerbif file of this scene ([plot] aside), with the
+    attractor table where its model has one (a file from before tables is swept again)."""
     from .io import FileFormatError, check_readable
     if not os.path.exists(h5):
         return False
@@ -93,6 +95,8 @@ def file_matches(h5: str, scene: C.Scene) -> bool:
     try:
         with check_readable(h5) as f:
             if not f.attrs.get("completed", ""):
+                return False
+            if registry.get(scene.model).cycle is not None and "attractors" not in f:
                 return False
             return _without_plot(f.attrs["scene"]) == _without_plot(scene.text)
     except (FileFormatError, OSError, KeyError):

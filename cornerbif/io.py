@@ -23,7 +23,12 @@ the model's declaration in ``cornerbif.registry``)::
     /period, /impacts_per_cycle   G + (n_ic,) int32
     /symbols         G + (n_ic,) fixed-length ASCII string (record // 2 bytes, NUL-padded;
                      attribute _Encoding = "ascii", so xarray reads text)
+    /cycle/signature G + (n_ic, 6): mean, least, largest of the model's two cycle series over
+                     the run's last cycle (NaN: no cycle); /cycle/point G + (n_ic, 2) a point
+                     of it (models with a ``CycleSeries``; docs/basins.md)
     /done            G uint8: 1 where the grid point is complete
+    /attractor, /attractors/*   written when the file is finished: each run's attractor id
+                     and the table of attractors (``cornerbif.attractors``)
 
 A sweep writes ``OUT.h5.partial`` in HDF5's single-writer/multiple-reader
 mode (its metadata is flushed in an order that keeps the file readable at

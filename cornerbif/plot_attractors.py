@@ -76,7 +76,8 @@ def label_tex(label: str) -> str:
 def draw_basin(ax, path, axes, values, labels_of=None):
     """Two swept start coordinates: each cell coloured by its attractor (the table's id,
     colours by label), the outcomes without one in greys; the legend gives each
-    attractor's share of the cells with its standard error."""
+    attractor's share of the cells (a grid's share has no sampling error: its convergence
+    is shown by refining, docs/basins.md)."""
     import matplotlib.colors as mcolors
     import matplotlib.patches as mpatches
     table = read_table(path)
@@ -95,8 +96,7 @@ def draw_basin(ax, path, axes, values, labels_of=None):
     for i in np.argsort(-table["runs"], kind="stable"):
         handles.append(mpatches.Patch(
             color=colors[labels[i]],
-            label=f"{label_tex(labels[i])}: {table['fraction'][i]:.1%} "
-                  f"$\\pm$ {table['standard_error'][i]:.1%}"))
+            label=f"{label_tex(labels[i])}: {table['fraction'][i]:.2%} of the cells"))
     n = ids.size
     for c in reversed(codes):
         k = int((ids == c).sum())

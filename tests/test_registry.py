@@ -90,6 +90,37 @@ def test_every_observable_opt_in_included_fills_the_schema(name, tmp_path):
 
 
 @pytest.mark.parametrize("name", registry.names())
+def test_the_cycle_signature_is_the_last_recorded_cycles(name):
+    """A model's CycleSeries names outputs of its kernel: each run's cycle/signature is the
+    mean, least and largest of the two series over the last cycle of its record, counted
+    here in numpy from cornerbif.simulate's arrays; NaN exactly where there is no cycle."""
+    spec = registry.get(name)
+    if spec.cycle is None:
+        pytest.skip("no cycle series")
+    sc = tiny(name, run={"transient": 400, "record": 40}, initial={"count": 4})
+    block = engine.compute_block(sc, engine.blocks(sc)[0])
+    starts = [block[f"initial/{c}"] for c in spec.coords]
+    axis = sc.axes[0]
+    res = simulate(*starts, model=name, transient=sc.transient, record=sc.record,
+                   **{axis.name: np.array(axis.values)[:, None]})
+    assert np.array_equal(res["period"], block["period"])
+    cs = spec.cycle
+    count = res["impacts_per_cycle"] if cs.per == "impacts" else res["period"]
+    sig = block["cycle/signature"]
+    assert (res["period"] > 0).any()
+    for idx in np.ndindex(count.shape):
+        if res["period"][idx] <= 0:
+            assert np.isnan(sig[idx]).all()
+            continue
+        n = int(np.argmax(~np.isfinite(res[cs.end][idx]))) if not np.isfinite(
+            res[cs.end][idx]).all() else res[cs.end][idx].size
+        a = res[cs.a][idx][n - count[idx]:n]
+        b = res[cs.b][idx][n - count[idx]:n]
+        want = [a.mean(), b.mean(), a.min(), a.max(), b.min(), b.max()]
+        assert np.allclose(sig[idx], want, rtol=1e-14, atol=0), idx
+
+
+@pytest.mark.parametrize("name", registry.names())
 def test_bad_values_name_key_value_and_range(name):
     spec = registry.get(name)
     k, p = next((k, p) for k, p in spec.params.items() if p.ok(-1.0) is False)
