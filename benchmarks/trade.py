@@ -55,7 +55,8 @@ def _run_scene(scene, ics=None, tile=1):
     params = sweep.pack_points(scene, idx)
     if ics is None:
         kap = np.full(n_pts, -np.inf) if scene.model == "map2d" else params[:, P.KAPPA]
-        ics = sweep.draw_initial(scene, np.arange(n_pts), kap).reshape(-1, 2)
+        ics = sweep.draw_initial(scene, np.arange(n_pts), kap)
+        ics = ics.reshape(-1, ics.shape[-1])
     prm = np.repeat(params, scene.n_ic, axis=0)
     ics = np.ascontiguousarray(ics)
     ints = sweep.int_settings(scene)
@@ -550,7 +551,8 @@ for tol in {tols!r}:
                          "run.record={rec}", f"run.tol={{tol!r}}"])
     idx = [(i,) for i in range(scene.shape[0])]
     prm = sweep.pack_points(scene, idx)
-    ics = sweep.draw_initial(scene, np.arange(len(idx)), prm[:, 1]).reshape(-1, 2)
+    ics = sweep.draw_initial(scene, np.arange(len(idx)), prm[:, 1])
+    ics = ics.reshape(-1, ics.shape[-1])
     sweep.run_items(prm, ics, sweep.int_settings(scene), scene)
     out[repr(tol)] = dict(c)
 print("COUNTS", json.dumps(out))
@@ -685,7 +687,7 @@ def bench_profile(smoke=False):
         params = sweep.pack_points(scene, idx)
         ics = sweep.draw_initial(scene, np.arange(len(idx)), params[:, P.KAPPA])
         prm = np.repeat(params, scene.n_ic, axis=0)
-        ics = np.ascontiguousarray(ics.reshape(-1, 2))
+        ics = np.ascontiguousarray(ics.reshape(-1, ics.shape[-1]))
         t_setup = time.perf_counter() - t0
         ints = sweep.int_settings(scene)
         sweep.run_items(prm[:4], ics[:4], ints, scene)                      # warm

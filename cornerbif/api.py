@@ -12,11 +12,12 @@ RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
 def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=1e-6,
              escape=1e6, period_tol=1e-6, max_events=None, max_periods=None, stop="none",
              keep=None, **system):
-    """Run ``model`` for one or many initial states at t = 0.
+    """Run ``model`` for one or many initial states at t = 0 (``flow``: at ``t0``).
 
     ``starts`` are the state coordinates at t = 0 in the model's order
     (``flow``, ``map2d``: u0, v0; ``two_particle``: z0, y0, u0, v0), positionally or
-    by keyword (``u0=...``).  ``system`` takes the names of the model's ``[system]``
+    by keyword (``u0=...``); ``flow`` also takes the start time ``t0=`` (default 0: the
+    state is then at the obstacle's phase omega t0).  ``system`` takes the names of the model's ``[system]``
     table (e.g. omega, kappa, r; ``obstacle`` and ``section_period`` where the model
     has them), each a scalar or an array broadcast against the starts.  Parameters are
     validated exactly as a scene's, every element of every array included.
@@ -41,6 +42,13 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
         raise TypeError(f"simulate(model={model!r}) needs the starts "
                         + ", ".join(f"{c}0" for c in coords))
     named.update(zip(coords, starts))
+    if spec.start_time is not None and f"{spec.start_time.name}0" in system:
+        # the start time (flow: t0, the obstacle's phase at the start), 0 when not given
+        t0 = system.pop(f"{spec.start_time.name}0")
+        if not np.all(np.isfinite(t0)) or np.any(np.asarray(t0) < 0):
+            raise ValueError(f"simulate(): {spec.start_time.name}0 must be finite and >= 0")
+        named[spec.start_time.name] = t0
+        coords = coords + (spec.start_time.name,)
     extra = {k: system.pop(k) for k in list(system) if k in spec.system_extra}
     unknown = [k for k in system if k not in spec.params]
     if unknown:
@@ -89,7 +97,7 @@ def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=
                                                       np.ascontiguousarray(ics),
                                                       spec.int_settings(scene), scene)
     res = {k: v.reshape(shape + v.shape[1:]) for k, v in out.items()}
-    res.update(status=st.reshape(shape), final=final.reshape(shape + (len(coords),)),
+    res.update(status=st.reshape(shape), final=final.reshape(shape + (len(spec.coords),)),
                period=period.reshape(shape), impacts_per_cycle=ipc.reshape(shape),
                symbols=words(sym).reshape(shape))
     return res

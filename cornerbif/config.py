@@ -129,7 +129,7 @@ TABLES = {
     "scene": ("name", "title", "model"),
     "system": _union(tuple(m.params) + tuple(m.system_extra) for m in _all_models()),
     "sweep": None,  # parameter names + 'follow'
-    "initial": tuple(INITIAL_DEFAULTS) + _union(m.coords for m in _all_models()),
+    "initial": tuple(INITIAL_DEFAULTS) + _union(m.start_names for m in _all_models()),
     "run": ("preset",) + tuple(RUN_DEFAULTS),
     "output": ("keep",),
     "plot": PLOT_KEYS,
@@ -556,10 +556,10 @@ def _read_sweep(w):
     for k, spec in sweep_items(sw):
         if k.startswith(IC_PREFIX):
             c = k[len(IC_PREFIX):]
-            if c not in w.spec.coords:
+            if c not in w.spec.start_names:
                 w.problems.append(f"sweep.{k}: {c!r} is not a start coordinate of model "
                                   f"{w.model!r}; allowed: "
-                                  + ", ".join(IC_PREFIX + x for x in w.spec.coords))
+                                  + ", ".join(IC_PREFIX + x for x in w.spec.start_names))
                 continue
             values = _read_axis(w, k, spec, _finite_value(w, k))
             if values is not None:
@@ -610,6 +610,11 @@ def _read_sweep(w):
     w.axes, w.follow = axes, follow
 
 
+def _fixed(rng) -> bool:
+    """A start range that draws one value (a number, or [a, a])."""
+    return _is_number(rng) or (isinstance(rng, list) and len(rng) == 2 and rng[0] == rng[1])
+
+
 def _read_initial(w):
     ini = w.table("initial")
     w.unknown("initial", TABLES["initial"])
@@ -622,7 +627,7 @@ def _read_initial(w):
     if not _is_int(seed) or not 0 <= seed < MAX_INT:
         w.problems.append(f"initial.seed: {_fmt(seed)} must be an integer in 0..2^62 - 1")
         seed = 0
-    coords = w.spec.coords
+    coords = w.spec.start_names
     for c in TABLES["initial"][len(INITIAL_DEFAULTS):]:
         if c in ini and c not in coords:
             w.problems.append(f"initial.{c}: not an initial coordinate of model {w.model!r}; "
@@ -633,7 +638,9 @@ def _read_initial(w):
         if c in ini:
             w.problems.append(f"initial.{c}: {_fmt(ini[c])} but sweep.initial.{c} sweeps it; "
                               "give one of the two")
-    if swept and set(swept) == set(coords):
+    # every state coordinate swept and the start time (if any) fixed: one start per cell
+    if swept and set(swept) >= set(w.spec.coords) and all(
+            c in swept or _fixed(ini.get(c, list(w.spec.coord(c).default))) for c in coords):
         if "count" in ini and n_ic != 1:
             w.problems.append(f"initial.count: {n_ic} with every start coordinate swept "
                               f"(sweep.initial.*): each cell is one start; use count = 1")

@@ -1491,7 +1491,7 @@ def find_seeds(scene):
     row = spec.pack_values(run_scene.system, run_scene)
     params = np.repeat(row[None], scene.n_ic, axis=0)
     ics = engine.draw_initial(run_scene, np.zeros(1, np.int64),
-                              spec.wall_at_start(params[:1])).reshape(scene.n_ic, -1)
+                              spec.wall_at_start(params[:1]), params[:1]).reshape(scene.n_ic, -1)
     out, _, _, period, ipc, sym = spec.run_items(params, np.ascontiguousarray(ics),
                                                  spec.int_settings(run_scene), run_scene)
     w = words(sym)

@@ -42,16 +42,18 @@ def uniform(seed, point, ic, coord):
     return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
 
 
-def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray):
-    """Initial states at t = 0 for grid points ``flat_points`` (shape (n,)): an array
-    (n, n_ic, state size) in the model's state order (``Model.state``).
+def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray, params=None):
+    """Initial states for grid points ``flat_points`` (shape (n,)): an array
+    (n, n_ic, start size) in the model's start order (``Model.starts``: the state, then
+    the start time where the model has one).
 
     A coordinate with a floor is uniform on the part of its ``[initial]`` range strictly
     above it (the same law as drawing on the whole range and redrawing points below):
-    ``"wall"`` is the obstacle at t = 0 (``wall``, per point), otherwise another
-    coordinate drawn before it (two_particle: w(0) < z <= u).  A coordinate swept by the
-    scene (``[sweep] initial.<c>``) takes its cell's value for every start, with no floor:
-    a start below the obstacle gets the kernel's status for it.
+    ``"wall"`` is the obstacle at the start (``wall``, per point, at t = 0; at each start's
+    own time when the start time is not 0 everywhere: ``Model.wall_at`` on ``params``),
+    otherwise another coordinate drawn before it (two_particle: w(0) < z <= u).  A
+    coordinate swept by the scene (``[sweep] initial.<c>``) takes its cell's value for
+    every start, with no floor: a start below the obstacle gets the kernel's status for it.
     """
     spec = registry.get(scene.model)
     n = flat_points.shape[0]
@@ -61,21 +63,28 @@ def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray):
     swept = scene.start_axes
     if swept:
         grid_index = np.unravel_index(flat_points.astype(np.int64), scene.shape)
-    for c in spec.state:
+    # the start time first: the wall a start clears is the obstacle at that time
+    order = sorted(spec.starts, key=lambda c: c is not spec.start_time)
+    for c in order:
         if c.name in swept:
             # a swept start coordinate ([sweep] initial.<c>): the cell's value, every start
             pos, values = swept[c.name]
             drawn[c.name] = np.repeat(values[grid_index[pos]][:, None], scene.n_ic, axis=1)
             continue
-        x = uniform(scene.seed, pts, ics, c.draw).reshape(n, scene.n_ic)
         lo, hi = scene.initial[c.name]
+        x = uniform(scene.seed, pts, ics, c.draw).reshape(n, scene.n_ic)
         if c.floor is None:
             drawn[c.name] = lo + (hi - lo) * x
             continue
-        floor = wall[:, None] if c.floor == "wall" else drawn[c.floor]
+        if c.floor == "wall":
+            t0 = drawn.get(spec.start_time.name) if spec.start_time is not None else None
+            floor = (spec.wall_at(params, t0) if t0 is not None and np.any(t0 != 0.0)
+                     else wall[:, None])
+        else:
+            floor = drawn[c.floor]
         lo = np.maximum(lo, floor)
         drawn[c.name] = hi - (hi - lo) * x          # in (floor, hi]
-    return np.stack([drawn[c] for c in spec.coords], axis=-1)
+    return np.stack([drawn[c] for c in spec.start_names], axis=-1)
 
 
 # ------------------------------------------------------------------ the model's kernel
@@ -188,18 +197,22 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
     params = spec.pack_points(scene, idx)
     flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
     wall = spec.wall_at_start(params)
-    ics = draw_initial(scene, flat, wall)
+    ics = draw_initial(scene, flat, wall, params)
     if carry is not None:
+        # the carried state starts at t = 0 (a section corner), in place of the drawn start
         ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > wall[:, None])
-        ics = np.where(ok[..., None], carry, ics)
+        ns = carry.shape[-1]
+        ics[..., :ns] = np.where(ok[..., None], carry, ics[..., :ns])
+        ics[..., ns:] = np.where(ok[..., None], 0.0, ics[..., ns:])
     n = len(idx) * scene.n_ic
     prm = np.repeat(params, scene.n_ic, axis=0)
     out, st, final, period, ipc, sym = spec.run_items(prm, ics.reshape(n, ics.shape[-1]),
                                                       ints, scene)
     shape = tuple(sub) + (scene.n_ic,)
     block = {}
-    for i, c in enumerate(spec.coords):
+    for i, c in enumerate(spec.start_names):
         block[f"initial/{c}"] = ics[..., i].reshape(shape)
+    for i, c in enumerate(spec.coords):
         block[f"final/{c}"] = final[:, i].reshape(shape)
     block.update({"status": st.reshape(shape), "period": period.reshape(shape),
                   "impacts_per_cycle": ipc.reshape(shape),

@@ -10,8 +10,8 @@ the model's declaration in ``cornerbif.registry``)::
                      failed_chunks (a distributed run with failed chunks, until resumed)
     /<axis>          one dataset per swept parameter, a dimension scale
     /ic, /record     dimension scales
-    /initial/<c>     G + (n_ic,): the start of each state coordinate c
-                     (flow, map2d: u, v; two_particle: z, y, u, v)
+    /initial/<c>     G + (n_ic,): the start of each start coordinate c
+                     (flow: u, v and the start time t; map2d: u, v; two_particle: z, y, u, v)
     /final/<c>       G + (n_ic,): the state at the last section crossed (what follow carries)
     /impacts/t, u, v_in, v_out, corner_offset   G + (n_ic, record), NaN where absent
                      (flow; two_particle: the z-u impacts, offset to the nearest w-z impact)
@@ -140,7 +140,7 @@ def create(path, scene, n_ic, command="", versions=None):
     gsc = list(dims)
     per_run = G + (n_ic,)
     per_event = G + (n_ic, rec)
-    for c in spec.state:
+    for c in spec.starts:
         make(f"initial/{c.name}", per_run, "f8", np.nan, gsc + [ic], long_name=c.initial_doc)
     for fld in spec.fields(scene.keep):
         units = {"units": fld.units} if fld.units else {}

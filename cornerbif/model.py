@@ -172,7 +172,10 @@ class Model:
     model's periodic orbits: ``cornerbif.continuation``), ``seed_observable`` (what a
     sweep file must keep for ``orbit_seed`` to read a run: ``[continue] seed_file``),
     ``cycle`` (``CycleSeries``: the recorded values that tell one attractor from another
-    with the same word, ``cycle/signature`` and ``cycle/point`` in the file).
+    with the same word, ``cycle/signature`` and ``cycle/point`` in the file),
+    ``start_time`` (a ``Coord`` for the time t0 at which each run starts, the obstacle's
+    phase at the start: a start coordinate beside the state, ``[initial] t`` and
+    ``[sweep] initial.t``, the kernel's last start column; not carried by ``follow``).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -200,14 +203,24 @@ class Model:
     continuation: bool = False
     seed_observable: str = ""
     cycle: CycleSeries | None = None
+    start_time: Coord | None = None
 
     # --- declared facts, derived ------------------------------------------------------
     @property
     def coords(self) -> tuple:
         return tuple(c.name for c in self.state)
 
+    @property
+    def starts(self) -> tuple:
+        """The start coordinates: the state's, then the start time where the model has one."""
+        return self.state + ((self.start_time,) if self.start_time is not None else ())
+
+    @property
+    def start_names(self) -> tuple:
+        return tuple(c.name for c in self.starts)
+
     def coord(self, name: str) -> Coord:
-        return next(c for c in self.state if c.name == name)
+        return next(c for c in self.starts if c.name == name)
 
     def fields(self, keep) -> list:
         """The per-event datasets of the observables in ``keep``, in the file's order."""
@@ -236,6 +249,11 @@ class Model:
 
     def wall_at_start(self, params: np.ndarray) -> np.ndarray:
         """Per packed row, the height of the obstacle at t = 0 (starts are drawn above it)."""
+        raise NotImplementedError
+
+    def wall_at(self, params: np.ndarray, t0: np.ndarray) -> np.ndarray:
+        """Per packed row and start time (shape (n, n_ic)), the obstacle's height at t0
+        (models with a ``start_time``)."""
         raise NotImplementedError
 
     def pack_values(self, values: dict, scene) -> np.ndarray:

@@ -18,7 +18,7 @@ from .io import check_readable
 
 LABELS = {
     "initial.u": r"start $u(0)$", "initial.v": r"start $v(0)$",
-    "initial.z": r"start $z(0)$", "initial.y": r"start $y(0)$",
+    "initial.z": r"start $z(0)$", "initial.y": r"start $y(0)$", "initial.t": r"start time $t_0$",
     "omega": r"$\omega$", "kappa": r"$\kappa$", "beta": r"$\beta$", "r": r"$r$",
     "sigma": r"$\sigma$", "k": r"$k$", "theta1": r"$\theta_1$", "theta2": r"$\theta_2$",
     "F": r"$F$", "Omega": r"$\Omega$", "phi": r"$\varphi$",

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from .models import params as P
-from .models.obstacle import D_L0, D_PERIOD, z_state
+from .models.obstacle import piece_at, z_state
 from .models.oscillator import derive, homogeneous, particular
 
 
@@ -29,16 +29,6 @@ def pack(values: dict, obstacle: str, section_period=None) -> tuple[np.ndarray, 
     """Packed parameters and derived constants of one point of a ``flow`` scene."""
     p = P.pack(values, obstacle, 1e-12, 1e-6, 1e6, section_period)
     return p, derive(p)
-
-
-def piece_at(d: np.ndarray, t: float) -> tuple[int, float]:
-    """Piece index j and local time tau of absolute time t (inverse of ``piece_start``)."""
-    per = d[D_PERIOD]
-    m = math.floor(t / per)
-    x = t - m * per
-    if x >= d[D_L0]:
-        return 2 * m + 1, x - d[D_L0]
-    return 2 * m, x
 
 
 def obstacle_height(p: np.ndarray, d: np.ndarray, t) -> np.ndarray:

@@ -230,3 +230,20 @@ def test_basin_and_fraction_figures_draw(tmp_path, hysteresis):
     r = CliRunner().invoke(main, ["validate", sc, "--set", "sweep.omega={start=2, stop=2.1, "
                                   "num=3}"])
     assert r.exit_code == 2 and "plot.kind: 'fractions'" in r.output, r.output
+
+
+def test_table_multipliers_are_their_runs(tmp_path):
+    """With stability kept, each attractor's multipliers are those of its runs: the table
+    holds the first run's, and every run of that id has the same to 1e-6 (the runs are
+    different starts converging on one cycle)."""
+    t, path = grid(tmp_path, 15, extra=("output.keep=[\"stability\"]",))
+    with h5py.File(path) as f:
+        mu = f["stability/multiplier_re"][...] + 1j * f["stability/multiplier_im"][...]
+    ids = t["ids"]
+    m = t["multiplier_re"] + 1j * t["multiplier_im"]
+    assert m.shape == (len(t["id"]), 2) and np.isfinite(m).all()
+    for k in range(len(t["id"])):
+        runs = mu[ids == k]
+        first = runs[0]
+        assert np.array_equal(first, m[k])
+        assert np.abs(runs - first).max() < 1e-6, k

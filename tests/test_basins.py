@@ -105,3 +105,45 @@ def test_a_start_axis_beside_a_parameter_axis(tmp_path):
                               np.broadcast_to(f["initial.u"][...][None, :, None], (3, 4, 2)))
         iv = f["initial/v"][...]
         assert (iv >= -0.02).all() and (iv <= 0.02).all() and np.unique(iv).size > 4
+
+
+@pytest.mark.parametrize("obstacle,omega,kappa,extra", [
+    ("rectified_sine", 2.001, 0.008, {}),
+    ("sine", 1.7, 0.0, {}),
+    ("triangle", 1.9, -0.01, {"theta1": 1.9, "theta2": 2.5}),
+    ("rectified_sine", 1.3, 0.0, {"sigma": 0.05, "F": 0.4, "Omega": 1.1}),
+])
+def test_a_start_time_is_the_run_from_that_phase(obstacle, omega, kappa, extra):
+    """simulate(t0=...) (the kernel started inside a piece of the obstacle) against the
+    exhaustive search of tests/naive.py from the same (t0, u0, v0): the first 6 impacts'
+    times, heights and velocities to 1e-8, at starts spread over an obstacle period."""
+    from naive import naive_impacts
+    per = np.pi / omega * (2 if obstacle == "sine" else 1)
+    t0 = np.array([0.0, 0.13, 0.5, 0.77, 0.999]) * per + np.array([0, 0, 0, 1, 3]) * per
+    u0 = np.array([3.0, 1.5, 1.6, 2.2, 4.0])
+    v0 = np.array([0.5, -1.0, 2.0, 0.0, -3.0])
+    res = cornerbif.simulate(u0, v0, t0=t0, obstacle=obstacle, omega=omega, kappa=kappa,
+                             r=0.8, record=6, **extra)
+    assert (res["status"] == 0).all()
+    for i in range(t0.size):
+        ref = naive_impacts(obstacle, omega, kappa, 1.0, 0.8, u0[i], v0[i], 6, t0=t0[i],
+                            **extra)
+        assert ref.shape == (6, 4)
+        got = np.stack([res["t"][i], res["u"][i], res["v_in"][i], res["v_out"][i]], -1)
+        assert np.allclose(got, ref, rtol=0, atol=1e-8), (i, np.abs(got - ref).max())
+
+
+def test_a_start_time_axis_draws_u_above_the_obstacle_at_its_time(tmp_path):
+    """[sweep] initial.t beside drawn u, v: every start's time is its cell's, and its
+    drawn u clears z(t0) (not only z(0) = kappa); a negative start time is refused."""
+    text = KAPPA_AND_U.replace("initial.u = { start = 1.0, stop = 19.0, num = 4 }",
+                               "initial.t = { start = 0.0, stop = 1.5, num = 5 }")
+    sc = config.loads(text, ["sweep.kappa.num=2", "initial.u=[0.0, 2.0]"])
+    from cornerbif import engine
+    blk = engine.compute_block(sc, engine.blocks(sc)[0])
+    t0 = blk["initial/t"]
+    assert np.array_equal(t0, np.broadcast_to(np.linspace(0, 1.5, 5)[None, :, None], t0.shape))
+    z = 0.008 + np.abs(np.sin(2.001 * t0))
+    assert (blk["initial/u"] > z).all() and (blk["status"] == 0).all()
+    r = CliRunner().invoke(main, ["validate", SCENE, "--set", "initial.t=[-1.0, 0.0]"])
+    assert r.exit_code == 2 and "initial.t: [-1.0, 0.0] must not be negative" in r.output

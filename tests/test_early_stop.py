@@ -27,7 +27,8 @@ def _chart_items(stop, n=14, count=3, extra=()):
                              f"initial.count={count}", f'run.stop="{stop}"', *extra])
     idx = [tuple(i) for i in np.ndindex(*sc.shape)]
     params = engine.pack_points(sc, idx)
-    ics = engine.draw_initial(sc, np.arange(len(idx)), params[:, P.KAPPA]).reshape(-1, 2)
+    ics = engine.draw_initial(sc, np.arange(len(idx)), params[:, P.KAPPA])
+    ics = ics.reshape(-1, ics.shape[-1])
     return sc, np.repeat(params, sc.n_ic, axis=0), np.ascontiguousarray(ics)
 
 

@@ -43,7 +43,8 @@ def _run(model):
     idx = [(i,) for i in range(scene.shape[0])]
     params = sw.pack_points(scene, idx)
     kap = np.full(len(idx), -np.inf) if model == "map2d" else np.array(scene.axes[0].values)
-    ics = sw.draw_initial(scene, np.arange(len(idx)), kap).reshape(-1, 2)
+    ics = sw.draw_initial(scene, np.arange(len(idx)), kap)
+    ics = ics.reshape(-1, ics.shape[-1])
     prm = np.repeat(params, scene.n_ic, axis=0)
     out, st, final, period, ipc, sym = sw.run_items(prm, ics, sw.int_settings(scene), scene)
     return out, st, period, words(sym)

@@ -29,6 +29,7 @@ from ..models.obstacle import (
     corner_of,
     cycle_lag,
     derived_tuple,
+    piece_at,
     piece_length,
     piece_start,
     sine_amp,
@@ -435,9 +436,10 @@ def release(p, d, j, tau_rel, L, tol, underdamped):
 
 
 @jit
-def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv, final,
-            info):
-    """Integrate one item from (t, u, v) = (0, u0, v0); fill its output rows.
+def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
+            final, info):
+    """Integrate one item from (t, u, v) = (t_start, u0, v0), t_start >= 0 (the obstacle's
+    phase at the start; 0 unless the scene sets ``[initial] t``); fill its output rows.
 
     With early stop (``STOP_TOL`` > 0, see the module docstring) the recording
     starts where a cycle is confirmed and ``info[0]`` receives the number of the
@@ -493,23 +495,26 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     last_j = np.int64(0)
     last_tau = 0.0
 
-    if not (u0 == u0 and v0 == v0):
+    if not (u0 == u0 and v0 == v0 and t_start == t_start):
         return S.NONFINITE
-    z0, _, _, _ = z_state(p, 0, 0.0)
+    j = np.int64(0)
+    tau_ref = 0.0
+    if t_start != 0.0:
+        # a start inside a piece: as just after an impact there (phase not known)
+        j, tau_ref = piece_at(d, t_start)
+    z0, zp0, _, _ = z_state(p, j, tau_ref)
     if u0 < z0:
         return S.BELOW_OBSTACLE
 
-    j = np.int64(0)
-    tau_ref = 0.0
     # sigma = 0: (cos, sin)(k tau_ref), the free flight's phase at the reference point
     # since the start of the piece: (1, 0) at a corner, composed with each flight's own
     # rotation at an impact, NaN after a release from sticking (not known).  The flight
     # from an impact to the end of its piece is then a rotation by k (L - tau_ref),
     # composed without trigonometry
-    c_ref = 1.0
+    c_ref = 1.0 if tau_ref == 0.0 else math.nan
     s_ref = 0.0
     amp2 = 0.0
-    up, vp = particular(p, d, 0.0)
+    up, vp = particular(p, d, t_start)
     uh_ref = u0 - up
     vh_ref = v0 - vp
     skip = u0 == z0  # starting on the obstacle: treat as just left it
@@ -536,8 +541,8 @@ def run_one(p_row, ints, u0, v0, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     s_l0 = math.sin(wd * piece_length(d, 0))
     c_l1 = math.cos(wd * piece_length(d, 1))
     s_l1 = math.sin(wd * piece_length(d, 1))
-    z_ref = zs0            # obstacle height and slope at (j, tau_ref)
-    zp_ref = zps0
+    z_ref = z0             # obstacle height and slope at (j, tau_ref)
+    zp_ref = zp0
 
     at_corner = False      # a corner was just crossed, with the state (cu, cv), c_stuck
     cu = 0.0
@@ -841,6 +846,21 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     stride = 7919 if n % 7919 != 0 else 1
     for k in prange(n):
         i = (k * stride) % n
-        o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1], o_t[i], o_u[i], o_vin[i],
+        o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1],
+                              ics[i, 2] if ics.shape[1] > 2 else 0.0, o_t[i], o_u[i], o_vin[i],
                               o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i],
                               o_rec0[i:i + 1])
+
+
+@pjit
+def obstacle_heights(params, t0):
+    """z(t0) per packed row i and start time t0[i, m] (the floor a start drawn at t0 must
+    clear)."""
+    out = np.empty(t0.shape)
+    for i in prange(params.shape[0]):
+        p = P.as_tuple(params[i])
+        d = derived_tuple(derive(params[i]))
+        for m in range(t0.shape[1]):
+            j, tau = piece_at(d, t0[i, m])
+            out[i, m], _, _, _ = z_state(p, j, tau)
+    return out

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..analysis import detect_cycles
 from ..kernels.fill import full
-from ..kernels.flow import run_batch
+from ..kernels.flow import obstacle_heights, run_batch
 from ..model import Coord, CycleSeries, Field, Model
 from ..stability import batch_stability, new_outputs
 from . import params as P
@@ -63,6 +63,10 @@ IMPACT_CYCLE = CycleSeries(end="t", a="u", b="v_in", per="impacts", names=("u", 
 U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
           "u at the last section crossed (the state a followed sweep carries on)")
 V = Coord("v", (-20.0, 20.0), 1, None, "initial velocity v(0)", "v at the last section crossed")
+# the start time t0 of each run, the obstacle's phase at the start (0: a corner of the
+# rectified sine); a start coordinate beside the state, not carried by follow
+T0 = Coord("t", (0.0, 0.0), 2, None, "start time t0 of the run (the obstacle's phase at the "
+           "start; u(0), v(0) are the state at t0)", "")
 
 
 def resonance_problem(vals, key) -> str | None:
@@ -86,6 +90,13 @@ class FlowModel(Model):
                 problems.append(p)
         kap = ctx.values_list("kappa")
         rng = ctx.ranges.get("u")
+        t0 = ctx.ranges.get("t", (0.0, 0.0))
+        swept_t = ctx.swept("initial.t")
+        if t0[0] < 0.0:
+            problems.append(f"initial.t: {list(t0)} must not be negative (the start time t0)")
+        if swept_t is not None and min(swept_t.values) < 0.0:
+            problems.append(f"sweep.initial.t: {min(swept_t.values)!r} must not be negative "
+                            "(the start time t0)")
         if ctx.drawn and rng and kap and rng[1] <= max(kap):
             problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
                             f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
@@ -96,6 +107,10 @@ class FlowModel(Model):
 
     def wall_at_start(self, params):
         return params[:, P.KAPPA]
+
+    def wall_at(self, params, t0):
+        return obstacle_heights(np.ascontiguousarray(params),
+                                np.ascontiguousarray(t0, dtype=float))
 
     def pack_values(self, values: dict, scene) -> np.ndarray:
         stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
@@ -190,6 +205,7 @@ MODEL = FlowModel(
     doc="one particle and a moving obstacle with corners (sections 2-3, eqs 4-9)",
     params=P.PARAMS,
     state=(U, V),
+    start_time=T0,
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS,
                  "stability": STABILITY_FIELDS},
     opt_in=("stability",),

@@ -146,6 +146,18 @@ def piece_start(d, j):
 
 
 @jit
+def piece_at(d, t):
+    """Piece index j and local time tau of absolute time t >= 0 (inverse of
+    ``piece_start``)."""
+    per = d[D_PERIOD]
+    m = math.floor(t / per)
+    x = t - m * per
+    if x >= d[D_L0]:
+        return 2 * m + 1, x - d[D_L0]
+    return 2 * m, x
+
+
+@jit
 def piece_length(d, j):
     return d[D_L0] if j % 2 == 0 else d[D_L1]
 
