@@ -19,7 +19,7 @@ Written to the file::
     /attractor                 G + (n_ic,) int32: the run's attractor id (a row of the
                                table), or a negative code (``CODES``)
     /attractors/id, word, period, impacts_per_cycle, parameter_point   (n,)
-    /attractors/<axis>         (n,) the value of each swept parameter at its point
+    /attractors/at_<axis>      (n,) the value of each swept parameter at its point
     /attractors/signature      (n, 6) its signature (``analysis.SIGNATURE``)
     /attractors/point          (n, 2) a point of the cycle (the model's ``CycleSeries``)
     /attractors/runs, fraction, standard_error   (n,) the runs it attracts, their share
@@ -34,7 +34,8 @@ Written to the file::
 Ids run over the table ordered by (parameter point, period, word, mean of a, mean of b):
 they depend only on the runs' values, which do not depend on the thread count, the block
 size, the backend or resumes, so the same scene writes the same ids.  The pass reads the
-file in slabs (memory: one slab and one int32 per run).
+file in slabs (memory: one slab, and about 30 bytes per run for the ids and their
+temporaries).
 """
 
 from __future__ import annotations
@@ -192,9 +193,14 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
     ident[rank] = np.arange(R)
     ids = np.where(serial >= 0, ident[np.maximum(serial, 0)] if R else 0,
                    serial).astype(np.int32)
-    for name in ("attractor", "attractors"):
-        if name in f:
-            del f[name]
+    if "attractor" in f:                   # an earlier table: its scales let go first
+        old = f["attractor"]
+        for i, dim in enumerate(old.dims):
+            for sc in list(dim.values()):
+                old.dims[i].detach_scale(sc)
+        del f["attractor"]
+    if "attractors" in f:
+        del f["attractors"]
     G = scene.shape
     d = f.create_dataset("attractor", data=ids.reshape(G + (scene.n_ic,)),
                          compression="gzip", compression_opts=1, shuffle=True)
@@ -223,9 +229,11 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
         m = np.array([reps.mult[s] for s in rank])
         cols["multiplier_re"], cols["multiplier_im"] = m.real, m.imag
     if par_axes:
+        # at_<axis>, not <axis>: a dataset named as a root dimension of another length would
+        # stop xarray from opening the group
         sub = np.unravel_index(pts, tuple(a.array.size for a in par_axes))
         for a, i in zip(par_axes, sub):
-            cols[a.name] = a.array[i]
+            cols[f"at_{a.name}"] = a.array[i]
     for name, arr in cols.items():
         g.create_dataset(name, data=arr)
     g["word"].attrs["_Encoding"] = "ascii"

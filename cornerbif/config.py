@@ -638,12 +638,13 @@ def _read_initial(w):
         if c in ini:
             w.problems.append(f"initial.{c}: {_fmt(ini[c])} but sweep.initial.{c} sweeps it; "
                               "give one of the two")
-    # every state coordinate swept and the start time (if any) fixed: one start per cell
-    if swept and set(swept) >= set(w.spec.coords) and all(
-            c in swept or _fixed(ini.get(c, list(w.spec.coord(c).default))) for c in coords):
+    # every start coordinate swept or fixed (a range [a, a]): one start per cell
+    if swept and all(c in swept or _fixed(ini.get(c, list(w.spec.coord(c).default)))
+                     for c in coords):
         if "count" in ini and n_ic != 1:
             w.problems.append(f"initial.count: {n_ic} with every start coordinate swept "
-                              f"(sweep.initial.*): each cell is one start; use count = 1")
+                              f"(sweep.initial.*) or fixed: each cell is one start; use "
+                              "count = 1")
         n_ic = 1
     ranges = {}
     for c in coords:                                        # the model's state order

@@ -75,13 +75,15 @@ def label_tex(label: str) -> str:
 
 def draw_basin(ax, path, axes, values, labels_of=None):
     """Two swept start coordinates: each cell coloured by its attractor (the table's id,
-    colours by label), the outcomes without one in greys; the legend gives each
+    colours by label; with several starts per cell, its first start's), the outcomes
+    without one in greys; the legend gives each
     attractor's share of the cells (a grid's share has no sampling error: its convergence
     is shown by refining, docs/basins.md)."""
     import matplotlib.colors as mcolors
     import matplotlib.patches as mpatches
     table = read_table(path)
-    ids = table["ids"][..., 0]
+    n_ic = table["ids"].shape[-1]
+    ids = table["ids"][..., 0]        # the first start of each cell (module doc)
     labels = attractor_labels(table)
     colors = attractor_colors(labels if labels_of is None else labels_of)
     R = len(labels)
@@ -96,15 +98,20 @@ def draw_basin(ax, path, axes, values, labels_of=None):
     for i in np.argsort(-table["runs"], kind="stable"):
         handles.append(mpatches.Patch(
             color=colors[labels[i]],
-            label=f"{label_tex(labels[i])}: {table['fraction'][i]:.2%} of the cells"))
-    n = ids.size
+            label=f"{label_tex(labels[i])}: {table['fraction'][i]:.2%} of the "
+                  + ("cells" if n_ic == 1 else "runs")))
+    every = table["ids"]
+    n = every.size
     for c in reversed(codes):
-        k = int((ids == c).sum())
+        k = int((every == c).sum())
         if k:
             handles.append(mpatches.Patch(facecolor=OUTCOME_COLORS[c], edgecolor="0.6",
                                           label=f"{CODES[c]}: {k / n:.1%}"))
+    title = f"attractor reached ({R} found)"
+    if n_ic > 1:
+        title += f"\ncells: the first of {n_ic} starts;\nshares: every start"
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
-              title=f"attractor reached ({R} found)", title_fontsize=7, frameon=False)
+              title=title, title_fontsize=7, frameon=False)
     return im
 
 

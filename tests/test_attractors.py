@@ -138,7 +138,7 @@ def test_a_parameter_axis_has_a_table_per_point(tmp_path):
     t = A.read_table(str(out))
     assert t["runs_per_point"] == 12
     kap = np.linspace(0.002, 0.016, 5)
-    assert np.allclose(t["kappa"], kap[t["parameter_point"]])
+    assert np.allclose(t["at_kappa"], kap[t["parameter_point"]])
     total = np.bincount(t["parameter_point"], t["runs"], minlength=5)
     assert np.array_equal(total + t["outcomes"][:, 1:].sum(axis=1), np.full(5, 12))
     assert np.array_equal(total, t["outcomes"][:, 0])

@@ -100,6 +100,13 @@ def test_xarray_opens_root_and_groups(tiny, tmp_path):
     assert set(ini["u"].coords) == {"kappa", "ic"}
     # the words read back as text
     assert ds["symbols"].dtype.kind == "U" or isinstance(ds["symbols"].values.flat[0], str)
+    # the attractor table and the cycle signatures open too (no dataset named as a root
+    # dimension of another length)
+    tab = xr.open_dataset(out, engine="h5netcdf", group="attractors")
+    with h5py.File(out) as f:
+        assert np.array_equal(tab["at_kappa"].values, f["attractors/at_kappa"][...])
+    cyc = xr.open_dataset(out, engine="h5netcdf", group="cycle")
+    assert cyc["signature"].dims[:2] == ("kappa", "ic")
 
 
 def test_overrides_and_rerun_reproduces_bitwise(tiny, tmp_path):

@@ -490,6 +490,11 @@ def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corn
     ring_v = np.empty(nring)
     ring_n = np.empty(nring, np.int64)
     ring_s = np.empty(nring, np.bool_)
+    if t_start != 0.0:
+        # a start inside the period: the corners before it are never stored, so no lag may
+        # match them (cycle_watch reads corners 1 .. j)
+        ring_u[:] = math.inf
+        ring_v[:] = math.inf
     lag_step = cycle_lag(p)
     j_end = NO_END
     last_j = np.int64(0)

@@ -8,6 +8,8 @@ obstacles' jitted pieces in ``models/obstacle.py``; the kernel is ``kernels/flow
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..analysis import detect_cycles
@@ -81,6 +83,21 @@ def resonance_problem(vals, key) -> str | None:
     return None
 
 
+def obstacle_top(ctx):
+    """The obstacle's highest point over a period at the scene's largest kappa and beta
+    (the triangle: its peak), or None when unknown."""
+    kap = max(ctx.values_list("kappa"))
+    beta = max(ctx.values_list("beta"))
+    if ctx.obstacle in ("sine", "rectified_sine"):
+        return kap + beta
+    if ctx.obstacle == "triangle":
+        w = min(ctx.values_list("omega"))
+        t1 = [x if x is not None else beta * w for x in ctx.values_list("theta1")]
+        t2 = [x if x is not None else beta * w for x in ctx.values_list("theta2")]
+        return kap + max(a * b / (a + b) for a in t1 for b in t2) * math.pi / w
+    return None
+
+
 class FlowModel(Model):
     def check(self, ctx):
         problems = []
@@ -97,6 +114,13 @@ class FlowModel(Model):
         if swept_t is not None and min(swept_t.values) < 0.0:
             problems.append(f"sweep.initial.t: {min(swept_t.values)!r} must not be negative "
                             "(the start time t0)")
+        moving_start = t0[1] > 0.0 or (swept_t is not None and max(swept_t.values) > 0.0)
+        if ctx.drawn and rng and moving_start and not ctx.problems and not ctx.swept("initial.u"):
+            top = obstacle_top(ctx)
+            if top is not None and rng[1] <= top:
+                problems.append(f"initial.u: {list(rng)} does not reach above the obstacle's "
+                                f"top z = {top!r} over the start times (initial.t): a start "
+                                "at such a t0 would lie below it; raise the upper end")
         if ctx.drawn and rng and kap and rng[1] <= max(kap):
             problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
                             f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
