@@ -186,6 +186,8 @@ class Scene:
     preset : the ``run.preset`` the run settings were resolved from.
     stop : ``run.stop`` resolved: "period" (early stop) or "none".
     cont : the ``[continue]`` table resolved (``cornerbif continue``), empty without one.
+    profile : the checked cam profile of ``obstacle = "profile"`` (``models.profile.Profile``),
+        else None.
     """
 
     name: str
@@ -213,6 +215,7 @@ class Scene:
     preset: str = DEFAULT_PRESET
     stop: str = "none"
     cont: dict = field(default_factory=dict)
+    profile: object = None
 
     @property
     def shape(self) -> tuple:
@@ -413,6 +416,7 @@ class CheckContext:
         self.obstacle = w.obstacle
         self.problems = list(w.problems)
         self.drawn = w.drawn
+        self.profile = getattr(w, "profile", None)
 
     def swept(self, name):
         return next((a for a in self.axes if a.name == name), None)
@@ -473,6 +477,24 @@ def _read_system(w):
             section_period = None
         else:
             section_period = float(section_period)
+    w.profile, w.profile_table = None, None
+    if "profile" in spec.system_extra:
+        table = sy.get("profile")
+        if obstacle == "profile":
+            from .models.profile import ProfileError, read
+            if table is None:
+                w.problems.append("system.profile: obstacle = \"profile\" needs a "
+                                  "[system.profile] table (period, pieces; docs/cams.md)")
+            else:
+                try:
+                    w.profile = read(table)
+                    w.profile_table = {"period": float(table.get("period", w.profile.period)),
+                                       "pieces": table["pieces"]}
+                except ProfileError as e:
+                    w.problems += e.problems
+        elif table is not None:
+            w.problems.append(f"system.profile: given, but system.obstacle is {obstacle!r}; "
+                              "a profile is the obstacle \"profile\"")
     w.obstacle, w.system, w.section_period = obstacle, system, section_period
 
 
@@ -601,8 +623,11 @@ def _read_sweep(w):
         w.problems.append("system.section_period: cannot be fixed while omega is swept "
                           "(the default T = 2 pi / omega follows omega)")
     ob = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
+    if ob is not None and ob.name == "profile" and getattr(w, "profile", None) is None:
+        ob = None                       # no valid profile: its problem is reported already
     if sp is not None and ob is not None and w.system.get("omega"):
-        per = ob.period(w.system["omega"])
+        per = (w.profile.period / w.system["omega"] if ob.name == "profile"
+               else ob.period(w.system["omega"]))
         m = sp / per
         if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
             w.problems.append(f"system.section_period: {sp!r} is not a whole number of "
@@ -841,6 +866,10 @@ def _read_continue(w):
         pr.append(f"continue: model {w.model!r} has no orbit solver yet; continuation runs "
                   f"model {which}")
         return
+    if w.obstacle == "profile":
+        pr.append("continue: obstacle 'profile' has no orbit solver yet (it takes two pieces "
+                  "per obstacle period); sweep it, or continue a built-in obstacle")
+        return
     name = c.get("parameter")
     numeric = [k for k in w.spec.params]
     if name not in numeric:
@@ -992,6 +1021,8 @@ def _scene(w) -> Scene:
         del as_run["sweep"]
     if w.section_period is not None:
         as_run["system"]["section_period"] = w.section_period
+    if getattr(w, "profile_table", None) is not None:
+        as_run["system"]["profile"] = w.profile_table
     if w.plot:
         as_run["plot"] = w.plot
     if w.cont:
@@ -1003,4 +1034,4 @@ def _scene(w) -> Scene:
                  chatter=run["chatter"], escape=run["escape"], period_tol=run["period_tol"],
                  max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
                  plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"],
-                 cont=w.cont)
+                 cont=w.cont, profile=getattr(w, "profile", None))

@@ -435,6 +435,8 @@ def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
     """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis
     (``mono``: in greys, beside curves coloured by attractor)."""
     sys_ = data.scene.get("system", {})
+    if sys_.get("obstacle") == "profile":
+        return draw_jump_speed(ax, data)
     if sys_.get("obstacle", "rectified_sine") != "rectified_sine":
         return []
     if not data.axes:
@@ -463,6 +465,29 @@ def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
             arts.append(ax.axvline(x, color="0.3" if mono else c, lw=0.8,
                                    ls=("--", "-.")[i] if mono else "--", label=f"{lab} = {x:.6g}"))
     return arts
+
+
+def draw_jump_speed(ax, data: PlotData):
+    """A cam profile swept in omega with a constant force (Omega = 0: a follower's spring
+    preload): the jump speed above which a follower riding the cam leaves it
+    (``models.profile.jump_speed``), a vertical line."""
+    sys_ = data.scene.get("system", {})
+    if not data.axes or data.axes[0] != "omega" or sys_.get("Omega", 1.0) != 0.0:
+        return []
+    from .models.profile import jump_speed, read
+    prof = read(sys_["profile"])
+    force = sys_.get("F", 0.0) * math.cos(sys_.get("phi", 0.0))
+    w = jump_speed(prof, sys_.get("kappa", 0.0), sys_.get("beta", 1.0), sys_.get("k", 1.0),
+                   force, sys_.get("sigma", 0.0))
+    x = data.values["omega"]
+    if w == 0.0:
+        return [ax.text(0.99, 0.99, "no jump speed: the follower leaves the cam at every "
+                        "speed (a corner where the slope drops launches it)",
+                        transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.3")]
+    if w is None or not (x.min() <= w <= x.max()):
+        return []
+    return [ax.axvline(w, color="tab:red", lw=0.8, ls="--",
+                       label=rf"jump speed $\omega_j$ = {w:.6g}")]
 
 
 def draw_plane(ax, data: PlotData):

@@ -20,6 +20,8 @@ Obstacle ``z(t)``; the particle is constrained to ``u >= z``:
   ``t_j = j*pi/omega``.
 * ``"sine"``: ``z = kappa + beta*sin(omega*t)`` (smooth; it is still split
   into pieces ``[j*pi/omega, (j+1)*pi/omega]`` for bookkeeping only).
+* a cam profile: a dict ``{"period": ..., "pieces": [...]}`` as the scenes write it
+  (:class:`NaiveProfile`), z = kappa + beta*g(omega*t), pieces split at their joints.
 * ``"triangle"``: period ``P = pi/omega``; valley corners at ``t = n*P``
   where ``z = kappa``; slope ``+theta2`` up to the peak at local time
   ``tp = theta1*P/(theta1+theta2)``, then slope ``-theta1`` down to the next
@@ -161,7 +163,93 @@ def free_flight(t, t0, u0, v0, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0):
 # ---------------------------------------------------------------------------
 # obstacle, piecewise
 # ---------------------------------------------------------------------------
+class NaiveProfile:
+    """A cam profile ``{"period": P, "pieces": [...]}`` as the scenes write it (docs/cams.md),
+    evaluated here from the formulas directly: z = kappa + beta g(omega t), g of the cam
+    angle, piece m over [start_m, start_m + span_m]; a piece is ``poly`` (powers of the
+    local angle) plus ``sine = [a, b, n]`` (a sin(n phi) + b cos(n phi)), or a motion
+    ``law`` of rise h from the previous piece's end height (x = phi / span):
+    dwell 0, constant_velocity h x, parabolic 2 h x^2 then h (1 - 2 (1 - x)^2),
+    simple_harmonic h (1 - cos(pi x)) / 2, cycloidal h (x - sin(2 pi x) / (2 pi)),
+    polynomial_345 h (10 x^3 - 15 x^4 + 6 x^5).  Pieces split time for the search only."""
+
+    def __init__(self, spec):
+        self.period = float(spec.get("period", 2 * math.pi))
+        self.pieces = []
+        start = 0.0
+        height = 0.0
+        for pc in spec["pieces"]:
+            span = float(pc["span"])
+            if "law" in pc:
+                law, h, h0 = pc["law"], float(pc.get("rise", 0.0)), height
+                self.pieces.append((start, span, ("law", law, h, h0)))
+            else:
+                poly = [float(c) for c in pc.get("poly", [0.0])]
+                a, b, n = (float(x) for x in pc.get("sine", [0.0, 0.0, 0.0]))
+                self.pieces.append((start, span, ("poly", poly, a, b, n)))
+            height = self.g(len(self.pieces) - 1, span)[0]
+            start += span
+
+    def g(self, m, phi):
+        """(g, dg/dphi) of piece m at local angle phi (arrays welcome)."""
+        _, span, f = self.pieces[m]
+        phi = np.asarray(phi, float)
+        if f[0] == "poly":
+            _, poly, a, b, n = f
+            c = np.array(poly)
+            g = np.polyval(c[::-1], phi) + a * np.sin(n * phi) + b * np.cos(n * phi)
+            dc = c[1:] * np.arange(1, c.size)
+            gp = (np.polyval(dc[::-1], phi) if dc.size else 0.0 * phi) \
+                + n * (a * np.cos(n * phi) - b * np.sin(n * phi))
+            return g, gp
+        _, law, h, h0 = f
+        x = phi / span
+        if law == "dwell":
+            return h0 + 0.0 * x, 0.0 * x
+        if law == "constant_velocity":
+            return h0 + h * x, h / span + 0.0 * x
+        if law == "parabolic":
+            g = np.where(x < 0.5, 2 * h * x ** 2, h * (1 - 2 * (1 - x) ** 2))
+            gp = np.where(x < 0.5, 4 * h * x, 4 * h * (1 - x)) / span
+            return h0 + g, gp
+        if law == "simple_harmonic":
+            return h0 + h * (1 - np.cos(np.pi * x)) / 2, h * np.pi * np.sin(np.pi * x) / (2 * span)
+        if law == "cycloidal":
+            return (h0 + h * (x - np.sin(2 * np.pi * x) / (2 * np.pi)),
+                    h * (1 - np.cos(2 * np.pi * x)) / span)
+        if law == "polynomial_345":
+            return (h0 + h * (10 * x ** 3 - 15 * x ** 4 + 6 * x ** 5),
+                    h * (30 * x ** 2 - 60 * x ** 3 + 30 * x ** 4) / span)
+        raise ValueError(f"unknown law {law!r}")
+
+    def bounds(self, j, omega):
+        n, m = divmod(j, len(self.pieces))
+        start, span, _ = self.pieces[m]
+        a = (n * self.period + start) / omega
+        return a, a + span / omega
+
+    def index(self, t, omega):
+        j = len(self.pieces) * int(math.floor(t * omega / self.period))
+        while True:
+            a, b = self.bounds(j, omega)
+            if t < a:
+                j -= 1
+            elif t >= b:
+                j += 1
+            else:
+                return j
+
+    def z(self, j, t, omega, kappa, beta):
+        a, _ = self.bounds(j, omega)
+        g, gp = self.g(j % len(self.pieces), omega * (np.asarray(t, float) - a))
+        return kappa + beta * g, beta * omega * gp
+
+
 def _check_obstacle(obstacle, omega, theta1, theta2):
+    if isinstance(obstacle, NaiveProfile):
+        if not omega > 0.0:
+            raise ValueError("omega must be > 0")
+        return
     if obstacle not in OBSTACLES:
         raise ValueError(f"unknown obstacle {obstacle!r}; expected one of {OBSTACLES}")
     if not omega > 0.0:
@@ -173,6 +261,8 @@ def _check_obstacle(obstacle, omega, theta1, theta2):
 
 def _piece_bounds(obstacle, j, omega, theta1, theta2):
     """[a_j, b_j] of smooth piece j (corner floats computed one single way)."""
+    if isinstance(obstacle, NaiveProfile):
+        return obstacle.bounds(j, omega)
     P = math.pi / omega
     if obstacle == "triangle":
         n, half = divmod(j, 2)
@@ -185,6 +275,8 @@ def _piece_bounds(obstacle, j, omega, theta1, theta2):
 
 def _piece_index(obstacle, t, omega, theta1, theta2):
     """j with a_j <= t < b_j (right-continuous, exact float comparison)."""
+    if isinstance(obstacle, NaiveProfile):
+        return obstacle.index(t, omega)
     P = math.pi / omega
     if obstacle == "triangle":
         j = 2 * int(math.floor(t / P))
@@ -204,6 +296,8 @@ def _z_piece(obstacle, j, t, omega, kappa, beta, theta1, theta2):
     """(z, z') on smooth piece j, using that piece's smooth formula (extended
     beyond the piece if t lies outside it).  ``t`` may be an array."""
     t = np.asarray(t, dtype=float)
+    if isinstance(obstacle, NaiveProfile):
+        return obstacle.z(j, t, omega, kappa, beta)
     if obstacle == "rectified_sine":
         # on piece j, omega t in [j pi, (j+1) pi] and |sin(omega t)| = sin(omega t - j pi)
         a = j * math.pi / omega
@@ -351,6 +445,8 @@ def _first_contact(obs, flight, t_start, t_end, dt, after_impact):
 
 
 def _params(obstacle, omega, kappa, beta, theta1, theta2, sigma, k, F, Omega, phi):
+    if isinstance(obstacle, dict):           # a cam profile (NaiveProfile)
+        obstacle = NaiveProfile(obstacle)
     _check_obstacle(obstacle, omega, theta1, theta2)
     obs = dict(obstacle=obstacle, omega=float(omega), kappa=float(kappa), beta=float(beta),
                theta1=None if theta1 is None else float(theta1),
@@ -376,6 +472,7 @@ def naive_impacts(obstacle, omega, kappa, beta, r, u0, v0, n_impacts, t0=0.0,
     u0 > z(t0) (strictly above the obstacle).
     """
     obs, fl = _params(obstacle, omega, kappa, beta, theta1, theta2, sigma, k, F, Omega, phi)
+    obstacle = obs["obstacle"]
     if not dt > 0.0:
         raise ValueError("dt must be > 0")
     t0 = float(t0)
@@ -427,6 +524,7 @@ def naive_gap_min(obstacle, omega, kappa, beta, u0, v0, t0, t1, sigma=0.0, k=1.0
     of g' found by brentq where g' changes sign from - to +).
     """
     obs, fl = _params(obstacle, omega, kappa, beta, theta1, theta2, sigma, k, F, Omega, phi)
+    obstacle = obs["obstacle"]
     flight = dict(t0=float(t0), u0=float(u0), v0=float(v0), **fl)
     best = (math.inf, float(t0))
     j = _piece_index(obstacle, float(t0), omega, theta1, theta2)

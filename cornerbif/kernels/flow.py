@@ -22,19 +22,20 @@ from ..models.obstacle import (
     D_IK,
     D_NPP,
     D_REGIME,
-    D_STURM0,
-    D_STURM1,
     D_WD,
     contact_floor,
     corner_of,
     cycle_lag,
+    cycle_np,
     derived_tuple,
+    derived_tuple_profile,
     piece_at,
     piece_length,
     piece_start,
     sine_amp,
     sine_part,
     sinusoidal,
+    sturm_floor,
     z_state,
     zpp_range,
     zppp_max,
@@ -268,7 +269,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
     """Certified root-free length of a flight on piece j (sigma = 0, f = 0), eqs (4), (7)-(8).
 
     With u'' = -k^2 u, the gap satisfies g'' + k^2 g = -k^2 z - z'' =: f(tau), and on
-    each piece f >= f_min (``obstacle.sturm_floors``, stored in D_STURM0/1).  By
+    each piece f >= f_min (``obstacle.sturm_floors``, ``obstacle.sturm_floor``).  By
     Sturm comparison g >= y on [0, pi/k], where y'' + k^2 y = f_min with y, y' = g, g'
     at s = 0, so g has no root before the first root of the sinusoid y (closed form).
 
@@ -286,7 +287,7 @@ def sturm_clear(p, d, j, g0, gp0, rest, cr, sr, have_rot, t_only):
     """
     if g0 < 0.0 or (g0 == 0.0 and gp0 <= 0.0):
         return 0.0, cr, sr, have_rot, math.nan
-    c = d[D_STURM0] if j % 2 == 0 else d[D_STURM1]      # f_min / k^2 (``sturm_floors``)
+    c = sturm_floor(d, j)                               # f_min / k^2 (``sturm_floors``)
     x = g0 - c
     yv = gp0 * d[D_IK]
     window = d[D_HALF]
@@ -436,7 +437,7 @@ def release(p, d, j, tau_rel, L, tol, underdamped):
 
 
 @jit
-def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
+def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
             final, info):
     """Integrate one item from (t, u, v) = (t_start, u0, v0), t_start >= 0 (the obstacle's
     phase at the start; 0 unless the scene sets ``[initial] t``); fill its output rows.
@@ -456,8 +457,6 @@ def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corn
     ``final`` receives the state at the last section crossed (for ``follow``).
     Returns the status code.
     """
-    p = P.as_tuple(p_row)            # values, not arrays: no reference counting in calls
-    d = derived_tuple(derive(p_row))
     tol = p[P.TOL]
     r = p[P.R]
     sig = p[P.SIGMA]
@@ -540,6 +539,8 @@ def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corn
     # the obstacle at the start of each piece (it depends on the parity of j only) and,
     # for the Sturm test, the free rotation over a whole piece: no trigonometry for a
     # flight from corner to corner (DESIGN 2b)
+    # (a profile of more than two pieces goes round its own cycle: cycle2 False)
+    cycle2 = cycle_np(d) == 2
     zs0, zps0, _, _ = z_state(p, 0, 0.0)
     zs1, zps1, _, _ = z_state(p, 1, 0.0)
     c_l0 = math.cos(wd * piece_length(d, 0))
@@ -696,7 +697,11 @@ def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corn
         t0 = math.nan
         if sturm and s_start == 0.0:
             # Sturm comparison: no root before the first root of the lower sinusoid
-            if j % 2 == 0:
+            if not cycle2:
+                # a profile of more than two pieces: this piece's own rotation
+                cl = math.cos(wd * L)
+                sl = math.sin(wd * L)
+            elif j % 2 == 0:
                 cl = c_l0
                 sl = s_l0
             else:
@@ -763,7 +768,9 @@ def run_one(p_row, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corn
             tau_ref = 0.0
             c_ref = 1.0       # the phase at a corner
             s_ref = 0.0
-            if j % 2 == 0:
+            if not cycle2:
+                z_ref, zp_ref, _, _ = z_state(p, j, 0.0)
+            elif j % 2 == 0:
                 z_ref = zs0
                 zp_ref = zps0
             else:
@@ -851,10 +858,29 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     stride = 7919 if n % 7919 != 0 else 1
     for k in prange(n):
         i = (k * stride) % n
-        o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1],
-                              ics[i, 2] if ics.shape[1] > 2 else 0.0, o_t[i], o_u[i], o_vin[i],
-                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i],
-                              o_rec0[i:i + 1])
+        t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
+        # values, not arrays: no reference counting in the kernel's calls
+        o_status[i] = run_one(P.as_tuple(params[i]), derived_tuple(derive(params[i])),
+                              ints, ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i],
+                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i],
+                              o_final[i], o_rec0[i:i + 1])
+
+
+@pjit
+def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
+                      o_status, o_final, o_rec0):
+    """``run_batch`` for rows of ``obstacle = "profile"`` (NPARAM_PROFILE wide): the same
+    ``run_one`` on the long tuples (models/obstacle.py, "the two tuple types").  A kernel
+    of its own, so that a sweep of a built-in obstacle never compiles the profile's code."""
+    n = params.shape[0]
+    stride = 7919 if n % 7919 != 0 else 1
+    for k in prange(n):
+        i = (k * stride) % n
+        t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
+        o_status[i] = run_one(P.as_tuple_profile(params[i]),
+                              derived_tuple_profile(derive(params[i])), ints, ics[i, 0],
+                              ics[i, 1], t0, o_t[i], o_u[i], o_vin[i], o_vout[i], o_off[i],
+                              o_corner[i], o_su[i], o_sv[i], o_final[i], o_rec0[i:i + 1])
 
 
 @pjit
@@ -863,9 +889,8 @@ def obstacle_heights(params, t0):
     clear)."""
     out = np.empty(t0.shape)
     for i in prange(params.shape[0]):
-        p = P.as_tuple(params[i])
-        d = derived_tuple(derive(params[i]))
+        d = derive(params[i])
         for m in range(t0.shape[1]):
             j, tau = piece_at(d, t0[i, m])
-            out[i, m], _, _, _ = z_state(p, j, tau)
+            out[i, m], _, _, _ = z_state(params[i], j, tau)
     return out

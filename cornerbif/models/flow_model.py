@@ -14,7 +14,7 @@ import numpy as np
 
 from ..analysis import detect_cycles
 from ..kernels.fill import full
-from ..kernels.flow import obstacle_heights, run_batch
+from ..kernels.flow import obstacle_heights, run_batch, run_batch_profile
 from ..model import Coord, CycleSeries, Field, Model
 from ..stability import batch_stability, new_outputs
 from . import params as P
@@ -73,23 +73,35 @@ T0 = Coord("t", (0.0, 0.0), 2, None, "start time t0 of the run (the obstacle's p
 
 def resonance_problem(vals, key) -> str | None:
     """Undamped exact resonance (F != 0, sigma = 0, Omega = k): models.oscillator's particular
-    solution divides by k^2 - Omega^2.  ``vals(name)`` gives the set of values a parameter
+    solution divides by k^2 - Omega^2; and a constant force (Omega = 0) without spring (k = 0),
+    where it divides by zero too.  ``vals(name)`` gives the set of values a parameter
     takes; ``key(name)`` its dotted key."""
     res = vals("Omega") & vals("k")
-    if any(x not in (0, 0.0, None) for x in vals("F")) and 0.0 in vals("sigma") and res:
+    forced = any(x not in (0, 0.0, None) for x in vals("F"))
+    if forced and 0.0 in vals("sigma") and res:
         return (f"{key('Omega')}: {sorted(res)[0]!r} equals {key('k')} with "
                 f"sigma = 0 and F != 0 (undamped exact resonance: no bounded "
                 "closed-form flight); change Omega or k, or add damping sigma > 0")
+    if forced and 0.0 in vals("Omega") and 0.0 in vals("k"):
+        return (f"{key('Omega')}: 0 (a constant force) with {key('k')} = 0: the flight of a "
+                "particle without spring under a constant force is not modelled; give k > 0 "
+                "(the follower's spring)")
     return None
 
 
 def obstacle_top(ctx):
     """The obstacle's highest point over a period at the scene's largest kappa and beta
-    (the triangle: its peak), or None when unknown."""
+    (the triangle: its peak; a profile: kappa + beta max g), or None when unknown."""
     kap = max(ctx.values_list("kappa"))
     beta = max(ctx.values_list("beta"))
     if ctx.obstacle in ("sine", "rectified_sine"):
         return kap + beta
+    if ctx.obstacle == "profile":
+        prof = getattr(ctx, "profile", None)
+        if prof is None:
+            return None
+        th = np.linspace(0.0, prof.period, 4097)
+        return kap + beta * float(prof.lift(th).max())
     if ctx.obstacle == "triangle":
         w = min(ctx.values_list("omega"))
         t1 = [x if x is not None else beta * w for x in ctx.values_list("theta1")]
@@ -139,7 +151,7 @@ class FlowModel(Model):
     def pack_values(self, values: dict, scene) -> np.ndarray:
         stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
         return P.pack(values, scene.obstacle, scene.tol, scene.chatter, scene.escape,
-                      scene.section_period, stop_tol)
+                      scene.section_period, stop_tol, scene.profile)
 
     def int_settings(self, scene):
         ints = np.zeros(P.NINT, np.int64)
@@ -171,6 +183,9 @@ class FlowModel(Model):
         fill = {"t"} | {f.source for f in self.fields(scene.keep)}
         cornered = np.isin(params[:, P.OBSTACLE],
                            [o.code for o in OBSTACLES.values() if o.corners])
+        # a profile has corners only where its slope jumps (models/profile.py)
+        if params.shape[1] > P.NPARAM:
+            cornered &= params[:, P.PROFILE_CORNERS] != 0
         res = _run_flow(params, ics, ints, scene, fill, cornered)
         out, st, final, period, ipc, sym, rec0 = res
         # early stop: a run stopped on a cycle the analysis does not confirm (e.g. a
@@ -214,8 +229,9 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     st = np.zeros(n, np.int8)
     final = np.zeros((n, 2))
     rec0 = np.zeros(n, np.int64)
-    run_batch(params, ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
-              out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
+    kernel = run_batch_profile if params.shape[1] > P.NPARAM else run_batch
+    kernel(params, ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
+           out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)
     sym = np.zeros((n, rec), np.uint8)
@@ -236,7 +252,7 @@ MODEL = FlowModel(
     continuation=True,
     seed_observable="impacts",
     cycle=IMPACT_CYCLE,
-    system_extra={"obstacle": "rectified_sine", "section_period": None},
+    system_extra={"obstacle": "rectified_sine", "section_period": None, "profile": None},
     obstacles=OBSTACLES,
     events_per_impact=10,
     early_stop=True,

@@ -24,6 +24,10 @@ always exactly at a piece boundary.
 
 import math
 
+import numpy as np
+from numba.core import types
+from numba.extending import overload
+
 from .._jit import jit
 from . import params as P
 
@@ -44,27 +48,125 @@ D_STURM1 = 12   # f_min / k^2 on odd pieces
 D_IK = 13       # 1 / k
 D_HALF = 14     # pi / k: how far the Sturm comparison reaches
 D_IWD = 15      # 1 / w_d (under-damped)
-NDERIVED = 16
+# pieces of the cycle that piece_start, piece_length and the Sturm floors go round: 2 for
+# the built-in obstacles (and a profile of one or two pieces: L0, L1, D_STURM0, D_STURM1),
+# a profile's pieces per period beyond (the per-piece slots below)
+D_NP = 16
+D_PL0 = 17      # 8 piece lengths (time)
+D_PS0 = 25      # 8 piece starts within the period (time)
+D_PSTURM0 = 33  # 8 Sturm floors f_min / k^2
+NDERIVED = 41
+
+
+NDERIVED_BUILTIN = 16   # the built-in obstacles' derived tuple: D_L0 .. D_IWD
 
 
 @jit
 def derived_tuple(d):
-    """The derived constants as a tuple of NDERIVED floats (a value: no reference counting
-    in the kernels' calls, see ``params.as_tuple``)."""
+    """The derived constants of a built-in obstacle as a tuple of NDERIVED_BUILTIN floats (a
+    value: no reference counting in the kernels' calls, see ``params.as_tuple``)."""
     return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11], d[12],
             d[13], d[14], d[15])
 
 
 @jit
+def derived_tuple_profile(d):
+    """A profile's derived constants, all NDERIVED: the kernels' second type."""
+    return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11],
+            d[12], d[13], d[14], d[15], d[16], d[17], d[18], d[19], d[20], d[21], d[22], d[23],
+            d[24], d[25], d[26], d[27], d[28], d[29], d[30], d[31], d[32], d[33], d[34], d[35],
+            d[36], d[37], d[38], d[39], d[40])
+
+
+# ------------------------------------------------------------------ the two tuple types
+# The kernels run a built-in obstacle on short tuples (params.as_tuple, derived_tuple) and a
+# profile on long ones (as_tuple_profile, derived_tuple_profile).  The profile's code is
+# reached through the overloads below: on a short tuple each compiles to a constant (a
+# built-in obstacle never reaches it), so the built-in obstacles' code is what it was.
+def _short(x, n):
+    return isinstance(x, types.BaseTuple) and len(x) == n
+
+
+def is_profile(p):
+    """Whether the packed parameters are a profile's (``obstacle = "profile"``)."""
+    return p[P.OBSTACLE] == P.PROFILE
+
+
+@overload(is_profile)
+def _is_profile(p):
+    if _short(p, P.NPARAM):
+        return lambda p: False
+    return lambda p: p[P.OBSTACLE] == P.PROFILE
+
+
+def cycle_np(d):
+    """Pieces of the cycle of ``d`` (``D_NP``): 2 but for a profile of more pieces."""
+    return 2 if len(d) == NDERIVED_BUILTIN else int(d[D_NP])
+
+
+@overload(cycle_np)
+def _cycle_np(d):
+    if _short(d, NDERIVED_BUILTIN):
+        return lambda d: 2
+    return lambda d: np.int64(d[D_NP])
+
+
+@jit
 def piece_lengths(p):
-    """(L0, L1, L0 + L1): the lengths of the even and the odd pieces, and of a pair."""
+    """(L0, L1, L0 + L1): the lengths of the even and the odd pieces, and of a pair (a
+    profile of more than two pieces: its first two, and its period; ``profile_pieces``)."""
     w = p[P.OMEGA]
+    if p[P.OBSTACLE] == P.PROFILE:
+        n = np.int64(p[P.PROFILE_NP])
+        L0 = p[P.PROFILE0 + P.PC_SPAN] / w
+        if n == 1:
+            return L0, L0, 2.0 * L0
+        L1 = p[P.PROFILE0 + P.PIECE_STRIDE + P.PC_SPAN] / w
+        return L0, L1, (L0 + L1) if n == 2 else p[P.PROFILE_PERIOD] / w
     if p[P.OBSTACLE] == P.TRIANGLE:
         per = math.pi / w
         t1 = p[P.THETA1]
         t2 = p[P.THETA2]
         return t1 * per / (t1 + t2), t2 * per / (t1 + t2), per
     return math.pi / w, math.pi / w, 2.0 * math.pi / w
+
+
+@jit
+def profile_piece(p, j):
+    """The slot of piece j's data in a profile's packed vector (its piece m = j mod n)."""
+    n = np.int64(p[P.PROFILE_NP])
+    return P.PROFILE0 + (j % n) * P.PIECE_STRIDE
+
+
+@jit
+def _profile_max(p, slot):
+    """The largest of a per-piece bound (slot PC_G3, PC_G4, ...) over the profile's pieces."""
+    n = np.int64(p[P.PROFILE_NP])
+    m = 0.0
+    for i in range(n):
+        m = max(m, abs(p[P.PROFILE0 + i * P.PIECE_STRIDE + slot]))
+    return m
+
+
+@jit
+def profile_g2_abs(p):
+    """The largest |g''| bound over the profile's pieces."""
+    n = np.int64(p[P.PROFILE_NP])
+    m = 0.0
+    for i in range(n):
+        o = P.PROFILE0 + i * P.PIECE_STRIDE
+        m = max(m, abs(p[o + P.PC_G2_LO]), abs(p[o + P.PC_G2_HI]))
+    return m
+
+
+@jit
+def profile_sturm_floor(p, m):
+    """f_min / k^2 of the Sturm comparison on profile piece m (k > 0): f = -k^2 z - z''
+    = -k^2 kappa - beta (k^2 g + omega^2 g'') >= -k^2 kappa - beta H, H the piece's bound of
+    k^2 g + omega^2 g'' packed for this point's k and omega (``profile.sturm_bound``)."""
+    o = P.PROFILE0 + m * P.PIECE_STRIDE
+    k = p[P.K]
+    return -p[P.KAPPA] - p[P.BETA] * p[o + P.PC_STURM] / (k * k)
 
 
 @jit
@@ -76,6 +178,8 @@ def contact_npp(p, f2):
         return f2
     w = p[P.OMEGA]
     k = p[P.K]
+    if is_profile(p):
+        return profile_npp(p, f2)
     return w * w * p[P.BETA] * (abs(k * k - w * w) + 2.0 * p[P.SIGMA] * w) + f2
 
 
@@ -91,6 +195,9 @@ def sturm_floors(p, d):
     """
     kap = p[P.KAPPA]
     ob = p[P.OBSTACLE]
+    if ob == P.PROFILE:
+        n = np.int64(p[P.PROFILE_NP])
+        return profile_sturm_floor(p, 0), profile_sturm_floor(p, 1 % n)
     if ob == P.TRIANGLE:
         f = -(kap + p[P.THETA2] * d[D_L0])
         return f, f
@@ -116,7 +223,7 @@ def contact_floor(p):
     """
     ob = p[P.OBSTACLE]
     b = p[P.BETA]
-    if ob == P.TRIANGLE or (ob == P.RECTIFIED_SINE and b != 0.0):
+    if ob == P.TRIANGLE or ob == P.PROFILE or (ob == P.RECTIFIED_SINE and b != 0.0):
         return -math.inf
     k2 = p[P.K] * p[P.K]
     w = p[P.OMEGA]
@@ -129,6 +236,8 @@ def contact_floor(p):
 def cycle_lag(p):
     """Pieces per period of the obstacle: the early stop of the flow kernel
     (``flow.cycle_watch``) looks for a repeating state at multiples of this lag."""
+    if is_profile(p):
+        return profile_np(p)
     return 1 if p[P.OBSTACLE] == P.RECTIFIED_SINE else 2
 
 
@@ -136,13 +245,16 @@ def cycle_lag(p):
 def sinusoidal(p):
     """Whether every piece is z = kappa + b sin(omega tau), b = ``sine_amp``: then the flow
     kernel's free-flight fast path (``flow.first_impact_free``, its phase grid) applies."""
-    return p[P.OBSTACLE] != P.TRIANGLE
+    return p[P.OBSTACLE] != P.TRIANGLE and p[P.OBSTACLE] != P.PROFILE
 
 
 @jit
 def piece_start(d, j):
     """Absolute time of the start of piece j."""
-    return (j // 2) * d[D_PERIOD] + (j % 2) * d[D_L0]
+    n = cycle_np(d)
+    if n == 2:
+        return (j // 2) * d[D_PERIOD] + (j % 2) * d[D_L0]
+    return (j // n) * d[D_PERIOD] + d[D_PS0 + j % n]
 
 
 @jit
@@ -152,20 +264,58 @@ def piece_at(d, t):
     per = d[D_PERIOD]
     m = math.floor(t / per)
     x = t - m * per
-    if x >= d[D_L0]:
-        return 2 * m + 1, x - d[D_L0]
-    return 2 * m, x
+    n = cycle_np(d)
+    if n == 2:
+        if x >= d[D_L0]:
+            return 2 * m + 1, x - d[D_L0]
+        return 2 * m, x
+    i = n - 1
+    while i > 0 and x < d[D_PS0 + i]:
+        i -= 1
+    return n * m + i, x - d[D_PS0 + i]
 
 
 @jit
 def piece_length(d, j):
-    return d[D_L0] if j % 2 == 0 else d[D_L1]
+    n = cycle_np(d)
+    if n == 2:
+        return d[D_L0] if j % 2 == 0 else d[D_L1]
+    return d[D_PL0 + j % n]
+
+
+@jit
+def sturm_floor(d, j):
+    """f_min / k^2 on piece j (``sturm_floors``; a profile's per piece)."""
+    n = cycle_np(d)
+    if n == 2:
+        return d[D_STURM0] if j % 2 == 0 else d[D_STURM1]
+    return d[D_PSTURM0 + j % n]
+
+
+@jit
+def profile_cycle(p, d):
+    """Fill the per-piece slots of ``d`` for a profile of more than two pieces (its
+    lengths, starts and Sturm floors); two for every other obstacle."""
+    if p[P.OBSTACLE] != P.PROFILE or p[P.PROFILE_NP] <= 2.0:
+        d[D_NP] = 2.0
+        return
+    n = np.int64(p[P.PROFILE_NP])
+    d[D_NP] = n
+    w = p[P.OMEGA]
+    for m in range(n):
+        o = P.PROFILE0 + m * P.PIECE_STRIDE
+        d[D_PL0 + m] = p[o + P.PC_SPAN] / w
+        d[D_PS0 + m] = p[o + P.PC_START] / w
+        if p[P.K] > 0.0:
+            d[D_PSTURM0 + m] = profile_sturm_floor(p, m)
 
 
 @jit
 def z_state(p, j, tau):
     """Obstacle height, slope, curvature and third derivative on piece j at local time tau."""
     ob = p[P.OBSTACLE]
+    if is_profile(p):
+        return profile_state(p, j, tau)
     if ob == P.TRIANGLE:
         if j % 2 == 0:
             return p[P.KAPPA] + p[P.THETA2] * tau, p[P.THETA2], 0.0, 0.0
@@ -174,6 +324,45 @@ def z_state(p, j, tau):
     zr, zp = sine_part(p, j, tau)
     w2 = p[P.OMEGA] * p[P.OMEGA]
     return p[P.KAPPA] + zr, zp, -w2 * zr, -w2 * zp
+
+
+@jit
+def _profile_state(p, j, tau):
+    """z and its first three time derivatives on profile piece j at local time tau:
+    z = kappa + beta g(phi),
+    phi = omega tau, g a polynomial of degree <= 7 plus a sin(n phi) + b cos(n phi)
+    (models/profile.py)."""
+    o = profile_piece(p, j)
+    w = p[P.OMEGA]
+    x = w * tau
+    c = o + P.PC_C0
+    # Horner for g and its first three derivatives, from the piece's degree down
+    deg = np.int64(p[o + P.PC_DEG])
+    g = p[c + deg]
+    g1 = 0.0
+    g2 = 0.0
+    g3 = 0.0
+    for i in range(deg - 1, -1, -1):
+        g3 = g3 * x + g2
+        g2 = g2 * x + g1
+        g1 = g1 * x + g
+        g = g * x + p[c + i]
+    g2 *= 2.0
+    g3 *= 6.0
+    a = p[o + P.PC_A]
+    b = p[o + P.PC_B]
+    n = p[o + P.PC_N]
+    if a != 0.0 or b != 0.0:
+        s = math.sin(n * x)
+        co = math.cos(n * x)
+        e = a * s + b * co
+        f = n * (a * co - b * s)
+        g += e
+        g1 += f
+        g2 -= n * n * e
+        g3 -= n * n * f
+    be = p[P.BETA]
+    return (p[P.KAPPA] + be * g, be * w * g1, be * w * w * g2, be * w * w * w * g3)
 
 
 @jit
@@ -199,6 +388,8 @@ def zpp_range(p, j):
     ob = p[P.OBSTACLE]
     if ob == P.TRIANGLE:
         return 0.0, 0.0
+    if is_profile(p):
+        return profile_zpp_range(p, j)
     a = p[P.BETA] * p[P.OMEGA] * p[P.OMEGA]
     if ob == P.SINE and j % 2 == 1:
         return 0.0, a
@@ -210,6 +401,8 @@ def zppp_max(p):
     """Bound of |z'''| on every piece."""
     if p[P.OBSTACLE] == P.TRIANGLE:
         return 0.0
+    if is_profile(p):
+        return p[P.BETA] * p[P.OMEGA] ** 3 * profile_bound(p, P.PC_G3)
     return p[P.BETA] * p[P.OMEGA] ** 3
 
 
@@ -218,6 +411,8 @@ def zpppp_max(p):
     """Bound of |z''''| on every piece (used by the sinusoidal fast search)."""
     if p[P.OBSTACLE] == P.TRIANGLE:
         return 0.0
+    if is_profile(p):
+        return p[P.BETA] * p[P.OMEGA] ** 4 * profile_bound(p, P.PC_G4)
     return zppp_max(p) * p[P.OMEGA]
 
 
@@ -226,7 +421,9 @@ def corner_of(p, d, j, tau):
     """Nearest valley corner to (j, tau): its index and the signed offset tau - t_corner.
 
     For ``sine`` (no corners) the "corner" is the nearest start of a forcing
-    period; the kernel uses it only to group impacts, and the file stores NaN.
+    period; the kernel uses it only to group impacts, and the file stores NaN.  A
+    profile's corners are its joints where the slope jumps (``profile_corner``); one
+    without corners is grouped by its periods, as ``sine``.
     """
     ob = p[P.OBSTACLE]
     if ob == P.RECTIFIED_SINE:
@@ -234,9 +431,129 @@ def corner_of(p, d, j, tau):
         if tau < 0.5 * L:
             return j, tau
         return j + 1, tau - L
+    if is_profile(p):
+        c, off, found = profile_corner(p, d, j, tau)
+        if found:
+            return c, off
     # sine and triangle: two pieces per period, corners at period starts
     x = tau if j % 2 == 0 else d[D_L0] + tau
     per = d[D_PERIOD]
     if x < 0.5 * per:
         return j // 2, x
     return j // 2 + 1, x - per
+
+
+@jit
+def _profile_corner(p, d, j, tau):
+    """The nearest corner of a profile to (j, tau): the piece index whose start is that
+    corner (an increasing number: corner ids of successive periods differ by its pieces
+    per period) and the signed offset t - t_corner."""
+    # the last corner at or before (j, tau) and the first after it, at most a period away
+    n = np.int64(p[P.PROFILE_NP])
+    if p[P.PROFILE_CORNERS] == 0.0:
+        return j, tau, False
+    back = j
+    while p[profile_piece(p, back) + P.PC_CORNER] == 0.0:
+        back -= 1
+    ahead = j + 1
+    while p[profile_piece(p, ahead) + P.PC_CORNER] == 0.0:
+        ahead += 1
+    t = piece_start(d, j) + tau
+    before = t - piece_start(d, back)
+    after = piece_start(d, ahead) - t
+    # one- and two-piece profiles go round the two-piece cycle of d: their corner ids
+    # count pieces of that cycle, which are the profile's own
+    if before <= after or n < 1:
+        return back, before, True
+    return ahead, -after, True
+
+
+# ------------------------------------------------------------------ a profile's entry points
+@jit
+def _profile_zpp_range(p, j):
+    o = profile_piece(p, j)
+    s = p[P.BETA] * p[P.OMEGA] * p[P.OMEGA]
+    return s * p[o + P.PC_G2_LO], s * p[o + P.PC_G2_HI]
+
+
+@jit
+def _profile_npp(p, f2):
+    w = p[P.OMEGA]
+    k = p[P.K]
+    return p[P.BETA] * w * w * (w * w * _profile_max(p, P.PC_G4)
+                                + 2.0 * p[P.SIGMA] * w * _profile_max(p, P.PC_G3)
+                                + k * k * profile_g2_abs(p)) + f2
+
+
+def profile_state(p, j, tau):
+    """z and its first three time derivatives on profile piece j at local time tau
+    (``_profile_state``)."""
+    return _profile_state(p, j, tau)
+
+
+def profile_zpp_range(p, j):
+    """Bounds of z'' on profile piece j: beta omega^2 times the packed bounds of g''."""
+    return _profile_zpp_range(p, j)
+
+
+def profile_bound(p, slot):
+    """The largest of a per-piece bound (PC_G3, PC_G4) over the profile's pieces."""
+    return _profile_max(p, slot)
+
+
+def profile_npp(p, f2):
+    """Bound of |N''| on a profile (contact_npp): beta omega^2 (omega^2 G4 + 2 sigma omega
+    G3 + k^2 G2) + f2, G2, G3, G4 the largest bounds of the derivatives of g."""
+    return _profile_npp(p, f2)
+
+
+def profile_np(p):
+    """A profile's pieces per period (the early stop's lag, ``cycle_lag``)."""
+    return int(p[P.PROFILE_NP])
+
+
+def profile_corner(p, d, j, tau):
+    """The nearest corner of a profile (``_profile_corner``) and whether it has corners."""
+    return _profile_corner(p, d, j, tau)
+
+
+@overload(profile_state)
+def _ov_profile_state(p, j, tau):
+    if _short(p, P.NPARAM):
+        return lambda p, j, tau: (0.0, 0.0, 0.0, 0.0)
+    return lambda p, j, tau: _profile_state(p, j, tau)
+
+
+@overload(profile_zpp_range)
+def _ov_profile_zpp_range(p, j):
+    if _short(p, P.NPARAM):
+        return lambda p, j: (0.0, 0.0)
+    return lambda p, j: _profile_zpp_range(p, j)
+
+
+@overload(profile_bound)
+def _ov_profile_bound(p, slot):
+    if _short(p, P.NPARAM):
+        return lambda p, slot: 0.0
+    return lambda p, slot: _profile_max(p, slot)
+
+
+@overload(profile_npp)
+def _ov_profile_npp(p, f2):
+    if _short(p, P.NPARAM):
+        return lambda p, f2: 0.0
+    return lambda p, f2: _profile_npp(p, f2)
+
+
+@overload(profile_np)
+def _ov_profile_np(p):
+    if _short(p, P.NPARAM):
+        return lambda p: 1
+    return lambda p: np.int64(p[P.PROFILE_NP])
+
+
+@overload(profile_corner)
+def _ov_profile_corner(p, d, j, tau):
+    if _short(p, P.NPARAM):
+        return lambda p, d, j, tau: (j, tau, False)
+    return lambda p, d, j, tau: _profile_corner(p, d, j, tau)

@@ -31,7 +31,9 @@ from .obstacle import (
     D_Y,
     NDERIVED,
     contact_npp,
+    cycle_np,
     piece_lengths,
+    profile_cycle,
     sturm_floors,
 )
 
@@ -42,6 +44,7 @@ def derive(p):
     (the obstacle's own quantities come from ``models.obstacle``)."""
     d = np.zeros(NDERIVED)
     d[D_L0], d[D_L1], d[D_PERIOD] = piece_lengths(p)
+    profile_cycle(p, d)
     sig = p[P.SIGMA]
     k = p[P.K]
     if sig < k:
@@ -100,6 +103,10 @@ def budget_pieces(p, d, pieces):
     slower (omega <= 2k for sine and rectified_sine, omega <= k for triangle) it is
     ``pieces``, as before.
     """
+    n = cycle_np(d)
+    if n > 2:
+        # a profile of n pieces: 2 D_PERIOD hold 2 n pieces, not 4
+        pieces = np.int64(min(pieces * (n / 2.0), float(MAX_BUDGET)))
     scale = time_scale(p) / (2.0 * d[D_PERIOD])
     if not scale > 1.0:
         return pieces

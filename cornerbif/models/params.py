@@ -11,7 +11,16 @@ import math
 import numpy as np
 
 from .._jit import jit
-from ..model import FREQUENCY, Obstacle, Param, anything, frequency, nonnegative, positive, unit_interval
+from ..model import (
+    FREQUENCY,
+    Obstacle,
+    Param,
+    anything,
+    frequency,
+    nonnegative,
+    positive,
+    unit_interval,
+)
 
 # --- indices into the packed vector --------------------------------------------------
 OMEGA = 0      # obstacle frequency omega (eq 8)
@@ -33,7 +42,34 @@ SECTION_PIECES = 15  # smooth pieces per Poincare section period
 SECTION_AUTO = 16    # 1: put the section corners between the impact clusters (see flow kernel)
 STOP_TOL = 17        # > 0: stop once the attractor's period is established (run.stop = "period"),
                      # with this relative tolerance on the state at the corners; 0: never
+# obstacle = "profile" (models/profile.py): z = kappa + beta g(omega t), g piecewise in the
+# cam angle; per piece m the slots PROFILE0 + m * PIECE_STRIDE + (the PC_* offsets)
+PROFILE_NP = 18      # pieces per period
+PROFILE_PERIOD = 19  # the period of g, an angle
+PROFILE_CORNERS = 20 # 1 when some joint is a corner
+PROFILE0 = 21
+PC_SPAN = 0          # the piece's angular span
+PC_C0 = 1            # c_0 .. c_7 at PC_C0 .. PC_C0 + 7 (the local angle's powers)
+PC_A = 9             # a sin(n phi) + b cos(n phi)
+PC_B = 10
+PC_N = 11
+PC_G_LO = 12         # certified bounds on the piece (profile.bounds): of g, of its second
+PC_G_HI = 13         # derivative, and of the magnitudes of its third and fourth
+PC_G2_LO = 14
+PC_G2_HI = 15
+PC_G3 = 16
+PC_G4 = 17
+PC_CORNER = 18       # 1 when the piece's start is a corner
+PC_START = 19        # the angle at which the piece starts
+PC_STURM = 20        # an upper bound of k^2 g + omega^2 g'' on the piece (profile.sturm_bound)
+PC_DEG = 21          # the polynomial's degree (its highest nonzero coefficient)
+PIECE_STRIDE = 22
+PROFILE_MAX = 8      # pieces per period at most (profile.MAX_PIECES)
+# the built-in obstacles' rows hold the first NPARAM slots; a profile's rows NPARAM_PROFILE:
+# the kernels then run on two tuple types (as_tuple, as_tuple_profile), so that a built-in
+# obstacle's calls carry 18 floats, not a profile's table (models/obstacle.py)
 NPARAM = 18
+NPARAM_PROFILE = PROFILE0 + PROFILE_MAX * PIECE_STRIDE
 # the named parameters of PARAMS (below) and their slots (theta1, theta2: pack)
 INDEX = {"omega": OMEGA, "kappa": KAPPA, "beta": BETA, "r": R, "sigma": SIGMA, "k": K,
          "F": F_AMP, "Omega": F_OMEGA, "phi": F_PHI}
@@ -41,7 +77,7 @@ INDEX = {"omega": OMEGA, "kappa": KAPPA, "beta": BETA, "r": R, "sigma": SIGMA, "
 
 @jit
 def as_tuple(p):
-    """The packed parameter row as a tuple of NPARAM floats.
+    """The packed parameter row of a built-in obstacle as a tuple of NPARAM floats.
 
     A tuple is a value: the kernels' many small calls pass it without the atomic
     reference counting every array argument costs (measured: a fifth of the flow
@@ -49,6 +85,36 @@ def as_tuple(p):
     """
     return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
             p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17])
+
+
+@jit
+def as_tuple_profile(p):
+    """A profile's packed row (NPARAM_PROFILE floats) as a tuple: the kernels' second type."""
+    return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
+            p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19],
+            p[20], p[21], p[22], p[23], p[24], p[25], p[26], p[27], p[28], p[29],
+            p[30], p[31], p[32], p[33], p[34], p[35], p[36], p[37], p[38], p[39],
+            p[40], p[41], p[42], p[43], p[44], p[45], p[46], p[47], p[48], p[49],
+            p[50], p[51], p[52], p[53], p[54], p[55], p[56], p[57], p[58], p[59],
+            p[60], p[61], p[62], p[63], p[64], p[65], p[66], p[67], p[68], p[69],
+            p[70], p[71], p[72], p[73], p[74], p[75], p[76], p[77], p[78], p[79],
+            p[80], p[81], p[82], p[83], p[84], p[85], p[86], p[87], p[88], p[89],
+            p[90], p[91], p[92], p[93], p[94], p[95], p[96], p[97], p[98], p[99],
+            p[100], p[101], p[102], p[103], p[104], p[105], p[106], p[107], p[108], p[109],
+            p[110], p[111], p[112], p[113], p[114], p[115], p[116], p[117], p[118], p[119],
+            p[120], p[121], p[122], p[123], p[124], p[125], p[126], p[127], p[128], p[129],
+            p[130], p[131], p[132], p[133], p[134], p[135], p[136], p[137], p[138], p[139],
+            p[140], p[141], p[142], p[143], p[144], p[145], p[146], p[147], p[148], p[149],
+            p[150], p[151], p[152], p[153], p[154], p[155], p[156], p[157], p[158], p[159],
+            p[160], p[161], p[162], p[163], p[164], p[165], p[166], p[167], p[168], p[169],
+            p[170], p[171], p[172], p[173], p[174], p[175], p[176], p[177], p[178], p[179],
+            p[180], p[181], p[182], p[183], p[184], p[185], p[186], p[187], p[188], p[189],
+            p[190], p[191], p[192], p[193], p[194], p[195], p[196])
+
+
+def steady_or_frequency(v):
+    """Omega: 0 (a constant force) or a frequency."""
+    return v == 0.0 or frequency(v)
 
 
 # --- the declarations (read by config through the registry) ------------------------------
@@ -63,6 +129,10 @@ OBSTACLES = {
     "triangle": Obstacle("triangle", 2, "eq (7) made periodic, period pi / omega: slope "
                          "+theta2 after each corner, -theta1 before it", period_pi=1, pieces=2,
                          corners=True),
+    # period, pieces and corners are the scene's profile's (models/profile.py, docs/cams.md)
+    "profile": Obstacle("profile", 3, "kappa + beta g(omega t), g a cam profile of "
+                        "polynomial and sinusoidal pieces ([system.profile])", period_pi=2,
+                        pieces=1, corners=True),
 }
 # the section corners are put between the impact clusters (kernels.flow) for obstacles whose
 # attractors near omega = 2 have one cluster every second corner (sections 3-4)
@@ -77,7 +147,9 @@ PARAMS = {p.name: p for p in (
     Param("k", 1.0, ">= 0", nonnegative, "natural frequency", "eq 4"),
     Param("F", 0.0, "any finite number", anything, "forcing amplitude: f = F cos(Omega t + phi)",
           "eq 4"),
-    Param("Omega", 1.0, FREQUENCY, frequency, "forcing frequency", "eq 4"),
+    Param("Omega", 1.0, ">= 0 (0: a constant force F cos phi, e.g. a follower's spring "
+          "preload; its period 2 pi / value finite otherwise)", steady_or_frequency,
+          "forcing frequency", "eq 4"),
     Param("phi", 0.0, "any finite number", anything, "forcing phase", "eq 4"),
     Param("theta1", None, "> 0 (default beta * omega, the slope of eq (8) at its corners)",
           positive, "triangle: slope magnitude before each corner", "eq 7",
@@ -90,6 +162,7 @@ PARAMS = {p.name: p for p in (
 SINE = OBSTACLES["sine"].code                      # section 2.2 (smooth, no corners)
 RECTIFIED_SINE = OBSTACLES["rectified_sine"].code  # eq (8), corners at k pi / omega
 TRIANGLE = OBSTACLES["triangle"].code              # eq (7) made periodic with period pi / omega
+PROFILE = OBSTACLES["profile"].code                # a cam profile (models/profile.py)
 
 # --- integer run settings (a small int64 vector) --------------------------------------
 I_TRANSIENT = 0
@@ -99,32 +172,37 @@ I_MAX_PIECES = 3
 NINT = 4
 
 
-def obstacle_period(obstacle: str, omega: float) -> float:
+def obstacle_period(obstacle: str, omega: float, profile=None) -> float:
     """Forcing period P (``Obstacle.period``): pi/omega for rectified_sine and triangle,
-    2 pi/omega for sine."""
+    2 pi/omega for sine, the profile's period / omega for a profile."""
+    if obstacle == "profile":
+        return profile.period / omega
     return OBSTACLES[obstacle].period(omega)
 
 
-def pieces_per_period(obstacle: str) -> int:
-    """Smooth pieces per forcing period (``Obstacle.pieces``).
+def pieces_per_period(obstacle: str, profile=None) -> int:
+    """Smooth pieces per forcing period (``Obstacle.pieces``; a profile's own).
 
     ``sine`` is split at its half periods (no corner there, but the sign of z''
     is fixed on each half, which tightens the event-location bound);
     ``triangle`` has a rising and a falling piece.
     """
+    if obstacle == "profile":
+        return len(profile.pieces)
     return OBSTACLES[obstacle].pieces
 
 
 def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
-         section_period: float | None, stop_tol: float = 0.0) -> np.ndarray:
+         section_period: float | None, stop_tol: float = 0.0, profile=None) -> np.ndarray:
     """Pack named parameters of one grid point into the kernel's float64 vector.
 
     Missing values take their declared defaults (``PARAMS``);
     theta1 and theta2 default to beta * omega.  ``stop_tol`` > 0 turns the kernel's
-    early stop on (``run.stop = "period"``).
+    early stop on (``run.stop = "period"``).  ``profile``: the checked ``Profile`` of
+    ``obstacle = "profile"`` (models/profile.py), written to the PROFILE_* slots.
     """
     v = {k: values.get(k, p.default) for k, p in PARAMS.items()}
-    p = np.zeros(NPARAM)
+    p = np.zeros(NPARAM_PROFILE if obstacle == "profile" else NPARAM)
     for name, index in INDEX.items():
         p[index] = v[name]
     for name, index in (("theta1", THETA1), ("theta2", THETA2)):
@@ -134,15 +212,42 @@ def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
     p[TOL] = tol
     p[CHATTER] = chatter
     p[ESCAPE] = escape
-    p[SECTION_PIECES] = section_pieces(obstacle, v["omega"], section_period)
+    if obstacle == "profile":
+        pack_profile(p, profile)
+    p[SECTION_PIECES] = section_pieces(obstacle, v["omega"], section_period, profile)
     p[SECTION_AUTO] = 1.0 if (obstacle in AUTO_SECTION and section_period is None) else 0.0
     p[STOP_TOL] = stop_tol
     return p
 
 
-def section_pieces(obstacle: str, omega: float, section_period: float | None) -> int:
-    """Smooth pieces per Poincare section period (default T = 2 pi / omega)."""
-    ob = OBSTACLES[obstacle]
-    P = ob.period(omega)
-    sp = 2.0 * math.pi / omega if section_period is None else section_period
-    return max(1, round(sp / P)) * ob.pieces
+def section_pieces(obstacle: str, omega: float, section_period: float | None,
+                   profile=None) -> int:
+    """Smooth pieces per Poincare section period (default T = 2 pi / omega; a profile's:
+    its own period)."""
+    P = obstacle_period(obstacle, omega, profile)
+    if section_period is None:
+        sp = P if obstacle == "profile" else 2.0 * math.pi / omega
+    else:
+        sp = section_period
+    return max(1, round(sp / P)) * pieces_per_period(obstacle, profile)
+
+
+def pack_profile(p, profile):
+    """Write a checked ``Profile`` (models/profile.py) into the PROFILE_* slots of ``p``."""
+    from .profile import bounds, sturm_bound
+    p[PROFILE_NP] = len(profile.pieces)
+    p[PROFILE_PERIOD] = profile.period
+    p[PROFILE_CORNERS] = 1.0 if profile.has_corners else 0.0
+    start = 0.0
+    for m, pc in enumerate(profile.pieces):
+        o = PROFILE0 + m * PIECE_STRIDE
+        p[o + PC_SPAN] = pc.span
+        p[o + PC_C0:o + PC_C0 + 8] = pc.poly
+        p[o + PC_A], p[o + PC_B], p[o + PC_N] = pc.a, pc.b, pc.n
+        p[o + PC_G_LO:o + PC_G4 + 1] = bounds(pc)
+        p[o + PC_CORNER] = 1.0 if profile.corners[m] else 0.0
+        p[o + PC_START] = start
+        p[o + PC_STURM] = sturm_bound(pc, p[K], p[OMEGA])
+        nz = np.flatnonzero(np.array(pc.poly))
+        p[o + PC_DEG] = nz[-1] if nz.size else 0
+        start += pc.span

@@ -1,0 +1,385 @@
+"""Cam profiles: any periodic, continuous, piecewise obstacle (``obstacle = "profile"``).
+
+The obstacle is z(t) = kappa + beta g(omega t): a lift g of the cam angle theta = omega t,
+periodic with ``period`` (an angle, default 2 pi), given as pieces over one period.  On
+piece m, of angular span S_m, with local angle phi = theta - theta_m in [0, S_m],
+
+    g(phi) = c_0 + c_1 phi + ... + c_7 phi^7 + a sin(n phi) + b cos(n phi),
+
+so z' = beta omega g', z'' = beta omega^2 g'', ...  A scene gives the pieces as
+polynomials (``poly = [c0, c1, ...]``), sinusoids (``sine = [a, b, n]``, with an
+optional ``poly``), or standard cam motion laws over a rise h (``law = ...``, ``rise =
+h``; the piece starts where the previous one ends):
+
+========================  ==============================================  ==========
+law                        g(phi) - g(0), x = phi / S                      velocity at ends
+========================  ==============================================  ==========
+``dwell``                  0                                               0
+``constant_velocity``      h x                                             h / S (corners)
+``parabolic``              2 h x^2 (x < 1/2), h (1 - 2 (1 - x)^2) (two pieces)  0
+``simple_harmonic``        h (1 - cos(pi x)) / 2                           0
+``cycloidal``              h (x - sin(2 pi x) / (2 pi))                    0, accel. 0
+``polynomial_345``         h (10 x^3 - 15 x^4 + 6 x^5)                     0, accel. 0
+========================  ==============================================  ==========
+
+The obstacle must be continuous: a jump in height between two pieces (or across the end
+of the period) is refused, naming the piece.  A jump in slope is a corner (the paper's
+corner events; cluster symbols are taken with respect to the nearest corner); a profile
+without corners behaves as the smooth wall of section 2.2 (symbols ``x``).  ``corners =
+[i, ...]`` names the pieces whose start counts as a corner instead (the built-in triangle
+counts its valleys only, not its peaks).
+
+The packed layout (``models/params.py``: ``PROFILE_*``) holds, per piece, its span, its
+coefficients and certified bounds of g, g'', |g'''| and |g''''| on the piece (Bernstein
+enclosures of the polynomial plus the sinusoid's amplitude), which the certified event
+search and the Sturm comparison of the kernels read (``models/obstacle.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+MAX_PIECES = 8        # pieces per period (the packed vector's room; docs/cams.md)
+MAX_DEGREE = 7
+LAWS = ("dwell", "constant_velocity", "parabolic", "simple_harmonic", "cycloidal",
+        "polynomial_345")
+KEYS = ("span", "poly", "sine", "law", "rise")
+# relative tolerance of the continuity check (heights at a joint) and of a corner (slopes)
+JOINT_TOL = 1e-9
+
+
+class ProfileError(ValueError):
+    """A profile that cannot be an obstacle; ``problems`` lists every reason (key named)."""
+
+    def __init__(self, problems):
+        super().__init__("; ".join(problems))
+        self.problems = list(problems)
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One smooth piece: g(phi) = poly(phi) + a sin(n phi) + b cos(n phi), phi in [0, span]."""
+
+    span: float
+    poly: tuple          # c_0 .. c_7 (zero-padded)
+    a: float = 0.0
+    b: float = 0.0
+    n: float = 0.0
+
+    def derivative(self, phi, order=0):
+        """d^order g / d phi^order at phi (a float or an array)."""
+        phi = np.asarray(phi, float)
+        c = np.polynomial.polynomial.polyder(np.array(self.poly), order) if order else \
+            np.array(self.poly)
+        out = np.polynomial.polynomial.polyval(phi, c) if c.size else np.zeros_like(phi)
+        if self.n != 0.0 and (self.a != 0.0 or self.b != 0.0):
+            n = self.n
+            s, co = np.sin(n * phi), np.cos(n * phi)
+            # d^k/dphi^k of a sin + b cos cycles with period 4
+            seq = [(self.a * s + self.b * co), n * (self.a * co - self.b * s),
+                   -n * n * (self.a * s + self.b * co), -n ** 3 * (self.a * co - self.b * s)]
+            out = out + seq[order % 4] * (n ** (order - order % 4) if order >= 4 else 1.0)
+        elif order == 0 and self.b != 0.0:
+            out = out + self.b
+        return out
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A checked cam profile: its period (an angle), pieces and corners."""
+
+    period: float
+    pieces: tuple
+    corners: tuple       # per piece: whether its start (a joint) is a corner (slope jump)
+
+    @property
+    def has_corners(self) -> bool:
+        return any(self.corners)
+
+    def starts(self):
+        """The angle at which each piece starts."""
+        return np.concatenate([[0.0], np.cumsum([p.span for p in self.pieces])[:-1]])
+
+    def lift(self, theta, order=0):
+        """d^order g / d theta^order at angles theta (any real), piece by piece."""
+        th = np.mod(np.asarray(theta, float), self.period)
+        starts = self.starts()
+        m = np.clip(np.searchsorted(starts, th, side="right") - 1, 0, len(self.pieces) - 1)
+        out = np.empty(th.shape)
+        for k, pc in enumerate(self.pieces):
+            sel = m == k
+            if np.any(sel):
+                out[sel] = pc.derivative(th[sel] - starts[k], order)
+        return out
+
+
+# ------------------------------------------------------------------ reading a scene's table
+def _num(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(float(x))
+
+
+def _law(law, span, rise, start):
+    """The pieces of a motion law of rise h over span S starting at height ``start``."""
+    h, S = float(rise), float(span)
+    c = [0.0] * (MAX_DEGREE + 1)
+    c[0] = start
+    if law == "dwell":
+        return [Piece(S, tuple(c))]
+    if law == "constant_velocity":
+        c[1] = h / S
+        return [Piece(S, tuple(c))]
+    if law == "polynomial_345":
+        c[3], c[4], c[5] = 10 * h / S ** 3, -15 * h / S ** 4, 6 * h / S ** 5
+        return [Piece(S, tuple(c))]
+    if law == "simple_harmonic":
+        c[0] = start + h / 2
+        return [Piece(S, tuple(c), a=0.0, b=-h / 2, n=math.pi / S)]
+    if law == "cycloidal":
+        c[1] = h / S
+        return [Piece(S, tuple(c), a=-h / (2 * math.pi), b=0.0, n=2 * math.pi / S)]
+    if law == "parabolic":
+        half = S / 2
+        first = list(c)
+        first[2] = 2 * h / S ** 2                 # 2 h x^2 with x = phi / S
+        second = [0.0] * (MAX_DEGREE + 1)         # h (1 - 2 (1 - x)^2) from x = 1/2
+        # in the second half's local angle psi = phi - S/2: x = 1/2 + psi / S
+        second[0] = start + h / 2
+        second[1] = 2 * h / S
+        second[2] = -2 * h / S ** 2
+        return [Piece(half, tuple(first)), Piece(half, tuple(second))]
+    raise AssertionError(law)
+
+
+def read(table, key="system.profile") -> Profile:
+    """A scene's ``[system.profile]`` table -> a checked ``Profile``; ``ProfileError``
+    lists every problem, each naming its key (``system.profile.pieces[2].poly``)."""
+    problems = []
+    if not isinstance(table, dict):
+        raise ProfileError([f"{key}: {table!r} must be a table with period and pieces"])
+    unknown = [k for k in table if k not in ("period", "pieces", "corners")]
+    for k in unknown:
+        problems.append(f"{key}.{k}: unknown key; allowed: period, pieces, corners")
+    period = table.get("period", 2 * math.pi)
+    if not _num(period) or period <= 0:
+        problems.append(f"{key}.period: {period!r} must be a positive number (an angle, "
+                        "radians of omega t)")
+        period = 2 * math.pi
+    raw = table.get("pieces")
+    if not isinstance(raw, list) or not raw:
+        raise ProfileError(problems + [f"{key}.pieces: {raw!r} must be a non-empty list of "
+                                       "pieces (tables with span and poly, sine or law)"])
+    pieces = []
+    height = 0.0
+    for i, pc in enumerate(raw):
+        k = f"{key}.pieces[{i}]"
+        if not isinstance(pc, dict):
+            problems.append(f"{k}: {pc!r} must be a table")
+            continue
+        for x in pc:
+            if x not in KEYS:
+                problems.append(f"{k}.{x}: unknown key; allowed: {', '.join(KEYS)}")
+        span = pc.get("span")
+        if not _num(span) or span <= 0:
+            problems.append(f"{k}.span: {span!r} must be a positive number (an angle)")
+            continue
+        if "law" in pc:
+            law = pc["law"]
+            if law not in LAWS:
+                problems.append(f"{k}.law: {law!r} is not a motion law; allowed: "
+                                + ", ".join(LAWS))
+                continue
+            if "poly" in pc or "sine" in pc:
+                problems.append(f"{k}: give a law or poly/sine, not both")
+                continue
+            rise = pc.get("rise", 0.0)
+            if not _num(rise):
+                problems.append(f"{k}.rise: {rise!r} must be a finite number")
+                continue
+            if law == "dwell" and rise != 0.0:
+                problems.append(f"{k}.rise: {rise!r} but a dwell does not rise")
+                continue
+            new = _law(law, span, rise, height)
+        else:
+            if "rise" in pc:
+                problems.append(f"{k}.rise: only a law takes a rise")
+            poly = pc.get("poly", [0.0])
+            if (not isinstance(poly, list) or not poly or not all(_num(c) for c in poly)):
+                problems.append(f"{k}.poly: {poly!r} must be a list of finite coefficients "
+                                "c0, c1, ... (in the local angle)")
+                continue
+            if len(poly) > MAX_DEGREE + 1:
+                problems.append(f"{k}.poly: degree {len(poly) - 1} is past the limit "
+                                f"{MAX_DEGREE}")
+                continue
+            a = b = n = 0.0
+            if "sine" in pc:
+                sn = pc["sine"]
+                if not (isinstance(sn, list) and len(sn) == 3 and all(_num(x) for x in sn)):
+                    problems.append(f"{k}.sine: {sn!r} must be [a, b, n]: a sin(n phi) + "
+                                    "b cos(n phi), finite")
+                    continue
+                a, b, n = (float(x) for x in sn)
+            c = [float(x) for x in poly] + [0.0] * (MAX_DEGREE + 1 - len(poly))
+            new = [Piece(float(span), tuple(c), a, b, n)]
+        for p in new:
+            pieces.append((i, p))
+        last = new[-1]
+        height = float(last.derivative(last.span))
+    if problems:
+        raise ProfileError(problems)
+    if len(pieces) > MAX_PIECES:
+        raise ProfileError([f"{key}.pieces: {len(pieces)} smooth pieces (a parabolic law "
+                            f"counts two); at most {MAX_PIECES}"])
+    total = sum(p.span for _, p in pieces)
+    if abs(total - period) > 1e-12 * period:
+        raise ProfileError([f"{key}.pieces: the spans add up to {total!r}, not the period "
+                            f"{float(period)!r}: the pieces must cover one period exactly"])
+    # continuity and corners at every joint, the period's end included
+    first = {}
+    for m, (i, _) in enumerate(pieces):
+        first.setdefault(i, m)
+    chosen = table.get("corners")
+    if chosen is not None:
+        if not (isinstance(chosen, list) and all(isinstance(c, int) and not isinstance(c, bool)
+                                                 and 0 <= c < len(raw) for c in chosen)):
+            raise ProfileError([f"{key}.corners: {chosen!r} must be a list of piece indices "
+                                f"0..{len(raw) - 1} (the pieces whose start is a corner)"])
+        chosen = {first[c] for c in chosen}
+    corners = []
+    for m, (i, pc) in enumerate(pieces):
+        prev_i, prev = pieces[m - 1]
+        z_end = float(prev.derivative(prev.span))
+        z_start = float(pc.derivative(0.0))
+        scale = 1.0 + max(abs(z_end), abs(z_start))
+        if abs(z_end - z_start) > JOINT_TOL * scale:
+            where = (f"the end of piece {prev_i} and the start of piece {i}"
+                     if m else f"the end of the period (piece {prev_i}) and its start "
+                               f"(piece {i})")
+            problems.append(f"{key}.pieces[{i}]: the obstacle jumps from {z_end!r} to "
+                            f"{z_start!r} between {where}; an obstacle must be continuous")
+        s_end = float(prev.derivative(prev.span, 1))
+        s_start = float(pc.derivative(0.0, 1))
+        if chosen is None:
+            corners.append(abs(s_end - s_start) > JOINT_TOL * (1.0 + max(abs(s_end),
+                                                                          abs(s_start))))
+        else:
+            corners.append(m in chosen)
+    if problems:
+        raise ProfileError(problems)
+    return Profile(float(period), tuple(p for _, p in pieces), tuple(corners))
+
+
+# ------------------------------------------------------------------ certified bounds
+def _bernstein_range(c, span):
+    """Lower and upper bounds of the polynomial sum c_i x^i on [0, span]: the least and the
+    largest of its Bernstein coefficients (an enclosure), widened by the rounding of the
+    conversion."""
+    c = np.asarray(c, float)
+    d = c.size - 1
+    if d <= 0:
+        v = float(c[0]) if c.size else 0.0
+        return v, v
+    # scale to [0, 1]: c_i span^i
+    a = c * span ** np.arange(d + 1)
+    b = np.array([sum(math.comb(k, i) / math.comb(d, i) * a[i] for i in range(k + 1))
+                  for k in range(d + 1)])
+    pad = 1e-13 * (np.abs(a).sum() + 1e-300)
+    return float(b.min() - pad), float(b.max() + pad)
+
+
+def sinusoid_range(a, b, n, span):
+    """Least and largest of a sin(n phi) + b cos(n phi) over phi in [0, span], exact (its
+    ends and the crests inside), widened by rounding."""
+    if n == 0.0 or (a == 0.0 and b == 0.0):
+        return b, b
+    amp = math.hypot(a, b)
+    psi = math.atan2(b, a)                 # a sin x + b cos x = amp sin(x + psi)
+    x0, x1 = sorted((psi, n * span + psi))
+    vals = [amp * math.sin(x0), amp * math.sin(x1)]
+    for crest, v in ((math.pi / 2, amp), (-math.pi / 2, -amp)):
+        m = math.ceil((x0 - crest) / (2 * math.pi))
+        if crest + 2 * math.pi * m <= x1:
+            vals.append(v)
+    pad = 1e-14 * amp * (1.0 + abs(x1))
+    return min(vals) - pad, max(vals) + pad
+
+
+def bounds(piece: Piece):
+    """Certified bounds on the piece: least and largest g, least and largest second
+    derivative, largest magnitudes of the third and fourth (all in the angle): the
+    Bernstein enclosure of the polynomial plus the sinusoid's exact range."""
+    P = np.polynomial.polynomial
+    c = np.array(piece.poly)
+    out = []
+    amp = math.hypot(piece.a, piece.b)
+    n = abs(piece.n)
+    sin_on = n != 0.0 and amp != 0.0
+    for order in (0, 2):
+        lo, hi = _bernstein_range(P.polyder(c, order) if order else c, piece.span)
+        slo, shi = sinusoid_range(piece.a, piece.b, piece.n, piece.span)
+        if order:       # the sinusoid's second derivative is -n^2 times itself
+            slo, shi = -n * n * shi, -n * n * slo
+        lo, hi = lo + slo, hi + shi
+        out += [lo, hi]
+    for order in (3, 4):
+        lo, hi = _bernstein_range(P.polyder(c, order), piece.span)
+        m = max(abs(lo), abs(hi))
+        if sin_on:
+            m += amp * n ** order
+        out.append(m)
+    return tuple(out)
+
+
+# ------------------------------------------------------------------ the follower's jump
+def contact_force_min(profile: Profile, omega, kappa, beta, k, force, sigma=0.0, n=20001):
+    """The least contact force N = z'' + 2 sigma z' + k^2 z - f over a cam revolution of a
+    follower riding the cam (u = z), f = ``force`` constant (Omega = 0: the spring's
+    preload), on a grid of ``n`` angles per period and at every joint."""
+    th = np.unique(np.concatenate([np.linspace(0.0, profile.period, n), profile.starts(),
+                                   profile.starts() + 1e-12]))
+    g, g1, g2 = (profile.lift(th, o) for o in (0, 1, 2))
+    N = beta * omega ** 2 * g2 + 2 * sigma * beta * omega * g1 + k * k * (kappa + beta * g) \
+        - force
+    return float(N.min())
+
+
+def jump_speed(profile: Profile, kappa, beta, k, force, sigma=0.0, hi=1e3):
+    """The cam speed omega above which a follower riding the cam leaves it somewhere in
+    the revolution (the contact force N of ``contact_force_min`` turns negative): the
+    classic follower jump.  0 when it leaves at any speed (N < 0 at rest, or a corner whose
+    slope drops: the follower is launched off it), None when it never leaves below ``hi``.
+    Bisection to 1e-10 relative."""
+    if contact_force_min(profile, 0.0, kappa, beta, k, force, sigma) < 0.0:
+        return 0.0
+    for m, corner in enumerate(profile.corners):
+        if corner:
+            prev = profile.pieces[m - 1]
+            if float(profile.pieces[m].derivative(0.0, 1)) < float(prev.derivative(prev.span, 1)):
+                return 0.0          # the slope drops at this corner: a launch at any speed
+    if contact_force_min(profile, hi, kappa, beta, k, force, sigma) >= 0.0:
+        return None
+    lo, up = 0.0, hi
+    while up - lo > 1e-10 * up:
+        mid = 0.5 * (lo + up)
+        if contact_force_min(profile, mid, kappa, beta, k, force, sigma) < 0.0:
+            up = mid
+        else:
+            lo = mid
+    return up
+
+
+def sturm_bound(piece: Piece, k, omega):
+    """A certified upper bound of k^2 g + omega^2 g'' on the piece (g'' in the angle): the
+    floor of the Sturm comparison of the free undamped gap is f_min = -k^2 kappa - beta
+    times it (``obstacle.profile_sturm_floor``).  The sinusoid's share is exact,
+    (k^2 - omega^2 n^2) times its range; the polynomial's a Bernstein enclosure."""
+    P = np.polynomial.polynomial
+    c = np.array(piece.poly)
+    h = P.polyadd(k * k * c, omega * omega * P.polyder(c, 2))
+    _, hi = _bernstein_range(h, piece.span)
+    q = k * k - omega * omega * piece.n ** 2
+    slo, shi = sinusoid_range(piece.a, piece.b, piece.n, piece.span)
+    return hi + max(q * slo, q * shi)
