@@ -490,6 +490,8 @@ def _read_system(w):
                     w.profile = read(table)
                     w.profile_table = {"period": float(table.get("period", w.profile.period)),
                                        "pieces": table["pieces"]}
+                    if "corners" in table:
+                        w.profile_table["corners"] = table["corners"]
                 except ProfileError as e:
                     w.problems += e.problems
         elif table is not None:

@@ -478,11 +478,11 @@ def draw_jump_speed(ax, data: PlotData):
     prof = read(sys_["profile"])
     force = sys_.get("F", 0.0) * math.cos(sys_.get("phi", 0.0))
     w = jump_speed(prof, sys_.get("kappa", 0.0), sys_.get("beta", 1.0), sys_.get("k", 1.0),
-                   force, sys_.get("sigma", 0.0))
+                   force, sys_.get("sigma", 0.0), sys_.get("r", 0.8))
     x = data.values["omega"]
     if w == 0.0:
         return [ax.text(0.99, 0.99, "no jump speed: the follower leaves the cam at every "
-                        "speed (a corner where the slope drops launches it)",
+                        "speed (a corner launches or strikes it)",
                         transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.3")]
     if w is None or not (x.min() <= w <= x.max()):
         return []
@@ -821,7 +821,7 @@ def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
         word = word.decode() if isinstance(word, bytes) else str(word)
         st = int(f["status"][idx])
     vals = scene.point(tuple(point))
-    p, d = TR.pack(vals, scene.obstacle, scene.section_period)
+    p, d = TR.pack(vals, scene.obstacle, scene.section_period, scene.profile)
     ok = np.isfinite(t)
     t, u, vo, off = t[ok], u[ok], vo[ok], off[ok]
     if t.size < 2:

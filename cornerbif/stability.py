@@ -30,7 +30,7 @@ from ._jit import jit, pjit
 from .kernels import two_particle as TK
 from .models import params as P
 from .models import two_particle as TP
-from .models.obstacle import piece_lengths, z_state
+from .models.obstacle import piece_at, piece_length, piece_lengths, z_state
 from .models.oscillator import acceleration, derive, particular
 
 # how a cycle's multipliers were found (``stability/status`` in the file)
@@ -114,10 +114,19 @@ def impact_saltation(r, sigma, w_in, a_in, zpp):
 
 
 @jit
-def obstacle_at_offset(p, offset):
+def obstacle_at_offset(p, d, t, offset):
     """(z', z'') of the obstacle at an impact given by its offset to the nearest valley
     corner (``impacts/corner_offset``: t - t_corner, >= 0 after the corner): the slope
-    and curvature of the piece the impact lies on, as the kernel's law (5) used them."""
+    and curvature of the piece the impact lies on, as the kernel's law (5) used them.  A
+    profile's impact is placed by its time t (its corners need not start a period); one
+    at a joint takes the piece on the offset's side."""
+    if p[P.OBSTACLE] == P.PROFILE:
+        j, tau = piece_at(d, t)
+        if offset < 0.0 and tau == 0.0:
+            j -= 1
+            tau = piece_length(d, j)
+        _, zp, zpp, _ = z_state(p, j, tau)
+        return zp, zpp
     L0, L1, per = piece_lengths(p)
     if p[P.OBSTACLE] == P.RECTIFIED_SINE:
         j, tau = (0, offset) if offset >= 0.0 else (0, L0 + offset)
@@ -164,7 +173,7 @@ def impact_step(p, d, t0, u0, v0, t1, u1, v1, offset1, grazing_tol):
     m11, m12, m21, m22 = flight_matrix(sig, k, t1 - t0)
     if flight_misses(p, d, m11, m12, m21, m22, t0, u0, v0, t1, u1, v1):
         return 0.0, 0.0, 0.0, 0.0, STICKING
-    zp, zpp = obstacle_at_offset(p, offset1)
+    zp, zpp = obstacle_at_offset(p, d, t1, offset1)
     w = v1 - zp
     if not abs(w) > grazing_tol * (abs(v1) + abs(zp) + 1.0):     # grazes(), own tolerance
         nan = math.nan

@@ -25,9 +25,11 @@ from .models.obstacle import piece_at, z_state
 from .models.oscillator import derive, homogeneous, particular
 
 
-def pack(values: dict, obstacle: str, section_period=None) -> tuple[np.ndarray, np.ndarray]:
-    """Packed parameters and derived constants of one point of a ``flow`` scene."""
-    p = P.pack(values, obstacle, 1e-12, 1e-6, 1e6, section_period)
+def pack(values: dict, obstacle: str, section_period=None,
+         profile=None) -> tuple[np.ndarray, np.ndarray]:
+    """Packed parameters and derived constants of one point of a ``flow`` scene (a cam
+    profile's checked ``Profile`` for ``obstacle = "profile"``)."""
+    p = P.pack(values, obstacle, 1e-12, 1e-6, 1e6, section_period, profile=profile)
     return p, derive(p)
 
 

@@ -198,6 +198,12 @@ def test_the_kernels_obstacle_is_the_profile():
      "period"),
     ({"period": 9 * 0.5, "pieces": [{"span": 0.5, "law": "dwell"}] * 9},
      "9 smooth pieces"),
+    ({"period": PI, "pieces": [{"span": PI, "law": "dwell", "rise": 1.0}]},
+     "system.profile.pieces[0].rise: 1.0 but a dwell does not rise"),
+    ({"period": PI, "pieces": [{"span": PI, "poly": [0.0], "lift": 2}]},
+     "system.profile.pieces[0].lift: unknown key"),
+    ({"period": PI, "corners": [3], "pieces": [{"span": PI, "poly": [0.0]}]},
+     "system.profile.corners: [3] must be a list of piece indices 0..0"),
 ])
 def test_bad_profiles_are_refused_naming_the_piece(profile, needle):
     with pytest.raises(Exception) as e:
@@ -249,3 +255,114 @@ def test_the_jump_speed_is_where_the_follower_leaves():
         {"law": "dwell", "span": PI / 2},
         {"law": "constant_velocity", "span": PI / 2, "rise": -1.0}]}
     assert PR.jump_speed(PR.read(cv), 0.0, 1.0, 1.0, -2.0) == 0.0
+
+
+def _triangle3(w, t1, t2):
+    """The triangle of eq (7) as three linear pieces (its rise split), valleys as corners."""
+    L0, L1 = t1 * PI / (t1 + t2), t2 * PI / (t1 + t2)
+    return {"period": PI, "corners": [0], "pieces": [
+        {"span": L0 / 2, "poly": [0.0, t2 / w]}, {"span": L0 / 2, "poly": [t2 * L0 / (2 * w), t2 / w]},
+        {"span": L1, "poly": [t2 * L0 / w, -t1 / w]}]}
+
+
+def test_a_three_piece_profile_has_the_triangles_words_and_multipliers():
+    """The triangle split into three pieces (a smooth joint inside its rise): the built-in
+    triangle's words and periods, and its Floquet multipliers and Lyapunov exponents to
+    1e-9 (the saltation reads the piece of each impact from its time)."""
+    u0, v0 = starts(16, seed=4)
+    w, t1, t2 = 1.9, 1.5, 2.5
+    kw = dict(omega=w, kappa=-0.01, r=0.8, transient=300, record=60, keep=["stability"])
+    a = cornerbif.simulate(u0, v0, obstacle="triangle", theta1=t1, theta2=t2, **kw)
+    b = cornerbif.simulate(u0, v0, obstacle="profile", profile=_triangle3(w, t1, t2), **kw)
+    for k in ("period", "impacts_per_cycle", "symbols"):
+        assert np.array_equal(a[k], b[k]), k
+    for k in ("mu_re", "mu_im", "lyapunov"):
+        assert np.allclose(a[k], b[k], rtol=0, atol=1e-9, equal_nan=True), k
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_a_corner_free_profile_is_the_smooth_wall(n):
+    """kappa + beta sin(omega t) written as n sinusoid pieces of one period 2 pi (no
+    corners): the built-in sine's impacts, periods, impacts per cycle and words (x)."""
+    spans = [2 * PI / n] * n
+    pieces, start = [], 0.0
+    for s in spans:
+        pieces.append({"span": s, "sine": [math.cos(start), math.sin(start), 1.0]})
+        start += s
+    prof = {"period": 2 * PI, "pieces": pieces}
+    u0, v0 = starts(12, seed=6, lo=1.5, hi=8.0, v=4.0)
+    kw = dict(omega=2.4, kappa=0.2, r=0.8, transient=200, record=40)
+    a = cornerbif.simulate(u0, v0, obstacle="sine", **kw)
+    b = cornerbif.simulate(u0, v0, obstacle="profile", profile=prof, **kw)
+    for k in ("status", "period", "impacts_per_cycle", "symbols"):
+        assert np.array_equal(a[k], b[k]), k
+    assert np.nanmax(np.abs(a["t"] - b["t"])) < 1e-9
+
+
+def test_starts_are_drawn_above_the_profile_at_t0(tmp_path):
+    """A profile whose lift is not 0 at t = 0 (g = cos phi): drawn u clears z(0) = kappa +
+    beta, every run starts above the obstacle, and the scene as run keeps its corners."""
+    from cornerbif import config
+    from cornerbif.sweep import run_sweep
+    text = """[scene]
+name = "w"
+model = "flow"
+[system]
+obstacle = "profile"
+omega = 1.3
+kappa = 0.0
+r = 0.8
+[system.profile]
+period = 3.141592653589793
+corners = [0]
+pieces = [ { span = 3.141592653589793, sine = [0.0, 1.0, 2.0] } ]
+[sweep]
+kappa = { start = 0.0, stop = 0.1, num = 4 }
+[initial]
+count = 6
+u = [0.0, 1.5]
+[run]
+transient = 20
+record = 10
+"""
+    sc = config.loads(text)
+    again = config.loads(sc.text)
+    assert again.text == sc.text and "corners = [0]" in sc.text
+    out = str(tmp_path / "w.h5")
+    run_sweep(sc, out)
+    import h5py
+    with h5py.File(out) as f:
+        assert (f["status"][...] != 5).all()
+        kap = f["kappa"][...][:, None]
+        assert (f["initial/u"][...] > kap + 1.0).all()
+
+
+def test_jump_speed_counts_every_corner_and_restitution():
+    """The triangle as a profile (corners named [0]): its peaks drop the slope, a launch
+    at any speed: 0.  The rectified sine: its valleys raise the slope, which knocks the
+    follower off when r > 0 (0), and not when r = 0 (a finite jump speed)."""
+    tri = PR.read(_triangle3(1.0, 1.5, 2.5))
+    assert PR.jump_speed(tri, 0.0, 1.0, 1.0, -2.0, r=0.0) == 0.0
+    rect = PR.read(RECTIFIED)
+    assert PR.jump_speed(rect, 0.0, 1.0, 1.0, -2.0, r=0.5) == 0.0
+    w0 = PR.jump_speed(rect, 0.0, 1.0, 1.0, -2.0, r=0.0)
+    assert w0 is not None and w0 > 0.5
+    assert PR.jump_speed(rect, 1.0, 0.0, 1.0, -2.0) is None      # a flat wall holds it
+
+
+def test_a_profiles_time_series_is_drawn(tmp_path):
+    """[plot] kind = "timeseries" rebuilds a profile's flights (trajectory.pack with the
+    profile): the cycloidal cam's runs above the jump speed."""
+    r = CliRunner().invoke(main, ["sweep", "configs/cam_cycloidal.toml", "-o",
+                                  str(tmp_path / "c.h5"), "--no-progress", "--set",
+                                  "sweep.omega={start=1.5, stop=1.6, num=2}", "--set",
+                                  "run.transient=100"])
+    assert r.exit_code == 0, r.output
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cornerbif import plot
+    fig, ax = plt.subplots()
+    plot.draw_timeseries(ax, str(tmp_path / "c.h5"), (0,), 0)
+    plt.close(fig)

@@ -17,6 +17,7 @@ from scipy.linalg import expm
 import cornerbif
 from cornerbif import stability as S
 from cornerbif.models import params as P
+from cornerbif.models.oscillator import derive
 
 
 @pytest.mark.parametrize("sigma,k", [(0.0, 1.0), (0.1, 1.0), (1.0, 1.0), (1.7, 1.0),
@@ -100,7 +101,7 @@ def test_a_grazing_impact_gives_no_multipliers():
     """A record whose impact 1 is reached by the free flight from impact 0 (k = 1, no
     forcing: u = u0 cos t + v0 sin t) with exactly the obstacle's velocity: w- = 0."""
     prm = P.pack(dict(omega=2.0, kappa=0.0), "rectified_sine", 1e-12, 1e-6, 1e6, None)
-    zp, _ = S.obstacle_at_offset(prm, 0.3)
+    zp, _ = S.obstacle_at_offset(prm, derive(prm), 1.0, 0.3)
     v0 = zp / np.cos(1.0)
     t = np.array([0.0, 1.0, 2.0])
     u = np.array([0.0, v0 * np.sin(1.0), 0.0])

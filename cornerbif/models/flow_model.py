@@ -78,14 +78,14 @@ def resonance_problem(vals, key) -> str | None:
     takes; ``key(name)`` its dotted key."""
     res = vals("Omega") & vals("k")
     forced = any(x not in (0, 0.0, None) for x in vals("F"))
-    if forced and 0.0 in vals("sigma") and res:
-        return (f"{key('Omega')}: {sorted(res)[0]!r} equals {key('k')} with "
-                f"sigma = 0 and F != 0 (undamped exact resonance: no bounded "
-                "closed-form flight); change Omega or k, or add damping sigma > 0")
     if forced and 0.0 in vals("Omega") and 0.0 in vals("k"):
         return (f"{key('Omega')}: 0 (a constant force) with {key('k')} = 0: the flight of a "
                 "particle without spring under a constant force is not modelled; give k > 0 "
                 "(the follower's spring)")
+    if forced and 0.0 in vals("sigma") and res:
+        return (f"{key('Omega')}: {sorted(res)[0]!r} equals {key('k')} with "
+                f"sigma = 0 and F != 0 (undamped exact resonance: no bounded "
+                "closed-form flight); change Omega or k, or add damping sigma > 0")
     return None
 
 
@@ -133,7 +133,10 @@ class FlowModel(Model):
                 problems.append(f"initial.u: {list(rng)} does not reach above the obstacle's "
                                 f"top z = {top!r} over the start times (initial.t): a start "
                                 "at such a t0 would lie below it; raise the upper end")
-        if ctx.drawn and rng and kap and rng[1] <= max(kap):
+        z0 = max(kap) if kap else None
+        if z0 is not None and ctx.obstacle == "profile" and getattr(ctx, "profile", None):
+            z0 += max(ctx.values_list("beta")) * float(ctx.profile.lift(0.0))
+        if ctx.drawn and rng and kap and rng[1] <= z0:
             problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
                             f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
         return problems
@@ -142,6 +145,9 @@ class FlowModel(Model):
         return resonance_problem(lambda n: {values.get(n)}, lambda n: f"system.{n}")
 
     def wall_at_start(self, params):
+        if params.shape[1] > P.NPARAM:          # a profile: z(0) = kappa + beta g(0)
+            return obstacle_heights(np.ascontiguousarray(params),
+                                    np.zeros((params.shape[0], 1)))[:, 0]
         return params[:, P.KAPPA]
 
     def wall_at(self, params, t0):

@@ -451,7 +451,14 @@ def _profile_corner(p, d, j, tau):
     # the last corner at or before (j, tau) and the first after it, at most a period away
     n = np.int64(p[P.PROFILE_NP])
     if p[P.PROFILE_CORNERS] == 0.0:
-        return j, tau, False
+        # no corners: impacts are grouped by the profile's own periods, as the sine's
+        per = p[P.PROFILE_PERIOD] / p[P.OMEGA]
+        t = piece_start(d, j) + tau
+        m = math.floor(t / per)
+        x = t - m * per
+        if x < 0.5 * per:
+            return m, x, True
+        return m + 1, x - per, True
     back = j
     while p[profile_piece(p, back) + P.PC_CORNER] == 0.0:
         back -= 1

@@ -346,19 +346,25 @@ def contact_force_min(profile: Profile, omega, kappa, beta, k, force, sigma=0.0,
     return float(N.min())
 
 
-def jump_speed(profile: Profile, kappa, beta, k, force, sigma=0.0, hi=1e3):
+def jump_speed(profile: Profile, kappa, beta, k, force, sigma=0.0, r=0.0, hi=1e3):
     """The cam speed omega above which a follower riding the cam leaves it somewhere in
     the revolution (the contact force N of ``contact_force_min`` turns negative): the
-    classic follower jump.  0 when it leaves at any speed (N < 0 at rest, or a corner whose
-    slope drops: the follower is launched off it), None when it never leaves below ``hi``.
-    Bisection to 1e-10 relative."""
-    if contact_force_min(profile, 0.0, kappa, beta, k, force, sigma) < 0.0:
+    classic follower jump.  0 when it leaves at any speed: the slope drops at a joint (a
+    launch), or rises there with r > 0 (the cam strikes the follower, which bounces off),
+    or N <= 0 already at rest.  None when it never leaves below ``hi``.  Every joint whose
+    slope jumps counts, named as a corner or not.  Bisection to 1e-10 relative."""
+    if beta == 0.0:                        # a flat wall: N = k^2 kappa - F at every speed
+        return None if k * k * kappa - force > 0.0 else 0.0
+    for m, pc in enumerate(profile.pieces):
+        prev = profile.pieces[m - 1]
+        s_end = float(prev.derivative(prev.span, 1))
+        s_start = float(pc.derivative(0.0, 1))
+        jump = s_start - s_end
+        if abs(jump) > JOINT_TOL * (1.0 + max(abs(s_end), abs(s_start))):
+            if jump < 0.0 or r > 0.0:
+                return 0.0
+    if contact_force_min(profile, 0.0, kappa, beta, k, force, sigma) <= 0.0:
         return 0.0
-    for m, corner in enumerate(profile.corners):
-        if corner:
-            prev = profile.pieces[m - 1]
-            if float(profile.pieces[m].derivative(0.0, 1)) < float(prev.derivative(prev.span, 1)):
-                return 0.0          # the slope drops at this corner: a launch at any speed
     if contact_force_min(profile, hi, kappa, beta, k, force, sigma) >= 0.0:
         return None
     lo, up = 0.0, hi
