@@ -228,17 +228,6 @@ class NaiveProfile:
         a = (n * self.period + start) / omega
         return a, a + span / omega
 
-    def index(self, t, omega):
-        j = len(self.pieces) * int(math.floor(t * omega / self.period))
-        while True:
-            a, b = self.bounds(j, omega)
-            if t < a:
-                j -= 1
-            elif t >= b:
-                j += 1
-            else:
-                return j
-
     def z(self, j, t, omega, kappa, beta):
         a, _ = self.bounds(j, omega)
         g, gp = self.g(j % len(self.pieces), omega * (np.asarray(t, float) - a))
@@ -275,10 +264,10 @@ def _piece_bounds(obstacle, j, omega, theta1, theta2):
 
 def _piece_index(obstacle, t, omega, theta1, theta2):
     """j with a_j <= t < b_j (right-continuous, exact float comparison)."""
-    if isinstance(obstacle, NaiveProfile):
-        return obstacle.index(t, omega)
     P = math.pi / omega
-    if obstacle == "triangle":
+    if isinstance(obstacle, NaiveProfile):
+        j = len(obstacle.pieces) * int(math.floor(t * omega / obstacle.period))
+    elif obstacle == "triangle":
         j = 2 * int(math.floor(t / P))
     else:
         j = int(math.floor(t * omega / math.pi))
