@@ -43,6 +43,7 @@ import datetime as _dt
 import errno
 import json
 import os
+import shutil
 import sys
 
 import h5py
@@ -213,13 +214,13 @@ def room(path, size=None):
     return left
 
 
-def ensure_room(path, nbytes, size=None):
+def ensure_room(path, nbytes, size=None, what="the next block"):
     """Refuse, before writing, data that the file's disk or size limit cannot take
     (``nbytes`` uncompressed, an upper bound of what gzip writes, plus WRITE_RESERVE)."""
     need = nbytes + WRITE_RESERVE
     left = room(path, size)
     if left is not None and left < need:
-        raise WriteFailed(f"{path}: no room for the next block ({need / 2**20:.1f} MiB needed, "
+        raise WriteFailed(f"{path}: no room for {what} ({need / 2**20:.1f} MiB needed, "
                           f"{max(left, 0) / 2**20:.1f} MiB left on its disk or under this "
                           "process's file-size limit); every finished point is kept; free "
                           "space and run the same command with --resume")
@@ -499,10 +500,30 @@ def read_block(f, blk, names):
     return {n: f[n][blk] for n in names}
 
 
+def _amend(partial, dest, change):
+    """Apply ``change`` (a function of the file, open for writing) to a copy of a closed
+    partial file and move the copy to ``dest``.
+
+    Outside single-writer/multiple-reader mode HDF5 leaves a file it was writing when
+    killed unreadable; the partial file itself is therefore only ever written in that mode,
+    and a kill or a full disk during the change leaves it as it was, to resume."""
+    tmp = partial + ".amend"
+    ensure_room(tmp, os.path.getsize(partial), what="the finished file's copy")
+    try:
+        with open(partial, "rb") as src, open(tmp, "wb") as dst:
+            shutil.copyfileobj(src, dst, 1 << 22)
+        with h5py.File(tmp, "r+") as g:
+            change(g)
+    except BaseException:
+        _remove(tmp)
+        raise
+    os.replace(tmp, dest)
+
+
 def finish(partial, out_path, scene=None):
     """Stamp a complete partial file (its attractor table, completion time, status counts)
-    and rename it."""
-    with h5py.File(partial, "r+") as g:
+    and rename it (on a copy: ``_amend``)."""
+    def stamp(g):
         if scene is not None:
             attractors.tabulate(g, scene)
         g.attrs["completed"] = _now()
@@ -511,14 +532,16 @@ def finish(partial, out_path, scene=None):
         counts = np.bincount(g["status"][...].ravel().astype(np.int64) + 1, minlength=9)
         g.attrs["status_counts"] = str({S.NAMES.get(i - 1, "NOT_RUN"): int(c)
                                         for i, c in enumerate(counts) if c})
-    os.replace(partial, out_path)
+    _amend(partial, out_path, stamp)
+    _remove(partial)            # killed before this line, OUT.h5 is whole and this is stale
 
 
 def record_failures(partial, failures):
     """The failed chunks of a distributed run, with their errors, on the partial file that
     --resume completes (attributes cannot be added in single-writer/multiple-reader mode)."""
-    with h5py.File(partial, "r+") as g:
+    def note(g):
         g.attrs["failed_chunks"] = json.dumps(failures)
+    _amend(partial, partial, note)
 
 
 def reason(e: Exception) -> str:

@@ -86,7 +86,7 @@ def duration(seconds: float) -> str:
 
 
 # the longest name a sweep gives a file beside OUT.h5 (io.open_partial, io.rebuild)
-SIDE_SUFFIXES = (".partial", ".lock", ".partial.init", ".partial.rebuild")
+SIDE_SUFFIXES = (".partial", ".lock", ".partial.init", ".partial.rebuild", ".partial.amend")
 DEFAULT_NAME_MAX = 100
 
 

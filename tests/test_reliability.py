@@ -176,6 +176,47 @@ def test_sigkill_at_random_moments_then_resume_is_bitwise_equal(tmp_path):
     assert "partial" in kinds
 
 
+KILL_IN_TABLE = """
+import os, signal, sys
+import cornerbif.attractors as A
+def killed(g, scene):                    # the table half written, then SIGKILL
+    g.create_group("attractors").create_dataset("id", data=[0, 1, 2])
+    g.flush()
+    os.kill(os.getpid(), signal.SIGKILL)
+A.tabulate = killed
+from cornerbif.cli import main
+sys.argv = ["cornerbif"] + sys.argv[1:]
+main()
+"""
+
+
+def test_sigkill_while_finishing_keeps_a_resumable_partial_file(tmp_path):
+    """A kill while the finished file is stamped (its attractor table written outside
+    single-writer/multiple-reader mode) once left a partial file HDF5 could not open; the
+    stamp goes on a copy, so the partial file opens, is all done, and --resume finishes it
+    to the same bytes as an uninterrupted run."""
+    ref, out = tmp_path / "ref.h5", tmp_path / "k.h5"
+    args = _sweep_args(ref)[3:]
+    args = [a.replace("240", "24") for a in args]
+    subprocess.run([sys.executable, "-m", "cornerbif.cli", *args], check=True,
+                   capture_output=True)
+    args[args.index(str(ref))] = str(out)
+    r = subprocess.run([sys.executable, "-c", KILL_IN_TABLE, *args], capture_output=True)
+    assert r.returncode == -signal.SIGKILL
+    assert not out.exists()
+    with io.check_readable(str(out) + ".partial") as f:
+        assert f["done"][...].all()
+    r = subprocess.run([sys.executable, "-m", "cornerbif.cli", *args, "--resume"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert not os.path.exists(str(out) + ".partial")
+    assert not os.path.exists(str(out) + ".partial.amend")
+    with h5py.File(ref) as a, h5py.File(out) as b:
+        for k in ("impacts/t", "status", "period", "attractor", "attractors/id",
+                  "attractors/fraction"):
+            assert np.array_equal(a[k][...], b[k][...], equal_nan=True), k
+
+
 def test_second_writer_fails_fast(tmp_path):
     out = tmp_path / "c.h5"
     p = subprocess.Popen(_sweep_args(out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
