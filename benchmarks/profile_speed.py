@@ -15,7 +15,8 @@ kappa = 0, r = 0.8; N omega values x 4 starts, 100 transient and 200 recorded im
 Each round times ``run_items`` (kernel and cycle analysis, as a sweep runs them) on one
 thread for each obstacle in turn, by process CPU time; the report gives the impacts per
 second of each and the median over rounds of the per-round ratios to the rectified sine.
-The kernel is one compiled function for every obstacle: nothing extra compiles.
+The built-in obstacles share one compiled kernel, the profiles another
+(``kernels.flow.run_batch_profile``); both are loaded or compiled before the rounds.
 
     python benchmarks/profile_speed.py [--rounds 7] [--num 200]
     python benchmarks/profile_speed.py --smoke

@@ -8,6 +8,9 @@ IEEE rounding).
 """
 
 import numba
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
 
 jit = numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True)
 
@@ -32,3 +35,19 @@ def cache_is_cold(dispatcher) -> bool:
         return not os.path.exists(dispatcher._cache._cache_file._index_path)
     except Exception:        # numba's cache internals moved: say nothing
         return False
+
+
+
+@intrinsic
+def load_f64(typingctx, address, i):
+    """The float64 at ``address + 8 i`` (a read through a row's ``ctypes.data``).
+
+    Lets a parameter tuple carry a reference to its packed row (a cam profile's table,
+    models/obstacle.py) without the reference counting of an array argument; the caller
+    keeps the row alive while the tuple is in use."""
+    sig = types.float64(types.uintp, types.intp)
+
+    def codegen(context, builder, signature, args):
+        ptr = builder.inttoptr(args[0], ir.DoubleType().as_pointer())
+        return builder.load(builder.gep(ptr, [args[1]]))
+    return sig, codegen

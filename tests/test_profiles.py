@@ -170,11 +170,14 @@ def test_the_kernels_obstacle_is_the_profile():
     w, kap, beta = 1.3, 0.2, 0.7
     p = P.pack({"omega": w, "kappa": kap, "beta": beta}, "profile", 1e-12, 1e-6, 1e6, None,
                profile=prof)
-    d = derived_tuple_profile(derive(p))
+    da = derive(p)
+    d = derived_tuple_profile(da, p)        # the kernel's tuples refer to the row p
     pt = P.as_tuple_profile(p)
     for t in np.linspace(0.0, 2 * 2 * PI / w, 400, endpoint=False) + 1e-3:   # off the joints
         j, tau = piece_at(d, t)
+        assert (j, tau) == piece_at(da, t)          # the tuple reads what derive's array holds
         z = z_state(pt, j, tau)
+        assert z == z_state(p, j, tau)
         want = [kap + beta * prof.lift(w * t)[()]] + [beta * w ** k * prof.lift(w * t, k)[()]
                                                       for k in (1, 2, 3)]
         assert np.allclose(z, want, rtol=1e-10, atol=1e-10), (t, z, want)

@@ -870,17 +870,22 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
 def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
                       o_status, o_final, o_rec0):
     """``run_batch`` for rows of ``obstacle = "profile"`` (NPARAM_PROFILE wide): the same
-    ``run_one`` on the long tuples (models/obstacle.py, "the two tuple types").  A kernel
-    of its own, so that a sweep of a built-in obstacle never compiles the profile's code."""
+    ``run_one`` on a profile's tuples, which refer to their row of ``params`` (alive for
+    the whole call; models/obstacle.py, "the two tuple types").  A kernel of its own, so
+    that a sweep of a built-in obstacle never compiles the profile's code."""
+    if params.shape[1] != P.NPARAM_PROFILE or params.strides[1] != 8:
+        raise ValueError("run_batch_profile: params must be rows of NPARAM_PROFILE "
+                         "contiguous floats")
     n = params.shape[0]
     stride = 7919 if n % 7919 != 0 else 1
     for k in prange(n):
         i = (k * stride) % n
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
-        o_status[i] = run_one(P.as_tuple_profile(params[i]),
-                              derived_tuple_profile(derive(params[i])), ints, ics[i, 0],
-                              ics[i, 1], t0, o_t[i], o_u[i], o_vin[i], o_vout[i], o_off[i],
-                              o_corner[i], o_su[i], o_sv[i], o_final[i], o_rec0[i:i + 1])
+        row = params[i]
+        o_status[i] = run_one(P.as_tuple_profile(row), derived_tuple_profile(derive(row), row),
+                              ints, ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i],
+                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i],
+                              o_rec0[i:i + 1])
 
 
 @pjit

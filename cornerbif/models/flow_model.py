@@ -236,7 +236,7 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     final = np.zeros((n, 2))
     rec0 = np.zeros(n, np.int64)
     kernel = run_batch_profile if params.shape[1] > P.NPARAM else run_batch
-    kernel(params, ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
+    kernel(np.ascontiguousarray(params), ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
            out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)

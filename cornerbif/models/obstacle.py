@@ -28,7 +28,7 @@ import numpy as np
 from numba.core import types
 from numba.extending import overload
 
-from .._jit import jit
+from .._jit import jit, load_f64
 from . import params as P
 
 # derived per-point quantities (filled once per run by ``derive``)
@@ -52,10 +52,11 @@ D_IWD = 15      # 1 / w_d (under-damped)
 # the built-in obstacles (and a profile of one or two pieces: L0, L1, D_STURM0, D_STURM1),
 # a profile's pieces per period beyond (the per-piece slots below)
 D_NP = 16
-D_PL0 = 17      # 8 piece lengths (time)
-D_PS0 = 25      # 8 piece starts within the period (time)
-D_PSTURM0 = 33  # 8 Sturm floors f_min / k^2
+D_PL0 = 17      # 8 piece lengths (time)                     } of ``derive``'s array; a
+D_PS0 = 25      # 8 piece starts within the period (time)    } profile's derived tuple
+D_PSTURM0 = 33  # 8 Sturm floors f_min / k^2                 } reads them from its row
 NDERIVED = 41
+D_ROW = 17      # in a profile's derived tuple: the address of its packed row
 
 
 NDERIVED_BUILTIN = 16   # the built-in obstacles' derived tuple: D_L0 .. D_IWD
@@ -70,21 +71,58 @@ def derived_tuple(d):
 
 
 @jit
-def derived_tuple_profile(d):
-    """A profile's derived constants, all NDERIVED: the kernels' second type."""
+def derived_tuple_profile(d, row):
+    """A profile's derived constants: the built-in ones and D_NP, then the address of its
+    packed row ``row`` (``D_ROW``), where its per-piece lengths, starts and Sturm floors
+    are (PC_LEN, PC_T0, PC_FLOOR; ``cycle_slot``): the kernels' second type."""
     return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11],
-            d[12], d[13], d[14], d[15], d[16], d[17], d[18], d[19], d[20], d[21], d[22], d[23],
-            d[24], d[25], d[26], d[27], d[28], d[29], d[30], d[31], d[32], d[33], d[34], d[35],
-            d[36], d[37], d[38], d[39], d[40])
+            d[12], d[13], d[14], d[15], d[16], row.ctypes.data)
 
 
 # ------------------------------------------------------------------ the two tuple types
-# The kernels run a built-in obstacle on short tuples (params.as_tuple, derived_tuple) and a
-# profile on long ones (as_tuple_profile, derived_tuple_profile).  The profile's code is
-# reached through the overloads below: on a short tuple each compiles to a constant (a
+# The kernels run a built-in obstacle on short tuples of floats (params.as_tuple,
+# derived_tuple) and a profile on tuples that end in the address of its packed row
+# (as_tuple_profile, derived_tuple_profile): its table is read through the row
+# (``profile_slot``, ``cycle_slot``), so no call carries it (a first version passed the
+# 197-float table in the tuple by value: a profile cost 5.3x the rectified sine per impact,
+# against about 1.9x now; docs/cams.md).  The profile's code
+# is reached through the overloads below: on a short tuple each compiles to a constant (a
 # built-in obstacle never reaches it), so the built-in obstacles' code is what it was.
+# Outside the kernels (stability, trajectories) the same functions take the arrays.
 def _short(x, n):
     return isinstance(x, types.BaseTuple) and len(x) == n
+
+
+def profile_slot(p, i):
+    """Slot i of a profile's packed row (``params.PROFILE0`` on): of the row itself, or
+    read through the address a profile's tuple carries (``params.PROFILE_ROW``)."""
+    return p[i]
+
+
+@overload(profile_slot)
+def _ov_profile_slot(p, i):
+    if isinstance(p, types.Array):
+        return lambda p, i: p[i]
+    if _short(p, P.NPARAM):
+        return lambda p, i: 0.0
+    return lambda p, i: load_f64(p[P.PROFILE_ROW], i)
+
+
+def cycle_slot(d, m, dslot, pcslot):
+    """A per-piece constant of piece m of a profile of more than two pieces: slot
+    dslot + m of ``derive``'s array (D_PL0, D_PS0, D_PSTURM0), or slot pcslot of piece m
+    of the packed row a profile's derived tuple refers to (PC_LEN, PC_T0, PC_FLOOR)."""
+    return d[dslot + m]
+
+
+@overload(cycle_slot)
+def _ov_cycle_slot(d, m, dslot, pcslot):
+    if isinstance(d, types.Array):
+        return lambda d, m, dslot, pcslot: d[dslot + m]
+    if _short(d, NDERIVED_BUILTIN):
+        return lambda d, m, dslot, pcslot: 0.0
+    return lambda d, m, dslot, pcslot: load_f64(d[D_ROW], P.PROFILE0 + m * P.PIECE_STRIDE
+                                                + pcslot)
 
 
 def is_profile(p):
@@ -118,10 +156,10 @@ def piece_lengths(p):
     w = p[P.OMEGA]
     if p[P.OBSTACLE] == P.PROFILE:
         n = np.int64(p[P.PROFILE_NP])
-        L0 = p[P.PROFILE0 + P.PC_SPAN] / w
+        L0 = profile_slot(p, P.PROFILE0 + P.PC_LEN)
         if n == 1:
             return L0, L0, 2.0 * L0
-        L1 = p[P.PROFILE0 + P.PIECE_STRIDE + P.PC_SPAN] / w
+        L1 = profile_slot(p, P.PROFILE0 + P.PIECE_STRIDE + P.PC_LEN)
         return L0, L1, (L0 + L1) if n == 2 else p[P.PROFILE_PERIOD] / w
     if p[P.OBSTACLE] == P.TRIANGLE:
         per = math.pi / w
@@ -144,7 +182,7 @@ def _profile_max(p, slot):
     n = np.int64(p[P.PROFILE_NP])
     m = 0.0
     for i in range(n):
-        m = max(m, abs(p[P.PROFILE0 + i * P.PIECE_STRIDE + slot]))
+        m = max(m, abs(profile_slot(p, P.PROFILE0 + i * P.PIECE_STRIDE + slot)))
     return m
 
 
@@ -155,7 +193,7 @@ def profile_g2_abs(p):
     m = 0.0
     for i in range(n):
         o = P.PROFILE0 + i * P.PIECE_STRIDE
-        m = max(m, abs(p[o + P.PC_G2_LO]), abs(p[o + P.PC_G2_HI]))
+        m = max(m, abs(profile_slot(p, o + P.PC_G2_LO)), abs(profile_slot(p, o + P.PC_G2_HI)))
     return m
 
 
@@ -163,10 +201,9 @@ def profile_g2_abs(p):
 def profile_sturm_floor(p, m):
     """f_min / k^2 of the Sturm comparison on profile piece m (k > 0): f = -k^2 z - z''
     = -k^2 kappa - beta (k^2 g + omega^2 g'') >= -k^2 kappa - beta H, H the piece's bound of
-    k^2 g + omega^2 g'' packed for this point's k and omega (``profile.sturm_bound``)."""
-    o = P.PROFILE0 + m * P.PIECE_STRIDE
-    k = p[P.K]
-    return -p[P.KAPPA] - p[P.BETA] * p[o + P.PC_STURM] / (k * k)
+    k^2 g + omega^2 g'' packed for this point's k and omega (``profile.sturm_bound``); the
+    floor -kappa - beta H / k^2 is packed with it (PC_FLOOR, ``params.pack_profile``)."""
+    return profile_slot(p, P.PROFILE0 + m * P.PIECE_STRIDE + P.PC_FLOOR)
 
 
 @jit
@@ -254,7 +291,7 @@ def piece_start(d, j):
     n = cycle_np(d)
     if n == 2:
         return (j // 2) * d[D_PERIOD] + (j % 2) * d[D_L0]
-    return (j // n) * d[D_PERIOD] + d[D_PS0 + j % n]
+    return (j // n) * d[D_PERIOD] + cycle_slot(d, j % n, D_PS0, P.PC_T0)
 
 
 @jit
@@ -270,9 +307,9 @@ def piece_at(d, t):
             return 2 * m + 1, x - d[D_L0]
         return 2 * m, x
     i = n - 1
-    while i > 0 and x < d[D_PS0 + i]:
+    while i > 0 and x < cycle_slot(d, i, D_PS0, P.PC_T0):
         i -= 1
-    return n * m + i, x - d[D_PS0 + i]
+    return n * m + i, x - cycle_slot(d, i, D_PS0, P.PC_T0)
 
 
 @jit
@@ -280,7 +317,7 @@ def piece_length(d, j):
     n = cycle_np(d)
     if n == 2:
         return d[D_L0] if j % 2 == 0 else d[D_L1]
-    return d[D_PL0 + j % n]
+    return cycle_slot(d, j % n, D_PL0, P.PC_LEN)
 
 
 @jit
@@ -289,7 +326,7 @@ def sturm_floor(d, j):
     n = cycle_np(d)
     if n == 2:
         return d[D_STURM0] if j % 2 == 0 else d[D_STURM1]
-    return d[D_PSTURM0 + j % n]
+    return cycle_slot(d, j % n, D_PSTURM0, P.PC_FLOOR)
 
 
 @jit
@@ -301,13 +338,11 @@ def profile_cycle(p, d):
         return
     n = np.int64(p[P.PROFILE_NP])
     d[D_NP] = n
-    w = p[P.OMEGA]
     for m in range(n):
         o = P.PROFILE0 + m * P.PIECE_STRIDE
-        d[D_PL0 + m] = p[o + P.PC_SPAN] / w
-        d[D_PS0 + m] = p[o + P.PC_START] / w
-        if p[P.K] > 0.0:
-            d[D_PSTURM0 + m] = profile_sturm_floor(p, m)
+        d[D_PL0 + m] = profile_slot(p, o + P.PC_LEN)
+        d[D_PS0 + m] = profile_slot(p, o + P.PC_T0)
+        d[D_PSTURM0 + m] = profile_slot(p, o + P.PC_FLOOR)
 
 
 @jit
@@ -337,8 +372,8 @@ def _profile_state(p, j, tau):
     x = w * tau
     c = o + P.PC_C0
     # Horner for g and its first three derivatives, from the piece's degree down
-    deg = np.int64(p[o + P.PC_DEG])
-    g = p[c + deg]
+    deg = np.int64(profile_slot(p, o + P.PC_DEG))
+    g = profile_slot(p, c + deg)
     g1 = 0.0
     g2 = 0.0
     g3 = 0.0
@@ -346,12 +381,12 @@ def _profile_state(p, j, tau):
         g3 = g3 * x + g2
         g2 = g2 * x + g1
         g1 = g1 * x + g
-        g = g * x + p[c + i]
+        g = g * x + profile_slot(p, c + i)
     g2 *= 2.0
     g3 *= 6.0
-    a = p[o + P.PC_A]
-    b = p[o + P.PC_B]
-    n = p[o + P.PC_N]
+    a = profile_slot(p, o + P.PC_A)
+    b = profile_slot(p, o + P.PC_B)
+    n = profile_slot(p, o + P.PC_N)
     if a != 0.0 or b != 0.0:
         s = math.sin(n * x)
         co = math.cos(n * x)
@@ -460,10 +495,10 @@ def _profile_corner(p, d, j, tau):
             return m, x, True
         return m + 1, x - per, True
     back = j
-    while p[profile_piece(p, back) + P.PC_CORNER] == 0.0:
+    while profile_slot(p, profile_piece(p, back) + P.PC_CORNER) == 0.0:
         back -= 1
     ahead = j + 1
-    while p[profile_piece(p, ahead) + P.PC_CORNER] == 0.0:
+    while profile_slot(p, profile_piece(p, ahead) + P.PC_CORNER) == 0.0:
         ahead += 1
     t = piece_start(d, j) + tau
     before = t - piece_start(d, back)
@@ -480,7 +515,7 @@ def _profile_corner(p, d, j, tau):
 def _profile_zpp_range(p, j):
     o = profile_piece(p, j)
     s = p[P.BETA] * p[P.OMEGA] * p[P.OMEGA]
-    return s * p[o + P.PC_G2_LO], s * p[o + P.PC_G2_HI]
+    return s * profile_slot(p, o + P.PC_G2_LO), s * profile_slot(p, o + P.PC_G2_HI)
 
 
 @jit

@@ -48,6 +48,7 @@ PROFILE_NP = 18      # pieces per period
 PROFILE_PERIOD = 19  # the period of g, an angle
 PROFILE_CORNERS = 20 # 1 when some joint is a corner
 PROFILE0 = 21
+PROFILE_ROW = 21     # in a profile's tuple (as_tuple_profile): the address of its packed row
 PC_SPAN = 0          # the piece's angular span
 PC_C0 = 1            # c_0 .. c_7 at PC_C0 .. PC_C0 + 7 (the local angle's powers)
 PC_A = 9             # a sin(n phi) + b cos(n phi)
@@ -63,11 +64,15 @@ PC_CORNER = 18       # 1 when the piece's start is a corner
 PC_START = 19        # the angle at which the piece starts
 PC_STURM = 20        # an upper bound of k^2 g + omega^2 g'' on the piece (profile.sturm_bound)
 PC_DEG = 21          # the polynomial's degree (its highest nonzero coefficient)
-PIECE_STRIDE = 22
+PC_LEN = 22          # in time: the piece's length span / omega,
+PC_T0 = 23           # its start start / omega within the period,
+PC_FLOOR = 24        # the Sturm comparison's floor f_min / k^2 on it (0 when k = 0)
+PIECE_STRIDE = 25
 PROFILE_MAX = 8      # pieces per period at most (profile.MAX_PIECES)
-# the built-in obstacles' rows hold the first NPARAM slots; a profile's rows NPARAM_PROFILE:
-# the kernels then run on two tuple types (as_tuple, as_tuple_profile), so that a built-in
-# obstacle's calls carry 18 floats, not a profile's table (models/obstacle.py)
+# the built-in obstacles' rows hold the first NPARAM slots; a profile's rows NPARAM_PROFILE.
+# The kernels run on two tuple types: a built-in obstacle's NPARAM floats (as_tuple), and a
+# profile's first PROFILE0 floats with its row's address (as_tuple_profile), so that no
+# call carries the profile's table (models/obstacle.py, "the two tuple types")
 NPARAM = 18
 NPARAM_PROFILE = PROFILE0 + PROFILE_MAX * PIECE_STRIDE
 # the named parameters of PARAMS (below) and their slots (theta1, theta2: pack)
@@ -89,27 +94,12 @@ def as_tuple(p):
 
 @jit
 def as_tuple_profile(p):
-    """A profile's packed row (NPARAM_PROFILE floats) as a tuple: the kernels' second type."""
+    """A profile's packed row (NPARAM_PROFILE floats, a row of the kernel's input) as a
+    tuple: its first PROFILE0 floats, then the row's address (``PROFILE_ROW``), through
+    which the profile's table is read (``obstacle.profile_slot``) while the row lives."""
     return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
             p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19],
-            p[20], p[21], p[22], p[23], p[24], p[25], p[26], p[27], p[28], p[29],
-            p[30], p[31], p[32], p[33], p[34], p[35], p[36], p[37], p[38], p[39],
-            p[40], p[41], p[42], p[43], p[44], p[45], p[46], p[47], p[48], p[49],
-            p[50], p[51], p[52], p[53], p[54], p[55], p[56], p[57], p[58], p[59],
-            p[60], p[61], p[62], p[63], p[64], p[65], p[66], p[67], p[68], p[69],
-            p[70], p[71], p[72], p[73], p[74], p[75], p[76], p[77], p[78], p[79],
-            p[80], p[81], p[82], p[83], p[84], p[85], p[86], p[87], p[88], p[89],
-            p[90], p[91], p[92], p[93], p[94], p[95], p[96], p[97], p[98], p[99],
-            p[100], p[101], p[102], p[103], p[104], p[105], p[106], p[107], p[108], p[109],
-            p[110], p[111], p[112], p[113], p[114], p[115], p[116], p[117], p[118], p[119],
-            p[120], p[121], p[122], p[123], p[124], p[125], p[126], p[127], p[128], p[129],
-            p[130], p[131], p[132], p[133], p[134], p[135], p[136], p[137], p[138], p[139],
-            p[140], p[141], p[142], p[143], p[144], p[145], p[146], p[147], p[148], p[149],
-            p[150], p[151], p[152], p[153], p[154], p[155], p[156], p[157], p[158], p[159],
-            p[160], p[161], p[162], p[163], p[164], p[165], p[166], p[167], p[168], p[169],
-            p[170], p[171], p[172], p[173], p[174], p[175], p[176], p[177], p[178], p[179],
-            p[180], p[181], p[182], p[183], p[184], p[185], p[186], p[187], p[188], p[189],
-            p[190], p[191], p[192], p[193], p[194], p[195], p[196])
+            p[20], p.ctypes.data)
 
 
 def steady_or_frequency(v):
@@ -248,6 +238,10 @@ def pack_profile(p, profile):
         p[o + PC_CORNER] = 1.0 if profile.corners[m] else 0.0
         p[o + PC_START] = start
         p[o + PC_STURM] = sturm_bound(pc, p[K], p[OMEGA])
+        p[o + PC_LEN] = pc.span / p[OMEGA]
+        p[o + PC_T0] = start / p[OMEGA]
+        if p[K] > 0.0:
+            p[o + PC_FLOOR] = -p[KAPPA] - p[BETA] * p[o + PC_STURM] / (p[K] * p[K])
         nz = np.flatnonzero(np.array(pc.poly))
         p[o + PC_DEG] = nz[-1] if nz.size else 0
         start += pc.span
