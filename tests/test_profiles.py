@@ -369,3 +369,52 @@ def test_a_profiles_time_series_is_drawn(tmp_path):
     fig, ax = plt.subplots()
     plot.draw_timeseries(ax, str(tmp_path / "c.h5"), (0,), 0)
     plt.close(fig)
+
+
+@pytest.mark.parametrize("named,angles", [
+    (None, [0.0, 0.5 * PI, PI, 1.5 * PI]),       # every joint of the cam is a corner
+    ([1, 3], [0.5 * PI, 1.5 * PI]),              # only the two named
+])
+def test_which_corner_of_the_period_each_impact_is_grouped_by(tmp_path, named, angles):
+    """output.keep "corners": impacts/corner is the place, among the period's corners, of
+    the corner impacts/corner_offset is measured from.  Checked against the corner at the
+    angle omega (t - offset) mod 2 pi, matched to the profile's corner angles (computed
+    here from the scene, not from the kernel's ids)."""
+    import h5py
+    out = tmp_path / "c.h5"
+    args = ["sweep", "configs/cam_constant_velocity.toml", "-o", str(out), "--no-progress",
+            "--set", "sweep.omega={start=0.6, stop=2.4, num=7}", "--set", "run.transient=60",
+            "--set", "run.record=30", "--set", 'output.keep=["impacts", "corners"]']
+    if named is not None:
+        args += ["--set", f"system.profile.corners={named}"]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        t = f["impacts/t"][...]
+        off = f["impacts/corner_offset"][...]
+        place = f["impacts/corner"][...]
+        w = f["omega"][...][:, None, None] * np.ones(t.shape)
+    hit = np.isfinite(t)
+    assert hit.sum() > 500 and (place[~hit] == -1).all()
+    phase = np.mod(w[hit] * (t[hit] - off[hit]), 2 * PI)
+    dist = np.abs(np.angle(np.exp(1j * (phase[:, None] - np.array(angles)[None, :]))))
+    assert dist.min(axis=1).max() < 1e-9             # t - offset is a corner
+    assert np.array_equal(place[hit], dist.argmin(axis=1))
+    assert set(np.unique(place[hit])) == set(range(len(angles)))
+
+
+def test_the_builtin_obstacles_corners_are_one_per_period(tmp_path):
+    """impacts/corner of the rectified sine is 0 at every impact; the sine has none (-1)."""
+    import h5py
+    for ob, want in (("rectified_sine", 0), ("sine", -1)):
+        out = tmp_path / f"{ob}.h5"
+        r = CliRunner().invoke(main, ["sweep", "configs/fig06a.toml", "-o", str(out),
+                                      "--no-progress", "--set", "sweep.kappa.num=3",
+                                      "--set", f'system.obstacle="{ob}"', "--set",
+                                      "run.transient=20", "--set", "run.record=10", "--set",
+                                      'output.keep=["impacts", "corners"]'])
+        assert r.exit_code == 0, r.output
+        with h5py.File(out) as f:
+            hit = np.isfinite(f["impacts/t"][...])
+            place = f["impacts/corner"][...]
+        assert hit.any() and (place[hit] == want).all() and (place[~hit] == -1).all()

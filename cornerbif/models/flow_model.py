@@ -33,6 +33,14 @@ IMPACT_FIELDS = (
     Field("impacts/corner_offset", "corner_offset",
           "signed offset of the impact to the nearest corner (t - t_k)", "time"),
 )
+# which corner of a period an impact is grouped by, when a period has several (a cam
+# profile's); opt-in: the built-in obstacles have one corner per period (0) or none (-1)
+CORNER_FIELDS = (
+    Field("impacts/corner", "corner", "which corner of the obstacle's period the impact is "
+          "grouped by (impacts/corner_offset is the offset to it): its place among the "
+          "period's corners from the period's start, 0 the first; -1 none (an obstacle "
+          "without corners, no impact)", axis=None, dtype="i1", fill=-1),
+)
 SECTION_FIELDS = (
     Field("section/u", "su", "u at the Poincare section t = nT"),
     Field("section/v", "sv", "v at the Poincare section t = nT"),
@@ -209,9 +217,30 @@ class FlowModel(Model):
                 whole[redo] = part
         if "stability" in scene.keep:
             out.update(_stability(params, out, ipc))
+        if "corners" in scene.keep:
+            out["corner"] = corner_places(params, out["corner_id"], out["t"], cornered)
         if not cornered.all():
             out["corner_offset"][~cornered] = np.nan
         return out, st, final, period, ipc, sym
+
+
+def corner_places(params, ids, t, cornered):
+    """``impacts/corner``: the place of each impact's corner among its period's corners.
+
+    ``ids`` are the kernel's corner ids (``obstacle.corner_of``): for a profile the piece
+    whose start is the corner, counted on from the first piece (m = id mod its pieces per
+    period, the place the number of corners among pieces 0 .. m less one); the built-in
+    obstacles with corners have one per period (0); -1 where a run has no corners
+    (``cornered`` false) or no impact (t NaN)."""
+    has = np.isfinite(t) & cornered[:, None]
+    place = np.zeros(t.shape, np.int64)
+    if params.shape[1] > P.NPARAM:
+        n = params[:, P.PROFILE_NP].astype(np.int64)
+        flags = params[:, P.PROFILE0 + P.PC_CORNER::P.PIECE_STRIDE] != 0.0
+        ordinal = np.cumsum(flags, axis=1) - 1
+        m = np.where(has, ids, 0) % n[:, None]
+        place = np.take_along_axis(ordinal, m, axis=1)
+    return np.where(has, place, -1).astype(np.int8)
 
 
 def _stability(params, out, ipc):
@@ -236,11 +265,12 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     final = np.zeros((n, 2))
     rec0 = np.zeros(n, np.int64)
     kernel = run_batch_profile if params.shape[1] > P.NPARAM else run_batch
-    kernel(np.ascontiguousarray(params), ints, ics, out["t"], out["u"], out["v_in"], out["v_out"],
-           out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
+    kernel(np.ascontiguousarray(params), ints, ics, out["t"], out["u"], out["v_in"],
+           out["v_out"], out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)
     sym = np.zeros((n, rec), np.uint8)
+    out["corner_id"] = corner
     detect_cycles(out["t"], out["v_in"], out["corner_offset"], corner, cornered,
                   scene.period_tol, period, ipc, sym)
     return out, st, final, period, ipc, sym, rec0
@@ -252,9 +282,9 @@ MODEL = FlowModel(
     params=P.PARAMS,
     state=(U, V),
     start_time=T0,
-    observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS,
-                 "stability": STABILITY_FIELDS},
-    opt_in=("stability",),
+    observables={"impacts": IMPACT_FIELDS, "corners": CORNER_FIELDS,
+                 "section": SECTION_FIELDS, "stability": STABILITY_FIELDS},
+    opt_in=("stability", "corners"),
     continuation=True,
     seed_observable="impacts",
     cycle=IMPACT_CYCLE,
