@@ -95,22 +95,26 @@ class _Reps:
         self.by_key = {}
         self.key, self.sig, self.point, self.runs, self.mult = [], [], [], [], []
 
+    def add(self, key, sig, point, mult, runs=0):
+        """A new representative (one row's signature, point and multipliers): its serial."""
+        s = len(self.key)
+        self.key.append(key)
+        self.sig.append(sig.copy())
+        self.point.append(point.copy())
+        self.runs.append(runs)
+        self.mult.append(None if mult is None else mult.copy())
+        self.by_key.setdefault(key, []).append(s)
+        return s
+
     def match(self, key, sig, point, mult):
         """Serial numbers of the representatives of rows ``sig`` (all with one key), new ones
         made from the first unmatched row in order (deterministic in the file's order)."""
         out = np.full(sig.shape[0], -1, np.int64)
-        serials = self.by_key.setdefault(key, [])
-        for s in serials:
+        for s in self.by_key.get(key, []):
             self._claim(out, sig, s)
         while (out < 0).any():
             first = int(np.flatnonzero(out < 0)[0])
-            s = len(self.key)
-            self.key.append(key)
-            self.sig.append(sig[first].copy())
-            self.point.append(point[first].copy())
-            self.runs.append(0)
-            self.mult.append(None if mult is None else mult[first].copy())
-            serials.append(s)
+            s = self.add(key, sig[first], point[first], None if mult is None else mult[first])
             self._claim(out, sig, s)
         for s, c in zip(*np.unique(out, return_counts=True)):
             self.runs[s] += int(c)
@@ -175,11 +179,26 @@ def tabulate(f, scene):
             sig2 = sig.reshape(n, -1)
             pt2 = point.reshape(n, -1)
             m2 = mult.reshape(n, -1) if mult is not None else None
-            for k in range(uniq.size):
+            # the usual group: every run of a key within tolerance of its first run (in the
+            # file's order), which is what ``match`` makes of a key not seen before; such
+            # groups become a representative each without a pass of their own
+            first = cyc[order[bounds[:-1]]]
+            ref = sig2[first][inv]
+            close = np.all(np.abs(sig2[cyc] - ref) <= reps.tol * (1.0 + np.abs(ref)), axis=-1)
+            whole = np.bincount(inv, weights=~close, minlength=uniq.size) == 0
+            size = np.diff(bounds)
+            serial_of = np.full(uniq.size, -1, np.int64)
+            for k, key in enumerate(uniq.tolist()):
+                if whole[k] and key not in reps.by_key:
+                    serial_of[k] = reps.add(key, sig2[first[k]], pt2[first[k]],
+                                            None if m2 is None else m2[first[k]],
+                                            runs=int(size[k]))
+                    continue
                 rows = cyc[order[bounds[k]:bounds[k + 1]]]
-                key = tuple(uniq[k].tolist())
                 ser[rows] = reps.match(key, sig2[rows], pt2[rows],
                                        None if m2 is None else m2[rows])
+            done = serial_of[inv] >= 0
+            ser[cyc[done]] = serial_of[inv[done]]
         serial[pos:pos + n] = ser
         pos += n
     _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point)

@@ -195,7 +195,8 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
     G = scene.shape
     idx, sub = block_indices(scene, blk)
     params = spec.pack_points(scene, idx)
-    flat = np.array([np.ravel_multi_index(i, G) if G else 0 for i in idx], np.int64)
+    flat = (np.ravel_multi_index(tuple(np.asarray(idx, np.int64).reshape(len(idx), -1).T), G)
+            if G else np.zeros(len(idx), np.int64))
     wall = spec.wall_at_start(params)
     ics = draw_initial(scene, flat, wall, params)
     if carry is not None:

@@ -247,3 +247,54 @@ def test_table_multipliers_are_their_runs(tmp_path):
         first = runs[0]
         assert np.array_equal(first, m[k])
         assert np.abs(runs - first).max() < 1e-6, k
+
+
+def test_matching_groups_runs_as_a_one_by_one_reference(tmp_path):
+    """tabulate's grouping (a vectorised pass for keys whose runs all lie within tolerance
+    of their first, ``_Reps.match`` for the rest) against a reference written here, run by
+    run: a run joins the first representative of its point, word, period and impacts per
+    cycle within tolerance, else founds one.  Synthetic signatures: per point, keys with
+    one attractor, with two (far apart) and with runs at 0.5 and 2 tolerances off."""
+    from cornerbif import io
+    from cornerbif import status as S
+    sc = config.load(os.path.join(ROOT, "configs", "fig06a.toml"),
+                     ["sweep.kappa.num=5", "initial.count=12", "run.record=8"])
+    tol = A.MATCH_FACTOR * sc.period_tol
+    rng = np.random.default_rng(7)
+    G, n = sc.shape, sc.n_ic
+    words = np.array([b"ab", b"b", b"ab", b"abg"])[rng.integers(0, 4, G + (n,))]
+    period = np.where(words == b"b", 1, 2)
+    sig = np.zeros(G + (n, 6))
+    base = rng.integers(0, 2, G + (n,))            # one of two cycles per key
+    sig[...] = (1.0 + 5.0 * base)[..., None]
+    jitter = rng.choice([0.0, 0.5, 2.0], G + (n,), p=[0.6, 0.3, 0.1])
+    sig[..., 0] += jitter * tol * (1.0 + sig[..., 0])
+    path = str(tmp_path / "m.h5")
+    with io.create(path, sc, n) as f:
+        f["status"][...] = S.OK
+        f["period"][...] = period
+        f["impacts_per_cycle"][...] = period
+        f["symbols"][...] = words
+        f["cycle/signature"][...] = sig
+        f["cycle/point"][...] = sig[..., :2]
+        A.tabulate(f, sc)
+        ids = f["attractor"][...]
+    groups = 0
+    for g in range(G[0]):                           # the reference, run by run
+        reps = []
+        mine = np.empty(n, np.int64)
+        for i in range(n):
+            key = (words[g, i], period[g, i])
+            for r, (k, s) in enumerate(reps):
+                if k == key and np.all(np.abs(sig[g, i] - s) <= tol * (1.0 + np.abs(s))):
+                    mine[i] = r
+                    break
+            else:
+                reps.append((key, sig[g, i]))
+                mine[i] = len(reps) - 1
+        groups += len(reps)
+        same_ref = mine[:, None] == mine[None, :]
+        same_tab = ids[g][:, None] == ids[g][None, :]
+        assert np.array_equal(same_ref, same_tab), g
+    assert len(np.unique(ids)) == groups
+    assert groups > 2 * G[0]            # several attractors per point, split by jitter too

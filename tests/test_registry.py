@@ -160,3 +160,28 @@ def test_a_model_from_outside_the_package_sweeps_to_a_file(toy_registered, tmp_p
         assert np.allclose(u[i, :, -1], x[0], atol=1e-12)
     r = CliRunner().invoke(main, ["validate", str(scene), "--set", "system.r=1.5"])
     assert r.exit_code == 2 and "system.r: 1.5 is out of range; r must be in (0, 1)" in r.output
+
+
+def test_flow_packs_a_block_as_point_by_point():
+    """FlowModel.pack_points (the swept values as columns, params.pack_many) equals the
+    generic Model.pack_points (scene.point, one row at a time), bit for bit: two swept
+    parameters, theta by default and given, a swept start coordinate, and a profile."""
+    import numpy as np
+
+    from cornerbif import config
+    from cornerbif.model import Model
+    spec = registry.get("flow")
+    scenes = [
+        config.load("configs/fig06a.toml", ["sweep.kappa.num=4",
+                                            "sweep.omega={start=1.9, stop=2.1, num=3}"]),
+        config.load("configs/fig06a.toml", ['system.obstacle="triangle"', "system.theta1=1.5",
+                                            "sweep.kappa.num=3"]),
+        config.load("configs/basin_hysteresis.toml", ["sweep.initial.u.num=3",
+                                                      "sweep.initial.v.num=2"]),
+        config.load("configs/cam_cycloidal.toml", ["sweep.omega.num=5"]),
+    ]
+    for sc in scenes:
+        idx = [tuple(i) for i in np.ndindex(*sc.shape)]
+        a = spec.pack_points(sc, idx)
+        b = Model.pack_points(spec, sc, idx)
+        assert a.shape == b.shape and np.array_equal(a, b), sc.name

@@ -163,9 +163,22 @@ class FlowModel(Model):
                                 np.ascontiguousarray(t0, dtype=float))
 
     def pack_values(self, values: dict, scene) -> np.ndarray:
+        return self._pack(values, 1, scene)[0]
+
+    def pack_points(self, scene, index_list):
+        # the swept parameters as columns, packed at once (``params.pack_many``)
+        from ..config import IC_PREFIX
+        idx = np.asarray(index_list, np.int64).reshape(len(index_list), -1)
+        values = dict(scene.system)
+        for i, a in enumerate(scene.axes):
+            if not a.name.startswith(IC_PREFIX):
+                values[a.name] = a.array[idx[:, i]]
+        return self._pack(values, len(index_list), scene)
+
+    def _pack(self, values, n, scene):
         stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
-        return P.pack(values, scene.obstacle, scene.tol, scene.chatter, scene.escape,
-                      scene.section_period, stop_tol, scene.profile)
+        return P.pack_many(values, n, scene.obstacle, scene.tol, scene.chatter, scene.escape,
+                           scene.section_period, stop_tol, scene.profile)
 
     def int_settings(self, scene):
         ints = np.zeros(P.NINT, np.int64)

@@ -184,29 +184,45 @@ def pieces_per_period(obstacle: str, profile=None) -> int:
 
 def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
          section_period: float | None, stop_tol: float = 0.0, profile=None) -> np.ndarray:
-    """Pack named parameters of one grid point into the kernel's float64 vector.
+    """Pack named parameters of one grid point into the kernel's float64 vector
+    (``pack_many`` for one point)."""
+    return pack_many(values, 1, obstacle, tol, chatter, escape, section_period, stop_tol,
+                     profile)[0]
 
-    Missing values take their declared defaults (``PARAMS``);
-    theta1 and theta2 default to beta * omega.  ``stop_tol`` > 0 turns the kernel's
-    early stop on (``run.stop = "period"``).  ``profile``: the checked ``Profile`` of
-    ``obstacle = "profile"`` (models/profile.py), written to the PROFILE_* slots.
+
+def pack_many(values: dict, n: int, obstacle: str, tol: float, chatter: float,
+              escape: float, section_period: float | None, stop_tol: float = 0.0,
+              profile=None) -> np.ndarray:
+    """Pack n grid points into rows of the kernel's float64 vector: ``values`` maps each
+    named parameter to one value or to n values (a swept one).
+
+    Missing values take their declared defaults (``PARAMS``); theta1 and theta2 default
+    to beta * omega (None or NaN).  ``stop_tol`` > 0 turns the kernel's early stop on
+    (``run.stop = "period"``).  ``profile``: the checked ``Profile`` of ``obstacle =
+    "profile"`` (models/profile.py), written to the PROFILE_* slots of each row.
     """
-    v = {k: values.get(k, p.default) for k, p in PARAMS.items()}
-    p = np.zeros(NPARAM_PROFILE if obstacle == "profile" else NPARAM)
+    p = np.zeros((n, NPARAM_PROFILE if obstacle == "profile" else NPARAM))
+
+    def column(name):
+        v = values.get(name, PARAMS[name].default)
+        return np.full(n, np.nan) if v is None else np.broadcast_to(np.asarray(v, float), n)
     for name, index in INDEX.items():
-        p[index] = v[name]
+        p[:, index] = column(name)
     for name, index in (("theta1", THETA1), ("theta2", THETA2)):
-        t = v[name]
-        p[index] = v["beta"] * v["omega"] if t is None or (isinstance(t, float) and math.isnan(t)) else t
-    p[OBSTACLE] = OBSTACLES[obstacle].code
-    p[TOL] = tol
-    p[CHATTER] = chatter
-    p[ESCAPE] = escape
+        t = column(name)
+        p[:, index] = np.where(np.isnan(t), p[:, BETA] * p[:, OMEGA], t)
+    p[:, OBSTACLE] = OBSTACLES[obstacle].code
+    p[:, TOL] = tol
+    p[:, CHATTER] = chatter
+    p[:, ESCAPE] = escape
     if obstacle == "profile":
-        pack_profile(p, profile)
-    p[SECTION_PIECES] = section_pieces(obstacle, v["omega"], section_period, profile)
-    p[SECTION_AUTO] = 1.0 if (obstacle in AUTO_SECTION and section_period is None) else 0.0
-    p[STOP_TOL] = stop_tol
+        for row in p:
+            pack_profile(row, profile)
+    omegas, at = np.unique(p[:, OMEGA], return_inverse=True)
+    p[:, SECTION_PIECES] = np.array([section_pieces(obstacle, float(w), section_period,
+                                                    profile) for w in omegas])[at.ravel()]
+    p[:, SECTION_AUTO] = 1.0 if (obstacle in AUTO_SECTION and section_period is None) else 0.0
+    p[:, STOP_TOL] = stop_tol
     return p
 
 
