@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from .config import PLOT_COLOR_BY, SceneError
+from .config import PLOT_COLOR_BY, PLOT_Y, SceneError
 
 
 def _fail(msg, code=2):
@@ -201,15 +201,18 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("-o", "--out", "out", type=click.Path(dir_okay=False),
               help="Figure file (.png, .pdf or .svg; default: first file with .png).")
-@click.option("--y", "y", type=click.Choice(["impact_u", "impact_v", "section_u", "section_v",
-                                             "winding", "period"]),
-              help="What to draw against the swept parameter.")
+@click.option("--y", "y", type=click.Choice(list(PLOT_Y)),
+              help="What to draw against the swept parameter (impact_height: u - kappa, the "
+                   "height above the corner).")
 @click.option("--title", help="Figure title (default: the scene's).")
 @click.option("--color-by", "color_by", type=click.Choice(list(PLOT_COLOR_BY)),
               help="Colour the diagram (or the chart's left panel) by each run's largest "
                    "Lyapunov exponent or largest |Floquet multiplier| (files kept with "
                    "\"stability\").")
-def plot(files, out, y, title, color_by):
+@click.option("--style", "style", metavar="STYLE",
+              help="A matplotlib style sheet (a name or a .mplstyle file) over the project's "
+                   "style (default: [plot] style).")
+def plot(files, out, y, title, color_by, style):
     """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down);
     continuation files (``cornerbif continue``) are drawn over the diagram, or alone."""
     from .io import FileFormatError
@@ -231,7 +234,8 @@ def plot(files, out, y, title, color_by):
     sweeps = [x for x in files if x not in conts]
     try:
         if sweeps:
-            figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts)
+            figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
+                   style=style)
         else:
             figure_branches(conts, out, y=y, title=title)
     except (FileFormatError, ValueError) as e:
@@ -329,7 +333,9 @@ def info(file):
                 click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
             names = _names(f)
             if spec:
-                kept = [k for k in spec.observables if any(n.startswith(k + "/") for n in names)]
+                # an observable is kept when every dataset of its Fields is in the file
+                kept = [k for k, flds in spec.observables.items()
+                        if all(fld.name in names for fld in flds)]
                 click.echo(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
                            f"state {', '.join(spec.coords)}")
             if "stability/status" in f:

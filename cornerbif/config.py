@@ -77,10 +77,11 @@ MAX_INT = 2**62
 # the time budget: the kernels count it in smooth pieces of the obstacle (a few per period)
 MAX_PERIODS = 2**58
 PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
-             "max_panels", "color_by")
+             "max_panels", "color_by", "style", "marks")
 # [plot] color_by: a diagram's or a chart's colour from the stability observable
 PLOT_COLOR_BY = ("lyapunov", "multiplier")
-PLOT_Y = ("impact_u", "impact_v", "section_u", "section_v", "winding", "period")
+PLOT_Y = ("impact_u", "impact_v", "impact_height", "section_u", "section_v", "winding",
+          "period")
 # [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
 PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit",
               "fractions")
@@ -805,6 +806,16 @@ def _read_plot(w):
         if not _plain(v):
             problems.append(f"plot.{k}: {_fmt(v)[:60]} must be a string, a number or a list "
                             "of them")
+    if "marks" in plot:
+        v = plot["marks"]
+        if not (isinstance(v, list) and all(isinstance(m, list) and len(m) == 2
+                                            and _is_number(m[0]) and math.isfinite(m[0])
+                                            and isinstance(m[1], str) for m in v)):
+            problems.append(f"plot.marks: {_fmt(v)[:80]} must be a list of [value, \"label\"] "
+                            "pairs (values on the swept axis, marked by dotted lines)")
+    if "style" in plot and not (isinstance(plot["style"], str) and plot["style"]):
+        problems.append(f"plot.style: {_fmt(plot['style'])[:60]} must be a matplotlib style "
+                        "name or the path of a .mplstyle file")
     if "title" in plot and not isinstance(plot["title"], str):
         problems.append(f"plot.title: {_fmt(plot['title'])[:60]} must be a string")
     kind = plot.get("kind", "diagram")

@@ -27,6 +27,7 @@ LABELS = {
 }
 YLABELS = {
     "impact_u": "impact height $u$", "impact_v": "impact velocity $v^-$",
+    "impact_height": r"height above the corner $u - \kappa$",
     "section_u": r"$u(nT)$ (map2d: $a_n$)", "section_v": r"$v(nT)$ (map2d: $b_n$)",
     "winding": r"winding number $W$ (share of $\gamma$, §5.4)",
     "period": "period (clusters per cycle)",
@@ -59,6 +60,7 @@ class PlotData:
                 if name in f:
                     self.data[name] = f[name][...]
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
+            self.has_table = "attractors" in f            # cornerbif.attractors
             self.complete = bool(f.attrs.get("completed", ""))
             # the stability observable (docs/stability.md), per run
             self.stability = {}
@@ -96,6 +98,18 @@ class PlotData:
             return np.vectorize(winding_number, otypes=[float])(self.symbols)
         if kind == "period":
             return np.where(self.period > 0, self.period, np.nan).astype(float)
+        if kind == "impact_height":
+            # u - kappa: the impact's height above the corners of z = kappa + beta |sin|
+            # (and the triangle's valleys), where a kappa sweep's cascade lies
+            u = self.data.get("impacts/u")
+            if u is None:
+                return None
+            kap = (self.values["kappa"] if "kappa" in self.axes
+                   else np.float64(self.scene.get("system", {}).get("kappa", 0.0)))
+            if np.ndim(kap):
+                pos = self.axes.index("kappa")
+                kap = kap.reshape((-1,) + (1,) * (u.ndim - 1 - pos))
+            return u - kap
         name = {"impact_u": "impacts/u", "impact_v": "impacts/v_in",
                 "section_u": "section/u", "section_v": "section/v"}[kind]
         return self.data.get(name)
@@ -431,6 +445,23 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
     return "; ".join(parts)
 
 
+def follow_label(d: PlotData) -> str:
+    """A followed sweep's legend entry: the way it went along its parameter."""
+    a = d.axes[0]
+    name = LABELS.get(a, a)
+    return (rf"followed up: {name} increasing $\rightarrow$" if d.follow == "up"
+            else rf"followed down: {name} decreasing $\leftarrow$")
+
+
+def draw_marks(ax, plot_cfg: dict):
+    """``[plot] marks``: values known from elsewhere (a continuation's corner collision, a
+    measured threshold) as dotted vertical lines named in the legend."""
+    arts = []
+    for x, label in plot_cfg.get("marks", []):
+        arts.append(ax.axvline(x, color="0.25", lw=0.8, ls=":", label=f"{label} = {x:.10g}"))
+    return arts
+
+
 def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
     """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis
     (``mono``: in greys, beside curves coloured by attractor)."""
@@ -604,7 +635,22 @@ def draw_comparison(fig, datas, kind, plot_cfg):
     return axs
 
 
-def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):
+def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=(),
+           style=None):
+    """Draw one or more files of the same kind into ``out`` (png, pdf or svg), in the
+    project's style (``plot_style``) with the user's style sheet over it (``style``, or
+    ``[plot] style``).  See ``_figure``."""
+    from . import plot_style
+    cfg = PlotData(paths[0]).scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    user = style or cfg.get("style")
+    problem = plot_style.check_style(user)
+    if problem:
+        raise ValueError(problem)
+    with plot_style.style(user):
+        return _figure(paths, out, y, title, cfg, color_by, branches)
+
+
+def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):
     """Draw one or more files of the same kind into ``out`` (png, pdf or svg).
 
     ``plot_cfg`` replaces the file's ``[plot]`` table (the gallery passes the
@@ -681,29 +727,43 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
         fig.colorbar(im2, ax=ax2, label="distinct cycle words among the starts",
                      ticks=range(int(im2.norm.vmax + 0.5)))
     else:
-        fig, ax = plt.subplots(figsize=(7, 4.5), dpi=150)
+        fig, ax = plt.subplots(figsize=(8.2, 4.5), dpi=150)
     if len(d0.axes) == 1 and kind_ != "fractions":
         kind = y or plot_cfg.get("y") or d0.default_y()
         if kind is None or d0.y(kind) is None:
             plt.close(fig)
-            raise ValueError(f"{d0.path}: no recorded observable to draw (output.keep was empty); "
-                             "re-run with output.keep = [\"impacts\"]")
+            raise ValueError(f"{d0.path}: no recorded observable to draw (output.keep held "
+                             "neither \"impacts\" nor \"section\"); re-run with "
+                             "output.keep = [\"impacts\"]")
         colors = ["k", "tab:orange", "tab:green", "tab:purple"]
+        from . import plot_style
+        n_drawn = sum(int(np.isfinite(d.y(kind)).sum()) for d in datas if d.y(kind) is not None)
+        ms = plot_cfg.get("marker_size") or plot_style.marker_size(n_drawn)
+        by_label = (len(datas) == 1 and not color_by and kind not in ("winding", "period")
+                    and d0.y(kind).ndim == 3 and d0.has_table)
         if color_by:
             if len(datas) > 1:
                 plt.close(fig)
                 raise ValueError(f"color_by: draws one file, got {len(datas)}")
-            sc = draw_bifurcation_colored(ax, d0, kind, color_by,
-                                          ms=plot_cfg.get("marker_size", 0.6))
+            sc = draw_bifurcation_colored(ax, d0, kind, color_by, ms=ms)
             fig.colorbar(sc, ax=ax, label=COLOR_BY[color_by][0], extend="both")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
                           frameon=False, markerscale=3)
-        for i, d in enumerate(datas if not color_by else []):
+        orbit_handles = []
+        if by_label:
+            orbit_handles = plot_attractors.draw_diagram_by_label(
+                ax, d0.path, d0.values[d0.axes[0]], d0.y(kind), ms)
+        # followed sweeps: the way each went in its label, the downward one underneath and
+        # larger, so that the upward one's jumps stay in sight over it
+        drawn = sorted(enumerate(datas), key=lambda item: item[1].follow != "down")
+        for i, d in (drawn if not (color_by or by_label) else []):
             lab = None
             if len(datas) > 1:
-                lab = f"follow {d.follow}" if d.follow != "none" else d.scene["scene"]["name"]
-            draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6),
+                lab = (follow_label(d) if d.follow != "none"
+                       else d.scene["scene"].get("name", f"file {i + 1}"))
+            down = len(datas) > 1 and d.follow == "down"
+            draw_bifurcation(ax, d, kind, ms=ms * (1.8 if down else 1.0),
                              color=colors[i % len(colors)], label=lab,
                              by_attractor=len(datas) == 1 and kind not in ("winding", "period"))
         if len(datas) == 1:
@@ -722,25 +782,43 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
                                      f"{d0.axes[0]!r}")
                 branch_arts += draw_branches(ax, cont, kind, offset)
                 offset += len(cont["branches"])
-        if kind in ("impact_u", "winding", "section_v", "period"):
+        if kind in ("impact_u", "impact_height", "winding", "section_v", "period"):
             draw_corner_points(ax, d0, corner_line=kind == "impact_u")
+        draw_marks(ax, plot_cfg)
+        if by_label:
+            lines, names = ax.get_legend_handles_labels()
+            ax.legend(handles=orbit_handles + lines, labels=[h.get_label() for h in
+                                                              orbit_handles] + names,
+                      loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
+                      title="orbit (word)", title_fontsize=7, fontsize=7)
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
         ax.set_ylabel(YLABELS[kind])
         from matplotlib.ticker import MaxNLocator
         ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
         ax.ticklabel_format(axis="x", useOffset=False)
-        if "ylim" in plot_cfg and len(datas) == 1:
-            yv = d0.y(kind)
-            n_out = int(np.sum(np.isfinite(yv) & ((yv < plot_cfg["ylim"][0]) | (yv > plot_cfg["ylim"][1]))))
-            if n_out:
-                ax.text(0.99, 0.99, f"{n_out} of {int(np.isfinite(yv).sum())} values outside the "
-                        "y window", transform=ax.transAxes, ha="right", va="top", fontsize=6,
-                        color="0.3")
-        if ax.get_legend_handles_labels()[0] and not color_by:
+        # the y-window: the scene's, or one that a few outlying points do not set
+        # (plot_style.robust_range); what it leaves out is said on the figure
+        yall = np.concatenate([d.y(kind).ravel() for d in datas if d.y(kind) is not None])
+        if "ylim" in plot_cfg:
+            lo, hi = plot_cfg["ylim"]
+            fin = yall[np.isfinite(yall)]
+            n_out = int(np.count_nonzero((fin < lo) | (fin > hi)))
+        else:
+            win = plot_style.robust_range(yall)
+            lo, hi, n_out = win if win else (None, None, 0)
+            if win:
+                ax.set_ylim(lo, hi)
+        if n_out:
+            ax.text(0.99, 0.99, f"{n_out} of {int(np.isfinite(yall).sum())} values outside "
+                    "the y window", transform=ax.transAxes, ha="right", va="top",
+                    fontsize=6, color="0.3")
+        if ax.get_legend_handles_labels()[0] and not color_by and not by_label:
             hs, ls = ax.get_legend_handles_labels()
             keep = [(h, lab) for h, lab in zip(hs, ls) if h not in branch_arts]
-            leg = ax.legend(*zip(*keep), loc="best", fontsize=7, markerscale=8) if keep else None
+            # outside the axes: a legend never covers the data (Fig. 1(a) had one over it)
+            leg = ax.legend(*zip(*keep), loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                            fontsize=7, markerscale=4, frameon=False) if keep else None
             extra = [(h, lab) for h, lab in zip(hs, ls) if h in branch_arts]
             if extra:
                 # the branches' own legend, markers at their size

@@ -156,3 +156,53 @@ def draw_fractions(ax, path, x, min_share=0.0):
     ax.set_ylabel(f"fraction of starts ({table['runs_per_point']} per point; band: "
                   r"$\pm$1 s.e.)")
     return series
+
+
+def run_labels(table):
+    """Every run's attractor as an index into the returned label list, -1 where the run
+    reached none: (index array shaped like the file's ``/attractor``, labels)."""
+    labels = attractor_labels(table)
+    names = sorted(set(labels))
+    at = {lab: i for i, lab in enumerate(names)}
+    row = np.array([at[lab] for lab in labels], np.int64)
+    ids = table["ids"]
+    idx = np.where(ids >= 0, row[np.maximum(ids, 0)] if row.size else -1, -1)
+    return idx, names
+
+
+def draw_diagram_by_label(ax, path, x, yv, ms, shown=8):
+    """A one-parameter diagram coloured by what each run's orbit is: its attractor's label
+    (the word; the same colour in every figure, ``attractor_colors``).  The ``shown``
+    labels with the most runs are named in the paper's notation; the other cycles are
+    black, the runs without a cycle light grey.  ``yv``: (points, starts, record).
+    Returns the legend's handles (the caller places the legend with its other lines)."""
+    from matplotlib.lines import Line2D
+    table = read_table(path)
+    idx, names = run_labels(table)
+    counts = np.bincount(idx[idx >= 0], minlength=len(names)) if names else np.zeros(0, int)
+    top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]
+    colors = attractor_colors([names[i] for i in top])
+    xs_all = np.broadcast_to(x[:, None, None], yv.shape)
+
+    def scatter(sel, color, z):
+        m = sel[..., None] & np.isfinite(yv)
+        ax.plot(xs_all[m], yv[m], ls="none", marker=".", mew=0, ms=ms, color=color,
+                rasterized=True, zorder=z)
+    handles = []
+    none = idx < 0
+    if none.any():
+        scatter(none, "0.78", 1)
+        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="0.78",
+                              label="no cycle"))
+    other = (idx >= 0) & ~np.isin(idx, top)
+    if other.any():
+        scatter(other, "k", 2)
+        n_other = len(np.unique(idx[other]))
+        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="k",
+                              label=f"{n_other} other cycle{'s' if n_other > 1 else ''}"))
+    for rank, i in enumerate(top):
+        lab = names[i]
+        scatter(idx == i, colors[lab], 3 + rank)
+        handles.insert(rank, Line2D([], [], ls="none", marker="o", ms=4, mew=0,
+                                    color=colors[lab], label=label_tex(lab)))
+    return handles

@@ -30,7 +30,8 @@ def estimate_bytes(scene: Scene) -> int:
     spec = registry.get(scene.model)
     n = int(np.prod(scene.shape or (1,))) * scene.n_ic
     per = 2 * 8 * len(spec.state) + SUMMARY_BYTES + max(1, scene.record // 2)
-    per += sum(8 * int(np.prod(f.trailing(scene.record))) for f in spec.fields(scene.keep))
+    per += sum(np.dtype(f.dtype).itemsize * int(np.prod(f.trailing(scene.record)))
+               for f in spec.fields(scene.keep))
     return n * per
 
 

@@ -401,6 +401,24 @@ def test_which_corner_of_the_period_each_impact_is_grouped_by(tmp_path, named, a
     assert dist.min(axis=1).max() < 1e-9             # t - offset is a corner
     assert np.array_equal(place[hit], dist.argmin(axis=1))
     assert set(np.unique(place[hit])) == set(range(len(angles)))
+    info = CliRunner().invoke(main, ["info", str(out)]).output
+    assert "observables kept: impacts, corners;" in info, info
+
+
+def test_corners_alone_are_not_impacts_and_simulate_returns_no_kernel_ids(tmp_path):
+    """keep = ["corners"] writes impacts/corner only: info does not call that "impacts";
+    cornerbif.simulate returns the declared outputs, not the kernel's internal corner ids."""
+    out = tmp_path / "c.h5"
+    r = CliRunner().invoke(main, ["sweep", "configs/cam_constant_velocity.toml", "-o", str(out),
+                                  "--no-progress", "--set", "sweep.omega={start=0.6, stop=2.4, num=3}",
+                                  "--set", "run.transient=30", "--set", "run.record=10",
+                                  "--set", 'output.keep=["corners"]'])
+    assert r.exit_code == 0, r.output
+    info = CliRunner().invoke(main, ["info", str(out)]).output
+    assert "observables kept: corners;" in info, info
+    res = cornerbif.simulate([3.0, 4.0], [0.0, 0.0], obstacle="rectified_sine", omega=2.0,
+                             record=6, transient=0)
+    assert "corner_id" not in res
 
 
 def test_the_builtin_obstacles_corners_are_one_per_period(tmp_path):

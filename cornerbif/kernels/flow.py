@@ -873,7 +873,7 @@ def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corne
     ``run_one`` on a profile's tuples, which refer to their row of ``params`` (alive for
     the whole call; models/obstacle.py, "the two tuple types").  A kernel of its own, so
     that a sweep of a built-in obstacle never compiles the profile's code."""
-    if params.shape[1] != P.NPARAM_PROFILE or params.strides[1] != 8:
+    if params.shape[1] != P.NPARAM_PROFILE or params.strides[1] != params.itemsize:
         raise ValueError("run_batch_profile: params must be rows of NPARAM_PROFILE "
                          "contiguous floats")
     n = params.shape[0]

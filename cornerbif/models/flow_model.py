@@ -230,8 +230,10 @@ class FlowModel(Model):
                 whole[redo] = part
         if "stability" in scene.keep:
             out.update(_stability(params, out, ipc))
+        # the kernel's corner ids are read here only (unset where a run has no impact)
+        ids = out.pop("corner_id")
         if "corners" in scene.keep:
-            out["corner"] = corner_places(params, out["corner_id"], out["t"], cornered)
+            out["corner"] = corner_places(params, ids, out["t"], cornered)
         if not cornered.all():
             out["corner_offset"][~cornered] = np.nan
         return out, st, final, period, ipc, sym
@@ -278,7 +280,7 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     final = np.zeros((n, 2))
     rec0 = np.zeros(n, np.int64)
     kernel = run_batch_profile if params.shape[1] > P.NPARAM else run_batch
-    kernel(np.ascontiguousarray(params), ints, ics, out["t"], out["u"], out["v_in"],
+    kernel(np.ascontiguousarray(params, dtype=np.float64), ints, ics, out["t"], out["u"], out["v_in"],
            out["v_out"], out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)

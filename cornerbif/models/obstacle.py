@@ -74,7 +74,8 @@ def derived_tuple(d):
 def derived_tuple_profile(d, row):
     """A profile's derived constants: the built-in ones and D_NP, then the address of its
     packed row ``row`` (``D_ROW``), where its per-piece lengths, starts and Sturm floors
-    are (PC_LEN, PC_T0, PC_FLOOR; ``cycle_slot``): the kernels' second type."""
+    are (PC_LEN, PC_T0, PC_FLOOR; ``cycle_slot``): the kernels' second type.  ``row``
+    must be contiguous and outlive the tuple (``params.as_tuple_profile``)."""
     return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11],
             d[12], d[13], d[14], d[15], d[16], row.ctypes.data)
 

@@ -96,7 +96,11 @@ def as_tuple(p):
 def as_tuple_profile(p):
     """A profile's packed row (NPARAM_PROFILE floats, a row of the kernel's input) as a
     tuple: its first PROFILE0 floats, then the row's address (``PROFILE_ROW``), through
-    which the profile's table is read (``obstacle.profile_slot``) while the row lives."""
+    which the profile's table is read (``obstacle.profile_slot``).
+
+    The row must be contiguous and outlive the tuple: the kernels pass a row of their
+    ``params`` argument (``flow.run_batch_profile``, which checks the layout).  Python
+    code calls the obstacle functions with the row itself, never with this tuple."""
     return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
             p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19],
             p[20], p.ctypes.data)

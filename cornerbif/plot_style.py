@@ -1,0 +1,99 @@
+"""The look of every figure: one style, marker sizes from the point count, robust y-ranges.
+
+What is logic here (the y-window, the marker size) is tested without pixels
+(tests/test_plot_style.py); the style is matplotlib's rcParams, which a user replaces by
+their own style sheet (``[plot] style`` or ``cornerbif plot --style``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+
+import numpy as np
+
+# one style for every figure: serif text in the paper's sizes, thin frames, vector fonts
+# embedded as text (Type 42) so that a journal's PDF checks accept them, rasterised point
+# clouds at 300 dpi inside vector output
+STYLE = {
+    "font.family": "serif",
+    "mathtext.fontset": "dejavuserif",
+    "font.size": 8,
+    "axes.titlesize": 9,
+    "axes.labelsize": 9,
+    "legend.fontsize": 7,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "axes.linewidth": 0.6,
+    "xtick.major.width": 0.6,
+    "ytick.major.width": 0.6,
+    "lines.linewidth": 1.0,
+    "savefig.dpi": 300,
+    "pdf.fonttype": 42,
+    "ps.fonttype": 42,
+    "svg.fonttype": "none",
+}
+# the categorical colours are plot_attractors.PALETTE (keyed by the orbit's label); the
+# magnitudes' colour map is this one
+MAGNITUDE_CMAP = "viridis"
+
+# a share of the finite values at each end that may fall outside the y-window
+TAIL = 1e-3
+# the window drops the tails only when the full range is this many times the tails' window
+SQUEEZE = 2.0
+
+
+@contextlib.contextmanager
+def style(user=None):
+    """The project's style, then the user's style sheet (a name matplotlib knows or a
+    .mplstyle path) over it."""
+    import matplotlib.pyplot as plt
+    sheets = [STYLE] + ([user] if user else [])
+    with plt.style.context(sheets):
+        yield
+
+
+def check_style(user) -> str | None:
+    """A problem with a user's style sheet, or None: a name of matplotlib's or a file."""
+    if user is None:
+        return None
+    import matplotlib.style as mstyle
+    if not isinstance(user, str) or not user:
+        return f"style: {user!r} must be a style name or the path of a .mplstyle file"
+    if user in mstyle.available or os.path.isfile(user):
+        return None
+    return (f"style: {user!r} is neither a file nor one of matplotlib's styles "
+            f"({', '.join(sorted(mstyle.available)[:6])}, ...)")
+
+
+def robust_range(values, tail=TAIL, squeeze=SQUEEZE, pad=0.04):
+    """The y-window of a diagram: (low, high, outside).
+
+    The full range of the finite values, unless it is more than ``squeeze`` times the
+    range of all but a share ``tail`` at each end (a few outlying points would press the
+    structure into a thin band): then that central range.  Padded by ``pad`` of its width
+    on each side; ``outside`` counts the values the window leaves out (said on the
+    figure).  None when no value is finite.
+    """
+    v = np.asarray(values, dtype=float).ravel()
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return None
+    lo, hi = float(v.min()), float(v.max())
+    if v.size >= 1.0 / tail:
+        qlo, qhi = (float(x) for x in np.quantile(v, [tail, 1.0 - tail]))
+        if qhi > qlo and hi - lo > squeeze * (qhi - qlo):
+            lo, hi = qlo, qhi
+    span = hi - lo if hi > lo else max(abs(hi), 1.0) * 1e-3
+    lo, hi = lo - pad * span, hi + pad * span
+    outside = int(np.count_nonzero((v < lo) | (v > hi)))
+    return lo, hi, outside
+
+
+def marker_size(n_points, lo=0.5, hi=3.0):
+    """Marker size (points) of a point cloud of ``n_points``: large for a few thousand
+    points, shrinking as the fourth root of the count, never below ``lo`` (at 300 dpi a
+    marker of 0.5 pt still covers two pixels)."""
+    if n_points <= 0:
+        return hi
+    return float(np.clip(2.4 / (n_points / 2e4) ** 0.25, lo, hi))

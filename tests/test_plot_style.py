@@ -1,0 +1,94 @@
+"""The logic of the figures (issue 21), without pixels: the y-window, marker sizes, the
+style sheet check, and diagrams coloured by what each run's orbit is."""
+
+import os
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cornerbif import plot_style as PS
+from cornerbif.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def test_a_few_outliers_do_not_set_the_y_window():
+    """100 000 values in [0, 1] and 20 at 50: the window is the central range (the 20 are
+    0.02 % of the values, under the 0.1 % tail), padded by 4 %, and says 20 are left out."""
+    rng = np.random.default_rng(1)
+    v = np.concatenate([rng.uniform(0.0, 1.0, 100_000), np.full(20, 50.0), [np.nan] * 5])
+    lo, hi, out = PS.robust_range(v)
+    assert -0.05 < lo < 0.0 and 1.0 < hi < 1.05
+    assert out == 20
+
+
+def test_a_spread_family_keeps_the_full_range():
+    """When the far values are a family (5 % of them), not a few points, the window is the
+    full range and leaves nothing out; a constant series gets a window around it."""
+    rng = np.random.default_rng(2)
+    v = np.concatenate([rng.uniform(0.0, 1.0, 95_000), rng.uniform(5.0, 9.0, 5_000)])
+    lo, hi, out = PS.robust_range(v)
+    assert lo < v.min() and hi > v.max() and out == 0
+    lo, hi, out = PS.robust_range(np.full(10, 3.0))
+    assert lo < 3.0 < hi and out == 0
+    assert PS.robust_range(np.array([np.nan])) is None
+
+
+def test_marker_size_shrinks_with_the_count_within_bounds():
+    sizes = [PS.marker_size(n) for n in (10, 10**3, 10**4, 10**5, 10**6, 10**8)]
+    assert sizes == sorted(sizes, reverse=True)
+    assert sizes[0] == 3.0 and sizes[-1] == 0.5
+    assert PS.marker_size(2e4) == pytest.approx(2.4)
+
+
+def test_style_sheets_are_checked():
+    assert PS.check_style(None) is None
+    assert PS.check_style("ggplot") is None
+    assert "neither a file" in PS.check_style("no-such-style")
+
+
+def test_diagram_colours_runs_by_their_orbit(tmp_path):
+    """A kappa sweep at omega = 1.999 drawn by attractor: every run's points take its
+    word's colour (attractor_colors of the labels shown), the legend names the words in
+    the paper's notation, the runs on other cycles are black; vector output and a user's
+    style sheet work, and a bad style is refused naming it."""
+    import h5py
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cornerbif import attractors as A
+    from cornerbif import plot_attractors as PA
+    out = tmp_path / "d.h5"
+    r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig06a.toml"), "-o",
+                                  str(out), "--no-progress", "--set", "sweep.kappa.num=40",
+                                  "--set", "run.transient=200", "--set", "run.record=40"])
+    assert r.exit_code == 0, r.output
+    table = A.read_table(str(out))
+    idx, names = PA.run_labels(table)
+    # the labels of the runs are their table rows' labels
+    labels = PA.attractor_labels(table)
+    ids = table["ids"]
+    for i in np.flatnonzero(ids.ravel() >= 0)[:50]:
+        assert names[idx.ravel()[i]] == labels[ids.ravel()[i]]
+    with h5py.File(out) as f:
+        u = f["impacts/u"][...]
+        x = f["kappa"][...]
+    fig, ax = plt.subplots()
+    handles = PA.draw_diagram_by_label(ax, str(out), x, u, 1.0, shown=3)
+    shown = [h.get_label() for h in handles]
+    counts = np.bincount(idx[idx >= 0], minlength=len(names))
+    top = [names[i] for i in np.argsort(-counts, kind="stable")[:3]]
+    assert shown[:3] == [PA.label_tex(lab) for lab in top]
+    colors = PA.attractor_colors(top)
+    assert [h.get_color() for h in handles[:3]] == [colors[lab] for lab in top]
+    plt.close(fig)
+    for ext, extra in ((".pdf", []), (".svg", ["--style", "ggplot"]),
+                       (".png", ["--y", "impact_height"])):
+        r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / f"d{ext}"), *extra])
+        assert r.exit_code == 0, r.output
+        assert (tmp_path / f"d{ext}").stat().st_size > 1000
+    r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "e.png"), "--style",
+                                  "no-such-style"])
+    assert r.exit_code == 2 and "no-such-style" in r.output
