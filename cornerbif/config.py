@@ -83,8 +83,8 @@ PLOT_COLOR_BY = ("lyapunov", "multiplier")
 PLOT_Y = ("impact_u", "impact_v", "impact_height", "section_u", "section_v", "winding",
           "period")
 # [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
-PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "regions", "return_map", "orbit",
-              "fractions")
+PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "obstacle", "regions", "return_map",
+              "orbit", "fractions")
 # the (a0, b1)-plane figures of the corner normal form (sections 4-5)
 NORMAL_FORM_KINDS = ("regions", "return_map", "orbit")
 
@@ -842,6 +842,9 @@ def _read_plot(w):
         if "impacts" not in w.keep:
             problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
                             "output.keep must contain \"impacts\"")
+    if kind == "obstacle" and w.model != "flow":
+        problems.append(f"plot.kind: 'obstacle' draws the flow model's obstacle z(t) (Fig. 2); "
+                        f"the scene's model is {w.model!r}")
     if kind == "fractions" and (len(w.axes) != 1 or w.axes[0].name.startswith(IC_PREFIX)):
         problems.append("plot.kind: 'fractions' draws the share of the starts reaching each "
                         "attractor against one swept parameter; this scene sweeps "

@@ -40,7 +40,8 @@ class PlotData:
     def __init__(self, path):
         with check_readable(path) as f:
             self.path = str(path)
-            self.scene = tomllib.loads(f.attrs["scene"])
+            self.scene_text = f.attrs["scene"]
+            self.scene = tomllib.loads(self.scene_text)
             from .config import sweep_items
             self.axes = [k for k, _ in sweep_items(self.scene.get("sweep", {}))]
             self.values = {a: f[a][...] for a in self.axes}
@@ -675,11 +676,13 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
                          + ", ".join(COLOR_BY))
     if kind_ in plot_normal_form.KINDS:
         return plot_normal_form.figure(datas, out, plot_cfg, title)
-    if kind_ in ("timeseries", "corner_curves"):
+    if kind_ in ("timeseries", "corner_curves", "obstacle"):
         if len(datas) > 1:
             raise ValueError(f"plot kind {kind_!r} draws one file, got {len(datas)}")
         if kind_ == "timeseries":
             fig, _ = figure_timeseries(plt, d0, plot_cfg, title)
+        elif kind_ == "obstacle":
+            fig = figure_obstacle(plt, d0, plot_cfg, title)
         else:
             fig = figure_corner_curves(plt, d0, plot_cfg, title)
         fig.savefig(out)
@@ -1027,3 +1030,62 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
                  fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def obstacle_curve(data: PlotData, t):
+    """z(t) of a flow scene's obstacle at its system values (``kernels.flow``
+    ``obstacle_heights``, the kernels' own obstacle) and its period."""
+    from .config import loads
+    from .kernels.flow import obstacle_heights
+    from .models import params as P
+    scene = loads(data.scene_text)
+    row = registry.get("flow").pack_values(scene.system, scene)
+    z = obstacle_heights(np.ascontiguousarray(row[None, :]), np.ascontiguousarray(t[None, :]))[0]
+    return z, P.obstacle_period(scene.obstacle, scene.system["omega"], scene.profile), scene
+
+
+def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
+    """The obstacle z(t) (Fig. 2): (a) ``[plot] cycles`` periods (default 2) with the corners
+    t_k = k P marked, (b) a magnification around the corner t_0 = P with the two slopes of
+    the wedge of eq (7), z ~ kappa + theta2 (t - t_0) after it and kappa + theta1 (t_0 - t)
+    before it (theta1 = theta2 = beta omega for z = kappa + beta |sin omega t|)."""
+    cycles = float(plot_cfg.get("cycles", 2))
+    sys_ = data.scene.get("system", {})
+    w = float(sys_.get("omega", 2.0))
+    _, per, scene = obstacle_curve(data, np.zeros(1))
+    t = np.linspace(0.0, cycles * per, 2001)
+    z, _, _ = obstacle_curve(data, t)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(8.2, 3.4), dpi=150,
+                                 gridspec_kw={"width_ratios": [1.6, 1.0]})
+    ax.plot(t, z, color="k", lw=1.0, label="$z(t)$")
+    corners = per * np.arange(0, int(cycles) + 1)
+    kap = float(sys_.get("kappa", 0.0))
+    if scene.obstacle in ("rectified_sine", "triangle"):
+        ax.plot(corners, np.full(corners.size, kap), "o", ms=4, mfc="w", mec="tab:red",
+                label=r"corners $t_k = k\pi/\omega$")
+    ax.set_xlabel("$t$")
+    ax.set_ylabel("$z$")
+    ax.set_title("(a)", loc="left", fontsize=9)
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.18), ncol=2, frameon=False)
+    h = 0.06 * per
+    tz = np.linspace(per - h, per + h, 401)
+    zz, _, _ = obstacle_curve(data, tz)
+    beta = float(sys_.get("beta", 1.0))
+    th1 = float(sys_.get("theta1") or beta * w)
+    th2 = float(sys_.get("theta2") or beta * w)
+    bx.plot(tz - per, zz, color="k", lw=1.0, label="$z(t)$")
+    s = tz - per
+    bx.plot(s[s <= 0], kap - th1 * s[s <= 0], "--", color="tab:blue", lw=0.8,
+            label=r"$\kappa + \theta_1 (t_0 - t)$")
+    bx.plot(s[s >= 0], kap + th2 * s[s >= 0], "--", color="tab:orange", lw=0.8,
+            label=r"$\kappa + \theta_2 (t - t_0)$")
+    bx.set_xlabel("$t - t_0$")
+    bx.set_title("(b) near the corner $t_0$, eq (7)", loc="left", fontsize=9)
+    bx.legend(loc="upper left", bbox_to_anchor=(0.0, -0.18), frameon=False)
+    import textwrap
+    sc = data.scene.get("scene", {})
+    fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""),
+                                         90)), fontsize=9)
+    fig.tight_layout()
+    return fig
+

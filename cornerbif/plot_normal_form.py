@@ -263,7 +263,11 @@ def figure(datas, out, plot_cfg, title=None):
             # inset: the grazing transition Sigma_2, where the flow has a square-root form
             omega, omega1, kappa1, r = _system(datas[0])
             e = 2.0 + 4.0 / r
-            ins = ax.inset_axes([0.07, 0.08, 0.34, 0.36])
+            # in the corner with the fewest points of either curve: it hides no data
+            from .plot_style import emptiest_corner
+            ax.autoscale_view()
+            ins = ax.inset_axes(emptiest_corner(ax, np.concatenate([a0, a0m]),
+                                                np.concatenate([A0, A0m])))
             m = np.abs(a0 - e) < 0.25
             ins.plot(a0[m], A0[m], "k.", ms=1.5, mew=0)
             mm = np.abs(a0m - e) < 0.25

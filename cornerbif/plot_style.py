@@ -97,3 +97,28 @@ def marker_size(n_points, lo=0.5, hi=3.0):
     if n_points <= 0:
         return hi
     return float(np.clip(2.4 / (n_points / 2e4) ** 0.25, lo, hi))
+
+
+# where an inset may go, in axes fractions (x, y, width, height): the four corners
+INSET_CORNERS = {"lower left": (0.07, 0.08), "upper left": (0.07, 0.56),
+                 "lower right": (0.59, 0.08), "upper right": (0.59, 0.56)}
+
+
+def emptiest_corner(ax, x, y, size=(0.34, 0.36), avoid=("upper right",)):
+    """The inset rectangle [x0, y0, w, h] (axes fractions) over the fewest of the data
+    points (x, y), among the axes' corners (``avoid``: corners kept for a legend); the
+    first in ``INSET_CORNERS``' order on a tie.  The axes' limits must be final."""
+    pts = ax.transLimits.transform(np.column_stack([np.ravel(x), np.ravel(y)]))
+    ok = np.isfinite(pts).all(axis=1)
+    pts = pts[ok]
+    best, count = None, None
+    for name, (x0, y0) in INSET_CORNERS.items():
+        if name in avoid:
+            continue
+        inside = ((pts[:, 0] >= x0) & (pts[:, 0] <= x0 + size[0])
+                  & (pts[:, 1] >= y0) & (pts[:, 1] <= y0 + size[1]))
+        n = int(inside.sum())
+        if count is None or n < count:
+            best, count = name, n
+    x0, y0 = INSET_CORNERS[best]
+    return [x0, y0, size[0], size[1]]

@@ -92,3 +92,37 @@ def test_diagram_colours_runs_by_their_orbit(tmp_path):
     r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "e.png"), "--style",
                                   "no-such-style"])
     assert r.exit_code == 2 and "no-such-style" in r.output
+
+
+def test_the_obstacle_figure_draws_eq_8(tmp_path):
+    """[plot] kind = "obstacle" (Fig. 2) draws the kernels' obstacle: at the scene's values
+    it is kappa + beta |sin omega t| (eq 8) to rounding, its period pi / omega."""
+    from cornerbif.plot import PlotData, obstacle_curve
+    out = tmp_path / "o.h5"
+    r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig02.toml"), "-o",
+                                  str(out), "--no-progress", "--set", "system.kappa=0.3",
+                                  "--set", "system.omega=1.7"])
+    assert r.exit_code == 0, r.output
+    t = np.linspace(0.0, 7.0, 501)
+    z, per, _ = obstacle_curve(PlotData(str(out)), t)
+    assert np.max(np.abs(z - (0.3 + np.abs(np.sin(1.7 * t))))) < 1e-12
+    assert per == pytest.approx(np.pi / 1.7, rel=1e-15)
+    r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "o.pdf")])
+    assert r.exit_code == 0, r.output
+
+
+def test_an_inset_goes_where_the_data_is_not():
+    """Points along the diagonal from lower left to upper right: the inset takes the upper
+    left corner (the lower right is as empty; upper left comes first), never a corner the
+    line crosses; with the upper left filled too, the lower right."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots()
+    x = np.linspace(0.0, 1.0, 500)
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    assert PS.emptiest_corner(ax, x, x)[:2] == [0.07, 0.56]
+    blob = np.full(200, 0.2), np.full(200, 0.8)
+    assert PS.emptiest_corner(ax, np.r_[x, blob[0]], np.r_[x, blob[1]])[:2] == [0.59, 0.08]
+    plt.close(fig)
