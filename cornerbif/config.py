@@ -77,7 +77,7 @@ MAX_INT = 2**62
 # the time budget: the kernels count it in smooth pieces of the obstacle (a few per period)
 MAX_PERIODS = 2**58
 PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
-             "max_panels", "color_by", "style", "marks")
+             "max_panels", "color_by", "style", "marks", "orbits")
 # [plot] color_by: a diagram's or a chart's colour from the stability observable
 PLOT_COLOR_BY = ("lyapunov", "multiplier")
 PLOT_Y = ("impact_u", "impact_v", "impact_height", "section_u", "section_v", "winding",
@@ -813,6 +813,9 @@ def _read_plot(w):
                                             and isinstance(m[1], str) for m in v)):
             problems.append(f"plot.marks: {_fmt(v)[:80]} must be a list of [value, \"label\"] "
                             "pairs (values on the swept axis, marked by dotted lines)")
+    if "orbits" in plot and plot["orbits"] not in ("words", "families"):
+        problems.append(f"plot.orbits: {_fmt(plot['orbits'])} must be \"words\" (a colour per "
+                        "orbit) or \"families\" (one per family such as beta^N gamma)")
     if "style" in plot and not (isinstance(plot["style"], str) and plot["style"]):
         problems.append(f"plot.style: {_fmt(plot['style'])[:60]} must be a matplotlib style "
                         "name or the path of a .mplstyle file")

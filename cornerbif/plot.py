@@ -34,6 +34,36 @@ YLABELS = {
 }
 
 
+# the per-event datasets a figure may draw (read when first drawn: ``RecordedData``)
+RECORDED = ("impacts/u", "impacts/v_in", "section/u", "section/v", "impacts/t",
+            "impacts/corner_offset")
+
+
+class RecordedData(dict):
+    """The file's per-event datasets, each read from the file the first time it is asked
+    for: a figure of impact heights reads that dataset alone (a 5 M-point diagram holds
+    one 40 MB array, not six; benchmarks/plot_speed.py)."""
+
+    def __init__(self, path, names):
+        super().__init__()
+        self.path = path
+        self.names = tuple(names)
+
+    def __contains__(self, name):
+        return name in self.names
+
+    def __getitem__(self, name):
+        if name not in self.names:
+            raise KeyError(name)
+        if not dict.__contains__(self, name):
+            with check_readable(self.path) as f:
+                dict.__setitem__(self, name, f[name][...])
+        return dict.__getitem__(self, name)
+
+    def get(self, name, default=None):
+        return self[name] if name in self.names else default
+
+
 class PlotData:
     """What the plot needs, read from one file."""
 
@@ -55,11 +85,7 @@ class PlotData:
             self.role = self.spec.normal_form_role if self.spec else None
             self.done = f["done"][...]
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
-            self.data = {}
-            for name in ("impacts/u", "impacts/v_in", "section/u", "section/v", "impacts/t",
-                         "impacts/corner_offset"):
-                if name in f:
-                    self.data[name] = f[name][...]
+            self.data = RecordedData(path, [n for n in RECORDED if n in f])
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
             self.has_table = "attractors" in f            # cornerbif.attractors
             self.complete = bool(f.attrs.get("completed", ""))
@@ -446,6 +472,28 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
     return "; ".join(parts)
 
 
+def draw_winding_by_alpha(ax, d: PlotData, ms):
+    """The winding number W (the share of gamma among the iterates, section 5.4) with the
+    words that hold alpha apart: W orders the words of beta and gamma alone (the
+    staircase of Fig. 14); where alpha enters, W no longer says which orbit it is (and
+    is 0 on 'a b').  The first parameter value where a word holds alpha is marked."""
+    x = d.values[d.axes[0]]
+    w = d.y("winding")
+    has_a = np.char.find(d.symbols.astype(str), "a") >= 0
+    for sel, color, lab in ((~has_a, "k", r"words of $\beta$, $\gamma$ alone"),
+                            (has_a, "tab:orange", r"words with $\alpha$: $W$ does not order "
+                                                  "them")):
+        xs, ys = points(x, np.where(sel, w, np.nan))
+        if xs.size:
+            ax.plot(xs, ys, ls="none", marker=".", mew=0, ms=ms * 1.5, color=color, label=lab,
+                    rasterized=True)
+    rows = np.flatnonzero(has_a.reshape(has_a.shape[0], -1).any(axis=1))
+    if rows.size:
+        first = float(x[rows[0]])
+        ax.axvline(first, color="tab:orange", lw=0.8, ls=":",
+                   label=rf"$\alpha$ first at {LABELS.get(d.axes[0], d.axes[0])} = {first:.6g}")
+
+
 def follow_label(d: PlotData) -> str:
     """A followed sweep's legend entry: the way it went along its parameter."""
     a = d.axes[0]
@@ -756,10 +804,17 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         orbit_handles = []
         if by_label:
             orbit_handles = plot_attractors.draw_diagram_by_label(
-                ax, d0.path, d0.values[d0.axes[0]], d0.y(kind), ms)
+                ax, d0.path, d0.values[d0.axes[0]], d0.y(kind), ms,
+                families=plot_cfg.get("orbits") == "families")
+        if kind == "winding" and len(datas) == 1 and not color_by:
+            draw_winding_by_alpha(ax, d0, ms)
+            datas_drawn = []
+        else:
+            datas_drawn = datas
         # followed sweeps: the way each went in its label, the downward one underneath and
         # larger, so that the upward one's jumps stay in sight over it
         drawn = sorted(enumerate(datas), key=lambda item: item[1].follow != "down")
+        drawn = [item for item in drawn if item[1] in datas_drawn]
         for i, d in (drawn if not (color_by or by_label) else []):
             lab = None
             if len(datas) > 1:
@@ -793,7 +848,8 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             ax.legend(handles=orbit_handles + lines, labels=[h.get_label() for h in
                                                               orbit_handles] + names,
                       loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
-                      title="orbit (word)", title_fontsize=7, fontsize=7)
+                      title="orbit (family of words)" if plot_cfg.get("orbits") == "families"
+                      else "orbit (word)", title_fontsize=7, fontsize=7)
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
         ax.set_ylabel(YLABELS[kind])

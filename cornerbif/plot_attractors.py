@@ -158,10 +158,29 @@ def draw_fractions(ax, path, x, min_share=0.0):
     return series
 
 
-def run_labels(table):
+def family(label: str) -> str:
+    """The family of an orbit's label: its word run-length encoded with every power of two
+    or more written N ('bbbba#2' -> 'b^N a', 'abbgbbbg' -> 'a b^N g b^N g'): the period-adding
+    cascades beta^N alpha and beta^N gamma (section 5) each become one label."""
+    import re
+    return re.sub(r"\^\d+", "^N", run_length(label.partition("#")[0]))
+
+
+def family_tex(fam: str) -> str:
+    """A family in the paper's notation: 'b^N a' -> '$\\beta^N\\,\\alpha$'."""
+    w = fam
+    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
+        w = w.replace(a, b)
+    return "$" + w.replace(" ", r"\,") + "$"
+
+
+def run_labels(table, families=False):
     """Every run's attractor as an index into the returned label list, -1 where the run
-    reached none: (index array shaped like the file's ``/attractor``, labels)."""
+    reached none: (index array shaped like the file's ``/attractor``, labels); with
+    ``families``, the labels are the orbits' families (``family``)."""
     labels = attractor_labels(table)
+    if families:
+        labels = [family(lab) for lab in labels]
     names = sorted(set(labels))
     at = {lab: i for i, lab in enumerate(names)}
     row = np.array([at[lab] for lab in labels], np.int64)
@@ -170,15 +189,17 @@ def run_labels(table):
     return idx, names
 
 
-def draw_diagram_by_label(ax, path, x, yv, ms, shown=8):
+def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False):
     """A one-parameter diagram coloured by what each run's orbit is: its attractor's label
     (the word; the same colour in every figure, ``attractor_colors``).  The ``shown``
     labels with the most runs are named in the paper's notation; the other cycles are
     black, the runs without a cycle light grey.  ``yv``: (points, starts, record).
+    ``families``: one colour per family of orbits (``family``: beta^N gamma for every N).
     Returns the legend's handles (the caller places the legend with its other lines)."""
     from matplotlib.lines import Line2D
     table = read_table(path)
-    idx, names = run_labels(table)
+    idx, names = run_labels(table, families)
+    tex = family_tex if families else label_tex
     counts = np.bincount(idx[idx >= 0], minlength=len(names)) if names else np.zeros(0, int)
     top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]
     colors = attractor_colors([names[i] for i in top])
@@ -204,5 +225,5 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8):
         lab = names[i]
         scatter(idx == i, colors[lab], 3 + rank)
         handles.insert(rank, Line2D([], [], ls="none", marker="o", ms=4, mew=0,
-                                    color=colors[lab], label=label_tex(lab)))
+                                    color=colors[lab], label=tex(lab)))
     return handles

@@ -126,3 +126,14 @@ def test_an_inset_goes_where_the_data_is_not():
     blob = np.full(200, 0.2), np.full(200, 0.8)
     assert PS.emptiest_corner(ax, np.r_[x, blob[0]], np.r_[x, blob[1]])[:2] == [0.59, 0.08]
     plt.close(fig)
+
+
+def test_orbit_families_merge_the_powers():
+    """[plot] orbits = "families": beta^N gamma for every N is one family (section 5's
+    period adding), beta^N alpha another; a word of two powers keeps both places."""
+    from cornerbif.plot_attractors import family, family_tex
+    assert family("bbbbg") == family("bbg") == "b^N g"
+    assert family("bbbba#2") == "b^N a" != family("bbbbg")
+    assert family("abbgbbbg") == "a b^N g b^N g"
+    assert family("b") == "b" and family("ab") == "a b"
+    assert family_tex("b^N g") == r"$\beta^N\,\gamma$"
