@@ -671,15 +671,19 @@ def draw_comparison(fig, datas, kind, plot_cfg):
     """Flow against map2d on one parameter axis (paper Fig. 16): both, and their distance."""
     axs = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [2, 2, 1]})
     a = datas[0].axes[0]
-    for ax, d in zip(axs[:2], datas):
+    panel = {"flow": "the impacting system (direct simulation of the flow)",
+             "map": "the local 2D maps (56)"}
+    for ax, d, tag in zip(axs[:2], datas, "ab"):
         draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6))
         ax.set_ylabel(YLABELS[kind], fontsize=8)
-        ax.set_title(f"{d.model}: {d.scene['scene']['name']}", fontsize=8, loc="left")
+        ax.set_title(f"({tag}) {panel.get(d.role, d.model)}", fontsize=8, loc="left")
         if "ylim" in plot_cfg:
             ax.set_ylim(*plot_cfg["ylim"])
     dist = hausdorff_per_point(datas[0].y(kind), datas[1].y(kind))
     axs[2].semilogy(datas[0].values[a], dist, "k.", ms=1.5)
     axs[2].set_ylabel("distance\nflow to map", fontsize=8)
+    axs[2].set_title("(c) their distance at each parameter value (Hausdorff, per point)",
+                     fontsize=8, loc="left")
     axs[2].set_xlabel(LABELS.get(a, a))
     return axs
 

@@ -259,7 +259,7 @@ def figure(datas, out, plot_cfg, title=None):
             a0m, A0m = return_values(datas[1])
             ax = axs[0][0]
             ax.plot(a0m, A0m, "-", color="tab:red", lw=0.6, alpha=0.7, label="linear maps")
-            ax.legend(loc="upper right", fontsize=7)
+            ax.legend(loc="upper center", fontsize=7)
             # inset: the grazing transition Sigma_2, where the flow has a square-root form
             omega, omega1, kappa1, r = _system(datas[0])
             e = 2.0 + 4.0 / r
@@ -267,7 +267,7 @@ def figure(datas, out, plot_cfg, title=None):
             from .plot_style import emptiest_corner
             ax.autoscale_view()
             ins = ax.inset_axes(emptiest_corner(ax, np.concatenate([a0, a0m]),
-                                                np.concatenate([A0, A0m])))
+                                                np.concatenate([A0, A0m]), avoid=()))
             m = np.abs(a0 - e) < 0.25
             ins.plot(a0[m], A0[m], "k.", ms=1.5, mew=0)
             mm = np.abs(a0m - e) < 0.25
