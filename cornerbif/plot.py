@@ -796,6 +796,21 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         ms = plot_cfg.get("marker_size") or plot_style.marker_size(n_drawn)
         by_label = (len(datas) == 1 and not color_by and kind not in ("winding", "period")
                     and d0.y(kind).ndim == 3 and d0.has_table)
+        # the y-window: the scene's, or one that a few outlying points do not set
+        # (plot_style.robust_range); what it leaves out is said on the figure
+        yall = (d0.y(kind) if len(datas) == 1 else
+                np.concatenate([d.y(kind).ravel() for d in datas if d.y(kind) is not None]))
+        n_fin = n_drawn
+        if "ylim" in plot_cfg:
+            lo, hi = plot_cfg["ylim"]
+            with np.errstate(invalid="ignore"):
+                n_out = int(np.count_nonzero(np.isfinite(yall) & ((yall < lo) | (yall > hi))))
+            window = (lo, hi)
+        else:
+            win = plot_style.robust_range(yall)
+            lo, hi, n_out = win if win else (None, None, 0)
+            window = (lo, hi) if win else None
+        del yall
         if color_by:
             if len(datas) > 1:
                 plt.close(fig)
@@ -809,7 +824,8 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         if by_label:
             orbit_handles = plot_attractors.draw_diagram_by_label(
                 ax, d0.path, d0.values[d0.axes[0]], d0.y(kind), ms,
-                families=plot_cfg.get("orbits") == "families")
+                families=plot_cfg.get("orbits") == "families",
+                window=window if n_fin > plot_style.RASTER_POINTS else None)
         if kind == "winding" and len(datas) == 1 and not color_by:
             draw_winding_by_alpha(ax, d0, ms)
             datas_drawn = []
@@ -860,20 +876,10 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         from matplotlib.ticker import MaxNLocator
         ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
         ax.ticklabel_format(axis="x", useOffset=False)
-        # the y-window: the scene's, or one that a few outlying points do not set
-        # (plot_style.robust_range); what it leaves out is said on the figure
-        yall = np.concatenate([d.y(kind).ravel() for d in datas if d.y(kind) is not None])
-        if "ylim" in plot_cfg:
-            lo, hi = plot_cfg["ylim"]
-            fin = yall[np.isfinite(yall)]
-            n_out = int(np.count_nonzero((fin < lo) | (fin > hi)))
-        else:
-            win = plot_style.robust_range(yall)
-            lo, hi, n_out = win if win else (None, None, 0)
-            if win:
-                ax.set_ylim(lo, hi)
+        if window and "ylim" not in plot_cfg:
+            ax.set_ylim(*window)
         if n_out:
-            ax.text(0.99, 0.99, f"{n_out} of {int(np.isfinite(yall).sum())} values outside "
+            ax.text(0.99, 0.99, f"{n_out} of {n_fin} values outside "
                     "the y window", transform=ax.transAxes, ha="right", va="top",
                     fontsize=6, color="0.3")
         if ax.get_legend_handles_labels()[0] and not color_by and not by_label:

@@ -189,13 +189,14 @@ def run_labels(table, families=False):
     return idx, names
 
 
-def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False):
+def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=None):
     """A one-parameter diagram coloured by what each run's orbit is: its attractor's label
     (the word; the same colour in every figure, ``attractor_colors``).  The ``shown``
     labels with the most runs are named in the paper's notation; the other cycles are
     black, the runs without a cycle light grey.  ``yv``: (points, starts, record).
     ``families``: one colour per family of orbits (``family``: beta^N gamma for every N).
-    Returns the legend's handles (the caller places the legend with its other lines)."""
+    ``window`` (the y-window): draw the points as one image (``plot_style.raster_runs``,
+    for millions of points: memory that does not grow with them).  Returns the legend's handles (the caller places the legend with its other lines)."""
     from matplotlib.lines import Line2D
     table = read_table(path)
     idx, names = run_labels(table, families)
@@ -204,6 +205,8 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False):
     top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]
     colors = attractor_colors([names[i] for i in top])
     xs_all = np.broadcast_to(x[:, None, None], yv.shape)
+    if window is not None:
+        return _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window)
 
     def scatter(sel, color, z):
         m = sel[..., None] & np.isfinite(yv)
@@ -227,3 +230,32 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False):
         handles.insert(rank, Line2D([], [], ls="none", marker="o", ms=4, mew=0,
                                     color=colors[lab], label=tex(lab)))
     return handles
+
+
+def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window):
+    """``draw_diagram_by_label`` as one image: layer 0 the runs without a cycle, 1 the other
+    cycles, 2 + k the k-th label shown (the rarer over the more common, as the markers)."""
+    import matplotlib as mpl
+    from matplotlib.lines import Line2D
+
+    from .plot_style import raster_runs
+    layer = np.where(idx < 0, 0, 1).astype(np.int16)
+    for k, i in enumerate(top):
+        layer[idx == i] = 2 + k
+    cols = ["0.78", "k"] + [colors[names[i]] for i in top]
+    span = float(x.max() - x.min()) or 1.0
+    xlim = (float(x.min()) - 0.05 * span, float(x.max()) + 0.05 * span)
+    raster_runs(ax, x, yv, layer, cols, xlim, window, ms, mpl.rcParams["savefig.dpi"]
+                if isinstance(mpl.rcParams["savefig.dpi"], (int, float)) else 300)
+    handles = [Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=colors[names[i]],
+                      label=tex(names[i])) for i in top]
+    if (idx < 0).any():
+        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="0.78",
+                              label="no cycle"))
+    other = (idx >= 0) & ~np.isin(idx, top)
+    if other.any():
+        n_other = len(np.unique(idx[other]))
+        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="k",
+                              label=f"{n_other} other cycle{'s' if n_other > 1 else ''}"))
+    return handles
+

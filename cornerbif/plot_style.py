@@ -41,6 +41,8 @@ MAGNITUDE_CMAP = "viridis"
 TAIL = 1e-3
 # the window drops the tails only when the full range is this many times the tails' window
 SQUEEZE = 2.0
+# values beyond which the tails are read from a strided sample (robust_range)
+SAMPLE = 1_000_000
 
 
 @contextlib.contextmanager
@@ -73,20 +75,26 @@ def robust_range(values, tail=TAIL, squeeze=SQUEEZE, pad=0.04):
     range of all but a share ``tail`` at each end (a few outlying points would press the
     structure into a thin band): then that central range.  Padded by ``pad`` of its width
     on each side; ``outside`` counts the values the window leaves out (said on the
-    figure).  None when no value is finite.
+    figure).  None when no value is finite.  Past SAMPLE values the tails are read from an
+    evenly strided sample of about SAMPLE (the count outside is exact): memory stays a few
+    bytes per value.
     """
     v = np.asarray(values, dtype=float).ravel()
-    v = v[np.isfinite(v)]
-    if v.size == 0:
+    fin = np.isfinite(v)
+    n = int(np.count_nonzero(fin))
+    if n == 0:
         return None
-    lo, hi = float(v.min()), float(v.max())
-    if v.size >= 1.0 / tail:
-        qlo, qhi = (float(x) for x in np.quantile(v, [tail, 1.0 - tail]))
+    lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
+    if n >= 1.0 / tail:
+        sample = v[::max(1, v.size // SAMPLE)]
+        sample = sample[np.isfinite(sample)]
+        qlo, qhi = (float(x) for x in np.quantile(sample, [tail, 1.0 - tail]))
         if qhi > qlo and hi - lo > squeeze * (qhi - qlo):
             lo, hi = qlo, qhi
     span = hi - lo if hi > lo else max(abs(hi), 1.0) * 1e-3
     lo, hi = lo - pad * span, hi + pad * span
-    outside = int(np.count_nonzero((v < lo) | (v > hi)))
+    with np.errstate(invalid="ignore"):
+        outside = int(np.count_nonzero(fin & ((v < lo) | (v > hi))))
     return lo, hi, outside
 
 
@@ -122,3 +130,53 @@ def emptiest_corner(ax, x, y, size=(0.34, 0.36), avoid=("upper right",)):
             best, count = name, n
     x0, y0 = INSET_CORNERS[best]
     return [x0, y0, size[0], size[1]]
+
+
+# point clouds of more values than this are drawn as one image (``raster_runs``)
+RASTER_POINTS = 1_000_000
+RASTER_VALUES = 1 << 18   # values put into the image at a time
+
+
+def raster_runs(ax, x, y, layer, colors, xlim, ylim, ms, dpi):
+    """A diagram's point cloud as one RGBA image at ``dpi``, for millions of points.
+
+    ``x`` (n,) the swept values, ``y`` (n, starts, record) the drawn values, ``layer``
+    (n, starts) each run's layer (an index into ``colors``, -1: not drawn); a higher layer
+    is drawn over a lower one.  Each value sets its pixel, then the image is grown to a
+    marker of ``ms`` points.  The rows go in slabs of RASTER_VALUES: besides the drawn
+    values themselves, memory is the image's (an int16 and 4 floats per pixel) and one
+    slab's, whatever the number of points.  Sets the axes' limits to ``xlim``, ``ylim``."""
+    from matplotlib.colors import to_rgba
+    fig = ax.figure
+    pos = ax.get_position()
+    W = max(16, int(round(pos.width * fig.get_figwidth() * dpi)))
+    H = max(16, int(round(pos.height * fig.get_figheight() * dpi)))
+    (x0, x1), (y0, y1) = xlim, ylim
+    top = np.full((H, W), -1, np.int16)
+    rows = max(1, RASTER_VALUES // max(1, int(np.prod(y.shape[1:]))))
+    for a in range(0, y.shape[0], rows):
+        ys = y[a:a + rows]
+        lay = np.broadcast_to(layer[a:a + rows, :, None], ys.shape)
+        xs = np.broadcast_to(x[a:a + rows, None, None], ys.shape)
+        ok = (lay >= 0) & np.isfinite(ys) & (ys >= y0) & (ys <= y1) & (xs >= x0) & (xs <= x1)
+        px = np.minimum(((xs[ok] - x0) * (W / (x1 - x0))).astype(np.int32), W - 1)
+        py = np.minimum(((ys[ok] - y0) * (H / (y1 - y0))).astype(np.int32), H - 1)
+        np.maximum.at(top, (py, px), lay[ok].astype(np.int16))
+    r = int(round(ms * dpi / 72.0 / 2.0))            # the marker's radius in pixels
+    if r > 0:
+        grown = top.copy()
+        for dy in range(-r, r + 1):
+            for dx in range(-r, r + 1):
+                if dx * dx + dy * dy > r * r or (dx == 0 and dy == 0):
+                    continue
+                src = top[max(-dy, 0):H - max(dy, 0), max(-dx, 0):W - max(dx, 0)]
+                dst = grown[max(dy, 0):H - max(-dy, 0), max(dx, 0):W - max(-dx, 0)]
+                np.maximum(dst, src, out=dst)
+        top = grown
+    rgba = np.zeros((H, W, 4), np.float32)
+    drawn = top >= 0
+    rgba[drawn] = np.array([to_rgba(c) for c in colors], np.float32)[top[drawn]]
+    ax.imshow(rgba, extent=(x0, x1, y0, y1), origin="lower", aspect="auto",
+              interpolation="nearest", zorder=2)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)

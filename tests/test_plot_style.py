@@ -137,3 +137,26 @@ def test_orbit_families_merge_the_powers():
     assert family("abbgbbbg") == "a b^N g b^N g"
     assert family("b") == "b" and family("ab") == "a b"
     assert family_tex("b^N g") == r"$\beta^N\,\gamma$"
+
+
+def test_the_raster_puts_each_value_in_its_pixel_the_higher_layer_on_top():
+    """plot_style.raster_runs on a 16 x 16 pixel axes: a value lands in the pixel of its
+    (x, y), a run of layer -1 is not drawn, where two layers meet the higher shows, and
+    values outside the window are left out."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+    fig = plt.figure(figsize=(1, 1))
+    ax = fig.add_axes([0, 0, 1, 1])
+    x = np.array([0.05, 0.55, 0.95])                      # three grid points
+    y = np.array([[[0.05], [0.05]], [[0.55], [0.55]], [[0.95], [2.0]]])   # 2 starts, 1 value
+    layer = np.array([[0, 1], [1, -1], [0, 1]], np.int16)
+    PS.raster_runs(ax, x, y, layer, ["r", "b"], (0.0, 1.0), (0.0, 1.0), ms=0, dpi=16)
+    img = ax.get_images()[0].get_array()
+    assert img.shape == (16, 16, 4)
+    assert np.allclose(img[0, 0], to_rgba("b"))           # layers 0 and 1 meet: 1 on top
+    assert np.allclose(img[8, 8], to_rgba("b"))
+    assert np.allclose(img[15, 15], to_rgba("r"))         # the other start is at y = 2
+    assert np.count_nonzero(img[..., 3]) == 3
+    plt.close(fig)
