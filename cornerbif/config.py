@@ -813,6 +813,15 @@ def _read_plot(w):
                                             and isinstance(m[1], str) for m in v)):
             problems.append(f"plot.marks: {_fmt(v)[:80]} must be a list of [value, \"label\"] "
                             "pairs (values on the swept axis, marked by dotted lines)")
+        elif len(w.axes) != 1:
+            problems.append("plot.marks: marks values on a diagram's one swept axis; this scene "
+                            f"sweeps {len(w.axes)} axes")
+        else:
+            lo, hi = min(w.axes[0].values), max(w.axes[0].values)
+            for x, lab in v:
+                if not lo <= x <= hi:
+                    problems.append(f"plot.marks: {x!r} ({lab}) is outside the swept "
+                                    f"{w.axes[0].name} range [{lo!r}, {hi!r}]")
     if "orbits" in plot and plot["orbits"] not in ("words", "families"):
         problems.append(f"plot.orbits: {_fmt(plot['orbits'])} must be \"words\" (a colour per "
                         "orbit) or \"families\" (one per family such as beta^N gamma)")
@@ -845,9 +854,13 @@ def _read_plot(w):
         if "impacts" not in w.keep:
             problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
                             "output.keep must contain \"impacts\"")
-    if kind == "obstacle" and w.model != "flow":
-        problems.append(f"plot.kind: 'obstacle' draws the flow model's obstacle z(t) (Fig. 2); "
-                        f"the scene's model is {w.model!r}")
+    if kind == "obstacle" and (w.model != "flow"
+                               or w.obstacle not in ("rectified_sine", "triangle")):
+        problems.append("plot.kind: 'obstacle' draws z(t) with its corners at the period's "
+                        "start and the wedge of eq (7) (Fig. 2): it needs model 'flow' with "
+                        "obstacle 'rectified_sine' or 'triangle' (this scene: model "
+                        f"{w.model!r}" + (f", obstacle {w.obstacle!r}" if w.model == "flow"
+                                            else "") + ")")
     if kind == "fractions" and (len(w.axes) != 1 or w.axes[0].name.startswith(IC_PREFIX)):
         problems.append("plot.kind: 'fractions' draws the share of the starts reaching each "
                         "attractor against one swept parameter; this scene sweeps "

@@ -787,9 +787,9 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         kind = y or plot_cfg.get("y") or d0.default_y()
         if kind is None or d0.y(kind) is None:
             plt.close(fig)
-            raise ValueError(f"{d0.path}: no recorded observable to draw (output.keep held "
-                             "neither \"impacts\" nor \"section\"); re-run with "
-                             "output.keep = [\"impacts\"]")
+            raise ValueError(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
+                             "(output.keep of its scene; impact values need \"impacts\", "
+                             "section values \"section\")")
         colors = ["k", "tab:orange", "tab:green", "tab:purple"]
         from . import plot_style
         n_drawn = sum(int(np.isfinite(d.y(kind)).sum()) for d in datas if d.y(kind) is not None)
@@ -806,6 +806,9 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             with np.errstate(invalid="ignore"):
                 n_out = int(np.count_nonzero(np.isfinite(yall) & ((yall < lo) | (yall > hi))))
             window = (lo, hi)
+        elif branches:
+            # continued branches may reach past the sweep's values: the axes take them all
+            lo, hi, n_out, window = None, None, 0, None
         else:
             win = plot_style.robust_range(yall)
             lo, hi, n_out = win if win else (None, None, 0)
@@ -825,7 +828,8 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             orbit_handles = plot_attractors.draw_diagram_by_label(
                 ax, d0.path, d0.values[d0.axes[0]], d0.y(kind), ms,
                 families=plot_cfg.get("orbits") == "families",
-                window=window if n_fin > plot_style.RASTER_POINTS else None)
+                window=window if n_fin > plot_style.RASTER_POINTS and not branches else None,
+                xlim=plot_cfg.get("xlim"))
         if kind == "winding" and len(datas) == 1 and not color_by:
             draw_winding_by_alpha(ax, d0, ms)
             datas_drawn = []

@@ -189,14 +189,16 @@ def run_labels(table, families=False):
     return idx, names
 
 
-def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=None):
+def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=None,
+                          xlim=None):
     """A one-parameter diagram coloured by what each run's orbit is: its attractor's label
     (the word; the same colour in every figure, ``attractor_colors``).  The ``shown``
     labels with the most runs are named in the paper's notation; the other cycles are
     black, the runs without a cycle light grey.  ``yv``: (points, starts, record).
     ``families``: one colour per family of orbits (``family``: beta^N gamma for every N).
     ``window`` (the y-window): draw the points as one image (``plot_style.raster_runs``,
-    for millions of points: memory that does not grow with them).  Returns the legend's handles (the caller places the legend with its other lines)."""
+    for millions of points: memory that does not grow with them), ``xlim`` its x-window.
+    Returns the legend's handles (the caller places the legend with its other lines)."""
     from matplotlib.lines import Line2D
     table = read_table(path)
     idx, names = run_labels(table, families)
@@ -206,7 +208,7 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     colors = attractor_colors([names[i] for i in top])
     xs_all = np.broadcast_to(x[:, None, None], yv.shape)
     if window is not None:
-        return _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window)
+        return _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim)
 
     def scatter(sel, color, z):
         m = sel[..., None] & np.isfinite(yv)
@@ -232,7 +234,7 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     return handles
 
 
-def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window):
+def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim=None):
     """``draw_diagram_by_label`` as one image: layer 0 the runs without a cycle, 1 the other
     cycles, 2 + k the k-th label shown (the rarer over the more common, as the markers)."""
     import matplotlib as mpl
@@ -243,8 +245,9 @@ def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window):
     for k, i in enumerate(top):
         layer[idx == i] = 2 + k
     cols = ["0.78", "k"] + [colors[names[i]] for i in top]
-    span = float(x.max() - x.min()) or 1.0
-    xlim = (float(x.min()) - 0.05 * span, float(x.max()) + 0.05 * span)
+    if xlim is None:
+        span = float(x.max() - x.min()) or 1.0
+        xlim = (float(x.min()) - 0.05 * span, float(x.max()) + 0.05 * span)
     raster_runs(ax, x, yv, layer, cols, xlim, window, ms, mpl.rcParams["savefig.dpi"]
                 if isinstance(mpl.rcParams["savefig.dpi"], (int, float)) else 300)
     handles = [Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=colors[names[i]],

@@ -75,19 +75,26 @@ def robust_range(values, tail=TAIL, squeeze=SQUEEZE, pad=0.04):
     range of all but a share ``tail`` at each end (a few outlying points would press the
     structure into a thin band): then that central range.  Padded by ``pad`` of its width
     on each side; ``outside`` counts the values the window leaves out (said on the
-    figure).  None when no value is finite.  Past SAMPLE values the tails are read from an
-    evenly strided sample of about SAMPLE (the count outside is exact): memory stays a few
-    bytes per value.
+    figure).  None when no value is finite (infinities are not).  Past SAMPLE values the
+    tails are read from a random sample of SAMPLE positions (a fixed seed: the same window
+    for the same file; not a stride, which could fall in step with a cycle's period and miss
+    a branch), the count outside is exact: memory stays a few bytes per value.
     """
     v = np.asarray(values, dtype=float).ravel()
     fin = np.isfinite(v)
     n = int(np.count_nonzero(fin))
     if n == 0:
         return None
-    lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
+    lo = float(np.min(v, where=fin, initial=np.inf))
+    hi = float(np.max(v, where=fin, initial=-np.inf))
     if n >= 1.0 / tail:
-        sample = v[::max(1, v.size // SAMPLE)]
-        sample = sample[np.isfinite(sample)]
+        if v.size > SAMPLE:
+            sample = v[np.random.default_rng(0).integers(0, v.size, SAMPLE)]
+            sample = sample[np.isfinite(sample)]
+        else:
+            sample = v[fin]
+        if sample.size < 1.0 / tail:
+            sample = v[fin]
         qlo, qhi = (float(x) for x in np.quantile(sample, [tail, 1.0 - tail]))
         if qhi > qlo and hi - lo > squeeze * (qhi - qlo):
             lo, hi = qlo, qhi

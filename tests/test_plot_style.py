@@ -160,3 +160,25 @@ def test_the_raster_puts_each_value_in_its_pixel_the_higher_layer_on_top():
     assert np.allclose(img[15, 15], to_rgba("r"))         # the other start is at y = 2
     assert np.count_nonzero(img[..., 3]) == 3
     plt.close(fig)
+
+
+def test_the_window_ignores_infinities_and_sees_every_branch_of_a_large_file():
+    """Infinities are not values of the window; past the sample size, a period-2 orbit whose
+    two branches alternate along the record keeps both in the window (a strided sample in
+    step with the period once saw one branch only)."""
+    lo, hi, out = PS.robust_range(np.array([1.0, 2.0, np.inf, -np.inf, np.nan]))
+    assert np.isfinite(lo) and np.isfinite(hi) and lo < 1.0 and 2.0 < hi and out == 0
+    y = np.empty((15000, 8, 20))
+    y[..., 0::2] = np.linspace(0.0, 1.0, 15000)[:, None, None]
+    y[..., 1::2] = 5.0 + np.linspace(0.0, 1.0, 15000)[:, None, None]
+    lo, hi, out = PS.robust_range(y)
+    assert lo < 0.0 and hi > 6.0 and out == 0
+
+
+def test_marks_and_the_obstacle_figure_are_checked_against_the_scene():
+    from cornerbif import config
+    with pytest.raises(config.SceneError, match=r"plot.marks: 1.5 \(far\) is outside the swept"):
+        config.load(os.path.join(ROOT, "configs", "fig06a.toml"),
+                    ['plot.marks=[[1.5, "far"]]'])
+    with pytest.raises(config.SceneError, match="obstacle 'sine'"):
+        config.load(os.path.join(ROOT, "configs", "fig02.toml"), ['system.obstacle="sine"'])
