@@ -694,13 +694,25 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
     project's style (``plot_style``) with the user's style sheet over it (``style``, or
     ``[plot] style``).  See ``_figure``."""
     from . import plot_style
-    cfg = PlotData(paths[0]).scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    d0 = PlotData(paths[0])
+    cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    cfg = cfg_for_y(cfg, y, d0.default_y())
     user = style or cfg.get("style")
     problem = plot_style.check_style(user)
     if problem:
         raise ValueError(problem)
     with plot_style.style(user):
         return _figure(paths, out, y, title, cfg, color_by, branches)
+
+
+def cfg_for_y(cfg: dict, y, default_y) -> dict:
+    """The ``[plot]`` table for a figure of ``y`` (``--y``): the scene's ``ylim`` is a
+    window in the scene's own y (``[plot] y``, else the file's default), so it is dropped
+    when another y is drawn."""
+    own = cfg.get("y") or default_y
+    if y and "ylim" in cfg and y != own:
+        return {k: v for k, v in cfg.items() if k != "ylim"}
+    return cfg
 
 
 def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):

@@ -182,3 +182,14 @@ def test_marks_and_the_obstacle_figure_are_checked_against_the_scene():
                     ['plot.marks=[[1.5, "far"]]'])
     with pytest.raises(config.SceneError, match="obstacle 'sine'"):
         config.load(os.path.join(ROOT, "configs", "fig02.toml"), ['system.obstacle="sine"'])
+
+
+def test_the_scenes_y_window_holds_for_its_own_y_only():
+    """[plot] ylim is in the scene's y: kept for that y (given or the file's default),
+    dropped for another --y (Fig. 6(a)'s window in u would hide every impact velocity)."""
+    from cornerbif.plot import cfg_for_y
+    cfg = {"ylim": [-0.0155, 0.0125], "orbits": "families"}
+    assert cfg_for_y(cfg, None, "impact_u") == cfg
+    assert cfg_for_y(cfg, "impact_u", "impact_u") == cfg
+    assert cfg_for_y(cfg, "impact_v", "impact_u") == {"orbits": "families"}
+    assert cfg_for_y(dict(cfg, y="section_v"), "section_v", "impact_u")["ylim"] == cfg["ylim"]
