@@ -237,10 +237,7 @@ def plot(files, out, y, title, color_by, style):
             figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
                    style=style)
         else:
-            from .plot_style import check_style
             from .plot_style import style as project_style
-            if check_style(style):
-                _fail(check_style(style))
             with project_style(style):
                 figure_branches(conts, out, y=y, title=title)
     except (FileFormatError, ValueError) as e:

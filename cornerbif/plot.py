@@ -98,6 +98,7 @@ class PlotData:
                                                         f["stability/multiplier_im"][..., 0])
             self.period_tol = float(self.scene.get("run", {}).get("period_tol", 1e-6))
         self._attractors = None
+        self._y = {}                 # y(kind), computed once
 
     def attractors(self):
         """Distinct attractors among the starts of each grid point (``analysis.distinct_attractors``).
@@ -120,6 +121,12 @@ class PlotData:
         return self._attractors
 
     def y(self, kind):
+        """The values drawn for ``kind`` (``YLABELS``), computed once per kind."""
+        if kind not in self._y:
+            self._y[kind] = self._compute_y(kind)
+        return self._y[kind]
+
+    def _compute_y(self, kind):
         if kind == "winding":
             from .analysis import winding_number
             return np.vectorize(winding_number, otypes=[float])(self.symbols)
@@ -694,15 +701,11 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
     project's style (``plot_style``) with the user's style sheet over it (``style``, or
     ``[plot] style``).  See ``_figure``."""
     from . import plot_style
-    d0 = PlotData(paths[0])
-    cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
-    cfg = cfg_for_y(cfg, y, d0.default_y())
-    user = style or cfg.get("style")
-    problem = plot_style.check_style(user)
-    if problem:
-        raise ValueError(problem)
-    with plot_style.style(user):
-        return _figure(paths, out, y, title, cfg, color_by, branches)
+    datas = [PlotData(p) for p in paths]
+    cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    cfg = cfg_for_y(cfg, y, datas[0].default_y())
+    with plot_style.style(style or cfg.get("style")):
+        return _figure(datas, out, y, title, cfg, color_by, branches)
 
 
 def cfg_for_y(cfg: dict, y, default_y) -> dict:
@@ -715,8 +718,9 @@ def cfg_for_y(cfg: dict, y, default_y) -> dict:
     return cfg
 
 
-def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):
-    """Draw one or more files of the same kind into ``out`` (png, pdf or svg).
+def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):
+    """Draw one or more files of the same kind (``datas``, their PlotData) into ``out``
+    (png, pdf or svg).
 
     ``plot_cfg`` replaces the file's ``[plot]`` table (the gallery passes the
     committed scene's, so a figure setting never forces a new sweep).
@@ -730,7 +734,6 @@ def _figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    datas = [PlotData(p) for p in paths]
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
     kind_ = plot_cfg.get("kind", "diagram")
@@ -1114,15 +1117,18 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
     return fig
 
 
-def obstacle_curve(data: PlotData, t):
+def obstacle_curve(data: PlotData):
     """z(t) of a flow scene's obstacle at its system values (``kernels.flow``
-    ``obstacle_heights``, the kernels' own obstacle) and its period."""
+    ``obstacle_heights``, the kernels' own obstacle) as a function of t, its period and
+    the scene."""
     from .config import loads
     from .kernels.flow import obstacle_heights
     from .models import params as P
     scene = loads(data.scene_text)
-    row = registry.get("flow").pack_values(scene.system, scene)
-    z = obstacle_heights(np.ascontiguousarray(row[None, :]), np.ascontiguousarray(t[None, :]))[0]
+    row = np.ascontiguousarray(registry.get("flow").pack_values(scene.system, scene)[None, :])
+
+    def z(t):
+        return obstacle_heights(row, np.ascontiguousarray(np.asarray(t, float)[None, :]))[0]
     return z, P.obstacle_period(scene.obstacle, scene.system["omega"], scene.profile), scene
 
 
@@ -1134,9 +1140,9 @@ def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
     cycles = float(plot_cfg.get("cycles", 2))
     sys_ = data.scene.get("system", {})
     w = float(sys_.get("omega", 2.0))
-    _, per, scene = obstacle_curve(data, np.zeros(1))
+    z_of, per, scene = obstacle_curve(data)
     t = np.linspace(0.0, cycles * per, 2001)
-    z, _, _ = obstacle_curve(data, t)
+    z = z_of(t)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(8.2, 3.4), dpi=150,
                                  gridspec_kw={"width_ratios": [1.6, 1.0]})
     ax.plot(t, z, color="k", lw=1.0, label="$z(t)$")
@@ -1151,7 +1157,7 @@ def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.18), ncol=2, frameon=False)
     h = 0.06 * per
     tz = np.linspace(per - h, per + h, 401)
-    zz, _, _ = obstacle_curve(data, tz)
+    zz = z_of(tz)
     beta = float(sys_.get("beta", 1.0))
     th1 = float(sys_.get("theta1") or beta * w)
     th2 = float(sys_.get("theta2") or beta * w)

@@ -63,13 +63,17 @@ def attractor_colors(labels) -> dict:
     return out
 
 
+def _greek(w: str) -> str:
+    """A run-length word ('b$^{3}$ g', 'b^N g') in the paper's letters, as one math text."""
+    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
+        w = w.replace(a, b)
+    return "$" + w.replace("$", "").replace(" ", r"\,") + "$"
+
+
 def label_tex(label: str) -> str:
     """A label in the paper's notation: 'bbbg#2' -> '$\\beta^{3}\\gamma$ #2'."""
     word, _, k = label.partition("#")
-    w = run_length(word, tex=True, empty="?")
-    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
-        w = w.replace(a, b)
-    w = "$" + w.replace("$", "").replace(" ", r"\,") + "$"
+    w = _greek(run_length(word, tex=True, empty="?"))
     return f"{w} #{k}" if k else w
 
 
@@ -168,10 +172,7 @@ def family(label: str) -> str:
 
 def family_tex(fam: str) -> str:
     """A family in the paper's notation: 'b^N a' -> '$\\beta^N\\,\\alpha$'."""
-    w = fam
-    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
-        w = w.replace(a, b)
-    return "$" + w.replace(" ", r"\,") + "$"
+    return _greek(fam)
 
 
 def run_labels(table, families=False):
@@ -199,46 +200,32 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     ``window`` (the y-window): draw the points as one image (``plot_style.raster_runs``,
     for millions of points: memory that does not grow with them), ``xlim`` its x-window.
     Returns the legend's handles (the caller places the legend with its other lines)."""
-    from matplotlib.lines import Line2D
     table = read_table(path)
     idx, names = run_labels(table, families)
     tex = family_tex if families else label_tex
     counts = np.bincount(idx[idx >= 0], minlength=len(names)) if names else np.zeros(0, int)
     top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]
     colors = attractor_colors([names[i] for i in top])
-    xs_all = np.broadcast_to(x[:, None, None], yv.shape)
     if window is not None:
         return _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim)
+    xs_all = np.broadcast_to(x[:, None, None], yv.shape)
 
     def scatter(sel, color, z):
         m = sel[..., None] & np.isfinite(yv)
-        ax.plot(xs_all[m], yv[m], ls="none", marker=".", mew=0, ms=ms, color=color,
-                rasterized=True, zorder=z)
-    handles = []
-    none = idx < 0
-    if none.any():
-        scatter(none, "0.78", 1)
-        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="0.78",
-                              label="no cycle"))
-    other = (idx >= 0) & ~np.isin(idx, top)
-    if other.any():
-        scatter(other, "k", 2)
-        n_other = len(np.unique(idx[other]))
-        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="k",
-                              label=f"{n_other} other cycle{'s' if n_other > 1 else ''}"))
+        if m.any():
+            ax.plot(xs_all[m], yv[m], ls="none", marker=".", mew=0, ms=ms, color=color,
+                    rasterized=True, zorder=z)
+    scatter(idx < 0, "0.78", 1)
+    scatter((idx >= 0) & ~np.isin(idx, top), "k", 2)
     for rank, i in enumerate(top):
-        lab = names[i]
-        scatter(idx == i, colors[lab], 3 + rank)
-        handles.insert(rank, Line2D([], [], ls="none", marker="o", ms=4, mew=0,
-                                    color=colors[lab], label=tex(lab)))
-    return handles
+        scatter(idx == i, colors[names[i]], 3 + rank)
+    return _legend_handles(idx, names, top, colors, tex)
 
 
 def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim=None):
     """``draw_diagram_by_label`` as one image: layer 0 the runs without a cycle, 1 the other
     cycles, 2 + k the k-th label shown (the rarer over the more common, as the markers)."""
     import matplotlib as mpl
-    from matplotlib.lines import Line2D
 
     from .plot_style import raster_runs
     layer = np.where(idx < 0, 0, 1).astype(np.int16)
@@ -250,15 +237,22 @@ def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim=N
         xlim = (float(x.min()) - 0.05 * span, float(x.max()) + 0.05 * span)
     raster_runs(ax, x, yv, layer, cols, xlim, window, ms, mpl.rcParams["savefig.dpi"]
                 if isinstance(mpl.rcParams["savefig.dpi"], (int, float)) else 300)
-    handles = [Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=colors[names[i]],
-                      label=tex(names[i])) for i in top]
+    return _legend_handles(idx, names, top, colors, tex)
+
+
+def _legend_handles(idx, names, top, colors, tex):
+    """The diagram's legend: the labels shown, then "no cycle" and the other cycles where
+    there are runs of them."""
+    from matplotlib.lines import Line2D
+
+    def dot(color, label):
+        return Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=color, label=label)
+    handles = [dot(colors[names[i]], tex(names[i])) for i in top]
     if (idx < 0).any():
-        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="0.78",
-                              label="no cycle"))
+        handles.append(dot("0.78", "no cycle"))
     other = (idx >= 0) & ~np.isin(idx, top)
     if other.any():
         n_other = len(np.unique(idx[other]))
-        handles.append(Line2D([], [], ls="none", marker="o", ms=4, mew=0, color="k",
-                              label=f"{n_other} other cycle{'s' if n_other > 1 else ''}"))
+        handles.append(dot("k", f"{n_other} other cycle{'s' if n_other > 1 else ''}"))
     return handles
 

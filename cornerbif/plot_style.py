@@ -48,8 +48,11 @@ SAMPLE = 1_000_000
 @contextlib.contextmanager
 def style(user=None):
     """The project's style, then the user's style sheet (a name matplotlib knows or a
-    .mplstyle path) over it."""
+    .mplstyle path) over it; a sheet that is neither raises ValueError (``check_style``)."""
     import matplotlib.pyplot as plt
+    problem = check_style(user)
+    if problem:
+        raise ValueError(problem)
     sheets = [STYLE] + ([user] if user else [])
     with plt.style.context(sheets):
         yield
