@@ -88,23 +88,47 @@ def parameter_points(shape, start_positions, lo, hi):
 
 
 class _Reps:
-    """The representatives found so far: one per attractor, in order of discovery."""
+    """The representatives found so far: one per attractor, in order of discovery (its
+    serial).  Keys in a list, signatures, points, multipliers and run counts in arrays
+    that grow by doubling."""
 
     def __init__(self, tol):
         self.tol = tol
         self.by_key = {}
-        self.key, self.sig, self.point, self.runs, self.mult = [], [], [], [], []
+        self.key = []
+        self.n = 0
+        self.sig = self.point = self.mult = self.runs = None
+
+    def add_many(self, keys, sig, point, mult, runs):
+        """New representatives (rows of ``sig``, ``point``, ``mult``: one each per key, the
+        run counts ``runs``): their serials."""
+        m, s0 = len(keys), self.n
+        if self.sig is None:
+            self.sig = np.empty((0,) + sig.shape[1:])
+            self.point = np.empty((0,) + point.shape[1:])
+            self.mult = None if mult is None else np.empty((0,) + mult.shape[1:], complex)
+            self.runs = np.empty(0, np.int64)
+        if s0 + m > self.runs.shape[0]:
+            cap = max(2 * self.runs.shape[0], s0 + m, 64)
+            self.sig, self.point, self.runs = (np.resize(a, (cap,) + a.shape[1:]) for a in
+                                               (self.sig, self.point, self.runs))
+            if self.mult is not None:
+                self.mult = np.resize(self.mult, (cap,) + self.mult.shape[1:])
+        self.sig[s0:s0 + m] = sig
+        self.point[s0:s0 + m] = point
+        if self.mult is not None:
+            self.mult[s0:s0 + m] = mult
+        self.runs[s0:s0 + m] = runs
+        self.key.extend(keys)
+        for s, key in enumerate(keys, s0):
+            self.by_key.setdefault(key, []).append(s)
+        self.n += m
+        return np.arange(s0, s0 + m)
 
     def add(self, key, sig, point, mult, runs=0):
         """A new representative (one row's signature, point and multipliers): its serial."""
-        s = len(self.key)
-        self.key.append(key)
-        self.sig.append(sig.copy())
-        self.point.append(point.copy())
-        self.runs.append(runs)
-        self.mult.append(None if mult is None else mult.copy())
-        self.by_key.setdefault(key, []).append(s)
-        return s
+        return int(self.add_many([key], sig[None], point[None],
+                                 None if mult is None else mult[None], runs)[0])
 
     def match(self, key, sig, point, mult):
         """Serial numbers of the representatives of rows ``sig`` (all with one key), new ones
@@ -125,6 +149,23 @@ class _Reps:
         free = out < 0
         close = np.all(np.abs(sig - ref) <= self.tol * (1.0 + np.abs(ref)), axis=-1)
         out[free & close] = s
+
+
+def _group_keys(pp, period, ipc, words):
+    """The runs' keys (parameter point, period, impacts per cycle, word) grouped: the
+    distinct keys in increasing order (a list of tuples, the word as bytes), each run's
+    group, and the runs sorted by group (in the file's order within one)."""
+    wu, wcode = np.unique(words, return_inverse=True)    # bytes order, as the words compare
+    order = np.lexsort((wcode, ipc, period, pp))         # stable: the file's order in a key
+    cols = [c[order] for c in (pp, period, ipc, wcode)]
+    new = np.ones(order.size, bool)
+    new[1:] = np.any([c[1:] != c[:-1] for c in cols], axis=0)
+    starts = np.flatnonzero(new)
+    inv = np.empty(order.size, np.int64)
+    inv[order] = np.cumsum(new) - 1
+    keys = list(zip(cols[0][starts].tolist(), cols[1][starts].tolist(),
+                    cols[2][starts].tolist(), wu[cols[3][starts]].tolist()))
+    return keys, inv, order
 
 
 def tabulate(f, scene):
@@ -167,47 +208,57 @@ def tabulate(f, scene):
         np.add.at(outcomes, (pp, np.where(code < 0, -code, 0)), 1)
         cyc = np.flatnonzero(code == 0)
         if cyc.size:
-            keys = np.empty(cyc.size, dtype=[("p", "i8"), ("per", "i8"), ("ipc", "i8"),
-                                             ("w", words.dtype)])
-            keys["p"] = pp[cyc]
-            keys["per"] = period.ravel()[cyc]
-            keys["ipc"] = ipc.ravel()[cyc]
-            keys["w"] = words.ravel()[cyc]
-            uniq, inv = np.unique(keys, return_inverse=True)
-            order = np.argsort(inv, kind="stable")
-            bounds = np.searchsorted(inv[order], np.arange(uniq.size + 1))
-            sig2 = sig.reshape(n, -1)
-            pt2 = point.reshape(n, -1)
-            m2 = mult.reshape(n, -1) if mult is not None else None
-            # the usual group: every run of a key within tolerance of its first run (in the
-            # file's order), which is what ``match`` makes of a key not seen before; such
-            # groups become a representative each without a pass of their own
-            first = cyc[order[bounds[:-1]]]
-            ref = sig2[first][inv]
-            close = np.all(np.abs(sig2[cyc] - ref) <= reps.tol * (1.0 + np.abs(ref)), axis=-1)
-            whole = np.bincount(inv, weights=~close, minlength=uniq.size) == 0
-            size = np.diff(bounds)
-            serial_of = np.full(uniq.size, -1, np.int64)
-            for k, key in enumerate(uniq.tolist()):
-                if whole[k] and key not in reps.by_key:
-                    serial_of[k] = reps.add(key, sig2[first[k]], pt2[first[k]],
-                                            None if m2 is None else m2[first[k]],
-                                            runs=int(size[k]))
-                    continue
-                rows = cyc[order[bounds[k]:bounds[k + 1]]]
-                ser[rows] = reps.match(key, sig2[rows], pt2[rows],
-                                       None if m2 is None else m2[rows])
-            done = serial_of[inv] >= 0
-            ser[cyc[done]] = serial_of[inv[done]]
+            ser[cyc] = _serials(reps, pp[cyc], period.ravel()[cyc], ipc.ravel()[cyc],
+                                words.ravel()[cyc], sig.reshape(n, -1)[cyc],
+                                point.reshape(n, -1)[cyc],
+                                None if mult is None else mult.reshape(n, -1)[cyc])
         serial[pos:pos + n] = ser
         pos += n
     _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point)
 
 
+def _serials(reps, pp, period, ipc, words, sig, point, mult):
+    """The representatives' serials of a slab's runs that reached a cycle (in the file's
+    order), new representatives added to ``reps`` as ``_Reps.match`` would add them run
+    by run.
+
+    The usual group, every run of a key within tolerance of its first run, is what
+    ``match`` makes of a key not seen before: such groups become a representative each
+    without a pass of their own, added together where they follow one another in the
+    keys' order (the order in which ``match`` meets them)."""
+    uniq, inv, order = _group_keys(pp, period, ipc, words)
+    bounds = np.searchsorted(inv[order], np.arange(len(uniq) + 1))
+    first = order[bounds[:-1]]
+    ref = sig[first][inv]
+    close = np.all(np.abs(sig - ref) <= reps.tol * (1.0 + np.abs(ref)), axis=-1)
+    whole = np.bincount(inv, weights=~close, minlength=len(uniq)) == 0
+    whole &= np.fromiter((key not in reps.by_key for key in uniq), bool, len(uniq))
+    out = np.empty(pp.size, np.int64)
+    serial_of = np.full(len(uniq), -1, np.int64)
+    edges = np.flatnonzero(np.diff(np.r_[0, whole.view(np.int8), 0]))
+    done_to = 0
+    for a, b in list(zip(edges[::2], edges[1::2])) + [(len(uniq), len(uniq))]:
+        for k in range(done_to, a):                 # [done_to, a): matched run by run
+            rows = order[bounds[k]:bounds[k + 1]]
+            out[rows] = reps.match(uniq[k], sig[rows], point[rows],
+                                   None if mult is None else mult[rows])
+        if b > a:                                   # [a, b): whole groups
+            serial_of[a:b] = reps.add_many(uniq[a:b], sig[first[a:b]], point[first[a:b]],
+                                           None if mult is None else mult[first[a:b]],
+                                           np.diff(bounds)[a:b])
+        done_to = b
+    done = serial_of[inv] >= 0
+    out[done] = serial_of[inv[done]]
+    return out
+
+
 def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
-    R = len(reps.key)
-    rank = sorted(range(R), key=lambda s: (reps.key[s][0], reps.key[s][1], reps.key[s][3],
-                                           float(reps.sig[s][0]), float(reps.sig[s][1]), s))
+    R = reps.n
+    pts, period, ipc = (np.fromiter((k[i] for k in reps.key), np.int64, R) for i in range(3))
+    words = np.array([k[3] for k in reps.key], dtype=f["symbols"].dtype)
+    sig = reps.sig[:R] if R else np.empty((0, len(SIGNATURE)))
+    # the table's order: parameter point, period, word, mean of a, mean of b, then serial
+    rank = np.lexsort((np.arange(R), sig[:, 1], sig[:, 0], words, period, pts))
     ident = np.empty(R, np.int64)
     ident[rank] = np.arange(R)
     ids = np.where(serial >= 0, ident[np.maximum(serial, 0)] if R else 0,
@@ -231,21 +282,19 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
     g = f.create_group("attractors")
     g.attrs["match_tolerance"] = MATCH_FACTOR * scene.period_tol
     g.attrs["runs_per_point"] = runs_per_point
-    keys = [reps.key[s] for s in rank]
-    runs = np.array([reps.runs[s] for s in rank], np.int64)
+    runs = reps.runs[rank] if R else np.zeros(0, np.int64)
     frac = runs / runs_per_point
-    pts = np.array([k[0] for k in keys], np.int64)
-    cols = {"id": np.arange(R, dtype=np.int32),
-            "word": np.array([k[3] for k in keys], dtype=f["symbols"].dtype),
-            "period": np.array([k[1] for k in keys], np.int32),
-            "impacts_per_cycle": np.array([k[2] for k in keys], np.int32),
+    pts = pts[rank]
+    cols = {"id": np.arange(R, dtype=np.int32), "word": words[rank],
+            "period": period[rank].astype(np.int32),
+            "impacts_per_cycle": ipc[rank].astype(np.int32),
             "parameter_point": pts,
-            "signature": np.array([reps.sig[s] for s in rank]).reshape(R, len(SIGNATURE)),
-            "point": np.array([reps.point[s] for s in rank]).reshape(R, 2),
+            "signature": sig[rank],
+            "point": reps.point[rank] if R else np.empty((0, 2)),
             "runs": runs, "fraction": frac,
             "standard_error": np.sqrt(frac * (1.0 - frac) / runs_per_point)}
-    if R and reps.mult[rank[0]] is not None:
-        m = np.array([reps.mult[s] for s in rank])
+    if R and reps.mult is not None:
+        m = reps.mult[rank]
         cols["multiplier_re"], cols["multiplier_im"] = m.real, m.imag
     if par_axes:
         # at_<axis>, not <axis>: a dataset named as a root dimension of another length would

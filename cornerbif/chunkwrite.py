@@ -24,6 +24,8 @@ import zlib
 import h5py
 import numpy as np
 
+from ._jit import jit
+
 try:                                  # ISA-L: the same deflate streams, several times faster
     from isal import isal_zlib as _deflate
     DEFLATE = "isal"
@@ -40,7 +42,40 @@ def shuffle(buf: np.ndarray) -> np.ndarray:
     size = buf.dtype.itemsize
     if size == 1 or buf.size <= 1:
         return buf.reshape(-1).view(np.uint8)
-    return np.ascontiguousarray(buf.reshape(-1).view(np.uint8).reshape(-1, size).T)
+    out = np.empty(buf.nbytes, np.uint8)
+    _shuffle_bytes(buf.reshape(-1).view(np.uint8), size, out)
+    return out
+
+
+@jit
+def _shuffle_bytes(raw, size, out):
+    """``out[j * n + i] = raw[i * size + j]`` for the n elements of ``size`` bytes in ``raw``,
+    without the GIL (beside the kernels).  The 8- and 4-byte elements of the per-event
+    datasets take loops written out for their size, about 3 times faster than numpy's
+    transposed copy of the (n, size) bytes; other sizes (the words) a generic loop."""
+    n = raw.size // size
+    if size == 8:
+        for i in range(n):
+            b = 8 * i
+            out[i] = raw[b]
+            out[n + i] = raw[b + 1]
+            out[2 * n + i] = raw[b + 2]
+            out[3 * n + i] = raw[b + 3]
+            out[4 * n + i] = raw[b + 4]
+            out[5 * n + i] = raw[b + 5]
+            out[6 * n + i] = raw[b + 6]
+            out[7 * n + i] = raw[b + 7]
+    elif size == 4:
+        for i in range(n):
+            b = 4 * i
+            out[i] = raw[b]
+            out[n + i] = raw[b + 1]
+            out[2 * n + i] = raw[b + 2]
+            out[3 * n + i] = raw[b + 3]
+    else:
+        for j in range(size):
+            for i in range(n):
+                out[j * n + i] = raw[i * size + j]
 
 
 def deflate_level(ds: h5py.Dataset, arr: np.ndarray, grid_axes: int):

@@ -116,3 +116,44 @@ def test_an_interrupt_in_the_writer_reaches_the_caller(monkeypatch):
     w.put((slice(0, 1),), _block(0, 8))
     with pytest.raises(KeyboardInterrupt):
         w.close()
+
+
+@pytest.mark.parametrize("n,most,taper", [(4000, 891, 81), (1000, 891, 81), (100, 891, 81),
+                                          (61, 8, 2), (7, 3, 1), (5, 1, 1)])
+def test_the_grids_last_slabs_halve_in_whole_chunks(n, most, taper):
+    """``engine.slab_bounds``: the slabs tile [0, n) in order, none larger than ``most``;
+    every boundary but n is a whole number of chunks (the writer compresses whole chunks);
+    the slabs never grow, and the last is at most a quarter of ``most`` (or one chunk)."""
+    cuts = engine.slab_bounds(n, most, taper)
+    sizes = [b - a for a, b in cuts]
+    assert cuts[0][0] == 0 and cuts[-1][1] == n
+    assert all(b == c for (_, b), (c, _) in zip(cuts, cuts[1:]))
+    assert max(sizes) <= most and all(b % taper == 0 for _, b in cuts[:-1])
+    assert all(x >= y for x, y in zip(sizes, sizes[1:]))
+    assert sizes[-1] <= max(taper, most // 4)
+    assert engine.slab_bounds(n, most) == [(a, min(n, a + most)) for a in range(0, n, most)]
+
+
+def test_tapered_slabs_write_the_same_file_as_even_ones(tmp_path, monkeypatch, configs_dir):
+    """The default slabs (the last ones halving) and even slabs of ``--block-points`` write
+    the same values in every dataset (each run is independent of the others in its
+    block)."""
+    import h5py
+
+    from cornerbif import config
+    from cornerbif.sweep import run_sweep
+    monkeypatch.setattr(engine, "CHUNK_BYTES", 2 * 2 * 20 * 8)      # 2 points a chunk
+    sc = config.load(f"{configs_dir}/fig04c.toml",
+                     ["sweep.omega.num=61", "initial.count=2", "run.transient=50",
+                      "run.record=20"])
+    monkeypatch.setattr(engine, "BLOCK_BYTES", 8 * engine.item_bytes(sc) * sc.n_ic)
+    tapered = [b[0].stop - b[0].start for b in engine.blocks(sc)]
+    assert tapered[-5:] == [8, 6, 4, 2, 1] and len(engine.blocks(sc, 8)) == 8
+    files = [run_sweep(sc, str(tmp_path / f"{k}.h5"), block_points=bp)
+             for k, bp in (("tapered", None), ("even", 8))]
+    with h5py.File(files[0]) as a, h5py.File(files[1]) as b:
+        names = []
+        a.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        assert len(names) > 20
+        for n in names:
+            assert np.array_equal(a[n][...], b[n][...], equal_nan=a[n].dtype.kind == "f"), n
