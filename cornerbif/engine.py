@@ -161,35 +161,12 @@ def blocks(scene: Scene, block_points: int | None = None):
         if len(G) == 1:
             return [(slice(i, i + 1),) for i in order]
         return [(slice(i, i + 1), slice(0, G[1])) for i in order]
-    taper = event_chunk_points(scene) if not block_points else None
     if len(G) == 1:
-        return [(slice(a, b),) for a, b in slab_bounds(G[0], max_points, taper)]
+        return [(slice(a, min(a + max_points, G[0])),) for a in range(0, G[0], max_points)]
     out = []
     for i in range(G[0]):
-        last_row = taper if i == G[0] - 1 else None
-        for a, b in slab_bounds(G[1], max_points, last_row):
-            out.append((slice(i, i + 1), slice(a, b)))
-    return out
-
-
-def slab_bounds(n: int, most: int, taper: int | None = None) -> list:
-    """(start, stop) of the slabs of a run of ``n`` grid points, ``most`` at a time.
-
-    With ``taper`` (the points of one event chunk; ``most`` a whole number of them) the
-    last ``2 * most`` points go in slabs that halve, each a whole number of chunks and at
-    least a quarter of ``most``: the grid's last slab is then small, and so is the one write
-    left when the computing is done (the local backend writes a slab while the next
-    computes).  891 points a slab over 4000 points: 891, 891, 891, 729, 324, 162, 112."""
-    out, a = [], 0
-    if taper:
-        least = max(taper, most // 4 // taper * taper)
-    while a < n:
-        rest = n - a
-        size = most
-        if taper and rest <= 2 * most:
-            size = min(most, max(least, -(-(rest // 2) // taper) * taper))
-        out.append((a, min(n, a + size)))
-        a += size
+        for a in range(0, G[1], max_points):
+            out.append((slice(i, i + 1), slice(a, min(a + max_points, G[1]))))
     return out
 
 
