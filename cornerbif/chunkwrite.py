@@ -78,18 +78,37 @@ def _shuffle_bytes(raw, size, out):
                 out[j * n + i] = raw[i * size + j]
 
 
-def deflate_level(ds: h5py.Dataset, arr: np.ndarray, grid_axes: int):
-    """The deflate level with which whole chunks of ``ds`` may be written here, or None
-    when they may not: the dataset must be chunked only along the last grid axis
-    (extent 1 on the others, whole along the trailing axes), filtered by nothing but
-    shuffle and deflate, and of ``arr``'s dtype (numbers or fixed-length strings)."""
-    ch = ds.chunks
-    if (ch is None or ds.compression != "gzip" or ds.fletcher32 or ds.scaleoffset is not None
-            or arr.dtype != ds.dtype or arr.dtype.kind not in "fiuS" or grid_axes == 0):
+class Layout:
+    """What writing slabs of a dataset needs to know of it, read from HDF5 once (each
+    property of an h5py dataset is a call into HDF5; a sweep writes ~20 datasets a block):
+    the dataset, its shape, dtype, chunk shape, fill value, whether it shuffles, and its
+    deflate level when its filters are shuffle and deflate alone (else None)."""
+
+    __slots__ = ("ds", "shape", "dtype", "chunks", "fill", "shuffle", "level")
+
+    def __init__(self, ds: h5py.Dataset):
+        self.ds = ds
+        self.shape, self.dtype, self.chunks = ds.shape, ds.dtype, ds.chunks
+        self.fill, self.shuffle = ds.fillvalue, ds.shuffle
+        plain = (self.chunks is not None and ds.compression == "gzip" and not ds.fletcher32
+                 and ds.scaleoffset is None)
+        self.level = int(ds.compression_opts) if plain else None
+
+
+def deflate_level(ds, arr: np.ndarray, grid_axes: int):
+    """The deflate level with which whole chunks of ``ds`` (a dataset or its ``Layout``)
+    may be written here, or None when they may not: the dataset must be chunked only along
+    the last grid axis (extent 1 on the others, whole along the trailing axes), filtered
+    by nothing but shuffle and deflate, and of ``arr``'s dtype (numbers or fixed-length
+    strings)."""
+    lay = ds if isinstance(ds, Layout) else Layout(ds)
+    ch = lay.chunks
+    if (lay.level is None or arr.dtype != lay.dtype or arr.dtype.kind not in "fiuS"
+            or grid_axes == 0):
         return None
-    if any(c != 1 for c in ch[:grid_axes - 1]) or tuple(ch[grid_axes:]) != ds.shape[grid_axes:]:
+    if any(c != 1 for c in ch[:grid_axes - 1]) or tuple(ch[grid_axes:]) != lay.shape[grid_axes:]:
         return None
-    return int(ds.compression_opts)
+    return lay.level
 
 
 def compress(chunk: np.ndarray, shuffled: bool, level: int) -> bytes:
@@ -101,18 +120,21 @@ def compress(chunk: np.ndarray, shuffled: bool, level: int) -> bytes:
     return _deflate.compress(data, level)
 
 
-def write_slab(ds: h5py.Dataset, index: tuple, arr) -> None:
+def write_slab(ds, index: tuple, arr) -> None:
     """``ds[index] = arr`` for a slab of the grid (``index``: one slice per grid axis;
     ``arr``: the slab's shape plus the dataset's trailing axes), with every chunk the
-    slab covers whole compressed here and written directly."""
+    slab covers whole compressed here and written directly.  ``ds``: the dataset, or its
+    ``Layout`` (kept by a writer that writes it again)."""
+    lay = ds if isinstance(ds, Layout) else Layout(ds)
+    ds = lay.ds
     arr = np.asarray(arr)
     g = len(index)
-    level = deflate_level(ds, arr, g)
+    level = deflate_level(lay, arr, g)
     if level is None:
         ds[index] = arr
         return
-    extent = ds.chunks[g - 1]
-    n = ds.shape[g - 1]
+    extent = lay.chunks[g - 1]
+    n = lay.shape[g - 1]
     a, b = index[-1].start, index[-1].stop
     first = -(-a // extent) * extent          # the first chunk boundary at or after a
     whole = []                                # (lo, hi) of the chunks covered whole
@@ -129,16 +151,16 @@ def write_slab(ds: h5py.Dataset, index: tuple, arr) -> None:
     for lo, hi in (head, tail):               # the ragged ends, through HDF5
         if hi > lo:
             ds[lead + (slice(lo, hi),)] = arr[(slice(None),) * (g - 1) + (slice(lo - a, hi - a),)]
-    trailing = ds.shape[g:]
-    fill = ds.fillvalue
+    trailing = lay.shape[g:]
+    fill = lay.fill
     zeros = (0,) * len(trailing)
     for pos in itertools.product(*[range(s.stop - s.start) for s in lead]):
         offset = tuple(s.start + p for s, p in zip(lead, pos))
         for lo, hi in whole:
             part = arr[pos + (slice(lo - a, hi - a),)]
             if hi - lo < extent:              # the grid's edge: HDF5 stores whole chunks
-                full = np.full((extent,) + trailing, fill, ds.dtype)
+                full = np.full((extent,) + trailing, fill, lay.dtype)
                 full[:hi - lo] = part
                 part = full
-            data = compress(np.ascontiguousarray(part), ds.shuffle, level)
+            data = compress(np.ascontiguousarray(part), lay.shuffle, level)
             ds.id.write_direct_chunk(offset + (lo,) + zeros, data)

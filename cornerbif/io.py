@@ -235,10 +235,15 @@ def write_block(f, index, block):
     # directory is the same, and HDF5 knows the file's size
     ensure_room(f.filename, sum(np.asarray(a).nbytes for a in block.values()),
                 f.id.get_filesize())
+    # each dataset's chunkwrite.Layout (None: a block's array the file does not keep), read
+    # from HDF5 at the first block written through this File object and kept on it
+    layouts = f.__dict__.setdefault("_cornerbif_layouts", {})
     try:
         for name, arr in block.items():
-            if name in f:
-                chunkwrite.write_slab(f[name], index, arr)
+            if name not in layouts:
+                layouts[name] = chunkwrite.Layout(f[name]) if name in f else None
+            if layouts[name] is not None:
+                chunkwrite.write_slab(layouts[name], index, arr)
         f.flush()
         f["done"][index] = 1
         f.flush()
