@@ -3,11 +3,12 @@
 A Fig. 4(c)-like omega sweep (omega in [1.5, 2.5], N values x 8 starts, 160 recorded
 impacts: 5.1 M points at N = 4000) is swept once; then `cornerbif plot` draws it to PNG and
 to PDF, each in its own process (wall time; the peak RSS that process reports),
-beside the same for a 1/10 of the points (how time
-and memory grow with the count).  The diagram is coloured by orbit (the file's attractor
-table) with rasterised markers, as the gallery draws it.
+beside the same for a 1/10 of the points and for each further N given (how time and
+memory grow with the count: past plot_style.RASTER_POINTS values the diagram is one image
+and its values are read a slab at a time, so the peak should not grow).  The diagram is
+coloured by orbit (the file's attractor table), as the gallery draws it.
 
-    python benchmarks/plot_speed.py [--num 4000] [--out benchmarks/results]
+    python benchmarks/plot_speed.py [--num 4000 [10000 ...]] [--out benchmarks/results]
     python benchmarks/plot_speed.py --smoke
 
 Writes ``plot_speed.json`` into ``--out``.
@@ -46,16 +47,17 @@ def run(args):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--num", type=int, default=4000)
+    ap.add_argument("--num", type=int, nargs="+", default=[4000],
+                    help="omega values of the sweeps (the first's 1/10 is swept too)")
     ap.add_argument("--smoke", action="store_true")
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
     a = ap.parse_args(argv)
     if a.smoke:
-        a.num = 100
+        a.num = [100]
     res = {"when": time.strftime("%Y-%m-%d %H:%M"), "command": "python benchmarks/plot_speed.py"
-           + (" --smoke" if a.smoke else f" --num {a.num}"), "sizes": []}
+           + (" --smoke" if a.smoke else " --num " + " ".join(map(str, a.num))), "sizes": []}
     with tempfile.TemporaryDirectory() as tmp:
-        for num in (a.num // 10, a.num):
+        for num in sorted({a.num[0] // 10, *a.num}):
             h5 = os.path.join(tmp, f"d{num}.h5")
             sets = [f"sweep.omega={{start=1.5, stop=2.5, num={num}}}", "initial.count=8",
                     "run.transient=300", "run.record=160", 'output.keep=["impacts"]']

@@ -7,6 +7,7 @@ which makes the whole figure.  matplotlib is imported here only, so
 
 from __future__ import annotations
 
+import contextlib
 import math
 import tomllib
 
@@ -37,17 +38,26 @@ YLABELS = {
 # the per-event datasets a figure may draw (read when first drawn: ``RecordedData``)
 RECORDED = ("impacts/u", "impacts/v_in", "section/u", "section/v", "impacts/t",
             "impacts/corner_offset")
+# the dataset each y of a diagram is made from (winding and period: the per-run words
+# and periods)
+Y_DATASETS = {"impact_u": "impacts/u", "impact_v": "impacts/v_in",
+              "impact_height": "impacts/u", "section_u": "section/u",
+              "section_v": "section/v"}
 
 
 class RecordedData(dict):
     """The file's per-event datasets, each read from the file the first time it is asked
     for: a figure of impact heights reads that dataset alone (a 5 M-point diagram holds
-    one 40 MB array, not six; benchmarks/plot_speed.py)."""
+    one 40 MB array, not six; benchmarks/plot_speed.py).  ``rows`` reads a slab of rows
+    alone (a diagram of millions of points holds none whole); ``shapes`` their shapes."""
 
-    def __init__(self, path, names):
+    def __init__(self, path, shapes, swmr=False):
         super().__init__()
         self.path = path
-        self.names = tuple(names)
+        self.shapes = dict(shapes)
+        self.names = tuple(self.shapes)
+        self.swmr = swmr            # how check_readable opened the file
+        self._file = None           # held open by ``opened``
 
     def __contains__(self, name):
         return name in self.names
@@ -62,6 +72,32 @@ class RecordedData(dict):
 
     def get(self, name, default=None):
         return self[name] if name in self.names else default
+
+    def rows(self, name, rows: slice):
+        """Rows ``rows`` of the first axis of ``name``: a view of the whole when it has been
+        read, else read alone from the file."""
+        if name not in self.names:
+            raise KeyError(name)
+        if dict.__contains__(self, name):
+            return dict.__getitem__(self, name)[rows]
+        with self.opened():
+            return self._file[name][rows]
+
+    @contextlib.contextmanager
+    def opened(self):
+        """The file held open for the ``rows`` read inside (a pass over the slabs opens it
+        once; PlotData checked it with ``check_readable``, which reads the whole file's
+        structure)."""
+        if self._file is not None:
+            yield
+            return
+        import h5py
+        with h5py.File(self.path, "r", swmr=self.swmr, locking=False) as f:
+            self._file = f
+            try:
+                yield
+            finally:
+                self._file = None
 
 
 class PlotData:
@@ -78,14 +114,18 @@ class PlotData:
             self.status = f["status"][...]
             self.period = f["period"][...]
             self.ipc = f["impacts_per_cycle"][...]
-            self.symbols = f["symbols"][...].astype(str)
+            # as str no wider than the longest word (the file's field may be many times
+            # wider: memory per run)
+            sym = f["symbols"][...]
+            self.symbols = sym.astype(f"U{max(1, int(np.char.str_len(sym).max(initial=0)))}")
             self.model = self.scene.get("scene", {}).get("model", registry.DEFAULT_MODEL)
             self.spec = registry.models().get(self.model)
             # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
             self.role = self.spec.normal_form_role if self.spec else None
             self.done = f["done"][...]
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
-            self.data = RecordedData(path, [n for n in RECORDED if n in f])
+            self.data = RecordedData(path, {n: f[n].shape for n in RECORDED if n in f},
+                                     swmr=f.swmr_mode)
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
             self.has_table = "attractors" in f            # cornerbif.attractors
             self.complete = bool(f.attrs.get("completed", ""))
@@ -106,53 +146,82 @@ class PlotData:
         Compared on one cycle of impact heights and velocities when impacts are
         stored, else on the section values, else on the cycle's word alone; to
         100 ``run.period_tol`` (two starts on one cycle agree to the detection
-        tolerance of each).  Returns (labels G + (n_ic,), count G).
+        tolerance of each).  Each grid point on its own: the series are read a slab of
+        grid points at a time (``plot_style.slab_rows``), never whole.  Returns (labels
+        G + (n_ic,), count G).
         """
         if self._attractors is None:
             from .analysis import distinct_attractors
+            from .plot_style import slab_rows
             if "impacts/u" in self.data:
-                series = [(self.data["impacts/u"], "impacts"), (self.data["impacts/v_in"], "impacts")]
+                names = [("impacts/u", "impacts"), ("impacts/v_in", "impacts")]
             elif "section/u" in self.data:
-                series = [(self.data["section/u"], "section"), (self.data["section/v"], "section")]
+                names = [("section/u", "section"), ("section/v", "section")]
             else:
-                series = []
-            self._attractors = distinct_attractors(self.period, self.ipc, self.symbols, series,
-                                                   100.0 * self.period_tol)
+                names = []
+            width = max([int(np.prod(self.data.shapes[n][1:])) for n, _ in names] + [1])
+            slabs = ((slab_rows((self.period.shape[0], width)) if self.period.ndim >= 2
+                      else []) or [slice(None)])
+            with self.data.opened():
+                parts = [distinct_attractors(
+                    self.period[rows], self.ipc[rows], self.symbols[rows],
+                    [(self.data.rows(n, rows), kind) for n, kind in names],
+                    100.0 * self.period_tol) for rows in slabs]
+            self._attractors = (parts[0] if len(parts) == 1 else
+                                tuple(np.concatenate(p) for p in zip(*parts)))
         return self._attractors
 
     def y(self, kind):
-        """The values drawn for ``kind`` (``YLABELS``), computed once per kind."""
+        """The values drawn for ``kind`` (``YLABELS``), computed once per kind; None when
+        the file holds none."""
         if kind not in self._y:
             self._y[kind] = self._compute_y(kind)
         return self._y[kind]
 
-    def _compute_y(self, kind):
+    def y_rows(self, kind):
+        """The values drawn for ``kind`` as ``plot_style.Rows``, read and computed a slab of
+        rows at a time (sliced from the whole when ``y`` has computed it, or when it has one
+        value per run): a diagram of millions of points is never whole in memory.  None
+        when the file holds none."""
+        from .plot_style import Rows
+        if kind in ("winding", "period") or kind in self._y:     # one value per run
+            whole = self.y(kind)
+            return None if whole is None else Rows(whole.shape, lambda a, b: whole[a:b])
+        if Y_DATASETS[kind] not in self.data:
+            return None
+        return Rows(self.data.shapes[Y_DATASETS[kind]],
+                    lambda a, b: self._compute_y(kind, slice(a, b)), self.data.opened)
+
+    def _compute_y(self, kind, rows=slice(None)):
+        """``kind``'s values in ``rows`` of the first axis (all by default; a slab is read
+        alone, ``RecordedData.rows``), or None when the file holds none."""
         if kind == "winding":
             from .analysis import winding_number
-            return np.vectorize(winding_number, otypes=[float])(self.symbols)
+            return np.vectorize(winding_number, otypes=[float])(self.symbols[rows])
         if kind == "period":
-            return np.where(self.period > 0, self.period, np.nan).astype(float)
+            per = self.period[rows]
+            return np.where(per > 0, per, np.nan).astype(float)
+        name = Y_DATASETS[kind]
+        if name not in self.data:
+            return None
+        v = self.data[name] if rows == slice(None) else self.data.rows(name, rows)
         if kind == "impact_height":
             # u - kappa: the impact's height above the corners of z = kappa + beta |sin|
             # (and the triangle's valleys), where a kappa sweep's cascade lies
-            u = self.data.get("impacts/u")
-            if u is None:
-                return None
             kap = (self.values["kappa"] if "kappa" in self.axes
                    else np.float64(self.scene.get("system", {}).get("kappa", 0.0)))
             if np.ndim(kap):
                 pos = self.axes.index("kappa")
-                kap = kap.reshape((-1,) + (1,) * (u.ndim - 1 - pos))
-            return u - kap
-        name = {"impact_u": "impacts/u", "impact_v": "impacts/v_in",
-                "section_u": "section/u", "section_v": "section/v"}[kind]
-        return self.data.get(name)
+                kap = kap.reshape((-1,) + (1,) * (v.ndim - 1 - pos))
+                kap = kap[rows] if pos == 0 else kap
+            return v - kap
+        return v
 
     def default_y(self):
         if self.spec is not None and self.spec.default_y:
             return self.spec.default_y
         for kind in ("impact_u", "section_u"):
-            if self.y(kind) is not None:
+            if Y_DATASETS[kind] in self.data:
                 return kind
         return None
 
@@ -800,26 +869,29 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         fig, ax = plt.subplots(figsize=(8.2, 4.5), dpi=150)
     if len(d0.axes) == 1 and kind_ != "fractions":
         kind = y or plot_cfg.get("y") or d0.default_y()
-        if kind is None or d0.y(kind) is None:
+        # the drawn values a slab at a time (plot_style.Rows): counted, windowed and, past
+        # RASTER_POINTS, rastered without holding them whole
+        ys = [d.y_rows(kind) for d in datas] if kind else [None]
+        if ys[0] is None:
             plt.close(fig)
             raise ValueError(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
                              "(output.keep of its scene; impact values need \"impacts\", "
                              "section values \"section\")")
         colors = ["k", "tab:orange", "tab:green", "tab:purple"]
         from . import plot_style
-        n_drawn = sum(int(np.isfinite(d.y(kind)).sum()) for d in datas if d.y(kind) is not None)
+        n_drawn = sum(plot_style.count_finite(v) for v in ys if v is not None)
         ms = plot_cfg.get("marker_size") or plot_style.marker_size(n_drawn)
         by_label = (len(datas) == 1 and not color_by and kind not in ("winding", "period")
-                    and d0.y(kind).ndim == 3 and d0.has_table)
+                    and ys[0].ndim == 3 and d0.has_table)
+        raster = by_label and n_drawn > plot_style.RASTER_POINTS and not branches
         # the y-window: the scene's, or one that a few outlying points do not set
         # (plot_style.robust_range); what it leaves out is said on the figure
-        yall = (d0.y(kind) if len(datas) == 1 else
+        yall = (ys[0] if len(datas) == 1 else
                 np.concatenate([d.y(kind).ravel() for d in datas if d.y(kind) is not None]))
         n_fin = n_drawn
         if "ylim" in plot_cfg:
             lo, hi = plot_cfg["ylim"]
-            with np.errstate(invalid="ignore"):
-                n_out = int(np.count_nonzero(np.isfinite(yall) & ((yall < lo) | (yall > hi))))
+            n_out = plot_style.count_outside(yall, lo, hi)
             window = (lo, hi)
         elif branches:
             # continued branches may reach past the sweep's values: the axes take them all
@@ -841,10 +913,9 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         orbit_handles = []
         if by_label:
             orbit_handles = plot_attractors.draw_diagram_by_label(
-                ax, d0.path, d0.values[d0.axes[0]], d0.y(kind), ms,
+                ax, d0.path, d0.values[d0.axes[0]], ys[0] if raster else d0.y(kind), ms,
                 families=plot_cfg.get("orbits") == "families",
-                window=window if n_fin > plot_style.RASTER_POINTS and not branches else None,
-                xlim=plot_cfg.get("xlim"))
+                window=window if raster else None, xlim=plot_cfg.get("xlim"))
         if kind == "winding" and len(datas) == 1 and not color_by:
             draw_winding_by_alpha(ax, d0, ms)
             datas_drawn = []

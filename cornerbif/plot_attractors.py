@@ -179,15 +179,38 @@ def run_labels(table, families=False):
     """Every run's attractor as an index into the returned label list, -1 where the run
     reached none: (index array shaped like the file's ``/attractor``, labels); with
     ``families``, the labels are the orbits' families (``family``)."""
+    names, row = label_rows(table, families)
+    return run_index(table["ids"], row), names
+
+
+def label_rows(table, families=False):
+    """The distinct labels of the table's rows, sorted (their families with
+    ``families``), and each row's index into them."""
     labels = attractor_labels(table)
     if families:
         labels = [family(lab) for lab in labels]
     names = sorted(set(labels))
     at = {lab: i for i, lab in enumerate(names)}
-    row = np.array([at[lab] for lab in labels], np.int64)
-    ids = table["ids"]
-    idx = np.where(ids >= 0, row[np.maximum(ids, 0)] if row.size else -1, -1)
-    return idx, names
+    return names, np.array([at[lab] for lab in labels], np.int64)
+
+
+def run_index(ids, row):
+    """The runs' attractor ids (``/attractor``: a table row, < 0 for none) as label
+    indices (``row``: each table row's), -1 where a run reached none."""
+    return np.where(ids >= 0, row[np.maximum(ids, 0)] if row.size else -1, -1)
+
+
+def label_counts(ids, row, n_labels):
+    """(runs per label, runs without an attractor) of the attractor ids ``ids`` (an array
+    or ``plot_style.Rows``), counted a slab of rows at a time."""
+    from .plot_style import row_slabs
+    counts = np.zeros(n_labels, np.int64)
+    none = 0
+    for _, block in row_slabs(ids):
+        found = block[block >= 0]
+        counts += np.bincount(row[found], minlength=n_labels)
+        none += block.size - found.size
+    return counts, none
 
 
 def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=None,
@@ -198,16 +221,24 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     black, the runs without a cycle light grey.  ``yv``: (points, starts, record).
     ``families``: one colour per family of orbits (``family``: beta^N gamma for every N).
     ``window`` (the y-window): draw the points as one image (``plot_style.raster_runs``,
-    for millions of points: memory that does not grow with them), ``xlim`` its x-window.
+    for millions of points: memory that does not grow with them; ``yv`` may then be
+    ``plot_style.Rows``, read a slab at a time), ``xlim`` its x-window.
     Returns the legend's handles (the caller places the legend with its other lines)."""
     table = read_table(path)
-    idx, names = run_labels(table, families)
+    names, row = label_rows(table, families)
     tex = family_tex if families else label_tex
-    counts = np.bincount(idx[idx >= 0], minlength=len(names)) if names else np.zeros(0, int)
+    counts, none = label_counts(table["ids"], row, len(names))
     top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]
     colors = attractor_colors([names[i] for i in top])
+    handles = _legend_handles(counts, none, names, top, colors, tex)
     if window is not None:
-        return _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim)
+        # layer 1 the other cycles, 2 + k the k-th label shown
+        label_layer = np.ones(len(names), np.int16)
+        label_layer[top] = 2 + np.arange(len(top))
+        _raster_by_label(ax, x, yv, table["ids"], label_layer[row],
+                         ["0.78", "k"] + [colors[names[i]] for i in top], ms, window, xlim)
+        return handles
+    idx = run_index(table["ids"], row)
     xs_all = np.broadcast_to(x[:, None, None], yv.shape)
 
     def scatter(sel, color, z):
@@ -219,40 +250,37 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     scatter((idx >= 0) & ~np.isin(idx, top), "k", 2)
     for rank, i in enumerate(top):
         scatter(idx == i, colors[names[i]], 3 + rank)
-    return _legend_handles(idx, names, top, colors, tex)
+    return handles
 
 
-def _raster_by_label(ax, x, yv, idx, names, top, colors, tex, ms, window, xlim=None):
+def _raster_by_label(ax, x, yv, ids, row_layer, cols, ms, window, xlim=None):
     """``draw_diagram_by_label`` as one image: layer 0 the runs without a cycle, 1 the other
-    cycles, 2 + k the k-th label shown (the rarer over the more common, as the markers)."""
+    cycles, 2 + k the k-th label shown (the rarer over the more common, as the markers;
+    ``row_layer``: each table row's layer, ``cols``: each layer's colour).  The runs'
+    layers are made from their ids a slab at a time, beside their values."""
     import matplotlib as mpl
 
-    from .plot_style import raster_runs
-    layer = np.where(idx < 0, 0, 1).astype(np.int16)
-    for k, i in enumerate(top):
-        layer[idx == i] = 2 + k
-    cols = ["0.78", "k"] + [colors[names[i]] for i in top]
+    from .plot_style import Rows, raster_runs
+    row_layer = np.append(row_layer, np.int16(0))        # the last: no attractor (id < 0)
+    layer = Rows(ids.shape, lambda a, b: row_layer[np.where(ids[a:b] >= 0, ids[a:b], -1)])
     if xlim is None:
         span = float(x.max() - x.min()) or 1.0
         xlim = (float(x.min()) - 0.05 * span, float(x.max()) + 0.05 * span)
     raster_runs(ax, x, yv, layer, cols, xlim, window, ms, mpl.rcParams["savefig.dpi"]
                 if isinstance(mpl.rcParams["savefig.dpi"], (int, float)) else 300)
-    return _legend_handles(idx, names, top, colors, tex)
 
 
-def _legend_handles(idx, names, top, colors, tex):
+def _legend_handles(counts, none, names, top, colors, tex):
     """The diagram's legend: the labels shown, then "no cycle" and the other cycles where
-    there are runs of them."""
+    there are runs of them (``counts``: runs per label; ``none``: runs without one)."""
     from matplotlib.lines import Line2D
 
     def dot(color, label):
         return Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=color, label=label)
     handles = [dot(colors[names[i]], tex(names[i])) for i in top]
-    if (idx < 0).any():
+    if none:
         handles.append(dot("0.78", "no cycle"))
-    other = (idx >= 0) & ~np.isin(idx, top)
-    if other.any():
-        n_other = len(np.unique(idx[other]))
+    n_other = int(np.count_nonzero(counts)) - len(top)
+    if n_other:
         handles.append(dot("k", f"{n_other} other cycle{'s' if n_other > 1 else ''}"))
     return handles
-

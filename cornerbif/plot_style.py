@@ -41,7 +41,7 @@ MAGNITUDE_CMAP = "viridis"
 TAIL = 1e-3
 # the window drops the tails only when the full range is this many times the tails' window
 SQUEEZE = 2.0
-# values beyond which the tails are read from a strided sample (robust_range)
+# values beyond which the tails are read from a random sample (robust_range)
 SAMPLE = 1_000_000
 
 
@@ -81,31 +81,65 @@ def robust_range(values, tail=TAIL, squeeze=SQUEEZE, pad=0.04):
     figure).  None when no value is finite (infinities are not).  Past SAMPLE values the
     tails are read from a random sample of SAMPLE positions (a fixed seed: the same window
     for the same file; not a stride, which could fall in step with a cycle's period and miss
-    a branch), the count outside is exact: memory stays a few bytes per value.
+    a branch), the count outside is exact.  ``values``: an array, or ``Rows`` read a slab
+    at a time (``row_slabs``): memory is the sample's and one slab's, whatever the count.
     """
-    v = np.asarray(values, dtype=float).ravel()
-    fin = np.isfinite(v)
-    n = int(np.count_nonzero(fin))
+    if not isinstance(values, Rows):
+        values = np.asarray(values, dtype=float).ravel()
+    size = int(np.prod(values.shape))
+    picks = (np.sort(np.random.default_rng(0).integers(0, size, SAMPLE)) if size > SAMPLE
+             else None)
+    n, lo, hi, sample = _scan(values, picks)
     if n == 0:
         return None
-    lo = float(np.min(v, where=fin, initial=np.inf))
-    hi = float(np.max(v, where=fin, initial=-np.inf))
+    squeezed = False
     if n >= 1.0 / tail:
-        if v.size > SAMPLE:
-            sample = v[np.random.default_rng(0).integers(0, v.size, SAMPLE)]
-            sample = sample[np.isfinite(sample)]
-        else:
-            sample = v[fin]
         if sample.size < 1.0 / tail:
-            sample = v[fin]
+            sample = _scan(values, None)[3]
         qlo, qhi = (float(x) for x in np.quantile(sample, [tail, 1.0 - tail]))
         if qhi > qlo and hi - lo > squeeze * (qhi - qlo):
             lo, hi = qlo, qhi
+            squeezed = True
     span = hi - lo if hi > lo else max(abs(hi), 1.0) * 1e-3
     lo, hi = lo - pad * span, hi + pad * span
+    # the full range padded leaves nothing out: no pass to count
+    return lo, hi, count_outside(values, lo, hi) if squeezed or pad < 0 else 0
+
+
+def _scan(values, picks):
+    """One pass over ``values`` (an array or ``Rows``): the count of its finite values,
+    their least and greatest, and the finite values among those at the sorted flat
+    positions ``picks`` (repeats kept), or every finite value when ``picks`` is None."""
+    n, lo, hi, got = 0, np.inf, -np.inf, []
+    width = int(np.prod(values.shape[1:]))
+    for a, block in row_slabs(values):
+        v = np.asarray(block, dtype=float).ravel()
+        fin = np.isfinite(v)
+        n += int(np.count_nonzero(fin))
+        lo = min(lo, float(np.min(v, where=fin, initial=np.inf)))
+        hi = max(hi, float(np.max(v, where=fin, initial=-np.inf)))
+        if picks is None:
+            got.append(v[fin])
+        else:
+            i0, i1 = np.searchsorted(picks, [a * width, a * width + v.size])
+            s = v[picks[i0:i1] - a * width]
+            got.append(s[np.isfinite(s)])
+    return n, lo, hi, (np.concatenate(got) if got else np.zeros(0))
+
+
+def count_finite(values) -> int:
+    """How many of ``values`` (an array or ``Rows``, read a slab at a time) are finite."""
+    return sum(int(np.count_nonzero(np.isfinite(block))) for _, block in row_slabs(values))
+
+
+def count_outside(values, lo, hi) -> int:
+    """How many finite ``values`` (an array or ``Rows``, a slab at a time) fall outside
+    [lo, hi]."""
+    n = 0
     with np.errstate(invalid="ignore"):
-        outside = int(np.count_nonzero(fin & ((v < lo) | (v > hi))))
-    return lo, hi, outside
+        for _, v in row_slabs(values):
+            n += int(np.count_nonzero(np.isfinite(v) & ((v < lo) | (v > hi))))
+    return n
 
 
 def marker_size(n_points, lo=0.5, hi=3.0):
@@ -142,9 +176,51 @@ def emptiest_corner(ax, x, y, size=(0.34, 0.36), avoid=("upper right",)):
     return [x0, y0, size[0], size[1]]
 
 
-# point clouds of more values than this are drawn as one image (``raster_runs``)
+# point clouds of more values than this are drawn as one image (``raster_runs``), and
+# never held whole (``Rows``)
 RASTER_POINTS = 1_000_000
-RASTER_VALUES = 1 << 18   # values put into the image at a time
+RASTER_VALUES = 1 << 18   # values read, counted or put into the image at a time
+
+
+class Rows:
+    """An array read a slab of rows at a time: ``shape``, ``ndim``, ``size``, and
+    ``rows[a:b]``, rows a..b-1 of the first axis read (or computed) on demand by
+    ``read(a, b)``; ``opened`` (optional) a context manager factory that holds what the
+    reads need (a file) open over one pass.  A diagram of millions of points goes
+    through one (``row_slabs``: ``robust_range``, ``raster_runs``) and is never whole in
+    memory."""
+
+    def __init__(self, shape, read, opened=None):
+        self.shape = tuple(int(n) for n in shape)
+        self.ndim = len(self.shape)
+        self.size = int(np.prod(self.shape))
+        self._read = read
+        self._opened = opened
+
+    def __getitem__(self, rows):
+        if not isinstance(rows, slice) or rows.step not in (None, 1):
+            raise TypeError(f"Rows are read by a slice of consecutive rows, not {rows!r}")
+        a, b, _ = rows.indices(self.shape[0])
+        return self._read(a, max(a, b))
+
+    def opened(self):
+        """A context in which a pass of reads goes (``opened``, else nothing to hold)."""
+        return self._opened() if self._opened else contextlib.nullcontext()
+
+
+def slab_rows(shape):
+    """The first axis of an array of ``shape`` in slabs of whole rows of about RASTER_VALUES
+    values each: a list of slices."""
+    step = max(1, RASTER_VALUES // max(1, int(np.prod(shape[1:]))))
+    return [slice(a, min(a + step, shape[0])) for a in range(0, shape[0], step)]
+
+
+def row_slabs(values):
+    """(first row, the rows as an array) of ``values`` (an array or ``Rows``, held
+    ``opened`` over the pass), a slab at a time (``slab_rows``)."""
+    with values.opened() if isinstance(values, Rows) else contextlib.nullcontext():
+        for rows in slab_rows(values.shape):
+            yield rows.start, np.asarray(values[rows])
 
 
 def raster_runs(ax, x, y, layer, colors, xlim, ylim, ms, dpi):
@@ -153,9 +229,10 @@ def raster_runs(ax, x, y, layer, colors, xlim, ylim, ms, dpi):
     ``x`` (n,) the swept values, ``y`` (n, starts, record) the drawn values, ``layer``
     (n, starts) each run's layer (an index into ``colors``, -1: not drawn); a higher layer
     is drawn over a lower one.  Each value sets its pixel, then the image is grown to a
-    marker of ``ms`` points.  The rows go in slabs of RASTER_VALUES: besides the drawn
-    values themselves, memory is the image's (an int16 and 4 floats per pixel) and one
-    slab's, whatever the number of points.  Sets the axes' limits to ``xlim``, ``ylim``."""
+    marker of ``ms`` points.  ``y`` and ``layer`` are arrays or ``Rows``, read in slabs of
+    RASTER_VALUES (``row_slabs``): memory is the image's (an int16 and 4 floats per pixel)
+    and one slab's, whatever the number of points.  Sets the axes' limits to ``xlim``,
+    ``ylim``."""
     from matplotlib.colors import to_rgba
     fig = ax.figure
     pos = ax.get_position()
@@ -163,11 +240,10 @@ def raster_runs(ax, x, y, layer, colors, xlim, ylim, ms, dpi):
     H = max(16, int(round(pos.height * fig.get_figheight() * dpi)))
     (x0, x1), (y0, y1) = xlim, ylim
     top = np.full((H, W), -1, np.int16)
-    rows = max(1, RASTER_VALUES // max(1, int(np.prod(y.shape[1:]))))
-    for a in range(0, y.shape[0], rows):
-        ys = y[a:a + rows]
-        lay = np.broadcast_to(layer[a:a + rows, :, None], ys.shape)
-        xs = np.broadcast_to(x[a:a + rows, None, None], ys.shape)
+    for a, ys in row_slabs(y):
+        b = a + ys.shape[0]
+        lay = np.broadcast_to(np.asarray(layer[a:b])[:, :, None], ys.shape)
+        xs = np.broadcast_to(x[a:b, None, None], ys.shape)
         ok = (lay >= 0) & np.isfinite(ys) & (ys >= y0) & (ys <= y1) & (xs >= x0) & (xs <= x1)
         px = np.minimum(((xs[ok] - x0) * (W / (x1 - x0))).astype(np.int32), W - 1)
         py = np.minimum(((ys[ok] - y0) * (H / (y1 - y0))).astype(np.int32), H - 1)

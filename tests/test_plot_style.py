@@ -1,6 +1,9 @@
 """The logic of the figures (issue 21), without pixels: the y-window, marker sizes, the
-style sheet check, and diagrams coloured by what each run's orbit is."""
+style sheet check, and diagrams coloured by what each run's orbit is; and diagrams of
+millions of points read a slab at a time: the same window, counts and image, pixel for
+pixel, as of the whole arrays."""
 
+import contextlib
 import os
 
 import numpy as np
@@ -48,7 +51,19 @@ def test_style_sheets_are_checked():
     assert "neither a file" in PS.check_style("no-such-style")
 
 
-def test_diagram_colours_runs_by_their_orbit(tmp_path):
+@pytest.fixture(scope="module")
+def kappa_sweep(tmp_path_factory):
+    """A small Fig. 6(a) kappa sweep at omega = 1.999 with its attractor table (40 values of
+    kappa, 8 starts, 40 impacts each)."""
+    out = tmp_path_factory.mktemp("kappa") / "d.h5"
+    r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig06a.toml"), "-o",
+                                  str(out), "--no-progress", "--set", "sweep.kappa.num=40",
+                                  "--set", "run.transient=200", "--set", "run.record=40"])
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_diagram_colours_runs_by_their_orbit(tmp_path, kappa_sweep):
     """A kappa sweep at omega = 1.999 drawn by attractor: every run's points take its
     word's colour (attractor_colors of the labels shown), the legend names the words in
     the paper's notation, the runs on other cycles are black; vector output and a user's
@@ -60,11 +75,7 @@ def test_diagram_colours_runs_by_their_orbit(tmp_path):
 
     from cornerbif import attractors as A
     from cornerbif import plot_attractors as PA
-    out = tmp_path / "d.h5"
-    r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig06a.toml"), "-o",
-                                  str(out), "--no-progress", "--set", "sweep.kappa.num=40",
-                                  "--set", "run.transient=200", "--set", "run.record=40"])
-    assert r.exit_code == 0, r.output
+    out = kappa_sweep
     table = A.read_table(str(out))
     idx, names = PA.run_labels(table)
     # the labels of the runs are their table rows' labels
@@ -194,3 +205,114 @@ def test_the_scenes_y_window_holds_for_its_own_y_only():
     assert cfg_for_y(cfg, "impact_u", "impact_u") == cfg
     assert cfg_for_y(cfg, "impact_v", "impact_u") == {"orbits": "families"}
     assert cfg_for_y(dict(cfg, y="section_v"), "section_v", "impact_u")["ylim"] == cfg["ylim"]
+
+
+def _rows(a):
+    """``a`` as plot_style.Rows: each slab a copy read on demand, counting the passes."""
+    passes = []
+
+    def opened():
+        passes.append(1)
+        return contextlib.nullcontext()
+    return PS.Rows(a.shape, lambda i, j: a[i:j].copy(), opened), passes
+
+
+def test_values_read_by_slab_give_the_whole_arrays_window_and_counts(monkeypatch):
+    """robust_range, count_finite and count_outside of plot_style.Rows read in slabs of a
+    few rows equal those of the whole array: with the random sample of the tails (SAMPLE
+    made small) and without it, with NaN and infinities among the values."""
+    rng = np.random.default_rng(3)
+    y = np.concatenate([rng.uniform(0.0, 1.0, (300, 4, 10)), rng.uniform(40.0, 50.0, (1, 4, 10))])
+    y[rng.random(y.shape) < 0.1] = np.nan
+    y[0, 0, :3] = [np.inf, -np.inf, 1e9]
+    whole = (PS.robust_range(y), PS.count_finite(y), PS.count_outside(y, 0.1, 0.9))
+    assert whole[0][2] > 0
+    monkeypatch.setattr(PS, "RASTER_VALUES", 100)       # slabs of 2 rows
+    rows, passes = _rows(y)
+    assert PS.slab_rows(y.shape)[:2] == [slice(0, 2), slice(2, 4)]
+    assert (PS.robust_range(rows), PS.count_finite(rows),
+            PS.count_outside(rows, 0.1, 0.9)) == whole
+    assert len(passes) == 4     # robust_range: one pass for the window, one to count outside
+    monkeypatch.setattr(PS, "SAMPLE", 5000)
+    assert PS.robust_range(_rows(y)[0]) == PS.robust_range(y)
+    assert PS.robust_range(_rows(np.full((3, 2), np.nan))[0]) is None
+
+
+def test_the_raster_read_by_slab_is_the_whole_arrays_image(tmp_path, monkeypatch):
+    """raster_runs of the values and layers read from an HDF5 file a few rows at a time
+    (plot_style.Rows) draws the very image of the whole arrays in memory."""
+    import h5py
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rng = np.random.default_rng(4)
+    x = np.linspace(0.0, 1.0, 50)
+    y = x[:, None, None] + rng.normal(0.0, 0.1, (50, 3, 20))
+    y[rng.random(y.shape) < 0.05] = np.nan
+    layer = rng.integers(-1, 3, (50, 3)).astype(np.int16)
+    with h5py.File(tmp_path / "r.h5", "w") as f:
+        f["y"], f["layer"] = y, layer
+
+    def image(yv, lv):
+        fig = plt.figure(figsize=(1, 1))
+        ax = fig.add_axes([0, 0, 1, 1])
+        PS.raster_runs(ax, x, yv, lv, ["0.5", "r", "b"], (0.0, 1.0), (-0.1, 1.1), ms=2.0,
+                       dpi=64)
+        img = ax.get_images()[0].get_array().copy()
+        plt.close(fig)
+        return img
+    want = image(y, layer)
+    monkeypatch.setattr(PS, "RASTER_VALUES", 70)        # slabs of one row
+    with h5py.File(tmp_path / "r.h5", "r") as f:
+        got = image(*(PS.Rows(f[n].shape, lambda a, b, n=n: f[n][a:b]) for n in ("y", "layer")))
+    assert np.count_nonzero(want[..., 3]) > 100
+    assert np.array_equal(got, want)
+
+
+def test_label_counts_by_slab_are_the_whole_counts(monkeypatch):
+    """label_counts of attractor ids read a few rows at a time: the bincount of every run's
+    label and the runs without one, as of the whole id array."""
+    from cornerbif import plot_attractors as PA
+    rng = np.random.default_rng(5)
+    ids = rng.integers(-3, 7, (41, 8)).astype(np.int32)
+    row = np.array([0, 2, 1, 2, 0, 3, 3])                 # table row -> label
+    idx = PA.run_index(ids, row)
+    monkeypatch.setattr(PS, "RASTER_VALUES", 16)        # slabs of 2 rows
+    counts, none = PA.label_counts(_rows(ids)[0], row, 4)
+    assert np.array_equal(counts, np.bincount(idx[idx >= 0], minlength=4))
+    assert none == np.count_nonzero(ids < 0)
+
+
+def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypatch,
+                                                             kappa_sweep):
+    """A diagram drawn as one image (RASTER_POINTS made small) is the same PNG, pixel for
+    pixel, whether its values, layers and attractors are read in one slab or a few rows at a
+    time, for a y of the file and a derived one (impact_height); PlotData's slabs of y and
+    its attractors are those of the whole arrays, and the whole y is never read."""
+    import matplotlib.image as mimage
+
+    from cornerbif import plot as P
+    whole = P.PlotData(str(kappa_sweep))
+    labels, count = whole.attractors()
+    height = whole.y("impact_height")
+    assert np.array_equal(height, whole.y("impact_u") - whole.values["kappa"][:, None, None])
+    monkeypatch.setattr(PS, "RASTER_POINTS", 1000)
+    drawn = []
+    raster = PS.raster_runs
+    monkeypatch.setattr(PS, "raster_runs", lambda *a, **k: drawn.append(a[2]) or raster(*a, **k))
+    pngs = {}
+    for per_slab in (1 << 30, 8 * 40 * 3):              # one slab; slabs of 3 kappa values
+        monkeypatch.setattr(PS, "RASTER_VALUES", per_slab)
+        d = P.PlotData(str(kappa_sweep))
+        assert all(np.array_equal(a, b) for a, b in zip(d.attractors(), (labels, count)))
+        rows = d.y_rows("impact_height")
+        assert np.array_equal(rows[4:9], height[4:9], equal_nan=True)
+        assert not dict.__len__(d.data)                 # nothing read whole
+        for y in ("impact_u", "impact_height"):
+            png = tmp_path / f"{y}_{per_slab}.png"
+            r = CliRunner().invoke(main, ["plot", str(kappa_sweep), "-o", str(png), "--y", y])
+            assert r.exit_code == 0, r.output
+            pngs.setdefault(y, []).append(mimage.imread(png))
+    assert len(drawn) == 4 and all(isinstance(y, PS.Rows) for y in drawn)
+    for a, b in pngs.values():
+        assert np.array_equal(a, b)
