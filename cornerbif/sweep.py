@@ -62,8 +62,9 @@ def estimate_memory(scene: Scene) -> int:
 
 
 # writing the file (shuffle and deflate of whole chunks by ISA-L, cornerbif.chunkwrite): about
-# 450 MB of uncompressed data a second of the writer thread's CPU on this machine (93 MB of a
-# Fig. 4(c)-like sweep in 0.18-0.21 s, benchmarks/run.py's end-to-end section)
+# 1.3 GB of uncompressed data a second of the writer thread's CPU on this machine (93 MB of a
+# Fig. 4(c)-like sweep in 73 ms, 2026-11-24); the estimate keeps 400 MB/s, an upper bound
+# for slower disks and the per-block costs of small blocks
 WRITE_BYTES_PER_SECOND = 400e6
 
 
