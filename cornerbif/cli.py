@@ -237,9 +237,7 @@ def plot(files, out, y, title, color_by, style):
             figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
                    style=style)
         else:
-            from .plot_style import style as project_style
-            with project_style(style):
-                figure_branches(conts, out, y=y, title=title)
+            figure_branches(conts, out, y=y, title=title, style=style)
     except (FileFormatError, ValueError) as e:
         _fail(str(e))
     except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2

@@ -14,12 +14,13 @@ import tomllib
 import numpy as np
 
 from . import plot_attractors, plot_normal_form, registry, theory
-from .analysis import run_length
 from .io import check_readable
+from .plot_style import title_lines
 
 LABELS = {
-    "initial.u": r"start $u(0)$", "initial.v": r"start $v(0)$",
-    "initial.z": r"start $z(0)$", "initial.y": r"start $y(0)$", "initial.t": r"start time $t_0$",
+    "initial.u": r"start $u(t_0)$", "initial.v": r"start $v(t_0)$",
+    "initial.z": r"start $z(t_0)$", "initial.y": r"start $y(t_0)$",
+    "initial.t": r"start time $t_0$",
     "omega": r"$\omega$", "kappa": r"$\kappa$", "beta": r"$\beta$", "r": r"$r$",
     "sigma": r"$\sigma$", "k": r"$k$", "theta1": r"$\theta_1$", "theta2": r"$\theta_2$",
     "F": r"$F$", "Omega": r"$\Omega$", "phi": r"$\varphi$",
@@ -33,6 +34,31 @@ YLABELS = {
     "winding": r"winding number $W$ (share of $\gamma$, §5.4)",
     "period": "period (clusters per cycle)",
 }
+# the maps' start is the point x = (a_0, b_1) of their plane (section 4, Fig. 9)
+MAP_STARTS = {"initial.u": r"start $a_0$", "initial.v": r"start $b_1$"}
+
+
+def axis_label(name: str, model: str | None = None) -> str:
+    """The label of a swept axis ``name`` for a file of ``model``."""
+    if model == "map2d" and name in MAP_STARTS:
+        return MAP_STARTS[name]
+    return LABELS.get(name, name)
+
+
+# the section of the local 2D maps (sections 4-5) is (a_n, b_n); a flow's is (u(nT), v(nT))
+MAP_SECTION = {"section_u": r"$a_n$", "section_v": r"$b_n$"}
+
+
+def y_label(kind: str, model: str | None = None) -> str:
+    """The axis label of a drawn ``kind`` for a file of ``model`` (the maps' section is
+    a_n, b_n; a flow's u(nT), v(nT); a file of either compared on one axis names both)."""
+    if kind in MAP_SECTION:
+        if model == "map2d":
+            return MAP_SECTION[kind]
+        if model is None:
+            return YLABELS[kind]
+        return YLABELS[kind].split(" (")[0]
+    return YLABELS.get(kind, kind)
 
 
 # the per-event datasets a figure may draw (read when first drawn: ``RecordedData``)
@@ -342,10 +368,19 @@ def draw_plane_stability(ax, data: PlotData, what):
     x, y = data.values[a], data.values[b]
     label, centre = COLOR_BY[what]
     import matplotlib
-    # -inf (every start sticks: lambda = -inf) below the scale, drawn black
-    cmap = matplotlib.colormaps["coolwarm"].with_extremes(under="k")
-    im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap=cmap,
-                       norm=stability_norm(show, centre))
+    import matplotlib.colors as mcolors
+    # the scale spans the 2nd to 98th percentiles (stability_norm): values past it take its
+    # end colours (the most stable cycles are not black: black is for -inf alone)
+    base = matplotlib.colormaps["coolwarm"]
+    cmap = base.with_extremes(under=base(0.0), over=base(1.0))
+    im = ax.pcolormesh(x, y, np.where(np.isfinite(show), show, np.nan).T, shading="nearest",
+                       cmap=cmap, norm=stability_norm(show, centre))
+    stuck = show == -np.inf            # every start at the point sticks: lambda = -inf
+    if stuck.any():
+        ax.pcolormesh(x, y, np.where(stuck, 1.0, np.nan).T, shading="nearest",
+                      cmap=mcolors.ListedColormap(["k"]), vmin=0.0, vmax=2.0)
+        ax.fill_between([], [], color="k", label="sticks: " + (
+            r"$\lambda_1 = -\infty$" if what == "lyapunov" else r"$|\mu_1| = 0$"))
     fin = show[np.isfinite(show)]
     if fin.size and fin.max() < centre:
         sym = r"\lambda_1" if what == "lyapunov" else r"|\mu_1|"
@@ -355,6 +390,8 @@ def draw_plane_stability(ax, data: PlotData, what):
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
     draw_plane_curves(ax, data)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", fontsize=7)
     return im
 
 
@@ -396,18 +433,19 @@ def _runs(mask):
     return out
 
 
-BRANCH_COLORS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
-
-
 def _word_label(word) -> str:
-    """A cycle word in the paper's notation (b^3 g -> beta^3 gamma)."""
-    w = run_length(str(word), tex=True, empty="?")
-    for a, b in (("a", r"\alpha"), ("b", r"\beta"), ("g", r"\gamma")):
-        w = w.replace(a, b)
-    return "$" + w.replace("$", "").replace(" ", r"\,") + "$" if word else "?"
+    """A cycle word in the paper's notation (b^3 g -> beta^3 gamma; '?' when unknown)."""
+    return plot_attractors.label_tex(str(word)) if word else "?"
 
 
-def draw_branches(ax, cont: dict, y="impact_u", offset=0):
+def branch_colors(conts) -> dict:
+    """A colour per branch word, the one its orbit has in every diagram
+    (``plot_attractors.attractor_colors``: beta blue, alpha orange, gamma green)."""
+    return plot_attractors.attractor_colors([str(br["word"]) for c in conts
+                                             for br in c["branches"]])
+
+
+def draw_branches(ax, cont: dict, y="impact_u", colors=None):
     """Continued branches over a diagram: each impact's height (or the section state, or
     the impact velocity) against the parameter, one colour per branch (its word in the
     legend), stable solid, unstable dashed, events marked."""
@@ -418,7 +456,7 @@ def draw_branches(ax, cont: dict, y="impact_u", offset=0):
     seen = set()
     any_unstable = False
     for b, br in enumerate(cont["branches"]):
-        color = BRANCH_COLORS[(b + offset) % len(BRANCH_COLORS)]
+        color = (colors or branch_colors([cont]))[str(br["word"])]
         x = br["param"]
         vals = br[key]
         vals = vals[:, None] if vals.ndim == 1 else vals
@@ -454,20 +492,29 @@ def draw_branches(ax, cont: dict, y="impact_u", offset=0):
     return arts
 
 
-def figure_branches(paths, out, y=None, title=None, plot_cfg=None):
+def figure_branches(paths, out, y=None, title=None, plot_cfg=None, style=None):
     """Continuation files drawn alone: branches against the parameter, and the corner
-    curves in the plane of the two parameters when the files have them."""
+    curves in the plane of the two parameters when the files have them; in the project's
+    style with the user's sheet over it (``style``, or ``[plot] style``), ``[plot] ylim``
+    the window of the branches' panel."""
+    from . import plot_style
+    from .continuation import read
+    conts = [read(p) for p in paths]
+    if plot_cfg is None:                 # the first file's scene, as a sweep's figure
+        plot_cfg = tomllib.loads(conts[0]["scene"]).get("plot", {})
+    with plot_style.style(style or plot_cfg.get("style")):
+        return _figure_branches(conts, out, y, title, plot_cfg)
+
+
+def _figure_branches(conts, out, y, title, plot_cfg):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .continuation import read
-    conts = [read(p) for p in paths]
     curves = any(c["curves"] for c in conts)
     fig, axs = plt.subplots(1, 2 if curves else 1, figsize=(12 if curves else 7, 4.5),
                             dpi=150, squeeze=False)
     ax = axs[0, 0]
-    plot_cfg = plot_cfg or {}
     have = {k for c in conts for b in c["branches"] for k in b}
     kind = y or plot_cfg.get("y") or ("impact_u" if "impact_u" in have or not have
                                       else "section_v")
@@ -476,19 +523,19 @@ def figure_branches(paths, out, y=None, title=None, plot_cfg=None):
         raise ValueError(f"y = {kind!r}: the branches store "
                          + ", ".join(k for k, v in BRANCH_Y.items() if v in have))
     title = title or plot_cfg.get("title")
-    offset = 0
+    colors = branch_colors(conts)
     for c in conts:
-        draw_branches(ax, c, kind, offset)
-        offset += len(c["branches"])
+        draw_branches(ax, c, kind, colors)
+    if "ylim" in plot_cfg:
+        ax.set_ylim(*plot_cfg["ylim"])
     name = conts[0]["parameter"]
     ax.set_xlabel(LABELS.get(name, name))
-    ax.set_ylabel(YLABELS.get(kind, kind))
+    ax.set_ylabel(y_label(kind, tomllib.loads(conts[0]["scene"]).get("scene", {}).get("model")))
     ax.legend(loc="best", fontsize=7)
     if curves:
         draw_corner_curves_continued(axs[0, 1], conts)
     sc = tomllib.loads(conts[0]["scene"]).get("scene", {})
-    import textwrap
-    fig.suptitle("\n".join(textwrap.wrap(title or sc.get("title", ""), 100)), fontsize=9)
+    fig.suptitle(title_lines(title or sc.get("title", ""), 100), fontsize=9)
     fig.tight_layout()
     fig.savefig(out)
     plt.close(fig)
@@ -509,7 +556,7 @@ def draw_corner_curves_continued(ax, conts):
                                                                     c["parameter"])))
             what = ("fold" if str(cv.get("kind", "corner")) == "fold"
                     else f"{cv['what']} at its corner")
-            arts += ax.plot(x, yv, "-", color=BRANCH_COLORS[b % len(BRANCH_COLORS)], lw=1.2,
+            arts += ax.plot(x, yv, "-", color=branch_colors(conts)[str(word)], lw=1.2,
                             label=f"branch {b} ({_word_label(word)}): {what}, continued")
     sys_ = tomllib.loads(conts[0]["scene"]).get("system", {})
     cv0 = next(cv for c in conts for cv in c["curves"])
@@ -663,6 +710,8 @@ def draw_plane(ax, data: PlotData):
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
     draw_plane_curves(ax, data)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", fontsize=7)
     return im
 
 
@@ -751,7 +800,7 @@ def draw_comparison(fig, datas, kind, plot_cfg):
              "map": "the local 2D maps (56)"}
     for ax, d, tag in zip(axs[:2], datas, "ab"):
         draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6))
-        ax.set_ylabel(YLABELS[kind], fontsize=8)
+        ax.set_ylabel(y_label(kind, d.model), fontsize=8)
         ax.set_title(f"({tag}) {panel.get(d.role, d.model)}", fontsize=8, loc="left")
         if "ylim" in plot_cfg:
             ax.set_ylim(*plot_cfg["ylim"])
@@ -830,10 +879,9 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         kind = y or "section_v"
         fig = plt.figure(figsize=(7, 7), dpi=150)
         draw_comparison(fig, datas, kind, plot_cfg)
-        import textwrap
         sc = datas[1].scene.get("scene", {})
-        fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""),
-                                              80)), fontsize=9)
+        fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 80),
+                     fontsize=9)
         fig.tight_layout()
         fig.savefig(out)
         plt.close(fig)
@@ -852,8 +900,8 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         _need_table(d0)
         fig, ax = plt.subplots(figsize=(8, 5.2), dpi=150)
         plot_attractors.draw_basin(ax, d0.path, d0.axes, d0.values)
-        ax.set_xlabel(LABELS.get(d0.axes[0], d0.axes[0]))
-        ax.set_ylabel(LABELS.get(d0.axes[1], d0.axes[1]))
+        ax.set_xlabel(axis_label(d0.axes[0], d0.model))
+        ax.set_ylabel(axis_label(d0.axes[1], d0.model))
     elif len(d0.axes) == 2:
         fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), dpi=150)
         if color_by:
@@ -934,44 +982,53 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             draw_bifurcation(ax, d, kind, ms=ms * (1.8 if down else 1.0),
                              color=colors[i % len(colors)], label=lab,
                              by_attractor=len(datas) == 1 and kind not in ("winding", "period"))
-        if len(datas) == 1:
-            ax.text(0.01, 0.01, attractor_summary(d0), transform=ax.transAxes, fontsize=6,
-                    va="bottom", ha="left", color="0.2")
         branch_arts = []
-        offset = 0
         if branches:
             from .continuation import read
-            for bp in branches:
-                cont = read(bp)
+            conts = [read(bp) for bp in branches]
+            for bp, cont in zip(branches, conts):
                 if cont["parameter"] != d0.axes[0]:
                     plt.close(fig)
                     raise ValueError(f"{bp}: its branches are continued in "
                                      f"{cont['parameter']!r}, the diagram sweeps "
                                      f"{d0.axes[0]!r}")
-                branch_arts += draw_branches(ax, cont, kind, offset)
-                offset += len(cont["branches"])
+            colors_b = branch_colors(conts)
+            for cont in conts:
+                branch_arts += draw_branches(ax, cont, kind, colors_b)
         if kind in ("impact_u", "impact_height", "winding", "section_v", "period"):
             draw_corner_points(ax, d0, corner_line=kind == "impact_u")
         draw_marks(ax, plot_cfg)
         if by_label:
             lines, names = ax.get_legend_handles_labels()
+            legend_title = ("orbit (family of words)" if plot_cfg.get("orbits") == "families"
+                     else "orbit (word)")
+            if any("x" in h.get_label() for h in orbit_handles):
+                # a corner's cluster of impacts that is none of alpha, beta, gamma (or any
+                # cluster, on an obstacle without corners): analysis.detect_cycle
+                legend_title += "\n" + r"x: impacts other than $\alpha$, $\beta$, $\gamma$"
             ax.legend(handles=orbit_handles + lines, labels=[h.get_label() for h in
                                                               orbit_handles] + names,
                       loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
-                      title="orbit (family of words)" if plot_cfg.get("orbits") == "families"
-                      else "orbit (word)", title_fontsize=7, fontsize=7)
+                      title=legend_title, title_fontsize=7, fontsize=7)
         a = d0.axes[0]
         ax.set_xlabel(LABELS.get(a, a))
-        ax.set_ylabel(YLABELS[kind])
+        ax.set_ylabel(y_label(kind, d0.model if all(d.model == d0.model for d in datas)
+                              else None))
         from matplotlib.ticker import MaxNLocator
         ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
         ax.ticklabel_format(axis="x", useOffset=False)
         if window and "ylim" not in plot_cfg:
             ax.set_ylim(*window)
+        # what the figure holds beside its points, right of the axes below the legend
+        # (inside the axes it lay on the data: Fig. 19(a)'s summary over its lowest points)
+        notes = [attractor_summary(d0)] if len(datas) == 1 else []
         if n_out:
-            ax.text(0.99, 0.99, f"{n_out} of {n_fin} values outside "
-                    "the y window", transform=ax.transAxes, ha="right", va="top",
-                    fontsize=6, color="0.3")
+            notes.append(f"{n_out} of {n_fin} values outside the y window")
+        notes = [n for n in notes if n]
+        if notes:
+            import textwrap
+            ax.text(1.02, 0.0, "\n\n".join("\n".join(textwrap.wrap(n, 44)) for n in notes),
+                    transform=ax.transAxes, ha="left", va="bottom", fontsize=6, color="0.3")
         if ax.get_legend_handles_labels()[0] and not color_by and not by_label:
             hs, ls = ax.get_legend_handles_labels()
             keep = [(h, lab) for h, lab in zip(hs, ls) if h not in branch_arts]
@@ -992,9 +1049,8 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     if "ylim" in plot_cfg:
         ax.set_ylim(*plot_cfg["ylim"])
     sc = d0.scene.get("scene", {})
-    import textwrap
-    ax.set_title("\n".join(textwrap.wrap(title or plot_cfg.get("title")
-                                          or sc.get("title", sc.get("name", "")), 80)), fontsize=9)
+    ax.set_title(title_lines(title or plot_cfg.get("title")
+                             or sc.get("title", sc.get("name", "")), 80), fontsize=9)
     if not all(d.complete for d in datas):
         ax.text(0.99, 0.01, "incomplete sweep", transform=ax.transAxes, ha="right", va="bottom",
                 color="r", fontsize=8)
@@ -1093,8 +1149,8 @@ def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
 
 
 def _word_text(word):
-    """'bbbbbbbbbbbg' -> 'b^11 g' (run-length form for titles)."""
-    return run_length(word, tex=True, empty="no cycle")
+    """'bbbbbbbbbbbg' -> beta^11 gamma in the paper's letters (for titles)."""
+    return _word_label(word) if word else "no cycle"
 
 
 def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
@@ -1126,8 +1182,7 @@ def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
     axs[-1, 0].set_xlabel(r"$t - t_0$  ($t_0 = nT$, $T = 2\pi/\omega$, "
                           r"the section before the first recorded impact)")
     sc = data.scene.get("scene", {})
-    import textwrap
-    fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""), 90)),
+    fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 90),
                  fontsize=9)
     fig.tight_layout()
     return fig, info
@@ -1181,8 +1236,7 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
     ax.set_xlim(lo, hi)
     ax.legend(loc="lower right", fontsize=7)
     sc = data.scene.get("scene", {})
-    import textwrap
-    ax.set_title("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""), 80)),
+    ax.set_title(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 80),
                  fontsize=9)
     fig.tight_layout()
     return fig
@@ -1241,10 +1295,9 @@ def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
     bx.set_xlabel("$t - t_0$")
     bx.set_title("(b) near the corner $t_0$, eq (7)", loc="left", fontsize=9)
     bx.legend(loc="upper left", bbox_to_anchor=(0.0, -0.18), frameon=False)
-    import textwrap
     sc = data.scene.get("scene", {})
-    fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title") or sc.get("title", ""),
-                                         90)), fontsize=9)
+    fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 90),
+                 fontsize=9)
     fig.tight_layout()
     return fig
 

@@ -216,9 +216,9 @@ def draw_orbit_frame(ax, datas):
 
 def figure(datas, out, plot_cfg, title=None):
     """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d)."""
-    import textwrap
-
     import matplotlib.pyplot as plt
+
+    from .plot_style import title_lines
 
     kind = plot_cfg["kind"]
     for d in datas:
@@ -308,9 +308,8 @@ def figure(datas, out, plot_cfg, title=None):
         raise ValueError(f"plot.kind: {kind!r} is not a normal-form kind; allowed: "
                          f"{', '.join(KINDS)}")
     sc = datas[-1].scene.get("scene", {})
-    fig.suptitle("\n".join(textwrap.wrap(title or plot_cfg.get("title")
-                                         or sc.get("title", sc.get("name", "")), 90)),
-                 fontsize=9)
+    fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", sc.get("name", "")),
+                             90), fontsize=9)
     fig.tight_layout()
     fig.savefig(out)
     plt.close(fig)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 
 import numpy as np
 
@@ -266,3 +267,63 @@ def raster_runs(ax, x, y, layer, colors, xlim, ylim, ms, dpi):
               interpolation="nearest", zorder=2)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
+
+
+# ------------------------------------------------------------------ titles
+# the Greek names a scene's title spells in ASCII (omega, kappa_C, omega0_C, beta^N gamma)
+_GREEK = ("alpha", "beta", "gamma", "delta", "kappa", "omega", "Omega", "phi", "mu", "sigma",
+          "Sigma", "lambda", "tau")
+_SYMBOL = re.compile(r"(?<![\w\\$])(" + "|".join(_GREEK) + r")(0)?(?:_(\w+?))?(?:\^(\w+))?"
+                     r"(?!\w)")
+_LETTER_SUB = re.compile(r"(?<![\w$])([A-Z])_(alpha|beta|gamma)(?!\w)")
+_WORD_GAP = re.compile(r"(\\(?:alpha|beta|gamma)(?:\^\{\w+\})?)\$ \$(?=\\(?:alpha|beta|gamma))")
+# what a title's line never breaks: a formula, |...|, an 'a = b'
+_UNBROKEN = re.compile(r"(?:\$[^$]*\$|[^\s$]+) = (?:\$[^$]*\$|[^\s$]+)|\$[^$]*\$|\|[^|]*\|")
+
+
+def title_tex(text: str) -> str:
+    r"""A title in the paper's notation: the Greek names a scene's title spells in ASCII as
+    mathtext (omega -> $\omega$, kappa_CC -> $\kappa_{CC}$, omega0_C -> $\omega_{0,C}$,
+    kappa_beta -> $\kappa_{\beta}$, Sigma_1, S_alpha), an orbit's letters side by side
+    (beta^11 gamma -> $\beta^{11}\gamma$, as the paper writes words); text already in
+    $...$ is left as it is."""
+    def symbol(m):
+        name, zero, sub, sup = m.groups()
+        sub = "\\" + sub if sub in _GREEK else sub
+        subs = ",".join(x for x in (zero, sub) if x)
+        return ("$\\" + name + (f"_{{{subs}}}" if subs else "") + (f"^{{{sup}}}" if sup else "")
+                + "$")
+    parts = re.split(r"(\$[^$]*\$)", text)
+    for i in range(0, len(parts), 2):
+        s = _LETTER_SUB.sub(lambda m: f"${m.group(1)}_{{\\{m.group(2)}}}$",
+                            _SYMBOL.sub(symbol, parts[i]))
+        joined = None
+        while joined != s:
+            joined, s = s, _WORD_GAP.sub(r"\1", s)
+        parts[i] = s
+    return "".join(parts)
+
+
+def title_lines(text: str, width: int) -> str:
+    """A figure's title (``title_tex``) in lines of about ``width`` characters as drawn (a
+    formula counts its glyphs, not its markup), broken between words but never inside a
+    formula, a |...| or an 'a = b'."""
+    words = _UNBROKEN.sub(lambda m: m.group(0).replace(" ", "\0"),
+                          title_tex(text or "")).split()
+    lines, line, used = [], [], 0
+    for w in words:
+        n = _drawn_length(w.replace("\0", " "))
+        if line and used + 1 + n > width:
+            lines.append(" ".join(line))
+            line, used = [], 0
+        used += n + (1 if line else 0)
+        line.append(w)
+    if line:
+        lines.append(" ".join(line))
+    return "\n".join(lines).replace("\0", " ")
+
+
+def _drawn_length(word: str) -> int:
+    """About how many characters ``word`` takes when drawn: a TeX command is one glyph,
+    $, braces, ^ and _ none."""
+    return len(re.sub(r"[${}^_]", "", re.sub(r"\\[A-Za-z]+", "x", word)))

@@ -316,3 +316,117 @@ def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypat
     assert len(drawn) == 4 and all(isinstance(y, PS.Rows) for y in drawn)
     for a, b in pngs.values():
         assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("ascii_,tex", [
+    ("omega = 1.999", r"$\omega$ = 1.999"),
+    ("kappa_CC(omega)", r"$\kappa_{CC}$($\omega$)"),
+    ("omega0_C = 1.99975", r"$\omega_{0,C}$ = 1.99975"),
+    ("kappa = kappa_beta + 1e-6", r"$\kappa$ = $\kappa_{\beta}$ + 1e-6"),
+    ("the paper names it beta^11 gamma beta^12 gamma", r"the paper names it "
+                                                      r"$\beta^{11}\gamma\beta^{12}\gamma$"),
+    ("regions S_alpha, S_gamma and Sigma_1", r"regions $S_{\alpha}$, $S_{\gamma}$ and "
+                                             r"$\Sigma_{1}$"),
+    ("alphabet, betamax, omega2 and $\\mu$ = 10", "alphabet, betamax, omega2 and $\\mu$ = 10"),
+])
+def test_titles_take_the_papers_symbols(ascii_, tex):
+    """A scene's ASCII title in the paper's notation: Greek names (with subscripts, the
+    omega0 of two particles, superscripts) as mathtext, an orbit's letters run together as
+    the paper writes a word; other words, and formulas already written, left alone."""
+    assert PS.title_tex(ascii_) == tex
+
+
+def test_title_lines_break_between_words_only():
+    """No line breaks inside a formula, a |...| or an 'a = b', and a line's drawn length
+    (a formula's glyphs, not its markup) stays within the width unless one unit is longer."""
+    text = ("Smooth wall z = sin(omega t) at omega = 2, r = 0.8: the resonant period-one orbit "
+            "u = 18 |sin t| of eq (6), sigma = 0, beta^11 gamma beta^12 gamma (paper Fig. 1b)")
+    for width in (12, 20, 30, 45, 60, 200):
+        lines = PS.title_lines(text, width).split("\n")
+        assert " ".join(lines) == PS.title_tex(text)
+        for line in lines:
+            assert line.count("$") % 2 == 0 and line.count("|") % 2 == 0
+            assert not line.startswith("= ") and not line.endswith(" =")
+            units = PS._UNBROKEN.sub(lambda m: m.group(0).replace(" ", "_"), line).split()
+            assert PS._drawn_length(line) <= width or len(units) == 1
+    assert PS._drawn_length(r"$\beta^{11}\gamma$") == 4
+
+
+def test_labels_follow_the_model():
+    """The maps' section and start are (a_n, b_n) and (a_0, b_1); a flow's v(nT) and
+    u(t_0), v(t_0): the fixed wall's continuation was labelled with the maps' b_n."""
+    from cornerbif import plot as P
+    assert P.y_label("section_v", "map2d") == "$b_n$"
+    assert P.y_label("section_v", "flow") == "$v(nT)$"
+    assert "b_n" in P.y_label("section_v")                 # flow and maps on one axis
+    assert P.axis_label("initial.v", "map2d") == "start $b_1$"
+    assert P.axis_label("initial.v", "flow") == r"start $v(t_0)$"
+
+
+def test_branches_take_their_orbits_colour():
+    """A continued branch is coloured as its orbit is in every diagram (beta blue, alpha
+    orange: plot_attractors.FIXED), not by its index in the file (the hysteresis figure
+    had alpha blue and beta red)."""
+    from cornerbif import plot as P
+    from cornerbif import plot_attractors as PA
+    conts = [{"branches": [{"word": "a"}, {"word": "b"}, {"word": "abg"}]}]
+    colors = P.branch_colors(conts)
+    fixed = PA.attractor_colors(["b", "a", "g"])
+    assert colors["b"] == fixed["b"] and colors["a"] == fixed["a"]
+    assert len(set(colors.values())) == 3
+
+
+def test_plane_of_exponents_paints_black_only_where_runs_stick():
+    """The (omega, kappa) chart of the largest Lyapunov exponent: a point whose every start
+    sticks (lambda = -inf) is black; the most stable cycles (below the scale's 2nd
+    percentile) take the scale's end colour, not black (chart_flow_lyapunov showed the
+    alpha orbit's cells black, as if they stuck)."""
+    import types
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cornerbif import plot as P
+    rng = np.random.default_rng(1)
+    lam = rng.uniform(-0.1, -0.05, (20, 10, 2))
+    lam[3, 4] = -5.0                      # far below the others: under the scale
+    lam[7, 2] = -np.inf                   # every start sticks
+    data = types.SimpleNamespace(axes=["omega", "kappa"], stability={"lyapunov": lam},
+                                 values={"omega": np.linspace(1.99, 2.01, 20),
+                                         "kappa": np.linspace(-0.01, 0.01, 10)},
+                                 scene={"system": {"obstacle": "sine"}}, path="x.h5")
+    fig, ax = plt.subplots()
+    im = P.draw_plane_stability(ax, data, "lyapunov")
+    rgba = im.to_rgba(im.get_array().reshape(10, 20))
+    black = np.array([0.0, 0.0, 0.0, 1.0])
+    assert not np.allclose(rgba[4, 3], black)                      # under: the end colour
+    assert np.allclose(rgba[4, 3], im.cmap(0.0))
+    sticks = ax.collections[1]                                      # the -inf layer
+    assert np.isfinite(sticks.get_array()).sum() == 1
+    assert any("infty" in t.get_text() for t in ax.get_legend().get_texts())
+    plt.close(fig)
+
+
+def test_a_diagrams_title_is_its_scenes_and_its_notes_sit_outside_the_axes(tmp_path,
+                                                                            kappa_sweep,
+                                                                            monkeypatch):
+    """The figure's title is the scene's (in the paper's notation; the orbit legend's own
+    title once took its place), and the summary line and the count of values outside the
+    window are drawn right of the axes, not over the data (Fig. 19(a)'s lay on its lowest
+    points)."""
+    import matplotlib.figure
+
+    from cornerbif import config
+    from cornerbif import plot as P
+    seen = {}
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
+                        lambda fig, out, **k: seen.setdefault("fig", fig))
+    P.figure([str(kappa_sweep)], str(tmp_path / "f.png"),
+             plot_cfg={"orbits": "families", "ylim": [-0.016, 0.0]})
+    ax = seen["fig"].axes[0]
+    scene = config.load(os.path.join(ROOT, "configs", "fig06a.toml"))
+    assert ax.get_title() == PS.title_lines(scene.title, 80)
+    notes = [t for t in ax.texts if "coexisting" in t.get_text()]
+    assert notes and "outside the y window" in notes[0].get_text()
+    assert notes[0].get_position()[0] > 1.0 and notes[0].get_transform() == ax.transAxes
