@@ -694,25 +694,45 @@ def draw_jump_speed(ax, data: PlotData):
 
 
 def draw_plane(ax, data: PlotData):
-    """Two-axis sweep: colour each point by the period of its attractor (first start)."""
+    """Two-axis sweep: colour each point by the period of its attractors (the largest over
+    the starts), on a log scale: a few long periods (73-75 in the charts near (2, 0)) do
+    not press periods 1-20 into one colour.  A mass ratio spanning decades is drawn on a
+    log axis, each value's cell between the geometric means with its neighbours."""
+    import matplotlib.colors as mcolors
     a, b = data.axes[:2]
     per = data.period.astype(float)
     per[per <= 0] = np.nan
-    # the most common period over the starts
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)   # points where no start found a cycle
         show = np.nanmax(per, axis=-1)
     x, y = data.values[a], data.values[b]
-    im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap="viridis")
+    top = np.nanmax(show) if np.isfinite(show).any() else 2.0
+    norm = mcolors.LogNorm(vmin=1.0, vmax=max(2.0, top))
     if b == "mu" and np.all(y > 0) and y.max() / y.min() > 20:
+        im = ax.pcolormesh(cell_edges(x), cell_edges(y, log=True), show.T, cmap="viridis",
+                           norm=norm)
         ax.set_yscale("log")
+    else:
+        im = ax.pcolormesh(x, y, show.T, shading="nearest", cmap="viridis", norm=norm)
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
     draw_plane_curves(ax, data)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper left", fontsize=7)
     return im
+
+
+def cell_edges(v, log=False):
+    """The edges of cells centred on the increasing values ``v``: midway between
+    neighbours (geometric means with ``log``), the ends as far out as the next edge in."""
+    v = np.asarray(v, float)
+    if v.size < 2:
+        return np.array([v[0] * 0.5, v[0] * 1.5]) if log else np.array([v[0] - 0.5, v[0] + 0.5])
+    w = np.log(v) if log else v
+    mid = 0.5 * (w[1:] + w[:-1])
+    e = np.concatenate([[2 * w[0] - mid[0]], mid, [2 * w[-1] - mid[-1]]])
+    return np.exp(e) if log else e
 
 
 def draw_plane_curves(ax, data: PlotData):
@@ -765,13 +785,17 @@ def draw_plane_count(ax, data: PlotData):
     import matplotlib.colors as mcolors
     cmap = mcolors.ListedColormap(["0.85", "k", "tab:orange", "tab:red", "tab:purple",
                                    "tab:blue"][: top + 1])
-    im = ax.pcolormesh(x, y, n.T, shading="nearest", cmap=cmap, vmin=-0.5, vmax=top + 0.5)
+    if b == "mu" and np.all(y > 0) and y.max() / y.min() > 20:
+        im = ax.pcolormesh(cell_edges(x), cell_edges(y, log=True), n.T, cmap=cmap,
+                           vmin=-0.5, vmax=top + 0.5)
+        ax.set_yscale("log")
+    else:
+        im = ax.pcolormesh(x, y, n.T, shading="nearest", cmap=cmap, vmin=-0.5,
+                           vmax=top + 0.5)
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
     ax.set_title(f"coexisting attractors found (max {top}; grey: none)", fontsize=8, loc="left")
     draw_plane_curves(ax, data)
-    if b == "mu" and np.all(y > 0) and y.max() / y.min() > 20:
-        ax.set_yscale("log")
     return im
 
 
@@ -909,7 +933,8 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             fig.colorbar(im, ax=ax, label=COLOR_BY[color_by][0] + ", max over starts")
         else:
             im = draw_plane(ax, d0)
-            fig.colorbar(im, ax=ax, label="period (clusters per cycle; max over starts)")
+            fig.colorbar(im, ax=ax, label="period (clusters per cycle; max over starts; "
+                         "log scale)")
         im2 = draw_plane_count(ax2, d0)
         fig.colorbar(im2, ax=ax2, label="distinct cycle words among the starts",
                      ticks=range(int(im2.norm.vmax + 0.5)))

@@ -51,11 +51,18 @@ def attractor_colors(labels) -> dict:
     """A colour per distinct label: its preferred slot, or the next free one when another
     label of the same figure holds it (labels taken in order of (length, label), so the
     choice depends only on the set).  Past ``len(PALETTE)`` labels colours repeat."""
-    taken = {}
+    labels = list(labels)
+    # beta's, alpha's and gamma's colours are theirs in every figure (no other orbit takes
+    # them, even where they are absent), and the light partner of one in the palette's
+    # pairs is kept free while that orbit is in the figure: alpha's orange and a light
+    # orange were hard to tell apart (Fig. 18(a))
+    taken = {slot: None for slot in FIXED.values()}
     out = {}
+    for lab in set(labels) & set(FIXED):
+        taken[FIXED[lab] + 1] = None
     for lab in sorted(set(labels), key=lambda s: (s not in FIXED, len(s), s)):
         slot = preferred_slot(lab)
-        if len(taken) < len(PALETTE):
+        if lab not in FIXED and len(taken) < len(PALETTE):
             while slot in taken:
                 slot = (slot + 1) % len(PALETTE)
         taken[slot] = lab

@@ -200,17 +200,22 @@ def test_maps_table_points_lie_on_their_cycles(tmp_path):
 
 def test_colours_follow_the_label_not_the_figure():
     """b, a, g keep fixed slots; another label gets its hashed slot whatever else is in the
-    figure, unless that slot is taken, then the next free one; distinct labels get
-    distinct colours up to the palette's size."""
+    figure, unless that slot is taken (b, a and g's slots always; the light partner of
+    one while that orbit is in the figure), then the next free one; distinct labels get
+    distinct colours up to the palette's free slots."""
     assert attractor_colors(["a", "b"])["b"] == PALETTE[FIXED["b"]]
     w = "bbbbgbbbgbbbg"
     alone = attractor_colors([w])[w]
     assert alone == PALETTE[preferred_slot(w)]
     assert attractor_colors(["a", "b", "g", "abg", w])[w] == alone or \
-        preferred_slot(w) in {preferred_slot(x) for x in ("a", "b", "g", "abg")}
-    many = [f"b{'b' * i}g" for i in range(len(PALETTE))]
+        preferred_slot(w) in ({preferred_slot(x) for x in ("a", "b", "g", "abg")}
+                              | {FIXED[x] + 1 for x in ("a", "b", "g")})
+    assert alone not in {PALETTE[s] for s in FIXED.values()}
+    free = len(PALETTE) - len(FIXED)            # b, a, g's colours are never another's
+    many = [f"b{'b' * i}g" for i in range(free)]
     cols = attractor_colors(many)
-    assert len(set(cols.values())) == len(PALETTE)
+    assert len(set(cols.values())) == free
+    assert not set(cols.values()) & {PALETTE[s] for s in FIXED.values()}
     assert attractor_colors(list(reversed(many))) == cols
     assert label_tex("bbbg#2") == r"$\beta^{3}\,\gamma$ #2"
 

@@ -430,3 +430,32 @@ def test_a_diagrams_title_is_its_scenes_and_its_notes_sit_outside_the_axes(tmp_p
     notes = [t for t in ax.texts if "coexisting" in t.get_text()]
     assert notes and "outside the y window" in notes[0].get_text()
     assert notes[0].get_position()[0] > 1.0 and notes[0].get_transform() == ax.transAxes
+
+
+def test_cells_of_uneven_values_on_a_log_axis():
+    """plot.cell_edges: each value's cell runs to the midpoints with its neighbours (the
+    geometric means on a log axis, as mu_sweep's mass ratios 10 ... 1e7 need), so every
+    value sits in its own cell and the cells tile the axis."""
+    from cornerbif import plot as P
+    mu = np.array([10.0, 30.0, 100.0, 1e3, 1e4, 1e6, 1e7])
+    e = P.cell_edges(mu, log=True)
+    assert np.allclose(e[1:-1], np.sqrt(mu[1:] * mu[:-1]))
+    assert np.all((e[:-1] < mu) & (mu < e[1:]))
+    assert np.allclose(e[1] / mu[0], mu[0] / e[0])             # the end cell as wide in log
+    x = np.array([1.0, 2.0, 4.0])
+    assert np.allclose(P.cell_edges(x), [0.5, 1.5, 3.0, 5.0])
+
+
+def test_no_orbit_takes_the_light_partner_of_a_fixed_colour():
+    """With alpha (orange) in a figure, no other orbit gets the palette's light orange (Fig.
+    18(a): alpha and the alpha beta^N family looked alike); likewise for beta and gamma.
+    Without alpha, a label may take it; beta's, alpha's and gamma's own colours never."""
+    from cornerbif import plot_attractors as PA
+    words = ["a", "b", "g"] + [f"b{'b' * k}g" for k in range(12)] + ["ab", "abg", "aab"]
+    colors = PA.attractor_colors(words)
+    light = {PA.PALETTE[PA.FIXED[w] + 1] for w in ("a", "b", "g")}
+    assert not light & {colors[w] for w in words if w not in PA.FIXED}
+    assert colors["a"] == PA.PALETTE[PA.FIXED["a"]]
+    free = PA.attractor_colors([f"b{'b' * k}g" for k in range(15)])
+    assert light & set(free.values())
+    assert not {PA.PALETTE[s] for s in PA.FIXED.values()} & set(free.values())
