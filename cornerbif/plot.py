@@ -369,13 +369,15 @@ def draw_plane_stability(ax, data: PlotData, what):
     label, centre = COLOR_BY[what]
     import matplotlib
     import matplotlib.colors as mcolors
+    # every start at the point sticks: lambda = -inf, |mu_1| = 0
+    stuck = (show == -np.inf) | ((what == "multiplier") & (show == 0.0))
     # the scale spans the 2nd to 98th percentiles (stability_norm): values past it take its
-    # end colours (the most stable cycles are not black: black is for -inf alone)
+    # end colours (the most stable cycles are not black: black is for sticking alone)
     base = matplotlib.colormaps["coolwarm"]
     cmap = base.with_extremes(under=base(0.0), over=base(1.0))
-    im = ax.pcolormesh(x, y, np.where(np.isfinite(show), show, np.nan).T, shading="nearest",
-                       cmap=cmap, norm=stability_norm(show, centre))
-    stuck = show == -np.inf            # every start at the point sticks: lambda = -inf
+    rest = np.where(np.isfinite(show) & ~stuck, show, np.nan)
+    im = ax.pcolormesh(x, y, rest.T, shading="nearest", cmap=cmap,
+                       norm=stability_norm(rest, centre))
     if stuck.any():
         ax.pcolormesh(x, y, np.where(stuck, 1.0, np.nan).T, shading="nearest",
                       cmap=mcolors.ListedColormap(["k"]), vmin=0.0, vmax=2.0)
@@ -516,8 +518,9 @@ def _figure_branches(conts, out, y, title, plot_cfg):
                             dpi=150, squeeze=False)
     ax = axs[0, 0]
     have = {k for c in conts for b in c["branches"] for k in b}
-    kind = y or plot_cfg.get("y") or ("impact_u" if "impact_u" in have or not have
-                                      else "section_v")
+    own = "impact_u" if "impact_u" in have or not have else "section_v"
+    kind = y or plot_cfg.get("y") or own
+    plot_cfg = cfg_for_y(plot_cfg, y, own)      # the scene's ylim is for its own y
     if have and BRANCH_Y.get(kind) not in have:
         plt.close(fig)
         raise ValueError(f"y = {kind!r}: the branches store "
@@ -983,12 +986,30 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
                           frameon=False, markerscale=3)
+        conts = []
+        if branches:
+            from .continuation import read
+            conts = [read(bp) for bp in branches]
+            for bp, cont in zip(branches, conts):
+                if cont["parameter"] != d0.axes[0]:
+                    plt.close(fig)
+                    raise ValueError(f"{bp}: its branches are continued in "
+                                     f"{cont['parameter']!r}, the diagram sweeps "
+                                     f"{d0.axes[0]!r}")
+        # a branch takes the colour its orbit has in the diagram (its family's, with
+        # families): one colour map for both
+        families = plot_cfg.get("orbits") == "families"
+        words = [str(br["word"]) for c in conts for br in c["branches"]]
+        label_of = {w: plot_attractors.family(w) if families else w for w in words}
+        colors_b = branch_colors(conts)
         orbit_handles = []
         if by_label:
+            shared = {}
             orbit_handles = plot_attractors.draw_diagram_by_label(
                 ax, d0.path, d0.values[d0.axes[0]], ys[0] if raster else d0.y(kind), ms,
-                families=plot_cfg.get("orbits") == "families",
-                window=window if raster else None, xlim=plot_cfg.get("xlim"))
+                families=families, window=window if raster else None,
+                xlim=plot_cfg.get("xlim"), also=list(label_of.values()), colors_out=shared)
+            colors_b = {w: shared[lab] for w, lab in label_of.items()}
         if kind == "winding" and len(datas) == 1 and not color_by:
             draw_winding_by_alpha(ax, d0, ms)
             datas_drawn = []
@@ -1008,18 +1029,8 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
                              color=colors[i % len(colors)], label=lab,
                              by_attractor=len(datas) == 1 and kind not in ("winding", "period"))
         branch_arts = []
-        if branches:
-            from .continuation import read
-            conts = [read(bp) for bp in branches]
-            for bp, cont in zip(branches, conts):
-                if cont["parameter"] != d0.axes[0]:
-                    plt.close(fig)
-                    raise ValueError(f"{bp}: its branches are continued in "
-                                     f"{cont['parameter']!r}, the diagram sweeps "
-                                     f"{d0.axes[0]!r}")
-            colors_b = branch_colors(conts)
-            for cont in conts:
-                branch_arts += draw_branches(ax, cont, kind, colors_b)
+        for cont in conts:
+            branch_arts += draw_branches(ax, cont, kind, colors_b)
         if kind in ("impact_u", "impact_height", "winding", "section_v", "period"):
             draw_corner_points(ax, d0, corner_line=kind == "impact_u")
         draw_marks(ax, plot_cfg)
@@ -1051,8 +1062,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             notes.append(f"{n_out} of {n_fin} values outside the y window")
         notes = [n for n in notes if n]
         if notes:
-            import textwrap
-            ax.text(1.02, 0.0, "\n\n".join("\n".join(textwrap.wrap(n, 44)) for n in notes),
+            ax.text(1.02, 0.0, "\n\n".join(title_lines(n, 44) for n in notes),
                     transform=ax.transAxes, ha="left", va="bottom", fontsize=6, color="0.3")
         if ax.get_legend_handles_labels()[0] and not color_by and not by_label:
             hs, ls = ax.get_legend_handles_labels()

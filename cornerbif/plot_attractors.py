@@ -50,20 +50,23 @@ def preferred_slot(label: str) -> int:
 def attractor_colors(labels) -> dict:
     """A colour per distinct label: its preferred slot, or the next free one when another
     label of the same figure holds it (labels taken in order of (length, label), so the
-    choice depends only on the set).  Past ``len(PALETTE)`` labels colours repeat."""
+    choice depends only on the set).  Past the free slots colours repeat, but never
+    beta's, alpha's or gamma's."""
     labels = list(labels)
     # beta's, alpha's and gamma's colours are theirs in every figure (no other orbit takes
     # them, even where they are absent), and the light partner of one in the palette's
     # pairs is kept free while that orbit is in the figure: alpha's orange and a light
     # orange were hard to tell apart (Fig. 18(a))
-    taken = {slot: None for slot in FIXED.values()}
+    reserved = set(FIXED.values()) | {FIXED[lab] + 1 for lab in set(labels) & set(FIXED)}
+    taken = dict.fromkeys(reserved)
     out = {}
-    for lab in set(labels) & set(FIXED):
-        taken[FIXED[lab] + 1] = None
     for lab in sorted(set(labels), key=lambda s: (s not in FIXED, len(s), s)):
-        slot = preferred_slot(lab)
-        if lab not in FIXED and len(taken) < len(PALETTE):
-            while slot in taken:
+        slot = FIXED.get(lab, preferred_slot(lab))
+        if lab not in FIXED:
+            # the next free slot; once every slot is used, the next one not reserved
+            # (colours then repeat, but never a fixed orbit's)
+            full = len(taken) >= len(PALETTE)
+            while slot in (reserved if full else taken):
                 slot = (slot + 1) % len(PALETTE)
         taken[slot] = lab
         out[lab] = PALETTE[slot]
@@ -221,7 +224,7 @@ def label_counts(ids, row, n_labels):
 
 
 def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=None,
-                          xlim=None):
+                          xlim=None, also=(), colors_out=None):
     """A one-parameter diagram coloured by what each run's orbit is: its attractor's label
     (the word; the same colour in every figure, ``attractor_colors``).  The ``shown``
     labels with the most runs are named in the paper's notation; the other cycles are
@@ -229,14 +232,18 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     ``families``: one colour per family of orbits (``family``: beta^N gamma for every N).
     ``window`` (the y-window): draw the points as one image (``plot_style.raster_runs``,
     for millions of points: memory that does not grow with them; ``yv`` may then be
-    ``plot_style.Rows``, read a slab at a time), ``xlim`` its x-window.
+    ``plot_style.Rows``, read a slab at a time), ``xlim`` its x-window.  ``also``: labels
+    the figure draws besides (continued branches' words or families), coloured in the same
+    map; ``colors_out`` (a dict) receives that map.
     Returns the legend's handles (the caller places the legend with its other lines)."""
     table = read_table(path)
     names, row = label_rows(table, families)
     tex = family_tex if families else label_tex
     counts, none = label_counts(table["ids"], row, len(names))
     top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]
-    colors = attractor_colors([names[i] for i in top])
+    colors = attractor_colors([names[i] for i in top] + list(also))
+    if colors_out is not None:
+        colors_out.update(colors)
     handles = _legend_handles(counts, none, names, top, colors, tex)
     if window is not None:
         # layer 1 the other cycles, 2 + k the k-th label shown

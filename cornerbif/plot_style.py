@@ -277,8 +277,9 @@ _SYMBOL = re.compile(r"(?<![\w\\$])(" + "|".join(_GREEK) + r")(0)?(?:_(\w+?))?(?
                      r"(?!\w)")
 _LETTER_SUB = re.compile(r"(?<![\w$])([A-Z])_(alpha|beta|gamma)(?!\w)")
 _WORD_GAP = re.compile(r"(\\(?:alpha|beta|gamma)(?:\^\{\w+\})?)\$ \$(?=\\(?:alpha|beta|gamma))")
-# what a title's line never breaks: a formula, |...|, an 'a = b'
-_UNBROKEN = re.compile(r"(?:\$[^$]*\$|[^\s$]+) = (?:\$[^$]*\$|[^\s$]+)|\$[^$]*\$|\|[^|]*\|")
+# what a title's line never breaks: a formula, |...|, an 'a = b', a reference '(eq 11)'
+_UNBROKEN = re.compile(r"(?:\$[^$]*\$|[^\s$]+) = (?:\$[^$]*\$|[^\s$]+)|\$[^$]*\$|\|[^|]*\|"
+                       r"|\(eqs? [^()]*\)")
 
 
 def title_tex(text: str) -> str:
@@ -307,7 +308,7 @@ def title_tex(text: str) -> str:
 def title_lines(text: str, width: int) -> str:
     """A figure's title (``title_tex``) in lines of about ``width`` characters as drawn (a
     formula counts its glyphs, not its markup), broken between words but never inside a
-    formula, a |...| or an 'a = b'."""
+    formula, a |...|, an 'a = b' or an equation's reference '(eq 11)'."""
     words = _UNBROKEN.sub(lambda m: m.group(0).replace(" ", "\0"),
                           title_tex(text or "")).split()
     lines, line, used = [], [], 0

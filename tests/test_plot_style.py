@@ -95,6 +95,17 @@ def test_diagram_colours_runs_by_their_orbit(tmp_path, kappa_sweep):
     colors = PA.attractor_colors(top)
     assert [h.get_color() for h in handles[:3]] == [colors[lab] for lab in top]
     plt.close(fig)
+    # continued branches drawn over it share one colour map with the diagram's orbits: a
+    # branch's word never takes the colour of another orbit shown
+    for extra in (["bbbbbbbbbg"], [top[0]], ["bbbg", "bg"]):
+        fig, ax = plt.subplots()
+        shared = {}
+        handles = PA.draw_diagram_by_label(ax, str(out), x, u, 1.0, shown=3, also=extra,
+                                           colors_out=shared)
+        assert set(shared) == set(top) | set(extra)
+        assert len(set(shared.values())) == len(shared)
+        assert [h.get_color() for h in handles[:3]] == [shared[lab] for lab in top]
+        plt.close(fig)
     for ext, extra in ((".pdf", []), (".svg", ["--style", "ggplot"]),
                        (".png", ["--y", "impact_height"])):
         r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / f"d{ext}"), *extra])
@@ -340,13 +351,15 @@ def test_title_lines_break_between_words_only():
     """No line breaks inside a formula, a |...| or an 'a = b', and a line's drawn length
     (a formula's glyphs, not its markup) stays within the width unless one unit is longer."""
     text = ("Smooth wall z = sin(omega t) at omega = 2, r = 0.8: the resonant period-one orbit "
-            "u = 18 |sin t| of eq (6), sigma = 0, beta^11 gamma beta^12 gamma (paper Fig. 1b)")
+            "u = 18 |sin t| of eq (6), sigma = 0, beta^11 gamma beta^12 gamma (paper Fig. 1b), "
+            "lost at kappa_C (eq 11)")
     for width in (12, 20, 30, 45, 60, 200):
         lines = PS.title_lines(text, width).split("\n")
         assert " ".join(lines) == PS.title_tex(text)
         for line in lines:
             assert line.count("$") % 2 == 0 and line.count("|") % 2 == 0
             assert not line.startswith("= ") and not line.endswith(" =")
+            assert not line.endswith("(eq") and not line.startswith("11)")
             units = PS._UNBROKEN.sub(lambda m: m.group(0).replace(" ", "_"), line).split()
             assert PS._drawn_length(line) <= width or len(units) == 1
     assert PS._drawn_length(r"$\beta^{11}\gamma$") == 4
@@ -406,6 +419,39 @@ def test_plane_of_exponents_paints_black_only_where_runs_stick():
     assert np.isfinite(sticks.get_array()).sum() == 1
     assert any("infty" in t.get_text() for t in ax.get_legend().get_texts())
     plt.close(fig)
+    # the largest multiplier: a point whose starts all stick has |mu_1| = 0, black too
+    mu = rng.uniform(0.5, 0.9, (20, 10, 2))
+    mu[7, 2] = 0.0
+    data.stability = {"multiplier": mu}
+    fig, ax = plt.subplots()
+    im = P.draw_plane_stability(ax, data, "multiplier")
+    shown = np.ma.filled(im.get_array().astype(float), np.nan).reshape(10, 20)
+    assert np.isnan(shown[2, 7]) and np.isfinite(shown).sum() == 199      # not on the scale
+    assert np.isfinite(ax.collections[1].get_array()).sum() == 1
+    assert any("mu_1" in t.get_text() for t in ax.get_legend().get_texts())
+    plt.close(fig)
+
+
+def test_a_continuation_figure_keeps_its_scenes_window_for_its_own_y_only(tmp_path,
+                                                                          monkeypatch):
+    """``[plot] ylim`` of a continuation scene is a window in its own y: drawn with another
+    ``--y`` it is dropped (as for a sweep's figure, plot.cfg_for_y), not applied to values
+    it does not fit."""
+    import matplotlib.figure
+
+    from cornerbif import plot as P
+    br = {"param": np.linspace(0.0, 1.0, 5), "stable": np.ones(5, bool), "word": "b",
+          "impact_u": np.linspace(0.01, 0.02, 5), "impact_v_in": np.linspace(-18, -1, 5)}
+    cont = {"branches": [br], "events": [], "curves": [], "parameter": "kappa",
+            "scene": '[scene]\nmodel = "flow"\n[plot]\nylim = [0.0, 0.03]\n'}
+    monkeypatch.setattr("cornerbif.continuation.read", lambda p: cont)
+    seen = []
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
+                        lambda fig, out, **k: seen.append(fig.axes[0].get_ylim()))
+    P.figure_branches(["c.h5"], str(tmp_path / "a.png"))
+    P.figure_branches(["c.h5"], str(tmp_path / "b.png"), y="impact_v")
+    assert seen[0] == (0.0, 0.03)
+    assert seen[1][0] < -17 and seen[1][1] > -2
 
 
 def test_a_diagrams_title_is_its_scenes_and_its_notes_sit_outside_the_axes(tmp_path,
@@ -459,3 +505,8 @@ def test_no_orbit_takes_the_light_partner_of_a_fixed_colour():
     free = PA.attractor_colors([f"b{'b' * k}g" for k in range(15)])
     assert light & set(free.values())
     assert not {PA.PALETTE[s] for s in PA.FIXED.values()} & set(free.values())
+    for n in (14, 40):                  # more labels than free slots: colours repeat, but
+        labs = ["b", "a", "g"] + [f"{'b' * k}g" for k in range(1, n + 1)]
+        many = PA.attractor_colors(labs)
+        own = {PA.PALETTE[s] for s in PA.FIXED.values()} | light
+        assert not own & {many[w] for w in labs if w not in PA.FIXED}
