@@ -454,11 +454,12 @@ def draw_branches(ax, cont: dict, y="impact_u", colors=None):
     key = BRANCH_Y.get(y)
     if key is None:
         raise ValueError(f"branches draw y = {', '.join(BRANCH_Y)}, not {y!r}")
+    colors = colors or branch_colors([cont])
     arts = []
     seen = set()
     any_unstable = False
     for b, br in enumerate(cont["branches"]):
-        color = (colors or branch_colors([cont]))[str(br["word"])]
+        color = colors[str(br["word"])]
         x = br["param"]
         vals = br[key]
         vals = vals[:, None] if vals.ndim == 1 else vals
@@ -502,13 +503,14 @@ def figure_branches(paths, out, y=None, title=None, plot_cfg=None, style=None):
     from . import plot_style
     from .continuation import read
     conts = [read(p) for p in paths]
+    scene = tomllib.loads(conts[0]["scene"])
     if plot_cfg is None:                 # the first file's scene, as a sweep's figure
-        plot_cfg = tomllib.loads(conts[0]["scene"]).get("plot", {})
+        plot_cfg = scene.get("plot", {})
     with plot_style.style(style or plot_cfg.get("style")):
-        return _figure_branches(conts, out, y, title, plot_cfg)
+        return _figure_branches(conts, scene, out, y, title, plot_cfg)
 
 
-def _figure_branches(conts, out, y, title, plot_cfg):
+def _figure_branches(conts, scene, out, y, title, plot_cfg):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -533,11 +535,11 @@ def _figure_branches(conts, out, y, title, plot_cfg):
         ax.set_ylim(*plot_cfg["ylim"])
     name = conts[0]["parameter"]
     ax.set_xlabel(LABELS.get(name, name))
-    ax.set_ylabel(y_label(kind, tomllib.loads(conts[0]["scene"]).get("scene", {}).get("model")))
+    sc = scene.get("scene", {})
+    ax.set_ylabel(y_label(kind, sc.get("model")))
     ax.legend(loc="best", fontsize=7)
     if curves:
-        draw_corner_curves_continued(axs[0, 1], conts)
-    sc = tomllib.loads(conts[0]["scene"]).get("scene", {})
+        draw_corner_curves_continued(axs[0, 1], conts, colors)
     fig.suptitle(title_lines(title or sc.get("title", ""), 100), fontsize=9)
     fig.tight_layout()
     fig.savefig(out)
@@ -545,9 +547,11 @@ def _figure_branches(conts, out, y, title, plot_cfg):
     return out
 
 
-def draw_corner_curves_continued(ax, conts):
+def draw_corner_curves_continued(ax, conts, colors=None):
     """The corner-collision and fold curves continued in two parameters, with eqs (11)
-    and (17) where the plane is (omega, kappa) on the rectified sine."""
+    and (17) where the plane is (omega, kappa) on the rectified sine; each curve in its
+    branch's colour (``colors``: word -> colour, default ``branch_colors``)."""
+    colors = colors or branch_colors(conts)
     arts = []
     names = None
     for c in conts:
@@ -559,7 +563,7 @@ def draw_corner_curves_continued(ax, conts):
                                                                     c["parameter"])))
             what = ("fold" if str(cv.get("kind", "corner")) == "fold"
                     else f"{cv['what']} at its corner")
-            arts += ax.plot(x, yv, "-", color=branch_colors(conts)[str(word)], lw=1.2,
+            arts += ax.plot(x, yv, "-", color=colors[str(word)], lw=1.2,
                             label=f"branch {b} ({_word_label(word)}): {what}, continued")
     sys_ = tomllib.loads(conts[0]["scene"]).get("system", {})
     cv0 = next(cv for c in conts for cv in c["curves"])
@@ -1036,8 +1040,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         draw_marks(ax, plot_cfg)
         if by_label:
             lines, names = ax.get_legend_handles_labels()
-            legend_title = ("orbit (family of words)" if plot_cfg.get("orbits") == "families"
-                     else "orbit (word)")
+            legend_title = "orbit (family of words)" if families else "orbit (word)"
             if any("x" in h.get_label() for h in orbit_handles):
                 # a corner's cluster of impacts that is none of alpha, beta, gamma (or any
                 # cluster, on an obstacle without corners): analysis.detect_cycle
