@@ -1,7 +1,9 @@
-"""Command line: ``cornerbif sweep | plot | info | validate`` (click).
+"""Command line: ``cornerbif sweep | plot | info | validate | continue | gallery`` (click).
 
-Bad input ends with exit code 2 and every problem listed (key, value, what is
-allowed), never a traceback.
+Every command ends with one of the exit codes of ``cornerbif.errors`` (0 done, 1 a fault
+outside the input after work began, 2 bad input refused before any work, 130 interrupted),
+and never with a Python traceback: ``Commands.invoke`` is the one place that turns an
+error into its message and its code (docs/guarantees.md, "Exit codes").
 """
 
 from __future__ import annotations
@@ -12,9 +14,10 @@ import sys
 import click
 
 from .config import PLOT_COLOR_BY, PLOT_Y, SceneError
+from .errors import EXIT_FAULT, EXIT_INPUT, EXIT_INTERRUPTED, SweepError, WriteFailed
 
 
-def _fail(msg, code=2):
+def _fail(msg, code=EXIT_INPUT):
     click.echo(f"error: {msg}", err=True)
     sys.exit(code)
 
@@ -27,13 +30,83 @@ def _load(scene_path, sets):
         click.echo(f"error: {scene_path}: the scene cannot be run:", err=True)
         for p in e.problems:
             click.echo(f"  {p}", err=True)
-        sys.exit(2)
+        sys.exit(EXIT_INPUT)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def _end_broken(msg):
+    """A write failed inside HDF5: this process's HDF5 state is unusable, so the command
+    ends now, without its clean-up (which would write into the same error and flood the
+    terminal, or crash)."""
+    click.echo(f"error: {msg}", err=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(EXIT_FAULT)
+
+
+class Commands(click.Group):
+    """The command group: every command runs inside ``invoke``, which maps what ends it
+    to one exit code and one message (``cornerbif.errors``):
+
+    * ``SweepError`` and its kinds: their ``exit_code`` (bad input 2, ``Fault`` and
+      ``WriteFailed`` 1, ``SweepInterrupted`` 130), the message as given;
+    * ``SceneError``: 2, every problem listed;
+    * an interrupt (Ctrl-C, or SIGTERM: ``outputs.install_signal_handlers``) that no
+      command caught: 130;
+    * ``MemoryError`` and ``OSError``: 1, in a few words;
+    * anything else is a bug: 1, one line that says so (``CORNERBIF_DEBUG=1`` shows the
+      traceback).
+    """
+
+    def invoke(self, ctx):
+        from . import outputs
+        outputs.install_signal_handlers()
+        sys.unraisablehook = _quiet_failed_hdf5
+        try:
+            return super().invoke(ctx)
+        except (click.exceptions.Exit, click.ClickException, click.Abort):
+            raise
+        except SceneError as e:
+            click.echo("error: the scene cannot be run:", err=True)
+            for p in e.problems:
+                click.echo(f"  {p}", err=True)
+            sys.exit(EXIT_INPUT)
+        except WriteFailed as e:
+            if e.broken:
+                _end_broken(str(e))
+            _fail(str(e), e.exit_code)
+        except SweepError as e:
+            _fail(str(e), e.exit_code)
+        except KeyboardInterrupt:
+            _fail("interrupted", EXIT_INTERRUPTED)
+        except RecursionError:
+            _fail("an input nested too deeply to be read", EXIT_INPUT)
+        except MemoryError:
+            _fail("out of memory (the machine could not give what this input asks for; "
+                  "shrink it)", EXIT_FAULT)
+        except OSError as e:
+            _fail(f"{getattr(e, 'filename', None) or 'input/output'}: {outputs.reason(e)}",
+                  EXIT_FAULT)
+        except Exception as e:  # noqa: BLE001 - a bug: one line, never a traceback
+            if os.environ.get("CORNERBIF_DEBUG"):
+                raise
+            _fail(f"internal error ({type(e).__name__}: {str(e)[:300]}); this is a bug in "
+                  "cornerbif: run again with CORNERBIF_DEBUG=1 for the traceback and report it",
+                  EXIT_FAULT)
+
+
+@click.group(cls=Commands, invoke_without_command=True,
+             context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="cornerbif")
-def main():
-    """Bifurcation sweeps for impact oscillators with non-smooth forcing."""
+@click.pass_context
+def main(ctx):
+    """Bifurcation sweeps for impact oscillators with non-smooth forcing.
+
+    Exit codes (every command): 0 done, 1 a fault outside the input after work began (disk,
+    I/O; what was finished is kept), 2 bad input refused before any work, 130 interrupted
+    (what was finished is kept).
+    """
+    if ctx.invoked_subcommand is None:
+        click.echo(ctx.get_help())
 
 
 @main.command()
@@ -65,25 +138,17 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     scene = _load(scene_path, sets)
     if scheduler is not None:
         from .distributed import parse_scheduler, require_dask
-        from .errors import SweepError
-        try:
-            parse_scheduler(scheduler)
-            require_dask()
-        except SweepError as e:
-            _fail(str(e))
-    from .errors import WriteFailed
-    from .sweep import SweepError, SweepInterrupted, default_output, run_sweep
+        parse_scheduler(scheduler)
+        require_dask()
+    from .sweep import default_output, run_sweep
     out = out or default_output(scene)
     cores = _check_threads(threads)
     if dry_run:
         for line in _describe(scene, out, threads or cores):
             click.echo(line)
         from .sweep import check_budget, check_output
-        try:
-            check_output(out, overwrite or resume, (scene_path,))
-            check_budget(scene, out)
-        except SweepError as e:
-            _fail(str(e))
+        check_output(out, overwrite or resume, (scene_path,))
+        check_budget(scene, out)
         click.echo("ok: the sweep fits (disk, memory) and can write its output")
         return
     if progress is None:
@@ -94,36 +159,18 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         click.echo(f"this sweep will take about {duration(eta)} on {threads or cores} thread(s) "
                    "(cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps every finished "
                    "point, --resume completes it)", err=True)
-    sys.unraisablehook = _quiet_failed_hdf5
-    import signal
-    if hasattr(signal, "SIGXFSZ"):
-        # past a file-size limit (ulimit -f) a write fails with EFBIG and the sweep stops with
-        # a message, instead of the process being killed by the signal
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     from .engine import kernel_cache_cold
     if kernel_cache_cold(scene):
         click.echo("compiling the numba kernels: the first run after an install takes tens of "
                    "seconds (cached afterwards) ...", err=True)
-    try:
-        path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
-                         progress=progress, command=_command_line(scene_path, out, sets, threads,
-                                                                  resume, overwrite, block_points,
-                                                                  scheduler),
-                         block_points=block_points, scheduler=scheduler, inputs=(scene_path,))
-    except SweepInterrupted as e:
-        _fail(str(e), 130)
-    except WriteFailed as e:
-        if e.broken:
-            # HDF5's state in this process is unusable after a failed write: end now, without
-            # its clean-up (which would write into the same error and flood the terminal)
-            click.echo(f"error: {e}", err=True)
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(1)
-        _fail(str(e), 1)
-    except SweepError as e:
-        # failed chunks on a cluster: a run-time failure (1), not bad input (2)
-        _fail(str(e), 1 if getattr(e, "failures", None) else 2)
+    path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
+                     progress=progress, command=_command_line(scene_path, out, sets, threads,
+                                                              resume, overwrite, block_points,
+                                                              scheduler),
+                     block_points=block_points, scheduler=scheduler, inputs=(scene_path,),
+                     echo=lambda m: click.echo(m, err=True))
+    if path is None:
+        return            # --resume of a finished output: said so, nothing to do
     click.echo(f"wrote {path}")
 
 

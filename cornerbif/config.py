@@ -331,6 +331,25 @@ def dumps(raw: dict) -> str:
     return "\n".join(out)
 
 
+def without_plot(text: str):
+    """A scene text as a dict without its ``[plot]`` table (None when it is not TOML):
+    what a sweep computes, figure settings aside."""
+    try:
+        d = tomllib.loads(str(text))
+    except (tomllib.TOMLDecodeError, RecursionError, ValueError):
+        return None
+    d.pop("plot", None)
+    return d
+
+
+def same_run(text_a: str, text_b: str) -> bool:
+    """Whether two scene texts (as run) compute the same file: equal but for ``[plot]``,
+    which only says how the file is drawn, so a figure setting never blocks a resume or
+    forces a new sweep."""
+    a = without_plot(text_a)
+    return a is not None and a == without_plot(text_b)
+
+
 # --------------------------------------------------------------------------- loading
 def load(path, overrides=()) -> Scene:
     """Read a scene file, apply ``--set`` overrides and validate it."""

@@ -53,7 +53,7 @@ import uuid
 
 from . import io
 from .engine import block_carry, blocks, compute_block
-from .errors import SweepError
+from .errors import Fault, SweepError
 from .local import carry_from_file, progress_bar
 
 try:  # the plugin's base class; the module imports without Dask (the CLI says how to install)
@@ -69,8 +69,9 @@ _LOCK = threading.Lock()                 # one kernel call at a time per worker 
 _SCENES = {}                             # scene hash -> (scene, requested numba threads)
 
 
-class ChunksFailed(SweepError):
-    """Some chunks failed on the cluster; the rest are written. ``failures`` lists them."""
+class ChunksFailed(Fault):
+    """Some chunks failed on the cluster; the rest are written. ``failures`` lists them
+    (a fault after work began: exit 1)."""
 
     def __init__(self, msg, failures):
         super().__init__(msg)

@@ -40,7 +40,6 @@ never half-written, and an interrupted one still opens and resumes.
 from __future__ import annotations
 
 import datetime as _dt
-import errno
 import json
 import os
 import shutil
@@ -49,7 +48,7 @@ import sys
 import h5py
 import numpy as np
 
-from . import FORMAT_VERSION, __version__, attractors, chunkwrite, engine, registry
+from . import FORMAT_VERSION, __version__, attractors, chunkwrite, engine, outputs, registry
 from . import status as S
 from .errors import SweepError, WriteFailed
 
@@ -402,12 +401,43 @@ def reopen(partial, scene):
         f = h5py.File(partial, "r+", libver="latest")
     except OSError:
         f = rebuild(partial, scene)
-    if f.attrs.get("scene_hash") != scene.hash:
+    if not _same_scene(f, scene):
+        where = _scene_difference(f, scene)
         f.close()
-        raise SweepError(f"{partial}: the scene differs from the one this file was started with; "
-                         "--resume needs the same scene (or --overwrite to start again)")
+        raise SweepError(f"{partial}: the scene differs from the one this file was started with"
+                         f"{where}; --resume needs the same scene ([plot] aside), or "
+                         "--overwrite to start again")
     f.swmr_mode = True
     return f
+
+
+def _same_scene(f, scene) -> bool:
+    """Whether an open file was started from ``scene``, ``[plot]`` aside."""
+    from .config import same_run
+    return f.attrs.get("scene_hash") == scene.hash or same_run(str(f.attrs.get("scene", "")),
+                                                               scene.text)
+
+
+def _scene_difference(f, scene) -> str:
+    """Where a file's scene and ``scene`` differ, in words: ' (system.omega: 1.999 there,
+    2.001 here)', or '' when it cannot be said."""
+    from .config import without_plot
+    a, b = without_plot(str(f.attrs.get("scene", ""))), without_plot(scene.text)
+    if not isinstance(a, dict) or not isinstance(b, dict):
+        return ""
+    for t in sorted(set(a) | set(b)):
+        x, y = a.get(t, {}), b.get(t, {})
+        if not isinstance(x, dict) or not isinstance(y, dict):
+            if x != y:
+                return f" ([{t}])"
+            continue
+        for k in sorted(set(x) | set(y), key=str):
+            if x.get(k) != y.get(k):
+                def short(v):
+                    r = repr(v)
+                    return r if len(r) <= 40 else r[:37] + "..."
+                return f" ({t}.{k}: {short(x.get(k))} there, {short(y.get(k))} here)"
+    return ""
 
 
 def rebuild(partial, scene):
@@ -449,9 +479,10 @@ def _remove(path):
 
 def _copy_done(src, partial, scene, tmp):
     with src:
-        if src.attrs.get("scene_hash") != scene.hash:
+        if not _same_scene(src, scene):
             raise SweepError(f"{partial}: the scene differs from the one this file was started "
-                             "with; --resume needs the same scene (or --overwrite to start again)")
+                             f"with{_scene_difference(src, scene)}; --resume needs the same "
+                             "scene ([plot] aside), or --overwrite to start again")
         dst = create(tmp, scene, scene.n_ic, command=src.attrs.get("command", ""),
                      versions=versions())
         dst.attrs["created"] = src.attrs.get("created", "")
@@ -511,17 +542,44 @@ def _amend(partial, dest, change):
 
     Outside single-writer/multiple-reader mode HDF5 leaves a file it was writing when
     killed unreadable; the partial file itself is therefore only ever written in that mode,
-    and a kill or a full disk during the change leaves it as it was, to resume."""
+    and a kill or a full disk during the change leaves it as it was, to resume.  The
+    change and the rename run with SIGINT and SIGTERM deferred (an interrupt lands before
+    or after, never inside HDF5); a write that fails inside HDF5 leaves this process's
+    HDF5 state unusable, so it is reported as ``WriteFailed(broken=True)``: the command
+    ends at once, without HDF5's clean-up (which crashed once, exit 139)."""
     tmp = partial + ".amend"
     ensure_room(tmp, os.path.getsize(partial), what="the finished file's copy")
     try:
         shutil.copyfile(partial, tmp)          # in the kernel where it can (sendfile)
-        with h5py.File(tmp, "r+") as g:
-            change(g)
     except BaseException:
         _remove(tmp)
         raise
-    os.replace(tmp, dest)
+    with outputs.signals_deferred():
+        try:
+            g = h5py.File(tmp, "r+")
+        except (OSError, RuntimeError) as e:
+            _remove(tmp)
+            raise WriteFailed(f"finishing {partial} failed ({reason(e)}); every point is kept; "
+                              "free space and run the same command with --resume") from None
+        try:
+            change(g)
+            g.close()
+        except (OSError, RuntimeError) as e:   # h5py raises either for a failed write
+            _remove(tmp)
+            raise WriteFailed(f"finishing {partial} failed ({reason(e)}); every point is kept "
+                              f"in {partial}; free space and run the same command with "
+                              "--resume", broken=True) from None
+        except BaseException:
+            g.close()
+            _remove(tmp)
+            raise
+        os.replace(tmp, dest)
+
+
+def remove_stale(path):
+    """Remove a side file left by a kill after its work was done (a finished sweep's
+    partial file)."""
+    _remove(path)
 
 
 def finish(partial, out_path, scene=None):
@@ -530,6 +588,10 @@ def finish(partial, out_path, scene=None):
     def stamp(g):
         if scene is not None:
             attractors.tabulate(g, scene)
+            # the scene as finished: a resume may bring other [plot] settings (never other
+            # computing ones: io.reopen checks), and the figure follows the latest
+            g.attrs["scene"] = scene.text
+            g.attrs["scene_hash"] = scene.hash
         g.attrs["completed"] = _now()
         if "failed_chunks" in g.attrs:        # left by an earlier distributed run
             del g.attrs["failed_chunks"]
@@ -550,12 +612,4 @@ def record_failures(partial, failures):
 
 def reason(e: Exception) -> str:
     """An OSError in a few words (HDF5's messages carry a whole error stack)."""
-    if getattr(e, "errno", None):
-        return f"{errno.errorcode.get(e.errno, e.errno)}: {os.strerror(e.errno)}"
-    text = str(e)
-    for code in ("ENOSPC", "EDQUOT", "EFBIG", "EIO", "EROFS"):
-        num = getattr(errno, code)
-        if f"errno = {num}," in text:
-            return f"{code}: {os.strerror(num)}"
-    return text.splitlines()[0][:200]
-
+    return outputs.reason(e)

@@ -14,9 +14,10 @@ import os
 
 import numpy as np
 
-from . import engine, io, registry
-from .config import Scene
+from . import engine, io, outputs, registry
+from .config import Scene, same_run
 from .errors import SweepError, SweepInterrupted, WriteFailed
+from .outputs import check_directory, is_cornerbif_file  # noqa: F401 - the sweep's names
 
 __all__ = ["run_sweep", "check_budget", "estimate_bytes", "estimate_memory", "simulate",
            "SweepError", "SweepInterrupted"]
@@ -87,8 +88,6 @@ def duration(seconds: float) -> str:
     return f"{seconds:.1f} s"
 
 
-# the longest name a sweep gives a file beside OUT.h5 (io.open_partial, io.rebuild)
-SIDE_SUFFIXES = (".partial", ".lock", ".partial.init", ".partial.rebuild", ".partial.amend")
 DEFAULT_NAME_MAX = 100
 
 
@@ -103,57 +102,14 @@ def default_output(scene: Scene) -> str:
     return (base or "scene") + ".h5"
 
 
-def is_cornerbif_file(path: str) -> bool:
-    """Whether ``path`` is an HDF5 file that cornerbif wrote (root attribute format)."""
-    try:
-        import h5py
-        if not h5py.is_hdf5(path):
-            return False
-        with h5py.File(path, "r", locking=False) as f:
-            return f.attrs.get("format") == "cornerbif"
-    except Exception:  # noqa: BLE001 - unreadable means: not ours
-        return False
-
-
-def check_directory(out_path: str) -> str:
-    """The directory of an output file, refused unless it exists and is writable."""
-    d = os.path.dirname(out_path) or "."       # as the OS will resolve it (no text '..')
-    if not os.path.isdir(d):
-        raise SweepError(f"-o {out_path}: the directory {d} does not exist")
-    if not os.access(d, os.W_OK | os.X_OK):
-        raise SweepError(f"-o {out_path}: the directory {d} is not writable (read-only "
-                         "filesystem or no permission)")
-    return d
-
-
 def check_output(out_path: str, overwrite: bool, inputs=()):
-    """Refuse, before any work, an output the sweep could not write or should not replace:
-    a missing or read-only directory, a name too long for the filesystem (with the
-    ``.partial.rebuild`` suffix a sweep may need), the scene file itself (or another input),
-    an existing file without ``--overwrite``, or an existing file that is not a cornerbif
-    output (``--overwrite`` replaces only those)."""
-    d = check_directory(out_path)
-    try:
-        name_max = os.pathconf(d, "PC_NAME_MAX")
-    except (OSError, ValueError):
-        name_max = 255
-    longest = len(os.fsencode(os.path.basename(out_path) + max(SIDE_SUFFIXES, key=len)))
-    if longest > name_max:
-        raise SweepError(f"-o {out_path}: the file name is too long for its filesystem "
-                         f"({longest} bytes with the {max(SIDE_SUFFIXES, key=len)} suffix a "
-                         f"sweep may need; at most {name_max})")
-    for path in inputs:
-        if os.path.exists(path) and os.path.exists(out_path) and os.path.samefile(path, out_path):
-            raise SweepError(f"-o {out_path}: that is the scene file itself; name another output")
-    if os.path.isdir(out_path):
-        raise SweepError(f"-o {out_path}: is a directory")
-    if os.path.exists(out_path):
-        if not overwrite:
-            raise SweepError(f"{out_path} exists; pass --overwrite to replace it")
-        if not is_cornerbif_file(out_path):
-            raise SweepError(f"-o {out_path}: exists and is not a cornerbif HDF5 file; "
-                             "--overwrite replaces only cornerbif outputs (remove it yourself "
-                             "or name another output)")
+    """Refuse, before any work, an output the sweep could not write or should not replace
+    (``outputs.check_output``, the guard every command shares): a missing or read-only
+    directory, a name too long for the filesystem (with the ``.partial.rebuild`` suffix a
+    sweep may need), the scene file itself (or another input), an existing file without
+    ``--overwrite``, or an existing file that is not a cornerbif sweep file."""
+    outputs.check_output(out_path, overwrite, [("the scene file", p) for p in inputs],
+                         kind="sweep")
 
 
 def _free_bytes(d):
@@ -200,8 +156,10 @@ class _NumbaThreads:
 def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
               overwrite: bool = False, progress: bool = False, command: str = "",
               block_points: int | None = None, scheduler: str | None = None,
-              stats: dict | None = None, inputs=()) -> str:
-    """Run a scene to ``out_path``; return the path of the finished file.
+              stats: dict | None = None, inputs=(), echo=None) -> str | None:
+    """Run a scene to ``out_path``; return the path of the finished file, or None when
+    ``resume`` finds it already finished from this scene (``echo``, a function of one
+    line, is told so; the file is left as it is).
 
     ``scheduler``: None runs the blocks here (numba threads); a Dask scheduler address
     or ``local:N`` runs them on a Dask cluster (``cornerbif.distributed``), with this
@@ -212,6 +170,8 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     """
     partial = out_path + ".partial"
     lock_path = out_path + ".lock"
+    if resume and not overwrite and _finished(scene, out_path, partial, inputs, echo):
+        return None
     check_output(out_path, overwrite, inputs)
     lock = open(lock_path, "w")
     try:
@@ -232,6 +192,35 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             os.remove(lock_path)
         except OSError:
             pass
+
+
+def _finished(scene, out_path, partial, inputs, echo) -> bool:
+    """``--resume`` on an output that exists: True (and say so) when it is a finished sweep
+    of this scene (``[plot]`` aside), so that a script may always pass ``--resume``; a
+    finished file of another scene, or any other file, is refused (never replaced)."""
+    check_directory(out_path)
+    if not os.path.exists(out_path) or os.path.isdir(out_path):
+        return False
+    outputs.check_output(out_path, True, [("the scene file", p) for p in inputs], kind="sweep")
+    try:
+        with io.check_readable(out_path) as f:
+            text = str(f.attrs.get("scene", ""))
+            completed = str(f.attrs.get("completed", ""))
+    except io.FileFormatError as e:
+        raise SweepError(f"{out_path} exists and cannot be resumed ({e}); pass --overwrite "
+                         "to replace it") from None
+    if not completed:
+        return False
+    if not same_run(text, scene.text):
+        raise SweepError(f"{out_path} is a finished sweep of another scene; --resume completes "
+                         "only this scene's sweep: pass --overwrite to replace it, or name "
+                         "another output")
+    if os.path.exists(partial):
+        io.remove_stale(partial)   # killed between the finished file's rename and this removal
+    if echo is not None:
+        echo(f"{out_path} is already complete (finished {completed} from this scene); nothing "
+             "to do")
+    return True
 
 
 def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress, command,
@@ -283,6 +272,10 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
     f.close()
     try:
         io.finish(partial, out_path, scene)
+    except KeyboardInterrupt:
+        raise SweepInterrupted(f"interrupted while the finished file was stamped; every point "
+                               f"is kept in {partial}; run again with --resume to finish it"
+                               ) from None
     except OSError as e:
         raise WriteFailed(f"finishing {partial} failed ({io.reason(e)}); every point is kept; "
                           "free space and run the same command with --resume") from None
