@@ -120,19 +120,42 @@ def compress(chunk: np.ndarray, shuffled: bool, level: int) -> bytes:
     return _deflate.compress(data, level)
 
 
-def write_slab(ds, index: tuple, arr) -> None:
+class Slab:
+    """A slab of a dataset ready to be written: the chunks it covers whole, compressed here
+    (``direct``: (chunk offset, stored bytes)), and its ragged ends, which go through
+    HDF5 (``ragged``: (index, array)).  ``nbytes`` bounds what writing it adds to the
+    file (the compressed chunks, the ragged ends uncompressed), so that the room for a
+    block is checked against what it will take, not its size in memory."""
+
+    __slots__ = ("lay", "direct", "ragged")
+
+    def __init__(self, lay, direct, ragged):
+        self.lay, self.direct, self.ragged = lay, direct, ragged
+
+    @property
+    def nbytes(self) -> int:
+        return (sum(len(b) for _, b in self.direct)
+                + sum(np.asarray(a).nbytes for _, a in self.ragged))
+
+    def write(self) -> None:
+        ds = self.lay.ds
+        for index, arr in self.ragged:
+            ds[index] = arr
+        for offset, data in self.direct:
+            ds.id.write_direct_chunk(offset, data)
+
+
+def prepare_slab(ds, index: tuple, arr) -> Slab:
     """``ds[index] = arr`` for a slab of the grid (``index``: one slice per grid axis;
-    ``arr``: the slab's shape plus the dataset's trailing axes), with every chunk the
-    slab covers whole compressed here and written directly.  ``ds``: the dataset, or its
-    ``Layout`` (kept by a writer that writes it again)."""
+    ``arr``: the slab's shape plus the dataset's trailing axes), prepared: every chunk the
+    slab covers whole compressed here, to be written directly by ``Slab.write``.  ``ds``:
+    the dataset, or its ``Layout`` (kept by a writer that writes it again)."""
     lay = ds if isinstance(ds, Layout) else Layout(ds)
-    ds = lay.ds
     arr = np.asarray(arr)
     g = len(index)
     level = deflate_level(lay, arr, g)
     if level is None:
-        ds[index] = arr
-        return
+        return Slab(lay, [], [(index, arr)])
     extent = lay.chunks[g - 1]
     n = lay.shape[g - 1]
     a, b = index[-1].start, index[-1].stop
@@ -143,17 +166,19 @@ def write_slab(ds, index: tuple, arr) -> None:
         whole.append((lo, min(lo + extent, n)))
         lo += extent
     if not whole:
-        ds[index] = arr
-        return
+        return Slab(lay, [], [(index, arr)])
     lead = index[:-1]
     head = (a, whole[0][0])
     tail = (whole[-1][1], b)
+    ragged = []
     for lo, hi in (head, tail):               # the ragged ends, through HDF5
         if hi > lo:
-            ds[lead + (slice(lo, hi),)] = arr[(slice(None),) * (g - 1) + (slice(lo - a, hi - a),)]
+            ragged.append((lead + (slice(lo, hi),),
+                           arr[(slice(None),) * (g - 1) + (slice(lo - a, hi - a),)]))
     trailing = lay.shape[g:]
     fill = lay.fill
     zeros = (0,) * len(trailing)
+    direct = []
     for pos in itertools.product(*[range(s.stop - s.start) for s in lead]):
         offset = tuple(s.start + p for s, p in zip(lead, pos))
         for lo, hi in whole:
@@ -162,5 +187,12 @@ def write_slab(ds, index: tuple, arr) -> None:
                 full = np.full((extent,) + trailing, fill, lay.dtype)
                 full[:hi - lo] = part
                 part = full
-            data = compress(np.ascontiguousarray(part), lay.shuffle, level)
-            ds.id.write_direct_chunk(offset + (lo,) + zeros, data)
+            direct.append((offset + (lo,) + zeros,
+                           compress(np.ascontiguousarray(part), lay.shuffle, level)))
+    return Slab(lay, direct, ragged)
+
+
+def write_slab(ds, index: tuple, arr) -> None:
+    """``ds[index] = arr`` for a slab of the grid, with every chunk the slab covers whole
+    compressed here and written directly (``prepare_slab``, then ``Slab.write``)."""
+    prepare_slab(ds, index, arr).write()

@@ -215,7 +215,7 @@ def room(path, size=None):
 
 def ensure_room(path, nbytes, size=None, what="the next block"):
     """Refuse, before writing, data that the file's disk or size limit cannot take
-    (``nbytes`` uncompressed, an upper bound of what gzip writes, plus WRITE_RESERVE)."""
+    (``nbytes``, what the write adds to the file, plus WRITE_RESERVE)."""
     need = nbytes + WRITE_RESERVE
     left = room(path, size)
     if left is not None and left < need:
@@ -228,21 +228,31 @@ def ensure_room(path, nbytes, size=None, what="the next block"):
 def write_block(f, index, block):
     """Write one finished block (a slab of the grid) and mark it done, flushing in order.
 
-    The room for it is checked first (``ensure_room``): a full disk stops the sweep with
-    the file as it was after the last block, which --resume completes."""
-    # f.filename is the name the file was created under (open_partial renames it); the
-    # directory is the same, and HDF5 knows the file's size
-    ensure_room(f.filename, sum(np.asarray(a).nbytes for a in block.values()),
-                f.id.get_filesize())
+    Its chunks are compressed first (``chunkwrite.prepare_slab``), and the room for what
+    they will add to the file is checked before anything is written (``ensure_room``: the
+    compressed chunks, the parts HDF5 compresses itself counted uncompressed): a full disk
+    or a file-size limit stops the sweep with the file as it was after the last block,
+    which --resume completes."""
     # each dataset's chunkwrite.Layout (None: a block's array the file does not keep), read
     # from HDF5 at the first block written through this File object and kept on it
     layouts = f.__dict__.setdefault("_cornerbif_layouts", {})
     try:
+        slabs = []
         for name, arr in block.items():
             if name not in layouts:
                 layouts[name] = chunkwrite.Layout(f[name]) if name in f else None
             if layouts[name] is not None:
-                chunkwrite.write_slab(layouts[name], index, arr)
+                slabs.append(chunkwrite.prepare_slab(layouts[name], index, arr))
+    except (OSError, RuntimeError) as e:      # reading a layout from HDF5
+        raise WriteFailed(f"writing {f.filename} failed ({reason(e)}); every point marked "
+                          "done before is kept; free space and run the same command with "
+                          "--resume", broken=True) from None
+    # f.filename is the name the file was created under (open_partial renames it); the
+    # directory is the same, and HDF5 knows the file's size
+    ensure_room(f.filename, sum(s.nbytes for s in slabs), f.id.get_filesize())
+    try:
+        for slab in slabs:
+            slab.write()
         f.flush()
         f["done"][index] = 1
         f.flush()
@@ -250,6 +260,54 @@ def write_block(f, index, block):
         raise WriteFailed(f"writing {f.filename} failed ({reason(e)}); every point marked "
                           "done before is kept; free space and run the same command with "
                           "--resume", broken=True) from None
+    watch = f.__dict__.get("_cornerbif_watch")
+    if watch is not None:
+        watch.wrote(f, int(np.prod([s.stop - s.start for s in index])) if index else 1)
+
+
+class RoomWatch:
+    """After each block, the finished file's size projected from the blocks written in this
+    run; said once (``echo``) when the file and its finishing copy will not fit the disk,
+    or the file not under the file-size limit.  Only a note: the room check of each block
+    (``ensure_room``) stops the sweep when the disk is really full."""
+
+    def __init__(self, f, echo):
+        done = f["done"][...]
+        self.echo, self.size0 = echo, f.id.get_filesize()
+        self.left = int(done.size - np.count_nonzero(done)) if done.shape else int(not done)
+        self.points, self.warned = 0, False
+
+    def wrote(self, f, points):
+        self.points += points
+        left = self.left - self.points
+        if self.warned or left <= 0 or self.points < max(1, self.left // 100):
+            return
+        size = f.id.get_filesize()
+        grow = (size - self.size0) / self.points * left
+        final = size + grow
+        try:
+            st = os.statvfs(os.path.dirname(os.path.abspath(f.filename)))
+            free = st.f_bavail * st.f_frsize
+        except OSError:
+            free = None
+        import resource
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        short = ((free is not None and grow + final > free)
+                 or (limit != resource.RLIM_INFINITY and final > limit))
+        if short:
+            self.warned = True
+            self.echo(f"note: at the compression of the {self.points} points written so far, "
+                      f"the file will take about {final / 2**20:.1f} MiB (and as much again "
+                      "for its copy when it is finished), more than its disk or the file-size "
+                      "limit leaves; when it is full the sweep stops with every finished point "
+                      "kept: free space and run the same command with --resume")
+
+
+def watch_room(f, echo):
+    """Project the file's size after each block and say once when it will not fit
+    (``RoomWatch``)."""
+    if echo is not None:
+        f.__dict__["_cornerbif_watch"] = RoomWatch(f, echo)
 
 
 def check_readable(path):
@@ -536,7 +594,7 @@ def read_block(f, blk, names):
     return {n: f[n][blk] for n in names}
 
 
-def _amend(partial, dest, change):
+def _amend(partial, dest, change, after=None):
     """Apply ``change`` (a function of the file, open for writing) to a copy of a closed
     partial file and move the copy to ``dest``.
 
@@ -546,7 +604,8 @@ def _amend(partial, dest, change):
     change and the rename run with SIGINT and SIGTERM deferred (an interrupt lands before
     or after, never inside HDF5); a write that fails inside HDF5 leaves this process's
     HDF5 state unusable, so it is reported as ``WriteFailed(broken=True)``: the command
-    ends at once, without HDF5's clean-up (which crashed once, exit 139)."""
+    ends at once, without HDF5's clean-up (which crashed once, exit 139).  ``after`` (a
+    function of nothing) runs in the same deferred section, right after the rename."""
     tmp = partial + ".amend"
     ensure_room(tmp, os.path.getsize(partial), what="the finished file's copy")
     try:
@@ -574,6 +633,8 @@ def _amend(partial, dest, change):
             _remove(tmp)
             raise
         os.replace(tmp, dest)
+        if after is not None:
+            after()
 
 
 def remove_stale(path):
@@ -598,8 +659,9 @@ def finish(partial, out_path, scene=None):
         counts = np.bincount(g["status"][...].ravel().astype(np.int64) + 1, minlength=9)
         g.attrs["status_counts"] = str({S.NAMES.get(i - 1, "NOT_RUN"): int(c)
                                         for i, c in enumerate(counts) if c})
-    _amend(partial, out_path, stamp)
-    _remove(partial)            # killed before this line, OUT.h5 is whole and this is stale
+    # killed between the rename and the removal, OUT.h5 is whole and the partial file is
+    # stale (--resume says the output is complete and removes it)
+    _amend(partial, out_path, stamp, after=lambda: _remove(partial))
 
 
 def record_failures(partial, failures):

@@ -24,16 +24,44 @@ __all__ = ["run_sweep", "check_budget", "estimate_bytes", "estimate_memory", "si
 
 # bytes per run of the per-run summary: status (1), period and impacts per cycle (4 + 4)
 SUMMARY_BYTES = 1 + 4 + 4
+# the file's fixed part beside its data: HDF5's superblock, object headers and chunk
+# indexes, the attributes (the scene as run is counted apart): 31 KB for a one-run file
+# (configs/fig02.toml), measured
+FILE_OVERHEAD = 64 * 2**10
+# per attractor of the table written when the file is finished (cornerbif.attractors): id,
+# period, impacts per cycle (4 each), parameter point, runs, share, standard error (8 each),
+# the signature (6 x 8) and a point (2 x 8); its word and parameter values come on top
+TABLE_BYTES = 3 * 4 + 4 * 8 + 6 * 8 + 2 * 8
+# per grid point of the table: the count of each outcome (6 x 8)
+OUTCOME_BYTES = 6 * 8
 
 
 def estimate_bytes(scene: Scene) -> int:
-    """Upper estimate of the output file size (uncompressed)."""
+    """Upper bound of the output file's size before compression: per run its start, final
+    state, summary, word and kept observables, and (models with a ``CycleSeries``) its
+    cycle's signature, point and attractor id; the attractor table at its largest (one
+    attractor per run); the dimension scales (a copy in each group); the scene as run
+    (an attribute) and the file's fixed part (``FILE_OVERHEAD``).  What the file takes on
+    disk is less: ``estimate_file_bytes``."""
     spec = registry.get(scene.model)
-    n = int(np.prod(scene.shape or (1,))) * scene.n_ic
-    per = 2 * 8 * len(spec.state) + SUMMARY_BYTES + max(1, scene.record // 2)
+    points = int(np.prod(scene.shape or (1,)))
+    n = points * scene.n_ic
+    word = max(1, scene.record // 2)
+    fields = spec.fields(scene.keep)
+    per = 8 * len(spec.starts) + 8 * len(spec.state) + SUMMARY_BYTES + word
     per += sum(np.dtype(f.dtype).itemsize * int(np.prod(f.trailing(scene.record)))
-               for f in spec.fields(scene.keep))
-    return n * per
+               for f in fields)
+    table = 0
+    if spec.cycle is not None:
+        per += 6 * 8 + 2 * 8 + 4                 # cycle/signature, cycle/point, attractor
+        mult = next((int(np.prod(f.trailing(scene.record))) for f in fields
+                     if f.name == "stability/multiplier_re"), 0)
+        params = sum(1 for a in scene.axes if not a.name.startswith("initial."))
+        table = n * (TABLE_BYTES + word + 8 * params + 16 * mult) + points * OUTCOME_BYTES
+    groups = 1 + len({f.name.split("/")[0] for f in fields if "/" in f.name}) + 3
+    scales = groups * (8 * sum(len(a.values) for a in scene.axes) + 4 * scene.record
+                       + 4 * scene.n_ic)
+    return n * per + table + points + scales + 2 * len(scene.text) + FILE_OVERHEAD
 
 
 # the peak memory of a sweep's process: its baseline (interpreter, numpy, numba, h5py and the
@@ -113,6 +141,7 @@ def check_output(out_path: str, overwrite: bool, inputs=()):
 
 
 def _free_bytes(d):
+    """Bytes free on the disk of directory ``d`` for this user, or None."""
     try:
         st = os.statvfs(d)
         return st.f_bavail * st.f_frsize
@@ -120,20 +149,86 @@ def _free_bytes(d):
         return None
 
 
-def check_budget(scene: Scene, out_path: str):
-    """Refuse, before any work, a grid whose output would not fit the disk or whose working
-    memory would not fit the machine; the message gives the estimate."""
+def _size_limit():
+    """This process's file-size limit (``ulimit -f``) in bytes, or None."""
+    import resource
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    return None if soft == resource.RLIM_INFINITY else soft
+
+
+# what a file takes on disk against ``estimate_bytes`` (its size before compression): on the
+# 47 shipped scenes' files, from 0.023 (basin_maps) to 0.49 (fig01b, a one-point file),
+# median 0.15 (2026-11-27; the sweeps of configs/*.toml, file size / estimate_bytes)
+RATIO_MEASURED = (0.02, 0.15, 0.5)
+# deflate's limit: a stream never holds more than about 1032 bytes per byte stored, so no file
+# is smaller than this share of its data (the one refusal that is sure to be true)
+RATIO_DEFLATE_LIMIT = 1.0 / 1032
+
+
+def estimate_file_bytes(scene: Scene, written=None) -> tuple:
+    """(low, typical, high) bytes the finished file will take on disk: the bound
+    ``estimate_bytes`` times the compression ratios measured on the shipped scenes
+    (``RATIO_MEASURED``), or, when ``written`` = (file bytes, share of the grid done) comes
+    from a partial file, its own ratio so far (low = typical = high)."""
+    bound = estimate_bytes(scene)
+    if written is not None and written[1] > 0:
+        size, share = written
+        guess = int(FILE_OVERHEAD + max(size - FILE_OVERHEAD, 0) / share)
+        return guess, guess, guess
+    return tuple(int(FILE_OVERHEAD + r * (bound - FILE_OVERHEAD)) for r in RATIO_MEASURED)
+
+
+def check_budget(scene: Scene, out_path: str, written=None) -> list:
+    """Refuse, before any work, a grid whose output cannot fit the disk or whose working
+    memory would not fit the machine (the message gives the estimate); return notes for the
+    user when the output may not fit (a full disk then stops the sweep, every finished point
+    kept, and --resume completes it: nothing is lost by starting).
+
+    The disk holds the file and, while the file is finished, a copy of it (``io._amend``);
+    the file-size limit (``ulimit -f``) holds one file.  The refusal is sure to be true: it
+    counts the file at deflate's limit of compression (``RATIO_DEFLATE_LIMIT``), and on a
+    resume (``written`` = (bytes of the partial file, share of the grid done)) at least at
+    the size it has; the notes count the ratios measured on the shipped scenes, or on a
+    resume the ratio of what is written."""
     free = _free_bytes(os.path.dirname(os.path.abspath(out_path)))
-    need = estimate_bytes(scene)
-    if free is not None and need > free:
-        raise SweepError(f"the output needs up to {need / 2**30:.2f} GiB but only "
-                         f"{free / 2**30:.2f} GiB are free on its disk; shrink the grid or "
-                         "keep less (output.keep)")
+    limit = _size_limit()
+    have = 0 if written is None else written[0]
+    sure = max(int(FILE_OVERHEAD + RATIO_DEFLATE_LIMIT * estimate_bytes(scene)), have)
+    low, typical, high = estimate_file_bytes(scene, written)
+    notes = []
+    for room, need, likely, where in ((free, 2 * sure - have, 2 * high - have, "free on its disk"),
+                                      (limit, sure, high, "allowed per file (ulimit -f)")):
+        if room is None:
+            continue
+        if need > room:
+            raise SweepError(f"the output needs at least {_mib(sure)}"
+                             + (" on its disk (and as much again for its copy when it is "
+                                "finished)" if where.startswith("free") else "")
+                             + f" but only {_mib(room)} are {where}; shrink the grid or keep "
+                             "less (output.keep)")
+        if likely > room and not notes:
+            how = (f"about {_mib(typical)}, at the compression of the points written so far"
+                   if written else f"{_mib(low)} to {_mib(high)}, typically {_mib(typical)} (the "
+                   "compression ratios measured on the shipped scenes)")
+            notes.append(f"the output may not fit: it will take {how}"
+                         + (", and as much again for its copy when it is finished"
+                            if where.startswith("free") else "")
+                         + f"; {_mib(room)} are {where}. A full disk stops the sweep with every "
+                         "finished point kept: free space and run the same command with "
+                         "--resume")
     avail = io.available_memory()
     mem = estimate_memory(scene)
     if avail is not None and mem > avail:
         raise SweepError(f"the sweep needs about {mem / 2**30:.2f} GiB of memory but only "
                          f"{avail / 2**30:.2f} GiB are available; shrink the grid")
+    return notes
+
+
+def _mib(n) -> str:
+    """A size in words: '812 KiB', '31.4 MiB', '2.15 GiB'."""
+    if n >= 2**30:
+        return f"{n / 2**30:.2f} GiB"
+    return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{max(n, 0) / 2**10:.0f} KiB"
 
 
 class _NumbaThreads:
@@ -183,7 +278,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     try:
         with _NumbaThreads(None if scheduler else threads):
             _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress,
-                          command, block_points, scheduler, stats)
+                          command, block_points, scheduler, stats, echo)
         return out_path
     finally:
         fcntl.flock(lock, fcntl.LOCK_UN)
@@ -224,24 +319,36 @@ def _finished(scene, out_path, partial, inputs, echo) -> bool:
 
 
 def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress, command,
-                  block_points, scheduler, stats):
+                  block_points, scheduler, stats, echo=None):
     f = None
+    notes = []
     if os.path.exists(partial):
         if resume:
             f = io.reopen(partial, scene)
+            try:
+                done = f["done"][...]
+                share = float(np.count_nonzero(done)) / max(1, done.size)
+                notes = check_budget(scene, out_path, (f.id.get_filesize(), share))
+            except SweepError:
+                f.close()
+                raise
         elif overwrite:
             os.remove(partial)
         else:
             raise SweepError(f"{partial} holds an interrupted sweep; pass --resume to "
                              "complete it or --overwrite to start again")
     if f is None:
-        check_budget(scene, out_path)
+        notes = check_budget(scene, out_path)
         try:
             f = io.open_partial(partial, scene, command)
         except OSError as e:
             raise WriteFailed(f"creating {partial} failed ({io.reason(e)}); nothing was "
                               "computed; free space and run the same command again",
                               broken=True) from None
+    for note in notes:
+        if echo is not None:
+            echo(f"note: {note}")
+    io.watch_room(f, echo)
     try:
         if scheduler:
             from .distributed import run_blocks_dask
@@ -273,6 +380,8 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
     try:
         io.finish(partial, out_path, scene)
     except KeyboardInterrupt:
+        if os.path.exists(out_path) and not os.path.exists(partial):
+            return                 # the interrupt came once the file was whole: it is done
         raise SweepInterrupted(f"interrupted while the finished file was stamped; every point "
                                f"is kept in {partial}; run again with --resume to finish it"
                                ) from None

@@ -1,0 +1,287 @@
+"""The sweep's file against the disk and against signals (issue 28): the room a sweep needs is
+what it will write (compressed), not its size in memory; a finished output is never redone
+nor refused by --resume; [plot] never blocks a resume; a signal or a full disk while the
+finished file is stamped ends with a documented exit code (never a crash), and SIGTERM
+keeps what is finished as Ctrl-C does."""
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cornerbif import config
+from cornerbif import sweep as sweep_mod
+from cornerbif.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(__file__))
+FIG06A = os.path.join(ROOT, "configs", "fig06a.toml")
+TINY = ["--set", "sweep.kappa.num=6", "--set", "initial.count=2", "--set", "run.transient=10",
+        "--set", "run.record=10", "--no-progress"]
+
+
+def cli(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "cornerbif.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600, **kw)
+
+
+def datasets(path):
+    out = {}
+    with h5py.File(path) as f:
+        f.visititems(lambda n, o: out.__setitem__(n, o[...].tobytes())
+                     if isinstance(o, h5py.Dataset) else None)
+    return out
+
+
+def no_traceback(r):
+    assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr[-3000:]
+
+
+def _tmpfs(path, size):
+    if os.geteuid() != 0 or not shutil.which("mount"):
+        pytest.skip("mounting a tmpfs needs root and mount(8)")
+    path.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.skip(f"this machine does not let us mount a tmpfs ({r.stderr.strip()})")
+
+
+# ------------------------------------------------------------------ the room a sweep needs
+def test_the_estimate_bounds_every_shipped_scene_it_is_tried_on(tmp_path):
+    """``estimate_bytes`` is an upper bound of the file (it was not: the attractor table and
+    the cycle signatures were left out, and chart_flow's file was 0.96 of it); the ratios of
+    RATIO_MEASURED come from the shipped scenes' files. Checked here on four scenes of the
+    three models, shrunk: each file is below the bound and above deflate's limit."""
+    for name, sets in (("fig06a", ["sweep.kappa.num=40", "initial.count=4"]),
+                       ("chart_flow", ["sweep.omega.num=8", "sweep.kappa.num=8"]),
+                       ("fig16b", ["sweep.kappa.num=40"]),
+                       ("fig19a", ["sweep.omega0.num=10", "initial.count=2"])):
+        sc = config.load(os.path.join(ROOT, "configs", name + ".toml"), sets)
+        out = tmp_path / f"{name}.h5"
+        sweep_mod.run_sweep(sc, str(out), threads=1)
+        size = os.path.getsize(out)
+        bound = sweep_mod.estimate_bytes(sc)
+        assert size < bound, (name, size, bound)
+        assert size > sweep_mod.RATIO_DEFLATE_LIMIT * bound, name
+
+
+def test_a_result_that_fits_a_small_disk_is_not_refused(tmp_path):
+    """Fig. 6(a) in full: at most 95 MB before compression, a 7.6 MB file. On a 24 MB disk
+    the file and its finishing copy fit, so the sweep runs and completes (it was refused:
+    "needs up to 0.09 GiB", the size before compression), and the result equals the same
+    sweep on the roomy disk."""
+    mnt = tmp_path / "mnt"
+    _tmpfs(mnt, "24M")
+    try:
+        sets = ["--set", "sweep.kappa.num=2001", "--no-progress"]
+        r = cli("sweep", FIG06A, "-o", mnt / "a.h5", *sets)
+        assert r.returncode == 0, r.stderr[-2000:]
+        no_traceback(r)
+        ref = tmp_path / "ref.h5"
+        assert cli("sweep", FIG06A, "-o", ref, *sets).returncode == 0
+        assert datasets(ref) == datasets(mnt / "a.h5")
+    finally:
+        subprocess.run(["umount", str(mnt)])
+
+
+def test_blocks_are_checked_at_their_compressed_size_under_a_file_size_limit(tmp_path):
+    """``ulimit -f`` of 12 MiB, a 7.6 MB file written in blocks of 24 MiB in memory: every
+    block asked for 19.6 MiB and the sweep never started; now each block asks for what it
+    will add to the file (its compressed chunks) and the sweep completes."""
+    import resource
+    cap = 12 * 2**20
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (cap, cap))
+
+    r = cli("sweep", FIG06A, "-o", tmp_path / "a.h5", "--set", "sweep.kappa.num=2001",
+            "--no-progress", preexec_fn=limit)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert os.path.getsize(tmp_path / "a.h5") < cap
+
+
+def test_a_disk_that_cannot_hold_the_file_is_refused_before_any_work(tmp_path, monkeypatch):
+    """The refusal counts the file at deflate's limit of compression, so it is true: here a
+    disk of 10 KiB cannot hold even the file's fixed part. Exit 2, nothing written."""
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 10 * 1024)
+    out = tmp_path / "x.h5"
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY])
+    assert r.exit_code == 2 and "needs at least" in r.output and "free on its disk" in r.output
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_disk_that_may_not_hold_the_file_gets_a_note_and_the_sweep_runs(tmp_path, monkeypatch):
+    """Between the sure bound and the measured ratios the sweep starts with a note (a full
+    disk would stop it with every point kept): room for the tiny file, not for the largest
+    ratio measured on the shipped scenes."""
+    sc = config.load(FIG06A, [s for s in TINY[1::2] if "=" in s])
+    low, typical, high = sweep_mod.estimate_file_bytes(sc)
+    assert low <= typical <= high
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 2 * high - 1)
+    out = tmp_path / "x.h5"
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY])
+    assert r.exit_code == 0, r.output
+    assert "note: the output may not fit" in r.output
+
+
+# ------------------------------------------------------------------ --resume and [plot]
+def test_resume_of_a_finished_output_exits_0_and_leaves_it_alone(tmp_path):
+    """A script may always pass --resume: on an output finished from the same scene it says
+    so and exits 0 without touching the file (it said "exists; pass --overwrite", telling
+    the user to throw finished data away); from another scene it is refused, untouched."""
+    out = tmp_path / "a.h5"
+    assert CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY]).exit_code == 0
+    before, mtime = out.read_bytes(), os.stat(out).st_mtime_ns
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--resume"])
+    assert r.exit_code == 0 and "already complete" in r.output, r.output
+    assert out.read_bytes() == before and os.stat(out).st_mtime_ns == mtime
+    # [plot] aside: a figure setting is the same sweep
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--resume",
+                                  "--set", "plot.title=another title"])
+    assert r.exit_code == 0 and "already complete" in r.output, r.output
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--resume",
+                                  "--set", "system.r=0.7"])
+    assert r.exit_code == 2 and "another scene" in r.output and "--overwrite" in r.output
+    assert out.read_bytes() == before
+
+
+def test_a_plot_setting_does_not_block_a_resume(tmp_path, monkeypatch):
+    """A sweep interrupted, then resumed with another [plot] (a title, a ylim): the resume is
+    accepted (it was refused without naming the key), the data equal an uninterrupted run
+    byte for byte, and the finished file carries the new [plot]; a change of a computing key
+    is refused naming the key and both values."""
+    ref = tmp_path / "ref.h5"
+    assert CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(ref), *TINY]).exit_code == 0
+    out = tmp_path / "a.h5"
+    real = sweep_mod.io.write_block
+    n = {"k": 0}
+
+    def interrupting(f, index, block):
+        n["k"] += 1
+        if n["k"] == 2:
+            raise KeyboardInterrupt
+        real(f, index, block)
+
+    monkeypatch.setattr(sweep_mod.io, "write_block", interrupting)
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--block-points", "2"])
+    assert r.exit_code == 130 and "--resume" in r.output
+    monkeypatch.setattr(sweep_mod.io, "write_block", real)
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--block-points", "2",
+                                  "--resume", "--set", "system.r=0.7"])
+    assert r.exit_code == 2 and "system.r: 0.8 there, 0.7 here" in r.output, r.output
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--block-points", "2",
+                                  "--resume", "--set", "plot.title=resumed",
+                                  "--set", "plot.ylim=[0.0, 5.0]"])
+    assert r.exit_code == 0, r.output
+    a, b = datasets(ref), datasets(out)
+    assert sorted(a) == sorted(b)
+    for k in a:
+        if not k.startswith("attractors"):
+            assert a[k] == b[k], k
+    with h5py.File(out) as f:
+        assert config.loads(f.attrs["scene"]).plot["title"] == "resumed"
+
+
+# ------------------------------------------------------------------ signals and the stamp
+STAMP = """
+import os, signal, sys
+import cornerbif.attractors as A
+real = A.tabulate
+def stamp(g, scene):
+    {action}
+    real(g, scene)
+A.tabulate = stamp
+from cornerbif.cli import main
+sys.argv = ["cornerbif"] + sys.argv[1:]
+main()
+"""
+
+
+def _stamp_run(tmp_path, out, action):
+    code = STAMP.format(action=action)
+    return subprocess.run([sys.executable, "-c", code, "sweep", FIG06A, "-o", str(out), *TINY],
+                          capture_output=True, text=True, timeout=600)
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_file_is_stamped_lands_after_it(tmp_path, sig):
+    """SIGINT or SIGTERM while the attractor table is written: the stamp and the rename run
+    with the signals deferred, so the file is finished whole and the command ends cleanly
+    (exit 0: the work was done), never inside HDF5, never a crash."""
+    out = tmp_path / "a.h5"
+    r = _stamp_run(tmp_path, out, f"os.kill(os.getpid(), signal.{sig})")
+    no_traceback(r)
+    assert r.returncode == 0, (r.returncode, r.stderr[-2000:])
+    assert out.exists() and not os.path.exists(str(out) + ".partial")
+    with h5py.File(out) as f:
+        assert f.attrs["completed"] and "attractors" in f
+
+
+def test_a_disk_filling_while_the_file_is_stamped_ends_with_exit_1(tmp_path):
+    """The disk fills while the table is written into the finished file's copy (another
+    process takes the rest of it): one message, exit 1 (an h5py traceback and a segmentation
+    fault, exit 139, were seen), the partial file kept; once there is room, --resume finishes
+    it to the same bytes as an uninterrupted run."""
+    mnt = tmp_path / "mnt"
+    _tmpfs(mnt, "4M")
+    try:
+        out = mnt / "a.h5"
+        filler = mnt / "filler"
+        fill = textwrap.dedent(f"""
+            with open({str(filler)!r}, "wb") as fh:
+                try:
+                    while True:
+                        fh.write(b"x" * 4096)
+                        fh.flush()
+                except OSError:
+                    pass
+        """).strip().replace("\n", "\n    ")
+        r = _stamp_run(tmp_path, out, fill)
+        assert r.returncode == 1, (r.returncode, r.stderr[-3000:])
+        errors = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+        assert len(errors) == 1 and "--resume" in errors[0], r.stderr[-3000:]
+        assert not out.exists() and os.path.exists(str(out) + ".partial")
+        os.remove(filler)
+        r = cli("sweep", FIG06A, "-o", out, *TINY, "--resume")
+        assert r.returncode == 0, r.stderr[-2000:]
+        ref = tmp_path / "ref.h5"
+        assert cli("sweep", FIG06A, "-o", ref, *TINY).returncode == 0
+        assert datasets(ref) == datasets(out)
+    finally:
+        subprocess.run(["umount", str(mnt)])
+
+
+def test_sigterm_keeps_what_is_finished_as_ctrl_c_does(tmp_path):
+    """SIGTERM to a running sweep: exit 130, one message naming the partial file and
+    --resume (it was killed by the signal with nothing said); --resume completes it to the
+    bytes of an uninterrupted run."""
+    args = ["sweep", FIG06A, "--set", "sweep.kappa.num=400", "--set", "initial.count=4",
+            "--block-points", "8", "--no-progress"]
+    out = tmp_path / "a.h5"
+    p = subprocess.Popen([sys.executable, "-m", "cornerbif.cli", *args, "-o", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not os.path.exists(str(out) + ".partial"):
+        time.sleep(0.05)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=120)
+    if p.returncode == 0:
+        pytest.skip("the sweep finished before the signal")
+    assert p.returncode == 130, err[-2000:]
+    assert "Traceback" not in err and "--resume" in err and ".partial" in err
+    r = cli(*args, "-o", out, "--resume")
+    assert r.returncode == 0, r.stderr[-2000:]
+    ref = tmp_path / "ref.h5"
+    assert cli(*args, "-o", ref).returncode == 0
+    a, b = datasets(ref), datasets(out)
+    assert a == b
+    assert np.array_equal(np.frombuffer(a["status"], np.int8), np.frombuffer(b["status"], np.int8))
