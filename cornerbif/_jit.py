@@ -7,7 +7,10 @@ zero gives inf/nan instead of raising inside a kernel, and no fastmath at all
 IEEE rounding).
 """
 
+import ctypes
+
 import numba
+import numpy as np
 from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
@@ -28,14 +31,29 @@ def jit_inline(fn):
 
 
 def cache_is_cold(dispatcher) -> bool:
-    """Whether numba's on-disk cache holds nothing for this kernel yet, so that its first call
-    compiles (tens of seconds for the event loops).  False when it cannot tell."""
-    import os
+    """Whether this kernel's first call in this process compiles (tens of seconds for the
+    event loops): nothing compiled here yet, and numba's on-disk cache holds no entry for it
+    that is fresh (its index is dropped when the source file changed) and built for this
+    machine.  False when it cannot tell."""
     try:
-        return not os.path.exists(dispatcher._cache._cache_file._index_path)
+        if dispatcher.signatures:
+            return False
+        index = dispatcher._cache._cache_file._load_index()
+        magic = dispatcher.targetctx.codegen().magic_tuple()
+        return not any(len(key) > 1 and key[1] == magic for key in index)
     except Exception:        # numba's cache internals moved: say nothing
         return False
 
+
+def dispatchers(*names):
+    """The jitted functions named ``module.function`` under the package (e.g.
+    ``"kernels.flow.run_batch"``), for ``cache_is_cold``: imported when asked for."""
+    import importlib
+    out = []
+    for name in names:
+        module, _, fn = name.rpartition(".")
+        out.append(getattr(importlib.import_module(f"{__package__}.{module}"), fn))
+    return out
 
 
 @intrinsic
@@ -51,3 +69,93 @@ def load_f64(typingctx, address, i):
         ptr = builder.inttoptr(args[0], ir.DoubleType().as_pointer())
         return builder.load(builder.gep(ptr, [args[1]]))
     return sig, codegen
+
+
+# ------------------------------------------------------------------ a sweep's control
+# The kernels of a sweep poll a small int64 array, the ``Control`` of their call, through its
+# address in their integer settings (0: none, as for ``simulate`` and the Dask workers): the
+# stop flag (``cornerbif.local`` sets it on Ctrl-C or SIGTERM; the kernels then return within
+# a few thousand loop passes, and the block they were computing is discarded, never written)
+# and the number of runs finished (the progress bar reads it while a block computes).
+C_STOP = 0          # nonzero: stop now
+C_DONE = 1          # runs finished (added to by the kernels' threads, atomically)
+C_SIZE = 2
+POLL_EVERY = 4096   # passes of a run's event loop between two reads of the stop flag (a power
+                    # of 2: a mask; a few microseconds to milliseconds of a run)
+STOPPED = -2        # the status of a run cut short by the stop flag (never stored: its block
+                    # is discarded)
+
+
+@intrinsic
+def load_i64_atomic(typingctx, address, i):
+    """The int64 at ``address + 8 i``, read by an atomic (monotonic) load: LLVM neither
+    hoists it out of a loop nor merges two of them, so a flag another thread sets is seen."""
+    sig = types.int64(types.int64, types.int64)
+
+    def codegen(context, builder, signature, args):
+        ptr = builder.inttoptr(args[0], ir.IntType(64).as_pointer())
+        return builder.load_atomic(builder.gep(ptr, [args[1]]), "monotonic", 8)
+    return sig, codegen
+
+
+@intrinsic
+def add_i64_atomic(typingctx, address, i, value):
+    """Add ``value`` to the int64 at ``address + 8 i`` atomically (monotonic); the old value."""
+    sig = types.int64(types.int64, types.int64, types.int64)
+
+    def codegen(context, builder, signature, args):
+        ptr = builder.inttoptr(args[0], ir.IntType(64).as_pointer())
+        return builder.atomic_rmw("add", builder.gep(ptr, [args[1]]), args[2], "monotonic")
+    return sig, codegen
+
+
+@jit_inline
+def stop_requested(control):
+    """Whether the control at address ``control`` (0: none) asks the kernels to stop."""
+    return control != 0 and load_i64_atomic(control, C_STOP) != 0
+
+
+@jit_inline
+def count_done(control):
+    """One more run finished under the control at ``control`` (0: none, nothing counted)."""
+    if control != 0:
+        add_i64_atomic(control, C_DONE, 1)
+
+
+class Control:
+    """The control of a sweep's kernel calls (see above): its ``address`` travels in the
+    kernels' integer settings (``engine.with_control``); ``stop`` asks every kernel call
+    under it to return at once; ``done`` is the runs finished since ``reset``."""
+
+    def __init__(self):
+        self.array = np.zeros(C_SIZE, np.int64)
+
+    @property
+    def address(self) -> int:
+        return int(self.array.ctypes.data)
+
+    def stop(self):
+        self.array[C_STOP] = 1
+
+    @property
+    def stopped(self) -> bool:
+        return bool(self.array[C_STOP])
+
+    @property
+    def done(self) -> int:
+        return int(self.array[C_DONE])
+
+    def reset(self):
+        """Count runs from 0 again (a new block); the stop flag stays."""
+        self.array[C_DONE] = 0
+
+
+class KernelStopped(Exception):
+    """A kernel call cut short by its control's stop flag: its outputs are incomplete."""
+
+
+def raise_if_stopped(address):
+    """After a kernel call: raise ``KernelStopped`` when the control at ``address`` (0:
+    none) was told to stop, so that no half-computed output goes on to be analysed."""
+    if address and ctypes.c_int64.from_address(int(address) + 8 * C_STOP).value:
+        raise KernelStopped()

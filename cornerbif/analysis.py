@@ -132,28 +132,65 @@ def words(sym: np.ndarray) -> np.ndarray:
 
 
 _TOKEN = re.compile(r"\s*([abg\u03b1\u03b2\u03b3])\s*(?:\^?\s*(\d+))?\s*")
+_TOKEN_X = re.compile(r"\s*([abgx\u03b1\u03b2\u03b3])\s*(?:\^?\s*(\d+))?\s*")
 _LETTER = {"\u03b1": "a", "\u03b2": "b", "\u03b3": "g"}
 _PLAIN = re.compile(r"[abgx]+")
 
+# The longest word ``parse_word`` expands (letters, after the repeat counts).  A word names
+# one cycle of a periodic orbit that ``cornerbif continue`` solves with dense matrices of
+# about 2 unknowns per letter (two per impact, alpha has two impacts): Newton and the
+# tangent's SVD cost the cube of the length, and an SVD of 2000 unknowns already takes
+# 14 s here (numpy, 2 cores, 2026-11), so a branch of such a word takes hours and a longer
+# one does not finish.  The paper's longest cycles (the period-adding cascade near
+# omega = 2) have about 75 clusters.  A word is refused from its repeat counts, before it
+# is expanded (a count of 1e20 is never multiplied out).
+MAX_WORD_LETTERS = 1000
+# the longest text of a word (spaces, '^' and counts included)
+MAX_WORD_TEXT = 10 * MAX_WORD_LETTERS
 
-def parse_word(word: str) -> str:
-    """Expand a symbol word: 'bbbg', 'b11 g b12 g', 'b^11 g', 'β^3γ' -> plain letters a/b/g.
 
-    Parentheses are ignored; an exponent applies to the letter before it.
+def _short(text, n=40) -> str:
+    """A text for a message: repr'd, cut to n characters."""
+    text = str(text)
+    return repr(text) if len(text) <= n else repr(text[:n]) + "..."
+
+
+def parse_word(word: str, allow_x: bool = False) -> str:
+    """Expand a symbol word: 'bbbg', 'b11 g b12 g', 'b^11 g', 'β^3γ' -> plain letters a/b/g
+    (and x, the cluster of a smooth obstacle, with ``allow_x``).
+
+    Parentheses are ignored; an exponent applies to the letter before it.  A word longer
+    than ``MAX_WORD_LETTERS`` letters (or ``MAX_WORD_TEXT`` characters) is refused with
+    ValueError from its counts, without being expanded.
     """
-    s = str(word).replace("(", " ").replace(")", " ").lower()
+    s = str(word)
+    if len(s) > MAX_WORD_TEXT:
+        raise ValueError(f"word {_short(s)} is {len(s)} characters long; a word is written "
+                         f"in at most {MAX_WORD_TEXT} (cycles of at most {MAX_WORD_LETTERS} "
+                         "letters)")
+    s = s.replace("(", " ").replace(")", " ").lower()
+    token = _TOKEN_X if allow_x else _TOKEN
+    letters = "a, b, g" + (", x" if allow_x else "")
     out = []
+    total = 0
     pos = 0
     while pos < len(s):
         if s[pos].isspace():
             pos += 1
             continue
-        m = _TOKEN.match(s, pos)
+        m = token.match(s, pos)
         if m is None or m.end() == pos:
-            raise ValueError(f"word {word!r}: cannot read {s[pos:]!r} "
-                             "(letters a, b, g, optional ^n)")
+            raise ValueError(f"word {_short(word)}: cannot read {_short(s[pos:])} "
+                             f"(letters {letters}, optional ^n)")
         letter = _LETTER.get(m.group(1), m.group(1))
-        out.append(letter * (int(m.group(2)) if m.group(2) else 1))
+        digits = (m.group(2) or "1").lstrip("0") or "0"
+        count = int(digits) if len(digits) <= 6 else MAX_WORD_LETTERS + 1
+        total += count
+        if total > MAX_WORD_LETTERS:
+            raise ValueError(f"word {_short(word)} has more than {MAX_WORD_LETTERS} letters "
+                             "(the longest cycle cornerbif solves: its orbit's matrices grow "
+                             "as the square and their solution as the cube of the length)")
+        out.append(letter * count)
         pos = m.end()
     res = "".join(out)
     if not res:

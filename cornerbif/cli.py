@@ -148,21 +148,20 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
             click.echo(line)
         from .sweep import check_budget, check_output
         check_output(out, overwrite or resume, (scene_path,))
-        check_budget(scene, out)
-        click.echo("ok: the sweep fits (disk, memory) and can write its output")
+        for note in check_budget(scene, out):
+            click.echo(f"note: {note}")
+        click.echo("ok: the sweep can start (disk, memory) and can write its output")
         return
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
-    from .sweep import duration, estimate_seconds
-    eta = estimate_seconds(scene, threads or cores)
-    if eta > 60 and not resume:
-        click.echo(f"this sweep will take about {duration(eta)} on {threads or cores} thread(s) "
-                   "(cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps every finished "
-                   "point, --resume completes it)", err=True)
-    from .engine import kernel_cache_cold
-    if kernel_cache_cold(scene):
-        click.echo("compiling the numba kernels: the first run after an install takes tens of "
-                   "seconds (cached afterwards) ...", err=True)
+    from .sweep import estimate_time, estimate_words
+    eta = estimate_time(scene, threads or cores)
+    if eta.high > 60 and not resume:
+        click.echo(f"this sweep will take {estimate_words(eta)} on {threads or cores} "
+                   "thread(s) (cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps every "
+                   "finished point, --resume completes it)", err=True)
+    from .engine import announce_compiles
+    announce_compiles(scene, lambda m: click.echo(m, err=True), ("sweep",))
     path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
                      progress=progress, command=_command_line(scene_path, out, sets, threads,
                                                               resume, overwrite, block_points,
@@ -196,7 +195,7 @@ def _check_threads(threads):
 
 def _describe(scene, out, threads):
     """What a scene will do, in lines: grid, runs, output size, memory and time."""
-    from .sweep import duration, estimate_bytes, estimate_memory, estimate_seconds
+    from .sweep import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
     n_points = 1
     for n in scene.shape:
         n_points *= n
@@ -208,12 +207,16 @@ def _describe(scene, out, threads):
         lines.append(f"  axis {a.name}: {len(a.values)} values from {lo:.10g} to {hi:.10g}")
     lines.append(f"  {n_points} grid points x {scene.n_ic} starts = {n_items} runs of "
                  f"{scene.transient} + {scene.record} events")
-    lines.append(f"output {out}: up to {estimate_bytes(scene) / 2**20:.1f} MiB (uncompressed)")
+    low, typical, high = estimate_file_bytes(scene)
+    lines.append(f"output {out}: about {typical / 2**20:.1f} MiB on disk ({low / 2**20:.1f} to "
+                 f"{high / 2**20:.1f} MiB at the compression ratios measured on the shipped "
+                 f"scenes; at most {estimate_bytes(scene) / 2**20:.1f} MiB uncompressed)")
     lines.append(f"working memory: about {estimate_memory(scene) / 2**20:.1f} MiB (the "
                  "process's peak)")
     early = " (at most: runs stop once their cycle is found)" if scene.stop == "period" else ""
-    lines.append(f"time: about {duration(estimate_seconds(scene, threads))} on {threads} "
-                 f"thread(s){early}, at this machine's measured speed (benchmarks/run.py)")
+    lines.append(f"time: {estimate_words(estimate_time(scene, threads))} on {threads} "
+                 f"thread(s){early}, at this machine's measured speed "
+                 "(benchmarks/estimate_time.py)")
     c = scene.cont
     if c:
         seeds = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
@@ -261,36 +264,71 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
                    "style (default: [plot] style).")
 def plot(files, out, y, title, color_by, style):
     """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down);
-    continuation files (``cornerbif continue``) are drawn over the diagram, or alone."""
+    continuation files (``cornerbif continue``) are drawn over the diagram, or alone.
+
+    Files drawn together: sweeps of one parameter and one model (overlaid), a flow against
+    its map (two files, flow and map2d, at the same system values), continuation files over
+    the diagram of their parameter; anything else is refused before drawing. An existing
+    figure at OUT is replaced (only a figure of its format; never a file drawn, a style
+    sheet or any other file), whole or not at all."""
+    from . import outputs, plot_style
     from .io import FileFormatError
-    from .plot import figure
     out = out or os.path.splitext(files[0])[0] + ".png"
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".png", ".pdf", ".svg"):
         _fail(f"-o {out}: the figure must be .png, .pdf or .svg")
-    from .errors import SweepError
-    from .sweep import check_directory
+    problem = plot_style.check_style(style, "--style")
+    if problem:
+        _fail(problem)
+    if title is not None:
+        title = _plot_title(title)
+    inputs = [("the file to draw", f) for f in files]
+    if style and os.path.isfile(style):
+        inputs.append(("the style sheet", style))
+    outputs.check_output(out, False, inputs=inputs, kind="figure", option="-o",
+                         suffixes=(".partial",))
+    import warnings
+
+    from .plot import draw_files
     try:
-        check_directory(out)
-    except SweepError as e:
+        # what matplotlib or numpy still say (plot.quiet silences what files hold by
+        # design) is said after the figure, one line each
+        with warnings.catch_warnings(record=True) as said:
+            draw_files(list(files), out, y=y, title=title, color_by=color_by, style=style)
+    except FileFormatError as e:
         _fail(str(e))
-    if any(os.path.exists(x) and os.path.exists(out) and os.path.samefile(x, out) for x in files):
-        _fail(f"-o {out}: that is one of the files to draw; name another figure")
-    from .plot import figure_branches, is_continuation
-    conts = [x for x in files if is_continuation(x)]
-    sweeps = [x for x in files if x not in conts]
-    try:
-        if sweeps:
-            figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
-                   style=style)
-        else:
-            figure_branches(conts, out, y=y, title=title, style=style)
-    except (FileFormatError, ValueError) as e:
-        _fail(str(e))
-    except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
-        _fail(f"{', '.join(files)}: cannot be drawn ({type(e).__name__}: {e}); the file is "
-              "damaged or was not written by cornerbif")
+    except KeyboardInterrupt:
+        from .errors import SweepInterrupted
+        raise SweepInterrupted(f"interrupted: no figure written ({out}, if it existed, is "
+                               "unchanged)") from None
+    except (SweepError, RecursionError, MemoryError):
+        raise
+    except Exception as e:  # noqa: BLE001 - a file crafted past the readers' checks
+        if os.environ.get("CORNERBIF_DEBUG"):
+            raise
+        why = plot_style.bounded(f"{type(e).__name__}: {e}", 300)
+        _fail(f"{', '.join(files)}: cannot be drawn ({why}); nothing was written. The files "
+              "hold values cornerbif does not write (damaged or crafted), or this is a bug in "
+              "cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
+    for w in {plot_style.bounded(str(w.message).splitlines()[0] if str(w.message) else
+                                 w.category.__name__, 200) for w in said}:
+        click.echo(f"note: drawing {out}: {w}", err=True)
     click.echo(f"wrote {out}")
+
+
+def _plot_title(title):
+    """``--title``: at most ``plot_style.TITLE_MAX`` characters (the rest cut, said on
+    stderr), refused (exit 2) when matplotlib cannot draw its formulas."""
+    from . import plot_style
+    from .config import undrawable
+    if len(title) > plot_style.TITLE_MAX:
+        click.echo(f"note: --title has {len(title)} characters; the figure shows the first "
+                   f"{plot_style.TITLE_MAX}", err=True)
+        title = plot_style.bounded(title, plot_style.TITLE_MAX)
+    problem = undrawable(plot_style.title_tex(title), "--title")
+    if problem:
+        _fail(problem)
+    return title
 
 
 @main.command("continue")
@@ -299,120 +337,233 @@ def plot(files, out, y, title, color_by, style):
               help="Output HDF5 file (default: the scene's name + '_continue.h5').")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
               help="Override a scene key, e.g. --set continue.range=[-0.02,0.01].")
-@click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
-def continue_(scene_path, out, sets, overwrite):
+@click.option("--resume", is_flag=True,
+              help="Complete an interrupted continuation (OUT.h5.partial: every branch and "
+                   "curve finished before is kept); on a finished output of this scene, "
+                   "nothing to do.")
+@click.option("--overwrite", is_flag=True,
+              help="Replace an existing output (a continuation file only; never the scene, "
+                   "the seed file or another file).")
+def continue_(scene_path, out, sets, resume, overwrite):
     """Continue the periodic orbits of SCENE.toml's [continue] table: every attractor found
     at the start (or the seed words), both ways in the parameter, stable or not, through
-    corner collisions, grazings, folds and period doublings (docs/continuation.md)."""
-    from .config import load
-    try:
-        scene = load(scene_path, sets)
-    except SceneError as e:
-        _fail("the scene cannot be run:\n  " + "\n  ".join(e.problems))
+    corner collisions, grazings, folds and period doublings (docs/continuation.md).
+
+    Each branch and curve is written to OUT.h5.partial as soon as it is finished: Ctrl-C,
+    SIGTERM or a full disk keep them, and --resume completes the file as an uninterrupted
+    run would have written it."""
+    scene = _load(scene_path, sets)
     if not scene.cont:
         _fail(f"{scene_path}: no [continue] table (parameter, range, ...: "
               "docs/continuation.md)")
-    out = out or f"{scene.name}_continue.h5"
-    from .errors import SweepError
-    from .sweep import check_directory
-    try:
-        check_directory(out)
-    except SweepError as e:
-        _fail(str(e))
-    if os.path.exists(out) and not overwrite:
-        _fail(f"{out} exists; pass --overwrite to replace it")
+    from .sweep import default_output
+    out = out or default_output(scene).removesuffix(".h5") + "_continue.h5"
     from . import continuation as C
-    res = C.run_scene(scene, log=click.echo)
-    if not res.branches:
-        _fail("no branch to continue (see above): nothing written", code=1)
-    C.write(res, out)
-    click.echo(f"wrote {out}: {len(res.branches)} branches, "
-               f"{sum(len(b.events) for b in res.branches)} events, {len(res.curves)} curves")
+    from .engine import announce_compiles
+    announce_compiles(scene, lambda m: click.echo(m, err=True), ("continuation",))
+    C.run_to_file(scene, out, resume=resume, overwrite=overwrite, log=click.echo,
+                  inputs=[("the scene file", scene_path)])
 
 
 @main.command()
 @click.argument("file", type=click.Path(dir_okay=False))
 def info(file):
-    """Summarise a cornerbif HDF5 file."""
+    """Summarise a cornerbif file: a sweep (its scene, its grid, how its runs ended, what it
+    keeps) or a continuation (its branches, their events and curves).
+
+    A partial file says how many of its grid points (or branches) are finished and
+    summarises those; a sweep with no finished point is refused. Every text the file holds
+    is shown on one line, cut at a bounded length."""
+    from .io import FileFormatError
+    from .plot import is_continuation, quiet, read_continuation
+    try:
+        with quiet():             # numpy on the NaN and infinities a file holds by design
+            if is_continuation(file):
+                lines = _continuation_lines(read_continuation(file))
+            else:
+                lines = _sweep_lines(file)
+    except FileFormatError as e:
+        _fail(str(e))
+    except (SweepError, RecursionError, MemoryError, KeyboardInterrupt):
+        raise
+    except Exception as e:  # noqa: BLE001 - a file crafted past the readers' checks
+        if os.environ.get("CORNERBIF_DEBUG"):
+            raise
+        from .plot_style import bounded
+        _fail(f"{file}: cannot be summarised ({bounded(f'{type(e).__name__}: {e}', 300)}); the "
+              "file holds values cornerbif does not write (damaged or crafted), or this is a "
+              "bug in cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
+    for line in lines:
+        click.echo(line)
+
+
+def _sweep_lines(file):
+    """``info`` of a sweep, in lines (``plot.PlotData`` reads it: only its finished points)."""
     import json
 
     import numpy as np
 
-    from .io import FileFormatError, check_readable
-    try:
-        f = check_readable(file)
-    except FileFormatError as e:
-        _fail(str(e))
-    try:
-        with f:
-            a = f.attrs
-            click.echo(f"{file}: cornerbif format {a['format_version']}, written by cornerbif "
-                       f"{a['cornerbif_version']}")
-            click.echo(f"  created {a['created']}, completed {a['completed'] or 'NO (partial)'}")
-            import tomllib
-            sc = tomllib.loads(a["scene"])
-            click.echo(f"  scene {sc['scene']['name']}: {sc['scene'].get('title', '')}")
-            from . import registry
-            model = sc["scene"]["model"]
-            spec = registry.models().get(model)
-            obstacle = sc["system"].get("obstacle")
-            click.echo(f"  model {model}" + (f", obstacle {obstacle}" if obstacle else "")
-                       + (f": {spec.doc}" if spec else " (not a model of this version)"))
-            rn = sc.get("run", {})
-            click.echo(f"  run: preset {rn.get('preset', 'paper')} -> transient {rn.get('transient')}, "
-                       f"record {rn.get('record')}, tol {rn.get('tol')}, chatter {rn.get('chatter')}")
-            from .config import sweep_items
-            for k, v in sweep_items(sc.get("sweep", {})):
-                vals = v["values"]
-                click.echo(f"  axis {k}: {len(vals)} values in [{min(vals)}, {max(vals)}]")
-            done = f["done"][...]
-            click.echo(f"  grid points done: {int(done.sum())} / {done.size}")
-            st = f["status"][...].ravel()
-            codes = json.loads(a["status_codes"])
-            counts = {codes.get(str(c), "NOT_RUN") if c >= 0 else "NOT_RUN": int((st == c).sum())
-                      for c in np.unique(st)}
-            click.echo(f"  status: {counts}")
-            per = f["period"][...].ravel()
-            per = per[per > 0]
-            if per.size:
-                vals, cnt = np.unique(per, return_counts=True)
-                top = sorted(zip(cnt, vals), reverse=True)[:8]
-                click.echo("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
-            names = _names(f)
-            if spec:
-                # an observable is kept when every dataset of its Fields is in the file
-                kept = [k for k, flds in spec.observables.items()
-                        if all(fld.name in names for fld in flds)]
-                click.echo(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
-                           f"state {', '.join(spec.coords)}")
-            if "stability/status" in f:
-                click.echo("  " + _stability_summary(f))
-            click.echo(f"  datasets: {', '.join(sorted(n for n in names if not f[n].is_scale))}")
-        from .plot import PlotData, attractor_summary
-        click.echo(f"  {attractor_summary(PlotData(file), tex=False)}")
-    except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so, exit 2
-        _fail(f"{file}: cannot be summarised ({type(e).__name__}: {e}); the file is damaged "
-              "or was not written by cornerbif")
+    from .io import check_readable
+    from .plot import PlotData, attractor_summary, status_name
+    from .plot_style import TITLE_MAX, bounded
+    d = PlotData(file)
+    with check_readable(file) as f:
+        a = f.attrs
+        done = a.get("completed")
+        lines = [f"{file}: cornerbif format {bounded(a.get('format_version', '?'))}, written by "
+                 f"cornerbif {bounded(a.get('cornerbif_version', '?'))}",
+                 f"  created {bounded(a.get('created', '?'))}, completed "
+                 + (bounded(done) if done else "NO (partial)")]
+        if a.get("command"):
+            lines.append(f"  command: {bounded(a['command'], 300)}")
+        sc = d.scene.get("scene", {})
+        lines.append(f"  scene {bounded(sc.get('name', '?'))}: {bounded(sc.get('title', ''), TITLE_MAX)}")
+        spec = d.spec
+        obstacle = d.scene.get("system", {}).get("obstacle")
+        lines.append(f"  model {bounded(d.model)}" + (f", obstacle {bounded(obstacle)}" if obstacle
+                                                       else "")
+                     + (f": {spec.doc}" if spec else " (not a model of this version)"))
+        rn = d.scene.get("run", {})
+        lines.append(f"  run: preset {bounded(rn.get('preset', 'paper'))} -> transient "
+                     f"{bounded(rn.get('transient'))}, record {bounded(rn.get('record'))}, tol "
+                     f"{bounded(rn.get('tol'))}, chatter {bounded(rn.get('chatter'))}")
+        for k in d.axes:
+            vals = d.values[k]
+            lines.append(f"  axis {bounded(k)}: {len(vals)} values in [{vals.min():.10g}, "
+                         f"{vals.max():.10g}]")
+        lines.append(f"  grid points done: {d.n_done} / {d.n_points}")
+        if d.partial_note():
+            lines.append(f"  {d.partial_note()}")
+        try:
+            names = json.loads(a.get("status_codes", "{}"))
+            names = {str(k): str(v) for k, v in names.items()} if isinstance(names, dict) else None
+        except (TypeError, ValueError):
+            names = None
+        codes, counts = np.unique(d.status, return_counts=True)
+        lines.append(f"  status of the {d.status.size} runs: "
+                     + ", ".join(f"{status_name(c, names)} {n}" for c, n in zip(codes, counts)))
+        per = d.period[d.period > 0]
+        if per.size:
+            vals, cnt = np.unique(per, return_counts=True)
+            top = sorted(zip(cnt, vals), reverse=True)[:8]
+            lines.append("  periods (count): " + ", ".join(f"{v} ({c})" for c, v in top))
+        datasets = _names(f)
+        if spec:
+            # an observable is kept when every dataset of its Fields is in the file
+            kept = [k for k, flds in spec.observables.items()
+                    if all(fld.name in datasets for fld in flds)]
+            lines.append(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
+                         f"state {', '.join(spec.coords)}")
+        if "stability/status" in f:
+            lines.append("  " + _stability_summary(f, d))
+        lines += _dataset_lines([n for n in datasets if not f[n].is_scale])
+    lines.append(f"  {attractor_summary(d, tex=False)}")
+    return lines
 
 
-def _stability_summary(f):
+def _continuation_lines(c):
+    """``info`` of a continuation file (``plot.read_continuation``), in lines: its scene,
+    parameter and seeds; each branch's word, range, points, stable points and why each end
+    stopped; the events; the curves."""
+    import tomllib
+
+    import numpy as np
+
+    from .plot import continuation_note
+    from .plot_style import TITLE_MAX, bounded
+    a, p = c["attrs"], bounded(c["parameter"])
+    sc = tomllib.loads(c["scene"]).get("scene", {})
+    lines = [f"{c['path']}: cornerbif continuation, format {bounded(a.get('format_version', '?'))}"
+             f", written by cornerbif {bounded(a.get('cornerbif_version', '?'))}",
+             f"  created {bounded(a.get('created', '?'))}, completed "
+             + (bounded(a['completed']) if a.get("completed") else "NO (partial)"),
+             f"  scene {bounded(sc.get('name', '?'))}: {bounded(sc.get('title', ''), TITLE_MAX)}",
+             f"  model {bounded(a.get('model', '?'))}"
+             + (f", obstacle {bounded(a['obstacle'])}" if a.get("obstacle") else "")
+             + f"; continued in {p}"
+             + (f" from the seeds {bounded(a['seeds'], 200)}" if a.get("seeds") else "")]
+    if continuation_note(c):
+        lines.append(f"  {continuation_note(c)}")
+    n = len(c["branches"])
+    lines.append(f"  branches: {n}" + ("" if n else " (the continuation found no orbit to "
+                                                    "follow)"))
+    for b, br in enumerate(c["branches"][:MAX_LISTED]):
+        lam = br["param"]
+        st = np.asarray(br["stable"]).astype(bool)
+        lines.append(f"    branch {b}: {bounded(br.get('word') or '?')} over {p} in "
+                     f"[{lam.min():.10g}, {lam.max():.10g}], {lam.size} points ({int(st.sum())} "
+                     "stable)")
+        stops = br.get("stops")
+        stops = [stops] if isinstance(stops, str) else list(stops or [])
+        for why in stops[:4]:
+            lines.append(f"      stopped at {bounded(why, 200)}")
+        if not stops:
+            ends = [e for e in c["events"] if e["branch"] == b and e["kind"] == "end"]
+            for e in ends[:4]:
+                lines.append(f"      stopped at {p} = {e['param']:.12g}: {bounded(e['detail'], 200)}")
+    if n > MAX_LISTED:
+        lines.append(f"    ... and {n - MAX_LISTED} more branches")
+    inner = [e for e in c["events"] if e["kind"] != "end"]
+    lines.append(f"  events ({len(inner)}):" if inner else "  events: none")
+    for e in inner[:MAX_LISTED]:
+        lines.append(f"    branch {e['branch']}: {bounded(e['kind'], 30)} at {p} = "
+                     f"{e['param']:.12g}" + (f" ({bounded(e['detail'], 160)})" if e["detail"]
+                                             else ""))
+    if len(inner) > MAX_LISTED:
+        lines.append(f"    ... and {len(inner) - MAX_LISTED} more events")
+    lines.append(f"  curves ({len(c['curves'])}):" if c["curves"] else "  curves: none")
+    for k, cv in enumerate(c["curves"][:MAX_LISTED]):
+        x, y = cv["param"], cv["event_param"]
+        rng = (f"{bounded(cv.get('param_name', '?'))} in [{x.min():.6g}, {x.max():.6g}], "
+               f"{bounded(cv.get('event_param_name', p))} in [{y.min():.6g}, {y.max():.6g}]"
+               if x.size else "no points")
+        lines.append(f"    curve {k}: {bounded(cv.get('kind', 'corner'), 20)} curve of branch "
+                     f"{int(cv['branch'])} ({bounded(cv.get('what', ''), 80)}), {x.size} points, "
+                     f"{rng}")
+    if len(c["curves"]) > MAX_LISTED:
+        lines.append(f"    ... and {len(c['curves']) - MAX_LISTED} more curves")
+    return lines
+
+
+# the most branches, events, curves or dataset names ``info`` lists (then "... and N more")
+MAX_LISTED = 40
+
+
+def _stability_summary(f, d=None):
     """One line on the stored stability: how the multipliers were found, the largest
     modulus of the runs' cycles (stable below 1), and the largest Lyapunov exponents
-    (positive: chaotic)."""
+    (positive: chaotic).  ``d``: the file's ``plot.PlotData`` (its finished points only);
+    datasets that do not match its runs are said to, and not read."""
     import numpy as np
 
     from .stability import REASONS
-    st = f["stability/status"][...].ravel()
-    counts = {REASONS.get(int(c), "not run").split(":")[0]: int((st == c).sum())
-              for c in np.unique(st)}
-    mod = np.hypot(f["stability/multiplier_re"][..., 0], f["stability/multiplier_im"][..., 0])
+    runs = f["status"].shape
+    names = ["stability/status", "stability/multiplier_re", "stability/multiplier_im"]
+    if "stability/lyapunov" in f:
+        names += ["stability/lyapunov", "stability/lyapunov_status"]
+    if any(n not in f or f[n].shape[:len(runs)] != runs for n in names):
+        return "stability: its datasets do not match the runs (not summarised)"
+    st = f["stability/status"][...]
+    if d is not None and d.unfinished is not None:
+        st = np.where(d.status == -1, -1, st)
+    st = st.ravel()
+
+    def reason(c):
+        return "not run" if c == -1 else REASONS.get(c, f"unknown ({c})").split(":")[0]
+    counts = {reason(int(c)): int((st == c).sum()) for c in np.unique(st)}
+    with np.errstate(all="ignore"):
+        mod = np.hypot(f["stability/multiplier_re"][..., 0], f["stability/multiplier_im"][..., 0])
     mod = mod.ravel()[st == 0]
-    line = f"stability: {counts}"
+    mod = mod[np.isfinite(mod)]
+    line = "stability: " + ", ".join(f"{k} {v}" for k, v in counts.items())
     if mod.size:
         line += (f"; largest |multiplier| of a cycle: median {np.median(mod):.4g}, max "
                  f"{mod.max():.4g} ({int((mod >= 1).sum())} of {mod.size} cycles not stable)")
     if "stability/lyapunov" in f:
-        lst = f["stability/lyapunov_status"][...].ravel()
+        lst = f["stability/lyapunov_status"][...]
+        if d is not None and d.unfinished is not None:
+            lst = np.where(d.status == -1, -1, lst)
+        lst = lst.ravel()
         lam = f["stability/lyapunov"][..., 0].ravel()
         fin = lam[(lst == 0) & np.isfinite(lam)]
         line += (f"; largest Lyapunov exponent over the window: {fin.size} runs, "
@@ -432,54 +583,72 @@ def _names(f):
     return out
 
 
+def _dataset_lines(names, width=100):
+    """The dataset names, grouped by folder ('impacts/: t, u, v_in'), each group wrapped to
+    ``width`` columns; at most MAX_LISTED names of a group and MAX_LISTED groups, each name
+    cut to a bounded length."""
+    import textwrap
+
+    from .plot_style import bounded
+    groups = {}
+    for n in sorted(names):
+        folder, _, leaf = n.rpartition("/")
+        groups.setdefault(folder, []).append(leaf)
+    lines = [f"  datasets ({len(names)}):"]
+    for folder, leaves in list(groups.items())[:MAX_LISTED]:
+        shown = [bounded(x) for x in leaves[:MAX_LISTED]]
+        if len(leaves) > MAX_LISTED:
+            shown.append(f"... and {len(leaves) - MAX_LISTED} more")
+        head = f"    {bounded(folder) + '/' if folder else '/'}: "
+        lines += textwrap.wrap(", ".join(shown), width, initial_indent=head,
+                               subsequent_indent=" " * 6, break_on_hyphens=False)
+    if len(groups) > MAX_LISTED:
+        lines.append(f"    ... and {len(groups) - MAX_LISTED} more groups")
+    return lines
+
+
 @main.command()
 @click.option("--configs", "config_dir", default="configs", show_default=True,
               type=click.Path(file_okay=False), help="Folder of scenes (every *.toml).")
-@click.option("--out", "out", default="docs/gallery", show_default=True,
-              type=click.Path(file_okay=False), help="Folder of the figures (FIG.png).")
-@click.option("--data", "data", default="gallery_data", show_default=True,
-              type=click.Path(file_okay=False), help="Folder of the sweeps (NAME.h5), reused.")
+@click.option("--out", "out", default=None, type=click.Path(file_okay=False),
+              help="Folder of the figures (FIG.png) and gallery_run.json (default: docs/gallery; "
+                   "with --smoke gallery_smoke).")
+@click.option("--data", "data", default=None, type=click.Path(file_okay=False),
+              help="Folder of the sweeps and continuations (NAME.h5), reused while they match "
+                   "their scene (default: gallery_data; with --smoke gallery_smoke/data).")
 @click.option("--only", "only", multiple=True, metavar="NAME",
               help="Only this figure or scene (repeatable), e.g. --only fig05 --only fig07b.")
 @click.option("--smoke", is_flag=True,
-              help="Tiny version of every scene (3 grid values, 3 starts, 40 + 40 impacts).")
+              help="Tiny version of every scene (3 grid values, 3 starts, 40 + 40 impacts), in "
+                   "folders of its own; it never replaces a full run's files.")
+@click.option("--overwrite", is_flag=True,
+              help="Also replace cornerbif files in the way that the gallery did not write (a "
+                   "sweep of your own in --data, a figure gallery_run.json does not list); "
+                   "never a file of another kind, nor a full run's file in a --smoke run.")
 @click.option("--threads", type=click.IntRange(min=1), help="Numba threads (default: all cores).")
-def gallery(config_dir, out, data, only, smoke, threads):
-    """Sweep every scene whose file is missing or stale, then draw every figure."""
+def gallery(config_dir, out, data, only, smoke, overwrite, threads):
+    """Sweep every scene whose file is missing or stale, then draw every figure.
+
+    Every output is checked before the first sweep: the gallery replaces only files it
+    wrote itself (others with --overwrite). Interrupted (Ctrl-C, a kill, a full disk), the
+    same command run again continues where it stopped."""
     _check_threads(threads)
-    import json
     import time
 
     from . import gallery as G
-    from .errors import SweepError
     t = time.perf_counter()
-    try:
-        recs = G.run(config_dir, out, data, only=only, smoke=smoke, threads=threads, echo=click.echo)
-    except SceneError as e:
-        _fail("a scene cannot be run:\n  " + "\n  ".join(e.problems))
-    except (SweepError, ValueError) as e:
-        _fail(str(e))
-    total = time.perf_counter() - t
+    recs = G.run(config_dir, out, data, only=only, smoke=smoke, threads=threads,
+                 overwrite=overwrite, echo=click.echo)
     swept = sum(1 for r in recs for s in r["scenes"].values() if s["action"] != "reused")
-    click.echo(f"{len(recs)} figures in {out}; {swept} scenes swept; {total:.1f} s in all")
-    # the record of the last run of each figure: an --only run updates its figures only
-    path = os.path.join(out, "gallery_run.json")
-    old = {}
-    if only and os.path.exists(path):
-        with open(path) as fh:
-            old = json.load(fh)
-    figs = {r["figure"]: r for r in old.get("figures", [])}
-    figs.update({r["figure"]: r for r in recs})
-    run = {"total_seconds": round(total, 1), "smoke": smoke, "threads": threads, "only": list(only)}
-    doc = {"figures": [figs[k] for k in sorted(figs)],
-           "runs": ([run] + old.get("runs", []))[:5] if only else [run]}
-    with open(path, "w") as fh:
-        json.dump(doc, fh, indent=1)
+    click.echo(f"{G.plural(len(recs), 'figure')} in {G.defaults(smoke)[0] if out is None else out}; "
+               f"{G.plural(swept, 'scene')} swept; {time.perf_counter() - t:.1f} s in all")
 
 
 @main.command()
 @click.argument("scene_path", metavar="SCENE.toml", type=click.Path(dir_okay=False))
-@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="Override a scene key, as sweep does, e.g. --set sweep.kappa.num=101 or "
+                   "--set 'sweep.kappa={values=[0.005]}' (repeatable; the value is TOML).")
 @click.option("--toml", is_flag=True, help="Also print the scene as it would run (TOML, "
               "every default explicit, every axis value listed).")
 def validate(scene_path, sets, toml):

@@ -18,6 +18,8 @@ from __future__ import annotations
 import difflib
 import hashlib
 import math
+import os
+import stat
 import tomllib
 from dataclasses import dataclass, field
 
@@ -25,6 +27,7 @@ import numpy as np
 
 from . import registry
 from .model import is_number as _is_number
+from .model import shown
 
 FOLLOW = ("none", "up", "down")
 
@@ -76,6 +79,55 @@ MAX_RECORD = 100_000
 MAX_INT = 2**62
 # the time budget: the kernels count it in smooth pieces of the obstacle (a few per period)
 MAX_PERIODS = 2**58
+# Reading a scene (each limit says why; docs: README "Scenes", the limits of a scene):
+# bytes of a scene file or of one --set value: the scene as run of the largest axis
+# (100,000 values, every one listed) is 2.3 MB; TOML's reader (pure Python) takes about
+# 1.2 s a MB of the worst text, so a scene is read in seconds; read no further (a device, a
+# FIFO or a directory is refused by its kind before it is opened)
+MAX_SCENE_BYTES = 4 * 2**20
+# tables and lists inside one another: a scene needs 6 ([system.profile] pieces' sine
+# lists); TOML's reader, and every walk of the scene, recurses once per level
+MAX_NESTING = 16
+# digits of one integer: Python reads at most 4300 (sys.get_int_max_str_digits), and a
+# parameter, a count or a seed is far shorter (a float64 holds up to 309 digits)
+MAX_INT_DIGITS = 4300
+# a start time t0 (flow: [initial] t, [sweep] initial.t), the obstacle's phase at the
+# start: the kernels place it by its period count m and phase t0 - m P, which float64
+# resolves to ulp(t0), 1.2e-10 at 1e6 (a phase within the first periods says the same)
+MAX_START_TIME = 1e6
+# keys of one table (and tables of a scene): the format's tables have about 15, the
+# [sweep] at most two axes; past this a scene is refused at once, before a problem is said
+# of each key
+MAX_TABLE_KEYS = 100
+# problems listed at most (the first ones; the count of the rest is said)
+MAX_PROBLEMS = 50
+# free text, each refused beyond its limit with its key and its length:
+# scene.name: a short name that labels the run (info, the default title) and names the
+# default output file (its first 100 characters, made safe: sweep.default_output)
+MAX_NAME = 200
+# scene.title and plot.title: a figure's title, broken into lines of 80-100 characters,
+# stored in the file and printed by info; 500 characters are six lines over the figure
+MAX_TITLE = 500
+# plot.marks: dotted lines on a diagram, each with a label beside it
+MAX_MARKS = 100
+MAX_MARK_LABEL = 100
+# plot.style: a matplotlib style name or a path (a path's length, PATH_MAX) and the size of
+# the sheet it names (an .mplstyle file is a few hundred lines)
+MAX_STYLE_PATH = 4096
+MAX_STYLE_BYTES = 2**20
+# plot.marker_size in points: a marker of 100 pt is 1.4 inches across, more than a figure's
+# panel shows; the raster of a large diagram grows every point to a disc of that radius
+MAX_MARKER_SIZE = 100.0
+# plot.cycles: periods of the obstacle drawn by kind "obstacle" or "timeseries" (each drawn
+# from a fixed number of samples, so more would draw no curve)
+MAX_PLOT_CYCLES = 10_000
+# plot.max_panels: the panels of a time-series figure, one per start
+MAX_PANELS = 64
+# plot.xlim, ylim: a window matplotlib can draw: both ends finite, within +-MAX_PLOT_LIMIT
+# (its ticks and transforms take differences and products of the ends), and the width at
+# least MIN_PLOT_WIDTH of the ends' magnitude (a narrower window has no distinct ticks)
+MAX_PLOT_LIMIT = 1e100
+MIN_PLOT_WIDTH = 1e-12
 PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
              "max_panels", "color_by", "style", "marks", "orbits")
 # [plot] color_by: a diagram's or a chart's colour from the stability observable
@@ -248,20 +300,44 @@ class Scene:
 
 # --------------------------------------------------------------------------- helpers
 def _suggest(word, options):
+    """ " (did you mean 'x'?)" for a near miss among ``options``; nothing for a word far
+    longer than any option (difflib's cost grows with it)."""
+    if len(word) > 100:
+        return ""
     m = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
     return f" (did you mean '{m[0]}'?)" if m else ""
+
+
+def _name(k) -> str:
+    """A key as a message names it: cut to 60 characters (a key of a megabyte is a key)."""
+    return _cut(k if isinstance(k, str) else shown(k), 60)
 
 
 def _is_int(x):
     return isinstance(x, int) and not isinstance(x, bool)
 
 
+def _cut(text: str, limit: int = 80) -> str:
+    """A text quoted as given (an override), cut to ``limit`` characters with its length."""
+    return text if len(text) <= limit else f"{text[:limit]}...<{len(text)} characters>"
+
+
 def _fmt(x):
-    return repr(x)
+    """A value as a message quotes it: its repr, shortened when huge (``model.shown``)."""
+    return shown(x)
+
+
+# the two forms of a [sweep] axis: a --set of one form's key replaces the other form
+AXIS_FORMS = (("values",), ("start", "stop", "num"))
 
 
 def set_dotted(raw: dict, key: str, value):
-    """Apply one ``--set a.b.c=value`` override to a raw TOML dict."""
+    """Apply one ``--set a.b.c=value`` override to a raw TOML dict.
+
+    On a ``[sweep]`` axis a key of one form replaces the other form: ``--set
+    sweep.kappa.values=[0.005]`` on a start/stop/num axis drops start, stop and num (and
+    ``--set sweep.kappa.num=5`` on a values axis drops values); ``--set
+    sweep.kappa={values=[0.005]}`` replaces the whole axis."""
     parts = key.split(".")
     node = raw
     for p in parts[:-1]:
@@ -270,21 +346,110 @@ def set_dotted(raw: dict, key: str, value):
             nxt = {}
             node[p] = nxt
         node = nxt
+    if parts[0] == "sweep" and len(parts) >= 3:
+        for form in AXIS_FORMS:
+            if parts[-1] in form:
+                for other in AXIS_FORMS:
+                    if other is not form:
+                        for k in other:
+                            node.pop(k, None)
     node[parts[-1]] = value
 
 
 def parse_override(text: str):
-    """``key=value`` with value read as a TOML value (strings may be bare)."""
+    """``key=value`` with value read as a TOML value (strings may be bare).
+
+    Refused (``SceneError``, naming the override): no ``=``, an empty or over-deep key, a
+    value longer than MAX_SCENE_BYTES, and a value that TOML cannot hold (an integer of more
+    than MAX_INT_DIGITS digits, lists nested past MAX_NESTING); only a value that is not
+    TOML at all is read as a bare string."""
     if "=" not in text:
-        raise SceneError([f"--set {text!r}: expected key=value, e.g. --set system.omega=2.001"])
+        raise SceneError([f"--set {_fmt(text)}: expected key=value, e.g. --set system.omega=2.001"])
     key, val = text.split("=", 1)
     key = key.strip()
     val = val.strip()
+    parts = key.split(".")
+    if not all(p.strip() for p in parts):
+        raise SceneError([f"--set {_fmt(text)}: the key {_fmt(key)} has an empty part; keys "
+                          "are dotted names such as system.omega"])
+    if len(parts) > MAX_NESTING:
+        raise SceneError([f"--set {_fmt(text)}: the key has {len(parts)} parts; at most "
+                          f"{MAX_NESTING} (tables inside one another)"])
+    if len(val.encode("utf-8", "surrogatepass")) > MAX_SCENE_BYTES:
+        raise SceneError([f"--set {key}=...: a value of {len(val)} characters; at most "
+                          f"{MAX_SCENE_BYTES} bytes (as a scene file)"])
     try:
-        v = tomllib.loads(f"x = {val}")["x"]
-    except tomllib.TOMLDecodeError:
+        v = parse_toml(f"x = {val}", f"--set {key}")["x"]
+    except SceneError as e:
+        if not getattr(e, "syntax", False):
+            raise
         v = val
     return key, v
+
+
+def _too_many_digits(text: str):
+    """The line and length of the first integer in ``text`` past MAX_INT_DIGITS digits."""
+    import re
+    m = re.search(r"(?:^|[=\[,{\s])[+-]?(?:0[xob])?([0-9A-Fa-f_]{" + str(MAX_INT_DIGITS + 1)
+                  + ",})", text, re.M)
+    if m is None:
+        return None
+    return text.count("\n", 0, m.start(1)) + 1, len(m.group(1).replace("_", ""))
+
+
+def parse_toml(text: str, source: str) -> dict:
+    """TOML text -> dict, every failure a ``SceneError`` naming ``source`` and what is
+    wrong (never another exception).
+
+    A UTF-8 byte-order mark at the start is skipped; refused: text past MAX_SCENE_BYTES,
+    a syntax error (``.syntax`` set on the error), an integer past MAX_INT_DIGITS digits
+    (Python reads no longer), and tables or lists nested past Python's recursion (far
+    past MAX_NESTING, which ``from_dict`` checks with the key)."""
+    if len(text) > MAX_SCENE_BYTES:
+        raise SceneError([f"{source}: {len(text)} characters; a scene is at most "
+                          f"{MAX_SCENE_BYTES} bytes"])
+    text = text.removeprefix("\ufeff")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        err = SceneError([f"{source}: TOML syntax error: {e}"])
+        err.syntax = True
+        raise err from None
+    except RecursionError:
+        raise SceneError([f"{source}: tables or lists nested too deeply to read; a scene nests "
+                          f"at most {MAX_NESTING} levels"]) from None
+    except ValueError as e:
+        at = _too_many_digits(text)
+        where = (f"an integer of {at[1]} digits" if at else f"a value ({e})")
+        if at and not source.startswith("--set"):
+            where = f"line {at[0]}: {where}"
+        raise SceneError([f"{source}: {where} cannot be read; an integer has at most "
+                          f"{MAX_INT_DIGITS} digits (and a number of the scene fits a float64: "
+                          "up to about 1.8e308)"]) from None
+
+
+def nesting_problem(raw, root: str = "") -> str | None:
+    """The key at which ``raw`` nests tables or lists past MAX_NESTING levels, or holds an
+    integer of more than MAX_INT_DIGITS digits (which a scene file cannot hold, and whose
+    text Python refuses to make), as a problem (None when there is none); iterative, so any
+    depth is walked without recursion."""
+    stack = [(raw, root, 0)]
+    while stack:
+        node, key, depth = stack.pop()
+        if _is_int(node) and node.bit_length() > MAX_INT_DIGITS * 3.33:
+            return (f"{key}: {shown(node)}; an integer has at most {MAX_INT_DIGITS} digits (a "
+                    "number of the scene fits a float64: up to about 1.8e308)")
+        if isinstance(node, dict):
+            items = [(v, f"{key}.{_name(k)}" if key else _name(k)) for k, v in node.items()]
+        elif isinstance(node, list):
+            items = [(v, f"{key}[{i}]") for i, v in enumerate(node)]
+        else:
+            continue
+        if depth >= MAX_NESTING and items:
+            return (f"{key}: tables or lists nested more than {MAX_NESTING} levels deep; a "
+                    "scene needs at most 6 ([system.profile] pieces' sine lists)")
+        stack += [(v, k, depth + 1) for v, k in items]
+    return None
 
 
 # --------------------------------------------------------------------------- TOML out
@@ -351,25 +516,51 @@ def same_run(text_a: str, text_b: str) -> bool:
 
 
 # --------------------------------------------------------------------------- loading
+# what a path that is not a regular file is, by its kind (os.stat's mode)
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def read_text(path, what="the scene file") -> str:
+    """The text of a scene file: a regular file of at most MAX_SCENE_BYTES of UTF-8, read
+    no further; anything else is a ``SceneError`` naming the path and what it is (a
+    directory, a FIFO, a device: refused by its kind, before it is opened, so that
+    /dev/zero is never read and a FIFO never waited on)."""
+    def kind_problem(mode):
+        kind = next((k for test, k in _KINDS if test(mode)), "not a regular file")
+        return SceneError([f"{path}: is {kind}, not {what} (a TOML text file)"])
+    try:
+        mode = os.stat(path).st_mode
+        if stat.S_ISREG(mode):
+            with open(path, "rb") as fh:
+                mode = os.fstat(fh.fileno()).st_mode   # what was opened, if it changed since
+                data = fh.read(MAX_SCENE_BYTES + 1) if stat.S_ISREG(mode) else b""
+    except (OSError, ValueError) as e:            # ValueError: a NUL in the path
+        why = getattr(e, "strerror", None) or str(e)
+        raise SceneError([f"{path}: cannot read {what} ({why})"]) from None
+    if not stat.S_ISREG(mode):
+        raise kind_problem(mode)
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError([f"{path}: larger than {MAX_SCENE_BYTES} bytes; a scene is at most "
+                          f"{MAX_SCENE_BYTES // 2**20} MiB of text (an axis of "
+                          f"{MAX_AXIS_VALUES} values listed takes 2.3 MB)"])
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError([f"{path}: not UTF-8 text (byte {e.start}: "
+                          f"{data[e.start:e.start + 4]!r})"]) from None
+
+
 def load(path, overrides=()) -> Scene:
-    """Read a scene file, apply ``--set`` overrides and validate it."""
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-    except OSError as e:
-        raise SceneError([f"{path}: cannot read the scene file ({e.strerror})"]) from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise SceneError([f"{path}: not UTF-8 text"]) from None
-    return loads(text, overrides, source=str(path))
+    """Read a scene file (``read_text``), apply ``--set`` overrides and validate it."""
+    return loads(read_text(path), overrides, source=str(path))
 
 
 def loads(text: str, overrides=(), source="<scene>") -> Scene:
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SceneError([f"{source}: TOML syntax error: {e}"]) from None
+    """A scene's TOML text (``parse_toml``) with ``--set`` overrides, validated; every
+    problem found, a ``SceneError``, each problem that a --set caused saying so."""
+    raw = parse_toml(text, source)
     problems = []
     given = []
     for ov in overrides:
@@ -379,7 +570,7 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
             problems += e.problems
             continue
         set_dotted(raw, key, val)
-        given.append((key, ov if isinstance(ov, str) else f"{key}={val!r}"))
+        given.append((key, _cut(ov) if isinstance(ov, str) else f"{key}={_fmt(val)}"))
     if problems:
         raise SceneError(problems)
     try:
@@ -392,7 +583,7 @@ def _from_set(problem: str, given) -> str:
     """Say that a problem comes from a ``--set`` override when its key is one given there."""
     key = problem.split(":", 1)[0].strip()
     for k, text in reversed(given):
-        if key == k or key.startswith(k + ".") or k.startswith(key + "."):
+        if key == k or key.startswith((k + ".", k + "[")) or k.startswith(key + "."):
             return f"{problem} (from --set {text})"
     return problem
 
@@ -416,7 +607,8 @@ class _Walk:
             if k not in allowed:
                 where = [t for t, keys in TABLES.items() if keys and k in keys and t != name]
                 hint = f" (it belongs in [{where[0]}])" if where else _suggest(str(k), allowed)
-                self.problems.append(f"{name}.{k}: unknown key{hint}; allowed: {', '.join(allowed)}")
+                self.problems.append(f"{name}.{_name(k)}: unknown key{hint}; allowed: "
+                                     f"{', '.join(allowed)}")
 
     def param(self, name, value, key):
         p = self.spec.params[name].problem(value, key)
@@ -452,6 +644,25 @@ class CheckContext:
         return set(self.values_list(name))
 
 
+def _text(w, key, text, limit, what):
+    """A free-text value of at most ``limit`` characters and no control characters but
+    newline and tab (``info`` prints it to a terminal, where an escape sequence would act);
+    otherwise a problem naming the key and the length or the character (and "" instead,
+    so that nothing downstream carries it)."""
+    if len(text) > limit:
+        w.problems.append(f"{key}: {_fmt(text)} is {len(text)} characters; at most {limit} "
+                          f"({what})")
+        return ""
+    bad = next((c for c in text if (ord(c) < 0x20 and c not in "\n\t")
+                or 0x7F <= ord(c) <= 0x9F), None)
+    if bad is not None:
+        w.problems.append(f"{key}: {_fmt(text)} holds the control character {bad!r} at "
+                          f"{text.index(bad)}; free text may hold newlines and tabs, no other "
+                          "control characters (it is printed to terminals)")
+        return ""
+    return text
+
+
 def _read_scene(w):
     sc = w.table("scene")
     w.unknown("scene", TABLES["scene"])
@@ -459,10 +670,20 @@ def _read_scene(w):
     if not isinstance(name, str) or not name:
         w.problems.append(f"scene.name: {_fmt(name)} must be a non-empty string")
         name = "scene"
+    else:
+        name = _text(w, "scene.name", name, MAX_NAME, "a short name: the default output file "
+                     "takes its first 100 characters, sweep.default_output; put a longer "
+                     "text in scene.title") or "scene"
     title = sc.get("title", name)
     if not isinstance(title, str):
         w.problems.append(f"scene.title: {_fmt(title)} must be a string")
-        title = str(title)
+        title = ""
+    else:
+        title = _text(w, "scene.title", title, MAX_TITLE, "a figure's title, stored in the "
+                      "file and printed by info")
+        p = undrawable(_title_lines(title), "scene.title") if title else None
+        if p:
+            w.problems.append(p)
     model = sc.get("model", registry.DEFAULT_MODEL)
     if model not in MODELS:
         w.problems.append(f"scene.model: {_fmt(model)} is not a model"
@@ -485,6 +706,9 @@ def _read_system(w):
         obstacle = spec.system_extra["obstacle"]
     system = {}
     for p, decl in spec.params.items():
+        if p in sy and not _applies(w, decl, obstacle, f"system.{p}"):
+            system[p] = decl.default
+            continue
         v = sy.get(p, decl.default)
         if v is None and decl.default is None:    # a derived default (theta1 = beta omega)
             system[p] = None
@@ -520,11 +744,48 @@ def _read_system(w):
     w.obstacle, w.system, w.section_period = obstacle, system, section_period
 
 
+def _applies(w, decl, obstacle, key) -> bool:
+    """Whether a parameter given at ``key`` applies to the scene's obstacle (``Param.
+    obstacles``: the triangle's slopes mean nothing on another); a problem naming the
+    obstacles it applies to when it does not."""
+    only = decl.obstacles
+    if not only or not w.spec.obstacles or obstacle in only:
+        return True
+    if obstacle not in w.spec.obstacles:
+        return True                          # the obstacle's own problem is reported
+    which = " and ".join(repr(o) for o in only)
+    w.problems.append(f"{key}: {decl.name} is a parameter of obstacle {which} only "
+                      f"({decl.doc}), and system.obstacle is {obstacle!r}: remove it, or "
+                      f"choose obstacle {which}")
+    return False
+
+
+def _start_time_problem(w, c, values, key):
+    """A start time (``Model.start_time``) past MAX_START_TIME, as a problem (else None)."""
+    st = w.spec.start_time
+    if st is None or c != st.name:
+        return None
+    big = [x for x in values if abs(x) > MAX_START_TIME]
+    if not big:
+        return None
+    return (f"{key}: {big[0]!r} is past the start times allowed, |t0| <= {MAX_START_TIME:g}: "
+            "the kernels place a start by its obstacle period and phase t0 - m P, which "
+            "float64 resolves only to about 1e-10 there; give the phase within the first "
+            "periods instead")
+
+
 def _finite_value(w, key):
-    """A check of an axis value that is any finite number (a start coordinate)."""
+    """A check of an axis value that is any finite number (a start coordinate; a start
+    time within MAX_START_TIME)."""
+    c = key[len(IC_PREFIX):]
+
     def check(_, v, where):
         if _is_number(v) and math.isfinite(v):
-            return True
+            p = _start_time_problem(w, c, [float(v)], where)
+            if p is None:
+                return True
+            w.problems.append(p)
+            return False
         w.problems.append(f"{where}: {_fmt(v)} must be a finite number")
         return False
     return check
@@ -541,7 +802,8 @@ def _read_axis(w, k, spec, check=None):
         return None
     extra = set(spec) - {"start", "stop", "num", "values"}
     for e in sorted(extra):
-        w.problems.append(f"{key}.{e}: unknown key{_suggest(e, ('start', 'stop', 'num', 'values'))}; "
+        w.problems.append(f"{key}.{_name(e)}: unknown key"
+                          f"{_suggest(e, ('start', 'stop', 'num', 'values'))}; "
                           "allowed: start, stop, num, values")
     if "values" in spec:
         if {"start", "stop", "num"} & set(spec):
@@ -584,8 +846,21 @@ def _read_axis(w, k, spec, check=None):
                           "(use sweep.follow = \"down\" to follow downwards)")
     elif num > 1 and hi == lo:
         w.problems.append(f"{key}: start = stop = {lo!r} with num = {num}; use num = 1")
+    elif not math.isfinite(hi - lo):
+        w.problems.append(f"{key}: from {lo!r} to {hi!r}: stop - start overflows float64 (the "
+                          "axis's values are start + i (stop - start) / (num - 1)); the two "
+                          "must lie within about 1.8e308 of each other")
     else:
-        return tuple(float(x) for x in np.linspace(lo, hi, num))
+        values = np.linspace(lo, hi, num)
+        if not np.isfinite(values).all():
+            w.problems.append(f"{key}: from {lo!r} to {hi!r} in {num} values gives non-finite "
+                              "values; narrow the range")
+        elif num > 1 and not (np.diff(values) > 0).all():
+            w.problems.append(f"{key}: {num} values from {lo!r} to {hi!r} are not distinct in "
+                              f"float64 (a step of {(hi - lo) / (num - 1)!r} is below the "
+                              "resolution at these values); use fewer values or a wider range")
+        else:
+            return tuple(float(x) for x in values)
     return None
 
 
@@ -601,7 +876,7 @@ def _read_sweep(w):
         if k.startswith(IC_PREFIX):
             c = k[len(IC_PREFIX):]
             if c not in w.spec.start_names:
-                w.problems.append(f"sweep.{k}: {c!r} is not a start coordinate of model "
+                w.problems.append(f"sweep.{_name(k)}: {_fmt(c)} is not a start coordinate of model "
                                   f"{w.model!r}; allowed: "
                                   + ", ".join(IC_PREFIX + x for x in w.spec.start_names))
                 continue
@@ -610,17 +885,15 @@ def _read_sweep(w):
                 axes.append(Axis(k, values))
             continue
         if k not in params:
-            w.problems.append(f"sweep.{k}: {k!r} is not a parameter of model {w.model!r}"
+            w.problems.append(f"sweep.{_name(k)}: {_fmt(k)} is not a parameter of model {w.model!r}"
                               f"{_suggest(str(k), params)}; allowed: {', '.join(params)}")
+            continue
+        if not _applies(w, params[k], w.obstacle, f"sweep.{k}"):
             continue
         values = _read_axis(w, k, spec)
         if values is not None:
-            only = params[k].obstacles
-            if only and w.obstacle not in only:
-                w.problems.append(f"sweep.{k}: {k} is a parameter of the {' and '.join(only)} "
-                                  f"obstacle only (system.obstacle is {w.obstacle!r})")
             axes.append(Axis(k, values))
-    if "sweep" in w.raw and w.raw.get("sweep") is not None and not axes:
+    if isinstance(w.raw.get("sweep"), dict) and not axes:
         if not [k for k in sw if k != "follow"]:
             w.problems.append("sweep: no axis given; add e.g. "
                               "kappa = { start = -0.02, stop = 0.0, num = 101 }")
@@ -651,10 +924,42 @@ def _read_sweep(w):
         per = (w.profile.period / w.system["omega"] if ob.name == "profile"
                else ob.period(w.system["omega"]))
         m = sp / per
-        if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
+        if not m < 2**52:
+            w.problems.append(f"system.section_period: {sp!r} is {m:.3g} obstacle periods "
+                              f"(P = {per!r}); at most 2^52, the whole numbers float64 holds")
+        elif abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
             w.problems.append(f"system.section_period: {sp!r} is not a whole number of "
                               f"obstacle periods (P = {per!r})")
+    if ob is not None and ob.name == "profile":
+        _profile_scales(w, axes)
     w.axes, w.follow = axes, follow
+
+
+def _profile_scales(w, axes):
+    """A cam profile at the scene's extreme omega, beta, k and kappa (swept or fixed): a
+    problem, naming the parameter's key and value, where the kernels' numbers would not be
+    finite (``profile.scale_problem``: lengths in time, certified bounds, Sturm floors)."""
+    from .models.profile import scale_problem
+    swept = {a.name: a.values for a in axes}
+
+    def values(name):
+        v = swept.get(name, [w.system.get(name)])
+        return [x for x in v if x is not None and math.isfinite(x)] or [0.0]
+    for omega in {min(values("omega")), max(values("omega"))}:
+        for k in {min(values("k")), max(values("k"))}:
+            for kappa in {min(values("kappa")), max(values("kappa"))}:
+                beta = max(values("beta"))
+                if omega <= 0.0:
+                    continue
+                sigma = max(values("sigma"))
+                found = scale_problem(w.profile, omega, beta, k, kappa, sigma)
+                if found:
+                    name, why = found
+                    value = {"omega": omega, "beta": beta, "k": k, "sigma": sigma}[name]
+                    key = f"sweep.{name}" if name in swept else f"system.{name}"
+                    w.problems.append(f"{key}: {value!r} with this cam profile: {why} (the "
+                                      "kernels' numbers must stay finite)")
+                    return
 
 
 def _fixed(rng) -> bool:
@@ -705,6 +1010,14 @@ def _read_initial(w):
             rng = default
         elif rng[1] < rng[0]:
             w.problems.append(f"initial.{c}: {_fmt(rng)} has high < low")
+        elif not math.isfinite(float(rng[1]) - float(rng[0])):
+            w.problems.append(f"initial.{c}: {_fmt(rng)}: high - low overflows float64 (a start "
+                              "is drawn as low + (high - low) x, x in [0, 1)); the ends must "
+                              "lie within about 1.8e308 of each other")
+            rng = default
+        elif _start_time_problem(w, c, [float(x) for x in rng], f"initial.{c}"):
+            w.problems.append(_start_time_problem(w, c, [float(x) for x in rng], f"initial.{c}"))
+            rng = default
         ranges[c] = (float(rng[0]), float(rng[1]))
     w.n_ic, w.seed, w.ranges = n_ic, seed, ranges
 
@@ -764,9 +1077,17 @@ def _read_output(w):
     outp = w.table("output")
     w.unknown("output", TABLES["output"])
     keep = outp.get("keep", list(KEEP_DEFAULT))
+    if isinstance(keep, list) and len(keep) > len(KEEP):
+        w.problems.append(f"output.keep: {_fmt(keep)}: {len(keep)} entries; it lists each "
+                          f"observable at most once: {', '.join(w.spec.observables)}")
+        keep = list(w.spec.observables)
     if not isinstance(keep, list) or not all(isinstance(x, str) for x in keep):
-        w.problems.append(f"output.keep: {_fmt(keep)} must be a list drawn from {list(KEEP)}")
-        keep = list(KEEP)
+        hint = f' (a list: keep = ["{keep}"])' if isinstance(keep, str) and keep in KEEP else ""
+        w.problems.append(f"output.keep: {_fmt(keep)} must be a list drawn from "
+                          f"{', '.join(w.spec.observables)}{hint}")
+        # one problem: nothing more is said of it (every observable, so that no check that
+        # needs one, such as plot.kind's, adds a second)
+        keep = list(w.spec.observables)
     for x in keep:
         if x not in KEEP:
             w.problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, KEEP)}; "
@@ -802,11 +1123,66 @@ def _normal_form_needs():
     return " or ".join(parts)
 
 
+def undrawable(text: str, key: str) -> str | None:
+    """A problem when matplotlib cannot draw ``text`` (a title or a label: its mathtext,
+    between $ signs, does not parse, or nests past what its parser can recurse), else None.
+    matplotlib is imported only when some line of the text is mathtext."""
+    lines = [x for x in text.split("\n") if x.count("$") - x.count("\\$") >= 2]
+    if not lines:
+        return None
+    from matplotlib import cbook
+    from matplotlib.mathtext import MathTextParser
+    parser = MathTextParser("path")
+    for line in lines:
+        if not cbook.is_math_text(line):
+            continue
+        try:
+            parser.parse(line, dpi=72)
+        except RecursionError:
+            why = "its formula nests too deeply for matplotlib's parser"
+        except Exception as e:  # noqa: BLE001 - pyparsing's and matplotlib's own errors
+            why = (str(e).strip().splitlines() or [type(e).__name__])[-1][:120]
+        else:
+            continue
+        return (f"{key}: {_fmt(text)}: matplotlib cannot draw {_fmt(line)} ({why}); the text "
+                "between $ signs is matplotlib's mathtext (a literal dollar is \\$)")
+    return None
+
+
+def _plot_window(pl, lim, problems):
+    """``[plot] xlim`` or ``ylim``: [low, high] that matplotlib can draw (MAX_PLOT_LIMIT,
+    MIN_PLOT_WIDTH)."""
+    v = pl[lim]
+    if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)):
+        problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high], two numbers")
+        return
+    lo, hi = float(v[0]), float(v[1])
+    if not all(math.isfinite(x) and abs(x) <= MAX_PLOT_LIMIT for x in (lo, hi)):
+        problems.append(f"plot.{lim}: {_fmt(v)} must be finite, within +-{MAX_PLOT_LIMIT:g} "
+                        "(matplotlib's ticks and transforms take differences and products "
+                        "of the ends)")
+    elif not lo < hi:
+        problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
+    elif hi - lo < max(MIN_PLOT_WIDTH * max(abs(lo), abs(hi)), 1.0 / MAX_PLOT_LIMIT):
+        problems.append(f"plot.{lim}: {_fmt(v)} is {hi - lo!r} wide; a window must be at least "
+                        f"{MIN_PLOT_WIDTH:g} of its ends' magnitude (and {1.0 / MAX_PLOT_LIMIT:g})"
+                        " wide, or its ticks and pixels are not distinct")
+
+
 def _read_plot(w):
+    """``[plot]``: how ``cornerbif plot`` draws the file.  Every key is checked here, before
+    any work, with its key and value: types, finite numbers, windows matplotlib can draw,
+    sizes within their limits (MAX_MARKER_SIZE, MAX_PLOT_CYCLES, MAX_PANELS), free text
+    within its (MAX_TITLE, MAX_MARKS, MAX_MARK_LABEL) and drawable, the style sheet a
+    name matplotlib knows or a file of at most MAX_STYLE_BYTES."""
     pl = w.table("plot")
     w.unknown("plot", TABLES["plot"])
     plot = dict(pl)
     problems = w.problems
+    for k, v in plot.items():
+        if not _plain(v):
+            problems.append(f"plot.{_name(k)}: {_fmt(v)} must be a string, a number or a list "
+                            "of them")
     if "color_by" in plot:
         if plot["color_by"] not in PLOT_COLOR_BY:
             problems.append(f"plot.color_by: {_fmt(plot['color_by'])} is not allowed; allowed: "
@@ -818,38 +1194,56 @@ def _read_plot(w):
         problems.append(f"plot.y: {_fmt(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
     for lim in ("xlim", "ylim"):
         if lim in plot:
-            v = plot[lim]
-            if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v) and v[0] < v[1]):
-                problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
-    for k, v in plot.items():
-        if not _plain(v):
-            problems.append(f"plot.{k}: {_fmt(v)[:60]} must be a string, a number or a list "
-                            "of them")
+            _plot_window(plot, lim, problems)
+    if "marker_size" in plot:
+        v = plot["marker_size"]
+        if not (_is_number(v) and math.isfinite(v) and 0 < v <= MAX_MARKER_SIZE):
+            problems.append(f"plot.marker_size: {_fmt(v)} must be a number of points in (0, "
+                            f"{MAX_MARKER_SIZE:g}] (a marker's size; default: from the number "
+                            "of points drawn)")
+    if "title" in plot:
+        if not isinstance(plot["title"], str):
+            problems.append(f"plot.title: {_fmt(plot['title'])} must be a string")
+        elif _text(w, "plot.title", plot["title"], MAX_TITLE, "a figure's title"):
+            p = undrawable(_title_lines(plot["title"]), "plot.title")
+            if p:
+                problems.append(p)
     if "marks" in plot:
         v = plot["marks"]
-        if not (isinstance(v, list) and all(isinstance(m, list) and len(m) == 2
-                                            and _is_number(m[0]) and math.isfinite(m[0])
-                                            and isinstance(m[1], str) for m in v)):
-            problems.append(f"plot.marks: {_fmt(v)[:80]} must be a list of [value, \"label\"] "
+        if isinstance(v, list) and len(v) > MAX_MARKS:
+            problems.append(f"plot.marks: {len(v)} marks; at most {MAX_MARKS} (dotted lines on "
+                            "one diagram)")
+        elif not (isinstance(v, list) and all(isinstance(m, list) and len(m) == 2
+                                              and _is_number(m[0]) and math.isfinite(m[0])
+                                              and isinstance(m[1], str) for m in v)):
+            problems.append(f"plot.marks: {_fmt(v)} must be a list of [value, \"label\"] "
                             "pairs (values on the swept axis, marked by dotted lines)")
         elif len(w.axes) != 1:
             problems.append("plot.marks: marks values on a diagram's one swept axis; this scene "
                             f"sweeps {len(w.axes)} axes")
         else:
             lo, hi = min(w.axes[0].values), max(w.axes[0].values)
-            for x, lab in v:
+            for i, (x, lab) in enumerate(v):
+                key = f"plot.marks[{i}]"
                 if not lo <= x <= hi:
-                    problems.append(f"plot.marks: {x!r} ({lab}) is outside the swept "
+                    problems.append(f"{key}: {x!r} ({_fmt(lab)}) is outside the swept "
                                     f"{w.axes[0].name} range [{lo!r}, {hi!r}]")
+                if _text(w, key, lab, MAX_MARK_LABEL, "a label beside a dotted line"):
+                    p = undrawable(f"{lab} = {x:.10g}", key)     # as the legend draws it
+                    if p:
+                        problems.append(p)
     if "orbits" in plot and plot["orbits"] not in ("words", "families"):
         problems.append(f"plot.orbits: {_fmt(plot['orbits'])} must be \"words\" (a colour per "
                         "orbit) or \"families\" (one per family such as beta^N gamma)")
-    if "style" in plot and not (isinstance(plot["style"], str) and plot["style"]):
-        problems.append(f"plot.style: {_fmt(plot['style'])[:60]} must be a matplotlib style "
-                        "name or the path of a .mplstyle file")
-    if "title" in plot and not isinstance(plot["title"], str):
-        problems.append(f"plot.title: {_fmt(plot['title'])[:60]} must be a string")
+    if "style" in plot:
+        p = style_problem(plot["style"], "plot.style")
+        if p:
+            problems.append(p)
     kind = plot.get("kind", "diagram")
+    if kind not in PLOT_KINDS:
+        problems.append(f"plot.kind: {_fmt(kind)} is not a plot kind"
+                        f"{_suggest(str(kind)[:100], PLOT_KINDS)}; allowed: {', '.join(PLOT_KINDS)}")
+        kind = None
     if kind in NORMAL_FORM_KINDS:
         if not w.spec.has_normal_form(w.obstacle):
             problems.append(f"plot.kind: {kind!r} draws the corner normal form of z = kappa + "
@@ -862,9 +1256,6 @@ def _read_plot(w):
         if kind == "return_map" and w.run_given.get("transient", PRESETS[w.preset]["transient"]) != 0:
             problems.append("plot.kind: 'return_map' needs run.transient = 0 (A0 is the first "
                             "section value after the start)")
-    if kind not in PLOT_KINDS:
-        problems.append(f"plot.kind: {_fmt(kind)} is not a plot kind{_suggest(str(kind), PLOT_KINDS)}; "
-                        f"allowed: {', '.join(PLOT_KINDS)}")
     if kind == "timeseries":
         if not w.spec.timeseries:
             which = " or ".join(repr(m.name) for m in _all_models() if m.timeseries)
@@ -886,10 +1277,10 @@ def _read_plot(w):
                         + (", ".join(a.name for a in w.axes) or "nothing"))
     if "ic" in plot:
         v = plot["ic"]
-        if not (v == "distinct" or (isinstance(v, list) and v and all(_is_int(i) and 0 <= i < w.n_ic
-                                                                       for i in v))):
-            problems.append(f"plot.ic: {_fmt(v)} must be \"distinct\" or a list of start indices "
-                            f"in 0..{w.n_ic - 1}")
+        if not (v == "distinct" or (isinstance(v, list) and 0 < len(v) <= w.n_ic
+                                    and all(_is_int(i) and 0 <= i < w.n_ic for i in v))):
+            problems.append(f"plot.ic: {_fmt(v)} must be \"distinct\" or a list of at most "
+                            f"{w.n_ic} start indices in 0..{w.n_ic - 1}")
     if "point" in plot:
         v = plot["point"]
         shape = [len(a.values) for a in w.axes]
@@ -897,15 +1288,71 @@ def _read_plot(w):
                 and all(_is_int(i) and 0 <= i < n for i, n in zip(v, shape))):
             problems.append(f"plot.point: {_fmt(v)} must be a grid index with one entry per swept "
                             f"axis ({len(shape)}), each in 0..len-1 (grid {tuple(shape)})")
-    for k, lo in (("cycles", 0), ("max_panels", 1)):
-        if k in plot and not (_is_number(plot[k]) and plot[k] > lo and math.isfinite(plot[k])):
-            problems.append(f"plot.{k}: {_fmt(plot[k])} must be a number > {lo}")
+    if "cycles" in plot:
+        v = plot["cycles"]
+        if not (_is_number(v) and math.isfinite(v) and 0 < v <= MAX_PLOT_CYCLES):
+            problems.append(f"plot.cycles: {_fmt(v)} must be a number in (0, {MAX_PLOT_CYCLES}] "
+                            "(periods drawn, each from a fixed number of samples)")
+    if "max_panels" in plot:
+        v = plot["max_panels"]
+        if not (_is_int(v) and 1 <= v <= MAX_PANELS):
+            problems.append(f"plot.max_panels: {_fmt(v)} must be an integer in 1..{MAX_PANELS} "
+                            "(a time-series figure's panels, one per start)")
     w.plot = plot
+
+
+def _title_lines(text: str) -> str:
+    """A title as ``cornerbif plot`` draws it: in the paper's notation (``plot_style.
+    title_tex``, which imports no matplotlib); its line breaks never fall inside a formula,
+    so each formula is checked whole.  A title without a $ of its own is returned as it is:
+    the notation's formulas ($\\omega$, $\\kappa_{CC}$) are well formed, and the check then
+    imports no matplotlib (a quarter of a second at every command's start)."""
+    if "$" not in text:
+        return text
+    from .plot_style import title_tex
+    return title_tex(text)
+
+
+def style_problem(style, key: str) -> str | None:
+    """A problem with a style sheet given at ``key`` (``[plot] style``), or None: a name of
+    matplotlib's styles, or the path of a regular file of at most MAX_STYLE_BYTES (a path
+    with a '/' or ending in .mplstyle is a path; relative to the working directory, as
+    ``cornerbif plot`` reads it)."""
+    if not isinstance(style, str) or not style:
+        return (f"{key}: {_fmt(style)} must be a matplotlib style name or the path of a "
+                ".mplstyle file")
+    if len(style) > MAX_STYLE_PATH or "\0" in style:
+        return (f"{key}: {_fmt(style)} ({len(style)} characters) is neither a style name nor "
+                f"a path (at most {MAX_STYLE_PATH} characters, no NUL)")
+    try:
+        st = os.stat(style)
+    except OSError:
+        st = None
+    if st is None and ("/" in style or os.sep in style or style.endswith(".mplstyle")):
+        return f"{key}: {_fmt(style)}: no such style sheet (a path, relative to the working directory)"
+    if st is not None:
+        if not stat.S_ISREG(st.st_mode):
+            return f"{key}: {_fmt(style)} is not a regular file (a .mplstyle style sheet)"
+        if st.st_size > MAX_STYLE_BYTES:
+            return (f"{key}: {_fmt(style)} is {st.st_size} bytes; a style sheet is at most "
+                    f"{MAX_STYLE_BYTES} (a few hundred lines of rc settings)")
+        if not os.access(style, os.R_OK):
+            return f"{key}: {_fmt(style)}: cannot read the style sheet (permission denied)"
+        return None
+    import matplotlib.style as mstyle
+    if style in mstyle.available:
+        return None
+    return (f"{key}: {_fmt(style)} is neither a file nor one of matplotlib's styles"
+            f"{_suggest(style, mstyle.available)} ({', '.join(sorted(mstyle.available)[:6])}, ...)")
 
 
 def _read_continue(w):
     """``[continue]``: one-parameter continuation of the periodic orbits found at the
-    start (``cornerbif continue``, cornerbif.continuation)."""
+    start (``cornerbif continue``, cornerbif.continuation).  Every key is checked here, so
+    that ``validate`` refuses what ``continue`` could not run: numbers finite and within
+    their parameter's own bounds, steps that can move the parameter in double precision,
+    seed words of the model's letters and of bounded length (``analysis.parse_word``), and
+    paths and names as text."""
     w.cont = {}
     if "continue" not in w.raw:
         return
@@ -923,7 +1370,7 @@ def _read_continue(w):
         return
     name = c.get("parameter")
     numeric = [k for k in w.spec.params]
-    if name not in numeric:
+    if not isinstance(name, str) or name not in numeric:
         pr.append(f"continue.parameter: {_fmt(name)} is not a numeric parameter of model "
                   f"{w.model!r}{_suggest(str(name), numeric)}; allowed: {', '.join(numeric)}")
         return
@@ -937,18 +1384,15 @@ def _read_continue(w):
                   f"{_fmt(w.system[forced[0]])}: a periodic orbit needs the forcing's period "
                   "and the wall's commensurate, which continuing a frequency breaks; "
                   "continue another parameter, or set the forcing to 0")
-    rng = c.get("range")
-    if not (isinstance(rng, list) and len(rng) == 2 and all(_is_number(x) for x in rng)
-            and all(math.isfinite(x) for x in rng) and rng[0] < rng[1]):
-        pr.append(f"continue.range: {_fmt(rng)} must be [low, high], finite, low < high")
+    rng = _continue_range(w, c, "range", name)
+    if rng is None:
         return
-    for x in rng:
-        w.param(name, x, "continue.range")
-    out["range"] = [float(rng[0]), float(rng[1])]
+    out["range"] = rng
+    width = rng[1] - rng[0]
     start = c.get("start", w.system.get(name))
     if not _is_number(start) or not rng[0] <= start <= rng[1]:
         pr.append(f"continue.start: {_fmt(start)} must be a number within continue.range "
-                  f"{_fmt(rng)} (default: system.{name})")
+                  f"{_fmt(c.get('range'))} (default: system.{name})")
         return
     w.param(name, start, "continue.start")
     out["start"] = float(start)
@@ -958,60 +1402,132 @@ def _read_continue(w):
         pr.append(f"continue.seed: {_fmt(seed)} must be \"all\" or a cycle word (or a list "
                   "of words), e.g. \"b\", \"a\", \"b^5 g\"")
     else:
-        from .analysis import parse_word
         for s in seeds:
-            if s != "all" and set(s) != {"x"}:      # x: a cluster of a smooth obstacle
-                try:
-                    parse_word(s)
-                except ValueError as e:
-                    pr.append(f"continue.seed: {s!r}: {e} (or x for a smooth obstacle)")
+            if s != "all":
+                _check_seed_word(w, s)
     out["seed"] = seed
-    width = out["range"][1] - out["range"][0]
     for k, default in (("ds", width / 200.0), ("ds_min", width * 1e-9),
                        ("ds_max", width / 20.0)):
         v = c.get(k, default)
         if not (_is_number(v) and math.isfinite(v) and v > 0):
             pr.append(f"continue.{k}: {_fmt(v)} must be a number > 0")
-        out[k] = float(v) if _is_number(v) else default
+            v = default
+        out[k] = float(v)
+    if out["ds_max"] > width:
+        pr.append(f"continue.ds_max: {_fmt(out['ds_max'])} must be at most the width of "
+                  f"continue.range ({width:.6g}): a longer step leaves the range at once")
+    if out["ds_min"] < MIN_CONTINUE_STEP * width:
+        pr.append(f"continue.ds_min: {_fmt(out['ds_min'])} must be at least "
+                  f"{MIN_CONTINUE_STEP:g} times the width of continue.range "
+                  f"({MIN_CONTINUE_STEP * width:.3g}): a smaller step cannot move the parameter "
+                  "in double precision (the steps are halved down to it, each a failed "
+                  "Newton solve)")
     if not out["ds_min"] <= out["ds"] <= out["ds_max"]:
         pr.append(f"continue.ds: ds_min {out['ds_min']!r} <= ds {out['ds']!r} <= ds_max "
                   f"{out['ds_max']!r} must hold")
     ev = c.get("events", list(CONTINUE_EVENTS))
-    if not (isinstance(ev, list) and all(x in CONTINUE_EVENTS for x in ev)):
+    if not (isinstance(ev, list) and all(isinstance(x, str) and x in CONTINUE_EVENTS
+                                         for x in ev)
+            and len(set(ev)) == len(ev)):
         pr.append(f"continue.events: {_fmt(ev)} must be a list drawn from "
-                  + ", ".join(CONTINUE_EVENTS))
-    out["events"] = list(ev) if isinstance(ev, list) else list(CONTINUE_EVENTS)
+                  + ", ".join(CONTINUE_EVENTS) + ", each at most once (a corner collision, "
+                  "a grazing and a zero-velocity impact end a branch whether listed or not)")
+        ev = list(CONTINUE_EVENTS)
+    out["events"] = list(ev)
     sw = c.get("switch", True)
     if not isinstance(sw, bool):
         pr.append(f"continue.switch: {_fmt(sw)} must be true or false")
-    out["switch"] = bool(sw)
+    out["switch"] = bool(sw) if isinstance(sw, bool) else True
     if "curve" in c:
         cv = c["curve"]
-        if cv not in numeric or cv == name:
+        if not isinstance(cv, str) or cv not in numeric or cv == name:
             pr.append(f"continue.curve: {_fmt(cv)} must be another numeric parameter of "
                       f"model {w.model!r} (the second parameter of the corner-collision "
-                      "curves)")
-        crng = c.get("curve_range")
-        if not (isinstance(crng, list) and len(crng) == 2 and all(_is_number(x) for x in crng)
-                and crng[0] < crng[1] and crng[0] <= w.system.get(cv, math.nan) <= crng[1]):
-            pr.append(f"continue.curve_range: {_fmt(crng)} must be [low, high] around "
-                      f"system.{cv} = {_fmt(w.system.get(cv))}")
-        out["curve"] = cv
-        out["curve_range"] = crng
+                      f"curves){_suggest(str(cv), numeric)}; allowed: "
+                      + ", ".join(k for k in numeric if k != name))
+        elif any(a.name == cv for a in w.axes):
+            pr.append(f"continue.curve: {cv!r} is also swept ([sweep] {cv}); remove the axis")
+        else:
+            crng = _continue_range(w, c, "curve_range", cv)
+            at = w.system.get(cv)
+            if crng is not None and not (_is_number(at) and crng[0] <= at <= crng[1]):
+                pr.append(f"continue.curve_range: {_fmt(c.get('curve_range'))} must hold "
+                          f"system.{cv} = {_fmt(at)} (the curves start there)")
+            out["curve"] = cv
+            out["curve_range"] = c.get("curve_range")
     if "seed_file" in c:
         sf = c["seed_file"]
-        if not isinstance(sf, str) or not sf:
-            pr.append(f"continue.seed_file: {_fmt(sf)} must be the path of a sweep file "
-                      f"(cornerbif sweep) of this model over {name!r}")
-        out["seed_file"] = sf
+        if (not isinstance(sf, str) or not sf or "\0" in sf
+                or len(os.fsencode(sf)) > MAX_STYLE_PATH):
+            pr.append(f"continue.seed_file: {_short_text(sf)} must be the path of a sweep file "
+                      f"(cornerbif sweep) of this model over {name!r} (text without NUL "
+                      f"characters, at most {MAX_STYLE_PATH} bytes)")
+        else:
+            out["seed_file"] = sf
     if "curve_range" in c and "curve" not in c:
         pr.append(f"continue.curve_range: {_fmt(c['curve_range'])} without continue.curve "
                   "(the second parameter of the curves)")
     if "over" in c:
-        if not isinstance(c["over"], str):
-            pr.append(f"continue.over: {_fmt(c['over'])} must be the name of a scene")
-        out["over"] = c["over"]
+        ov = c["over"]
+        if (not isinstance(ov, str) or not ov or len(ov) > MAX_OVER_NAME
+                or any(not ch.isprintable() for ch in ov)):
+            pr.append(f"continue.over: {_short_text(ov)} must be the name of a scene (printable "
+                      f"text of at most {MAX_OVER_NAME} characters)")
+        else:
+            out["over"] = ov
     w.cont = out
+
+
+# [continue] ds_min: the smallest step, relative to the range's width (the continuation's
+# steps are fractions of the width; 1e-14 is a few units in the last place of a double)
+MIN_CONTINUE_STEP = 1e-14
+# [continue] over: a scene's name (the gallery draws the branches over its sweep)
+MAX_OVER_NAME = 200
+
+
+def _short_text(v, n=60) -> str:
+    """A value for a message, cut to n characters (a path or a name can be long)."""
+    t = _fmt(v)
+    return t if len(t) <= n else t[:n] + "..."
+
+
+def _continue_range(w, c, key, name):
+    """``[continue] range`` or ``curve_range``: [low, high], both finite numbers within the
+    parameter's own bounds, low < high and the width finite; None (and a problem) if not."""
+    rng = c.get(key)
+    if not (isinstance(rng, list) and len(rng) == 2 and all(_is_number(x) for x in rng)
+            and all(math.isfinite(x) for x in rng) and rng[0] < rng[1]
+            and math.isfinite(float(rng[1]) - float(rng[0]))):
+        w.problems.append(f"continue.{key}: {_short_text(rng)} must be [low, high], both finite, "
+                          "low < high (and high - low finite)")
+        return None
+    ok = all([w.param(name, x, f"continue.{key}") for x in rng])
+    return [float(rng[0]), float(rng[1])] if ok else None
+
+
+def _check_seed_word(w, s):
+    """A ``[continue] seed`` word: on a smooth obstacle (no corners: every cluster is x)
+    a word of x only; elsewhere letters a, b, g (x names a smooth obstacle's cluster and
+    has no orbit to solve there); at most ``analysis.MAX_WORD_LETTERS`` letters, counted
+    without expanding the word."""
+    from .analysis import parse_word
+    obstacle = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
+    smooth = obstacle is not None and not obstacle.corners
+    try:
+        letters = parse_word(s, allow_x=True)
+    except ValueError as e:
+        w.problems.append(f"continue.seed: {_short_text(s)}: {e}")
+        return
+    if smooth and set(letters) != {"x"}:
+        w.problems.append(f"continue.seed: {_short_text(s)}: on the smooth obstacle "
+                          f"{w.obstacle!r} every cluster is x; seed \"all\" or a word of x "
+                          "(\"x\", \"xx\", \"x^3\"), the clusters per cycle")
+    elif not smooth and "x" in letters:
+        where = f"obstacle {w.obstacle!r}" if obstacle is not None else f"model {w.model!r}"
+        w.problems.append(f"continue.seed: {_short_text(s)}: x is the cluster of a smooth "
+                          f"obstacle (sine); on {where} a seed word is letters a, b, g "
+                          "(e.g. \"b\", \"a\", \"b^5 g\"); \"all\" continues every "
+                          "attractor whatever its word")
 
 
 def _read_model_checks(w):
@@ -1033,17 +1549,29 @@ def from_dict(raw, drawn_starts: bool = True) -> Scene:
     """
     if not isinstance(raw, dict):
         raise SceneError([f"scene: expected a table, got {type(raw).__name__}"])
+    deep = nesting_problem(raw)
+    if deep:                 # before any reader walks it (each may recurse per level)
+        raise SceneError([deep])
+    wide = [f"{t}: {len(b)} keys; a table of a scene has at most {MAX_TABLE_KEYS} (the "
+            "format's tables have about 15)" for t, b in
+            [("the scene's top level", raw)] + [(_name(t), b) for t, b in raw.items()
+                                                 if isinstance(b, dict)]
+            if len(b) > MAX_TABLE_KEYS]
+    if wide:                 # before a problem is said of each key (unknown, misspelt)
+        raise SceneError(wide)
     w = _Walk(raw, drawn_starts)
     for t, body in raw.items():
         if t not in TABLES:
-            w.problems.append(f"{t}: unknown table{_suggest(str(t), TABLES)}; allowed: "
+            w.problems.append(f"{_name(t)}: unknown table{_suggest(str(t), TABLES)}; allowed: "
                               + ", ".join(f"[{x}]" for x in TABLES))
         elif not isinstance(body, dict):
             w.problems.append(f"{t}: {_fmt(body)} must be a table [{t}]")
     for _, read in READERS:
         read(w)
     if w.problems:
-        raise SceneError(w.problems)
+        more = len(w.problems) - MAX_PROBLEMS
+        raise SceneError(w.problems[:MAX_PROBLEMS] + ([f"... and {more} more problems (fix "
+                                                       "these first)"] if more > 0 else []))
     return _scene(w)
 
 

@@ -21,13 +21,21 @@ adaptive steps; along the branch it watches the distance of every impact to its 
 the smallest gap of every flight to the obstacle (grazing: an impact is born), the
 relative velocity of every impact (a zero-velocity impact), and the Floquet multipliers
 (fold: det(J - I) = 0; period doubling: det(J + I) = 0; torus: a complex pair on the unit
-circle), and locates each sign change by the secant method on the arclength.
+circle), and locates each sign change by the secant method on the arclength.  Every point
+it keeps passes the admissibility test (``admissible``), and every branch says why each of
+its ends stopped (``stop_reason``).
+
+``run_to_file`` is ``cornerbif continue``: the output checked and locked before any work,
+each branch and curve written to the partial file as soon as it is finished (with the
+state to go on from), and ``resume`` completing it bitwise as an uninterrupted run.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -866,6 +874,8 @@ class Point:
     mu: np.ndarray
     monitors: dict
     problem: object = None     # the itinerary X refers to (pieces change on a smooth obstacle)
+    admissible: bool = True    # the admissibility check's outcome (``admissible``)
+    margin: float = math.nan   # its smallest margin (``_margins``; >= -ADMISSIBLE_TOL: passes)
 
 
 @dataclass
@@ -995,10 +1005,16 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     steps where the branch moves mostly in the parameter, whatever the unknowns' scales
     (impact velocities of 100 beside times of 1).  The first step goes along ``T0`` (a
     tangent) if given, else the way ``direction`` (+1, -1) moves the parameter.  Returns
-    (points, events): the accepted points (Point: param, X, multipliers, monitors) and the
-    located events (Event).  The branch ends at the range's end, at an event that ends
-    this itinerary's orbit as the flow's (corner, grazing, zero_velocity: its located
-    point is the branch's last), or when the step falls below ``ds_min``.
+    (points, events): the accepted points (Point: param, X, multipliers, monitors, the
+    admissibility check's outcome) and the located events (Event).  The branch ends at the
+    range's end, at an event that ends this itinerary's orbit as the flow's (corner,
+    grazing, zero_velocity: its located point is the branch's last; located whether
+    ``events`` lists it or not, since past it the solution is no orbit of the flow), where a
+    point is not admissible though no test function said so (the branch ends at its last
+    admissible point), when the step falls below ``ds_min``, when the step budget runs out,
+    or when a step fails (Newton, a singular matrix): the last event, of kind "end" where
+    none of the named ones, always says why.  Every point returned is admissible
+    (``admissible``); OrbitError if the start is not.
     """
     n = len(X0)
     lo, hi = lam_range
@@ -1008,7 +1024,11 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     h, h_min, h_max = ds / width, ds_min / width, ds_max / width
     Y = np.append(np.asarray(X0, float), lam0)
     mon, mu = _monitors(problem, Y[:n], Y[n])
-    points = [Point(lam0, Y[:n].copy(), mu, mon, problem)]
+    ok, margin = _point_admissible(problem, Y[:n], Y[n], mon)
+    if not ok:
+        raise OrbitError(f"the orbit is not admissible at the branch's start "
+                         f"({_why_not(problem, Y[:n], Y[n])})")
+    points = [Point(lam0, Y[:n].copy(), mu, mon, problem, ok, margin)]
     found = []
     T = _tangent(problem, Y[:n], Y[n], T0, W)
     if T0 is None and T[n] * direction < 0:
@@ -1016,6 +1036,7 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     if (lam0 <= lo and T[n] < 0) or (lam0 >= hi and T[n] > 0):
         found.append(Event("end", lam0, Y[:n].copy(), "the end of the range", problem))
         return points, found
+    failure = ""
     for step in range(max_steps + 1):
         if step == max_steps:
             found.append(Event("end", Y[n], Y[:n].copy(),
@@ -1026,40 +1047,86 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
             jump = Yn - (Y + h * T)
             if math.sqrt(_wdot(W, jump, jump)) > h:
                 raise OrbitError("the corrector jumped away from the predictor")
-        except (OrbitError, np.linalg.LinAlgError):
+        except (OrbitError, np.linalg.LinAlgError) as e:
+            failure = str(e) or type(e).__name__
             h *= 0.5
             if h < h_min:
-                found.append(Event("end", Y[n], Y[:n].copy(), "the step fell below ds_min",
-                                   problem))
+                found.append(Event("end", Y[n], Y[:n].copy(),
+                                   f"the step fell below ds_min ({ds_min:.3g}; the last "
+                                   f"attempt: {failure})", problem))
                 break
             continue
-        out = Yn[n] > hi or Yn[n] < lo
-        if out:
-            edge = hi if Yn[n] > hi else lo
-
-            def sfun(Yv, edge=edge):
-                return Yv[n] - edge
-            Yn = _locate(problem, Y, T, 0.0, h, sfun(Y), sfun(Yn), sfun, W)
-        mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
-        ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W)
-        if ended:
-            e = found[-1]
-            m_e, mu_e = _monitors(problem, e.X, e.lam)
-            points.append(Point(e.lam, e.X.copy(), mu_e, m_e, problem))
+        before, kept = len(found), len(points)
+        try:
+            problem, Y, T, mon, h, stop = _advance(problem, Y, Yn, T, mon, h, h_max, lo, hi,
+                                                   events, found, points, n, W)
+        except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError) as e:
+            # a step that cannot be completed (the monitors, an event's location or the next
+            # tangent failed): the branch ends at its last complete point, saying so
+            if len(points) == kept:
+                del found[before:]       # located beyond the last complete point
+            last = points[-1]
+            found.append(Event("end", last.lam, last.X.copy(),
+                               f"the continuation failed after this point "
+                               f"({str(e) or type(e).__name__})", last.problem))
             break
-        points.append(Point(Yn[n], Yn[:n].copy(), mu_n, mon_n, problem))
-        if out:
-            found.append(Event("end", Yn[n], Yn[:n].copy(), "the end of the range", problem))
+        if stop:
             break
         if log:
-            log(Yn[n])
-        problem, Yn[:n] = problem.reindex(Yn[:n], Yn[n])
-        Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
-        # adapt: grow where the tangent turns little
-        turn = math.acos(max(-1.0, min(1.0, _wdot(W, T, Tn))))
-        h = min(h_max, h * (1.5 if turn < 0.05 else 1.0 if turn < 0.2 else 0.5))
-        Y, T, mon = Yn, Tn, mon_n
+            log(Y[n])
     return points, found
+
+
+def _advance(problem, Y, Yn, T, mon, h, h_max, lo, hi, events, found, points, n, W):
+    """One accepted step of ``continue_branch`` from Y to the corrected Yn: the range's end,
+    the events between, the admissibility of Yn, the next tangent and step.  Returns
+    (problem, Y, T, monitors, h, stop): the problem is another where an impact changed
+    piece on a smooth obstacle (``reindex``)."""
+    out = Yn[n] > hi or Yn[n] < lo
+    if out:
+        edge = hi if Yn[n] > hi else lo
+
+        def sfun(Yv, edge=edge):
+            return Yv[n] - edge
+        Yn = _locate(problem, Y, T, 0.0, h, sfun(Y), sfun(Yn), sfun, W)
+    mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
+    before = len(found)
+    ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W)
+    if ended:
+        e = found[-1]
+        m_e, mu_e = _monitors(problem, e.X, e.lam)
+        ok_e, margin_e = _point_admissible(problem, e.X, e.lam, m_e)
+        if ok_e:
+            points.append(Point(e.lam, e.X.copy(), mu_e, m_e, problem, ok_e, margin_e))
+            return problem, Y, T, mon, h, True
+        # the located end is not an orbit of the flow either: the branch ends before it
+        del found[before:]
+        found.append(Event("end", Y[n], Y[:n].copy(),
+                           f"its orbit stops being one of the flow within the next step "
+                           f"({_why_not(problem, e.X, e.lam)} at the located {e.kind}, "
+                           f"{e.lam:.12g}): the branch ends at its last admissible point",
+                           problem))
+        return problem, Y, T, mon, h, True
+    ok_n, margin_n = _point_admissible(problem, Yn[:n], Yn[n], mon_n)
+    if not ok_n:
+        # no test function changed sign (through a pole, or a non-finite value), yet the
+        # next point is no orbit of the flow: it is not stored, and the branch ends here
+        del found[before:]
+        found.append(Event("end", Y[n], Y[:n].copy(),
+                           f"its orbit stops being one of the flow within the next step (at "
+                           f"{Yn[n]:.12g}: {_why_not(problem, Yn[:n], Yn[n])}): the branch "
+                           "ends at its last admissible point", problem))
+        return problem, Y, T, mon, h, True
+    points.append(Point(Yn[n], Yn[:n].copy(), mu_n, mon_n, problem, ok_n, margin_n))
+    if out:
+        found.append(Event("end", Yn[n], Yn[:n].copy(), "the end of the range", problem))
+        return problem, Yn, T, mon_n, h, True
+    problem, Yn[:n] = problem.reindex(Yn[:n], Yn[n])
+    Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
+    # adapt: grow where the tangent turns little
+    turn = math.acos(max(-1.0, min(1.0, _wdot(W, T, Tn))))
+    h = min(h_max, h * (1.5 if turn < 0.05 else 1.0 if turn < 0.2 else 0.5))
+    return problem, Yn, Tn, mon_n, h, False
 
 
 @dataclass
@@ -1069,6 +1136,11 @@ class Branch:
     events: list
     word: str = ""
     origin: str = ""
+    stops: list = None        # the events where it stopped (None: its last event)
+
+    def ends(self) -> list:
+        """The events at which the branch stopped: the last of each way it was continued."""
+        return self.stops if self.stops is not None else self.events[-1:]
 
 
 def across_corner(problem, q, X, lam):
@@ -1091,54 +1163,78 @@ def across_corner(problem, q, X, lam):
     return new, X
 
 
-def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branches=6,
-           **kw):
+MAX_BRANCHES = 6      # branches continued each way from a seed (``follow``)
+
+
+def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True,
+           max_branches=MAX_BRANCHES, **kw):
     """Continue from (X0, lam0) and, at every corner collision, on along the branch of
     the new itinerary (the impact on the other side of its corner) where it exists:
     the tangent of the new itinerary at the collision, oriented so that the impact
     moves into its new piece, says whether the new branch goes on in the same direction
     (a persistence: the word changes) or turns back (a nonsmooth fold: the two branches
-    end together).  Returns the branches in order."""
+    end together).  Returns the branches in order (breadth first, at most
+    ``max_branches``; ``follow_step`` is one of them)."""
     out = []
     todo = [(problem, X0, lam0, None, "start")]
     while todo and len(out) < max_branches:
         prob, X, lam, T0, origin = todo.pop(0)
+        br, more = follow_step(prob, X, lam, T0, origin, lam_range, direction, switch,
+                               room=max_branches - len(out) - 1 - len(todo), **kw)
+        out.append(br)
+        todo += more
+    return out
+
+
+def follow_step(prob, X, lam, T0, origin, lam_range, direction=1.0, switch=True,
+                room=MAX_BRANCHES, **kw):
+    """One branch of ``follow``: continue (X, lam) of ``prob`` (along the tangent ``T0``,
+    or the way ``direction`` moves the parameter) and, where it ends at a corner
+    collision and ``switch``, solve the other side's itinerary there.  Returns (the
+    Branch, the branches to continue from it: (problem, X, param, tangent, origin) each).
+    ``room``: how many more branches ``follow`` continues; those beyond are said in the
+    corner collision's detail and not returned."""
+    try:
+        pts, evs = continue_branch(prob, X, lam, lam_range, direction, T0, **kw)
+    except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError) as e:
+        X = np.asarray(X, float).copy()
         try:
-            pts, evs = continue_branch(prob, X, lam, lam_range, direction, T0, **kw)
-        except (OrbitError, np.linalg.LinAlgError) as e:
-            X = np.asarray(X, float).copy()
             mon, mu = _monitors(prob, X, lam)
-            pts = [Point(lam, X, mu, mon, prob)]
-            evs = [Event("end", lam, X, f"the continuation failed ({e})", prob)]
-        out.append(Branch(prob, pts, evs, prob.word(pts[0].X, pts[0].lam), origin))
-        last = evs[-1] if evs else None
-        if not (switch and last is not None and last.kind == "corner"):
-            continue
-        q = int(last.detail.split(";")[0].split()[-1])
-        new, Xs = last.problem.across(q, last.X, last.lam)
-        n = len(Xs)
-        try:
-            Xn = newton(new, Xs, last.lam)
-            T = _tangent(new, Xn, last.lam)
-        except (OrbitError, np.linalg.LinAlgError) as e:
-            last.detail += f"; no orbit of the other side's itinerary ({e})"
-            continue
-        ok, why = new.admissible(Xn, last.lam)
-        if not ok:
-            last.detail += (f"; the other side's itinerary has no admissible orbit there "
-                            f"({why}): the orbit ends at the corner collision")
-            continue
-        word = new.word(Xn, last.lam)
-        if np.abs(Xn - Xs).max() > 1e-6 * (1.0 + np.abs(Xs).max()):
-            # the map jumps at the corner (the one-sided slopes differ): the other side's
-            # orbit is another orbit, not this one going on; follow it both ways
-            last.detail += (f"; the map jumps there: the other side's itinerary has the "
-                            f"orbit {word!r}, continued both ways")
-            origin = (f"the orbit {word!r} on the other side of the corner collision of "
-                      f"{q} at {new.param} = {last.lam!r} (a jump)")
-            todo.append((new, Xn, last.lam, T, origin))
-            todo.append((new, Xn, last.lam, -T, origin))
-            continue
+            ok, margin = _point_admissible(prob, X, lam, mon)
+        except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError):
+            mon, mu, ok, margin = {}, np.full(2, complex(math.nan, math.nan)), True, math.nan
+        pts = [Point(lam, X, mu, mon, prob, ok, margin)]
+        evs = [Event("end", lam, X, f"the continuation failed ({e})", prob)]
+    br = Branch(prob, pts, evs, prob.word(pts[0].X, pts[0].lam), origin)
+    last = evs[-1] if evs else None
+    if not (switch and last is not None and last.kind == "corner"):
+        return br, []
+    more = []
+    q = int(last.detail.split(";")[0].split()[-1])
+    new, Xs = last.problem.across(q, last.X, last.lam)
+    n = len(Xs)
+    try:
+        Xn = newton(new, Xs, last.lam)
+        T = _tangent(new, Xn, last.lam)
+    except (OrbitError, np.linalg.LinAlgError) as e:
+        last.detail += f"; no orbit of the other side's itinerary ({e})"
+        return br, more
+    ok, why = new.admissible(Xn, last.lam)
+    if not ok:
+        last.detail += (f"; the other side's itinerary has no admissible orbit there "
+                        f"({why}): the orbit ends at the corner collision")
+        return br, more
+    word = new.word(Xn, last.lam)
+    if np.abs(Xn - Xs).max() > 1e-6 * (1.0 + np.abs(Xs).max()):
+        # the map jumps at the corner (the one-sided slopes differ): the other side's
+        # orbit is another orbit, not this one going on; follow it both ways
+        last.detail += (f"; the map jumps there: the other side's itinerary has the "
+                        f"orbit {word!r}, continued both ways")
+        origin = (f"the orbit {word!r} on the other side of the corner collision of "
+                  f"{q} at {new.param} = {last.lam!r} (a jump)")
+        more.append((new, Xn, last.lam, T, origin))
+        more.append((new, Xn, last.lam, -T, origin))
+    else:
         # a continuous crossing: the orbit goes on, into the new side (the distance of
         # point q to its corner must grow)
         eps = 1e-7 * (1.0 + np.abs(Xn).max())
@@ -1150,12 +1246,27 @@ def follow(problem, X0, lam0, lam_range, direction=1.0, switch=True, max_branche
         came = pts[-1].lam - pts[-2].lam if len(pts) > 1 else direction
         kind = "persists" if T[n] * came > 0 else "turns back (nonsmooth fold)"
         last.detail += f"; the orbit crosses continuously and {kind} as {word!r}"
-        todo.append((new, Xn, last.lam, T, f"corner collision of {q} at "
-                                            f"{new.param} = {last.lam!r}: {kind}"))
-    return out
+        more.append((new, Xn, last.lam, T, f"corner collision of {q} at "
+                                           f"{new.param} = {last.lam!r}: {kind}"))
+    if len(more) > max(room, 0):
+        dropped = len(more) - max(room, 0)
+        last.detail += (f"; {'it is' if dropped == len(more) else 'one way is'} not "
+                        f"continued (at most {MAX_BRANCHES} branches each way from a seed)")
+        more = more[:max(room, 0)]
+    return br, more
 
 
 ADMISSIBLE_TOL = 1e-9
+
+
+def _margins(cd, gap, w_max, scale):
+    """The three margins of the admissibility test, each >= -tol for an orbit of the flow:
+    the smallest distance of an impact to its corner (time), the smallest gap of a flight
+    to the obstacle and minus the largest arrival velocity w- (both relative to the
+    orbit's scale, 1 + its largest unknown)."""
+    cd = np.asarray(cd, float)
+    return (float(cd.min()) if cd.size else math.inf, float(gap) / scale,
+            -float(w_max) / scale)
 
 
 def admissible(problem, X, lam, tol=ADMISSIBLE_TOL):
@@ -1164,15 +1275,45 @@ def admissible(problem, X, lam, tol=ADMISSIBLE_TOL):
     impact arriving from above (w- < tol).  Returns (ok, reason)."""
     scale = 1.0 + np.abs(X).max()
     cd = problem.corner_distances(X, lam)
-    if cd.min() < -tol:
-        return False, f"impact {int(np.argmin(cd))} beyond its corner by {-cd.min():.3g}"
     g = problem.smallest_gap(X, lam)
-    if g < -tol * scale:
-        return False, f"a flight crosses the obstacle (gap {g:.3g})"
     w = problem.impacts(X, lam)["w"]
-    if w.max() > tol * scale:
+    m_cd, m_gap, m_w = _margins(cd, g, w.max(), scale)
+    if m_cd < -tol:
+        return False, f"impact {int(np.argmin(cd))} beyond its corner by {-cd.min():.3g}"
+    if m_gap < -tol:
+        return False, f"a flight crosses the obstacle (gap {g:.3g})"
+    if m_w < -tol:
         return False, f"impact {int(np.argmax(w))} arrives from below (w- = {w.max():.3g})"
     return True, ""
+
+
+def _orbit_of(problem, X, lam):
+    """(orbit problem, its X) of a point: a curve of events (CornerCurve, FoldCurve) holds
+    an orbit of the flow at each of its points."""
+    return problem.orbit(X, lam) if hasattr(problem, "orbit") else (problem, X)
+
+
+def _point_admissible(problem, X, lam, mon, tol=ADMISSIBLE_TOL):
+    """(ok, margin): the admissibility test (``admissible``) of a point from the monitors
+    already computed there (``_monitors``: the corner distances, the smallest gap and the
+    largest arrival velocity), without computing them again."""
+    prob, Xo = _orbit_of(problem, X, lam)
+    m = _margins(mon["corner"], mon["grazing"][0], -mon["zero_velocity"][0],
+                 1.0 + np.abs(Xo).max())
+    if any(math.isnan(x) for x in m):
+        return False, math.nan
+    margin = min(m)
+    return bool(margin >= -tol), margin
+
+
+def _why_not(problem, X, lam):
+    """Why a point is not admissible, in the orbit problem's own words."""
+    try:
+        prob, Xo = _orbit_of(problem, X, lam)
+        ok, why = prob.admissible(Xo, lam)
+        return why or "a test function is not finite"
+    except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError) as e:
+        return f"it cannot be evaluated: {e}"
 
 
 def word_of(problem, X, lam, cycles=4):
@@ -1206,15 +1347,24 @@ def word_of(problem, X, lam, cycles=4):
 
 
 ENDING = ("corner", "grazing", "zero_velocity")
+# what each ending event does to the orbit, for the branch's end (``stop_reason``)
+ENDING_WORDS = {"corner": "a corner collision: impact {q} reaches its corner",
+                "grazing": "a grazing: a flight touches the obstacle (an impact is born)",
+                "zero_velocity": "a zero-velocity impact: an impact arrives with the "
+                                 "obstacle's velocity"}
 
 
 def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W):
     """Locate every sign change of a watched test function between two points; append
     the events in arclength order.  Returns True when one of them ends the branch (its
-    located point becomes the branch's last)."""
+    located point becomes the branch's last).  The ending kinds (``ENDING``) are watched
+    whether ``kinds`` lists them or not: past them the solution is no orbit of the flow.
+    One that ``kinds`` leaves out ends the branch as an event of kind "end" saying what it
+    was (it is then neither reported as its kind nor switched across)."""
     hits = []
     s_b = _wdot(W, T, Yb - Ya)
-    for kind in kinds:
+    watched = tuple(kinds)
+    for kind in watched + tuple(k for k in ENDING if k not in watched):
         a, b = ma[kind], mb[kind]
         for q in range(len(a)):
             if (abs(a[q]) > 1e-12 and (a[q] > 0) != (b[q] > 0) and np.isfinite(a[q])
@@ -1235,6 +1385,12 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W):
             cd = np.abs(problem.corner_distances(Y[:n], Y[n]))
             if cd.min() <= 1e-9:
                 kind, q = "corner", int(np.argmin(cd))
+        if kind in ENDING and kind not in watched:
+            found.append(Event("end", Y[n], Y[:n].copy(),
+                               ENDING_WORDS[kind].format(q=q) + f" (continue.events does "
+                               f"not list {kind!r}: located as the branch's end, not as an "
+                               "event, and not continued across)", problem))
+            return True
         detail = f"impact {q}" if kind == "corner" else ""
         found.append(Event(kind, Y[n], Y[:n].copy(), detail, problem))
         if kind in ENDING:
@@ -1389,9 +1545,25 @@ def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
             curve, pts, evs)
 
 
+def section_state(problem, X, lam, section, at=None):
+    """The state (u, v) at the first section time n * section at or after the cycle's
+    first impact, or at the time ``at`` (the flight from the last impact before it)."""
+    p, d = problem.packed(lam)
+    imp = problem.impacts(X, lam)
+    D = problem.duration(lam)
+    ts = at if at is not None else math.ceil(imp["t"][0] / section) * section
+    t = np.append(imp["t"], imp["t"][0] + D)
+    i = int(np.searchsorted(t, ts, side="right")) - 1
+    i = min(max(i, 0), problem.n - 1)
+    u, v, _ = problem._flight(p, d, imp["t"][i], imp["u"][i], imp["v_out"][i], ts)
+    return u, v
+
+
 # ------------------------------------------------------------------ a scene's continuation
 FORMAT = "cornerbif-continuation"
 FORMAT_VERSION = 1
+# the version of the resume state a partial file keeps (``resume/state``, JSON)
+STATE_VERSION = 1
 
 
 @dataclass
@@ -1407,62 +1579,60 @@ class Result:
 def _matches(word: str, seed: str) -> bool:
     """Whether a cycle word is the seed word up to rotation."""
     from .analysis import parse_word
-    s = seed if set(seed) == {"x"} else parse_word(seed)
+    s = parse_word(seed, allow_x=True)
     return len(s) == len(word) and s in word + word
+
+
+def _seed_file_error(scene, what):
+    """The refusal of ``[continue] seed_file`` (bad input: exit 2, before any work)."""
+    from .errors import SweepError
+    c = scene.cont
+    return SweepError(f"continue.seed_file: {c['seed_file']}: {what}; a seed file is a finished "
+                      f"sweep (cornerbif sweep) of model {scene.model!r} over "
+                      f"{c['parameter']!r} alone, with this scene's [system]")
 
 
 def seeds_from_file(scene):
     """The runs of a sweep file (``[continue] seed_file``) at its grid value nearest the
     continuation's start: (word, run dict keyed as the model's run_items outputs) per
-    distinct attractor.  The file must sweep the continued parameter alone, with this
-    model, and keep what the model's seed reads (the impacts for flow, the section for
-    two_particle)."""
+    distinct attractor.  The file must be a regular file, a sweep (not a continuation),
+    of this model, sweeping the continued parameter alone, with this [system], done at
+    that grid point, and keep what the model's seed reads (the impacts for flow, the
+    section for two_particle); every other file is refused before any work (SweepError,
+    exit 2), naming the key, the path and what is wrong."""
+    import stat
 
     from .analysis import distinct_attractors
+    from .errors import SweepError
     from .io import FileFormatError, check_readable
-    c = scene.cont
-    path = c["seed_file"]
+    from .outputs import is_kind, reason
+    path = scene.cont["seed_file"]
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError) as e:
+        raise _seed_file_error(scene, f"cannot be read ({reason(e) if isinstance(e, OSError) else e})"
+                               ) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise _seed_file_error(scene, "is a directory")
+    if not stat.S_ISREG(st.st_mode):
+        raise _seed_file_error(scene, "is not a regular file (a device, a pipe or a socket)")
+    if is_kind(path, "continuation"):
+        raise _seed_file_error(scene, "is a continuation file (cornerbif continue), not a sweep")
     try:
         f = check_readable(path)
-    except (FileFormatError, OSError) as e:
-        raise OrbitError(f"continue.seed_file: {path}: {e}") from None
-    with f:
-        model = f.attrs.get("model", "")
-        if model != scene.model:
-            raise OrbitError(f"continue.seed_file: {path} is a sweep of model {model!r}, "
-                             f"the scene's is {scene.model!r}")
-        if c["parameter"] not in f:
-            raise OrbitError(f"continue.seed_file: {path} does not sweep "
-                             f"{c['parameter']!r}")
-        import tomllib
-        theirs = tomllib.loads(str(f.attrs["scene"])).get("system", {})
-        ours = {k: v for k, v in scene.system.items() if v is not None}
-        if "obstacle" in scene.spec.system_extra:
-            ours["obstacle"] = scene.obstacle
-        for k in sorted(set(ours) | set(theirs)):
-            if k != c["parameter"] and k != "section_period" and theirs.get(k) != ours.get(k):
-                raise OrbitError(f"continue.seed_file: {path} was swept with system.{k} = "
-                                 f"{theirs.get(k)!r}, the scene has {ours.get(k)!r}")
-        x = f[c["parameter"]][...]
-        g = int(np.argmin(np.abs(x - c["start"])))
-        if f["period"].ndim != 2:
-            raise OrbitError(f"continue.seed_file: {path} has more than one sweep axis")
-        run_all = {"ipc": f["impacts_per_cycle"][g].astype(np.int64)}
-        for fld in scene.spec.fields(tuple(scene.spec.observables)):
-            if fld.name in f and fld.axis is None:
-                run_all[fld.source] = f[fld.name][g]
-        period = f["period"][g]
-        words = f["symbols"][g].astype(str)
-        lo, hi = c["range"]
-        if not lo <= float(x[g]) <= hi:
-            raise OrbitError(f"continue.seed_file: its grid value nearest continue.start, "
-                             f"{c['parameter']} = {float(x[g])!r}, is outside continue.range "
-                             f"{[lo, hi]}")
-    need = scene.spec.seed_observable
-    if need and not all(fld.source in run_all for fld in scene.spec.observables[need]):
-        raise OrbitError(f"continue.seed_file: {path} does not keep {need!r}, which a "
-                         f"{scene.model} seed reads; sweep with output.keep containing "
-                         f"{need!r}")
+    except FileFormatError as e:
+        raise _seed_file_error(scene, str(e).removeprefix(f"{path}: ")) from None
+    except OSError as e:
+        raise _seed_file_error(scene, f"cannot be read ({reason(e)})") from None
+    try:
+        with f:
+            run_all, period, words, at = _seed_runs(scene, f)
+    except SweepError:
+        raise
+    except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so
+        raise _seed_file_error(scene, f"cannot be read as a sweep ({type(e).__name__}: "
+                                      f"{str(e)[:200]}): damaged, or not written by cornerbif"
+                               ) from None
     series = ([(run_all["u"][None], "impacts"), (run_all["v_in"][None], "impacts")]
               if "u" in run_all else
               [(run_all["su"][None], "section"), (run_all["sv"][None], "section")]
@@ -1473,15 +1643,62 @@ def seeds_from_file(scene):
     for k in range(int(count[0])):
         i = int(np.nonzero(labels[0] == k)[0][0])
         found.append((str(words[i]), {key: a[i] for key, a in run_all.items()}))
-    return found, float(x[g])
+    return found, at
+
+
+def _seed_runs(scene, f):
+    """The runs of an open sweep file at its grid value nearest continue.start: (runs by
+    the model's output names, periods, words, that grid value); SweepError where the file
+    cannot seed this scene."""
+    import tomllib
+
+    from .config import sweep_items
+    c = scene.cont
+    name = c["parameter"]
+    model = f.attrs.get("model", "")
+    if model != scene.model:
+        raise _seed_file_error(scene, f"is a sweep of model {model!r}, the scene's is "
+                                      f"{scene.model!r}")
+    theirs_doc = tomllib.loads(str(f.attrs["scene"]))
+    axes = [k for k, _ in sweep_items(theirs_doc.get("sweep", {}))]
+    if axes != [name] or name not in f or f[name].ndim != 1 or f["period"].ndim != 2:
+        raise _seed_file_error(scene, f"sweeps {', '.join(map(repr, axes)) or 'nothing'}, "
+                                      f"not {name!r} alone")
+    theirs = theirs_doc.get("system", {})
+    ours = {k: v for k, v in scene.system.items() if v is not None}
+    if "obstacle" in scene.spec.system_extra:
+        ours["obstacle"] = scene.obstacle
+    for k in sorted(set(ours) | set(theirs)):
+        if k != name and k != "section_period" and theirs.get(k) != ours.get(k):
+            raise _seed_file_error(scene, f"was swept with system.{k} = {theirs.get(k)!r}, "
+                                          f"the scene has {ours.get(k)!r}")
+    x = f[name][...]
+    if not np.all(np.isfinite(x)):
+        raise _seed_file_error(scene, f"its {name!r} values are not all finite")
+    g = int(np.argmin(np.abs(x - c["start"])))
+    lo, hi = c["range"]
+    if not lo <= float(x[g]) <= hi:
+        raise _seed_file_error(scene, f"its grid value nearest continue.start, {name} = "
+                                      f"{float(x[g])!r}, is outside continue.range {[lo, hi]}")
+    if not f["done"][g]:
+        raise _seed_file_error(scene, f"its grid point {name} = {float(x[g])!r} (the nearest "
+                                      "continue.start) is not done: complete the sweep first "
+                                      "(cornerbif sweep --resume)")
+    run_all = {"ipc": f["impacts_per_cycle"][g].astype(np.int64)}
+    for fld in scene.spec.fields(tuple(scene.spec.observables)):
+        if fld.name in f and fld.axis is None:
+            run_all[fld.source] = f[fld.name][g]
+    need = scene.spec.seed_observable
+    if need and not all(fld.source in run_all for fld in scene.spec.observables[need]):
+        raise _seed_file_error(scene, f"does not keep {need!r}, which a {scene.model} seed "
+                                      f"reads (sweep it with output.keep containing {need!r})")
+    return run_all, f["period"][g], f["symbols"][g].astype(str), float(x[g])
 
 
 def find_seeds(scene):
     """The distinct attractors reached from the scene's starts at the continuation's start
     (the kernel and ``analysis.distinct_attractors``): a list of (word, one run's record:
     the model's outputs of that run and "ipc", its impacts per cycle)."""
-    import dataclasses
-
     from . import engine
     from .analysis import distinct_attractors, words
     c = scene.cont
@@ -1510,193 +1727,725 @@ def find_seeds(scene):
     return found
 
 
-def run_scene(scene, log=print):
-    """Seed, continue both ways, switch at corners, continue located corner collisions in
-    the second parameter: the ``Result`` of a scene's ``[continue]``."""
+# ------------------------------------------------------------------ the run, unit by unit
+# A scene's continuation is a sequence of units, each written to the partial file as soon
+# as it is finished: the main branch of each seed (both ways from the start), the branches
+# switched to at its corner collisions (breadth first, the down way then the up way, as
+# ``follow``), then each two-parameter curve.  Beside the finished units the partial file
+# keeps the state to go on from (``resume/state``: the seeds, the branches still to
+# continue and the events whose curves are still to continue, every number as written
+# by Python, which reads back to the same bits), so --resume continues exactly what an
+# uninterrupted run would have.
+
+def _problem_doc(prob) -> dict:
+    """An orbit problem as plain data (the resume state), ``_problem_from``'s inverse."""
+    base = {"values": {k: v for k, v in prob.values.items()}, "param": prob.param}
+    if isinstance(prob, FlowOrbit):
+        return base | {"type": "flow", "obstacle": prob.obstacle,
+                       "pieces": [int(j) for j in prob.pieces], "m": int(prob.m),
+                       "tol": float(prob.tol)}
+    if isinstance(prob, MapOrbit):
+        return base | {"type": "map2d", "letters": prob.letters, "obstacle": prob.obstacle}
+    if isinstance(prob, TwoParticleOrbit):
+        return base | {"type": "two_particle", "kinds": prob.kinds, "m": int(prob.m)}
+    raise TypeError(f"no resume state for {type(prob).__name__}")
+
+
+def _problem_from(doc):
+    """The orbit problem of ``_problem_doc``'s data."""
+    values, param = dict(doc["values"]), str(doc["param"])
+    if doc["type"] == "flow":
+        return FlowOrbit(values, str(doc["obstacle"]), param,
+                         np.array(doc["pieces"], np.int64), int(doc["m"]), float(doc["tol"]))
+    if doc["type"] == "map2d":
+        return MapOrbit(values, param, str(doc["letters"]), str(doc["obstacle"]))
+    if doc["type"] == "two_particle":
+        return TwoParticleOrbit(values, param, str(doc["kinds"]), int(doc["m"]))
+    raise ValueError(f"unknown orbit problem {doc['type']!r}")
+
+
+def _array(x):
+    return np.asarray(x, float).tolist()
+
+
+def _item_doc(item) -> dict:
+    """A branch still to continue (``follow_step``'s (problem, X, param, tangent, origin))."""
+    prob, X, lam, T0, origin = item
+    return {"problem": _problem_doc(prob), "X": _array(X), "lam": float(lam),
+            "T0": None if T0 is None else _array(T0), "origin": str(origin)}
+
+
+def _item_from(doc):
+    return (_problem_from(doc["problem"]), np.array(doc["X"], float), float(doc["lam"]),
+            None if doc["T0"] is None else np.array(doc["T0"], float), str(doc["origin"]))
+
+
+def _event_doc(b, e) -> dict:
+    """A located corner collision or fold of branch b whose curve is still to continue."""
+    return {"branch": int(b), "kind": e.kind, "lam": float(e.lam), "X": _array(e.X),
+            "detail": e.detail, "problem": _problem_doc(e.problem)}
+
+
+def _seed_stage(scene, log):
+    """The work before the first branch: the attractors at the start (the scene's starts
+    run by the kernel, or ``seed_file``'s runs), the seed words no start reached solved
+    directly, each seed's orbit solved and checked admissible (a seed that cannot be is
+    said and skipped).  Returns the run's state (``_units``) holding the seeds."""
     c = scene.cont
     values = {k: v for k, v in scene.system.items() if v is not None}
-    values[c["parameter"]] = c["start"]
-    kw = dict(ds=c["ds"], ds_min=c["ds_min"], ds_max=c["ds_max"], events=tuple(c["events"]))
-    res = Result(scene, [])
+    start = c["start"]
+    wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
     if "seed_file" in c:
-        try:
-            found, at = seeds_from_file(scene)
-        except OrbitError as e:
-            log(str(e))
-            return res
-        if at != c["start"]:
+        found, at = seeds_from_file(scene)
+        if at != start:
             log(f"seeds from {c['seed_file']} at {c['parameter']} = {at!r} (the grid value "
                 f"nearest continue.start)")
-            values[c["parameter"]] = at
-            c = dict(c, start=at)
-        wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+            start = at
         if "all" not in wanted:
             found = [f for f in found if any(_matches(f[0], s) for s in wanted)]
     else:
         found = find_seeds(scene)
-    wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+    values[c["parameter"]] = start
     for s in wanted:
         if s != "all" and not any(_matches(f[0], s) for f in found):
             # not an attractor from these starts: the orbit of the word itself, stable or not
             found.append((s, {"word_seed": True}))
-    res.seeds = [f[0] for f in found]
     if not found:
-        want = c["seed"]
-        log(f"no attractor {'with word ' + repr(want) + ' ' if want != 'all' else ''}was "
-            f"found from the {scene.n_ic} starts at {c['parameter']} = {c['start']!r}")
+        log(f"no attractor {'with word ' + repr(c['seed']) + ' ' if c['seed'] != 'all' else ''}"
+            f"was found from the {scene.n_ic} starts at {c['parameter']} = {start!r}")
+    seeds = []
     for word, run in found:
         try:
             if run.get("word_seed"):
                 prob, X = scene.spec.word_seed(values, scene, c["parameter"], word)
             else:
                 prob, X = scene.spec.orbit_seed(values, scene, c["parameter"], word, run)
-            ok, why = prob.admissible(X, c["start"])
+            ok, why = prob.admissible(X, start)
             if not ok:
                 raise OrbitError(f"its orbit is not admissible at the start ({why})")
-        except (OrbitError, NotImplementedError) as e:
+        except (OrbitError, NotImplementedError, np.linalg.LinAlgError, ArithmeticError,
+                ValueError) as e:
             log(f"seed {word!r}: {e}")
             continue
-        both = []
-        for direction in (1.0, -1.0):
-            both.append(follow(prob, X, c["start"], tuple(c["range"]), direction,
-                               switch=c["switch"], **kw))
-        up, down = both
-        main = Branch(prob, down[0].points[::-1] + up[0].points[1:],
-                      down[0].events[::-1] + up[0].events, word,
-                      f"the attractor {word!r} at {c['parameter']} = {c['start']!r}")
-        for br in [main] + down[1:] + up[1:]:
-            res.branches.append(br)
-            log(f"branch {len(res.branches) - 1}: {br.word or '?'} over "
-                f"{c['parameter']} in [{min(p.lam for p in br.points):.10g}, "
-                f"{max(p.lam for p in br.points):.10g}], {len(br.points)} points; events: "
-                + (", ".join(f"{e.kind} at {e.lam:.12g}" for e in br.events) or "none"))
-    if "curve" in c:
-        for b, br in enumerate(res.branches):
-            for e in br.events:
-                if e.kind not in ("corner", "fold"):
-                    continue
-                follow_curve = corner_curve if e.kind == "corner" else fold_curve
-                what = e.detail.split(";")[0] if e.kind == "corner" else "fold"
-                parts, ends = [], []
-                for direction in (1.0, -1.0):
-                    try:
-                        x2, x1, _, _, evs = follow_curve(
-                            e, c["curve"], tuple(c["curve_range"]), direction,
-                            ds=abs(c["curve_range"][1] - c["curve_range"][0]) / 100.0)
-                        parts.append((x2, x1))
-                        ends += [f"{v.kind} at {c['curve']} = {v.lam:.10g}"
-                                 + (f" ({v.detail})" if v.detail else "") for v in evs]
-                    except (OrbitError, np.linalg.LinAlgError) as err:
-                        ends.append(f"failed: {err}")
-                        log(f"{e.kind} curve of branch {b} at {e.lam!r}: {err}")
-                if parts:
-                    x2 = np.concatenate([p[0][::-1] for p in parts[1:]] + [parts[0][0]])
-                    x1 = np.concatenate([p[1][::-1] for p in parts[1:]] + [parts[0][1]])
-                    res.curves.append((b, e.lam, what, x2, x1, e.kind, "; ".join(ends)))
-                    log(f"{e.kind} curve of branch {b} ({what}): {len(x2)} points over "
-                        f"{c['curve']} in [{x2.min():.6g}, {x2.max():.6g}]; ends: "
-                        + "; ".join(ends))
-    return res
+        seeds.append({"word": word, "problem": _problem_doc(prob), "X": _array(X)})
+    return {"version": STATE_VERSION, "start": float(start),
+            "seeds_found": [f[0] for f in found], "seeds": seeds, "seed": 0,
+            "phase": "main", "queues": {"down": [], "up": []}, "counts": {"down": 0, "up": 0},
+            "branches": 0, "curve_jobs": [], "curve_next": 0}
 
 
-def section_state(problem, X, lam, section, at=None):
-    """The state (u, v) at the first section time n * section at or after the cycle's
-    first impact, or at the time ``at`` (the flight from the last impact before it)."""
-    p, d = problem.packed(lam)
-    imp = problem.impacts(X, lam)
-    D = problem.duration(lam)
-    ts = at if at is not None else math.ceil(imp["t"][0] / section) * section
-    t = np.append(imp["t"], imp["t"][0] + D)
-    i = int(np.searchsorted(t, ts, side="right")) - 1
-    i = min(max(i, 0), problem.n - 1)
-    u, v, _ = problem._flight(p, d, imp["t"][i], imp["u"][i], imp["v_out"][i], ts)
-    return u, v
+def _units(scene, state, log):
+    """The continuation from ``state`` on, one finished unit at a time: yields
+    ("branch", (index, Branch)) and ("curve", the curve or None where it failed both
+    ways), each once ``state`` says it is done, so that the state saved with a unit goes
+    on right after it.  Every problem, unknown and tangent is taken from the state's
+    plain data, in a run never interrupted as in a resumed one: both compute the same
+    numbers, bit for bit."""
+    c = scene.cont
+    rng = tuple(c["range"])
+    kw = dict(ds=c["ds"], ds_min=c["ds_min"], ds_max=c["ds_max"], events=tuple(c["events"]))
+    switch = c["switch"]
+    start = state["start"]
+    seeds = state["seeds"]
+    while state["seed"] < len(seeds):
+        sd = seeds[state["seed"]]
+        phase = state["phase"]
+        if phase == "main":
+            prob, X = _problem_from(sd["problem"]), np.array(sd["X"], float)
+            up, up_more = follow_step(prob, X, start, None, "start", rng, 1.0, switch,
+                                      room=MAX_BRANCHES - 1, **kw)
+            down, down_more = follow_step(prob, X, start, None, "start", rng, -1.0, switch,
+                                          room=MAX_BRANCHES - 1, **kw)
+            word = sd["word"]
+            main = Branch(prob, down.points[::-1] + up.points[1:],
+                          down.events[::-1] + up.events, word,
+                          f"the attractor {word!r} at {c['parameter']} = {start!r}",
+                          stops=[down.events[-1], up.events[-1]])
+            state["queues"] = {"down": [_item_doc(m) for m in down_more],
+                               "up": [_item_doc(m) for m in up_more]}
+            state["counts"] = {"down": 1, "up": 1}
+            state["phase"] = "down"
+            yield "branch", _branch_done(scene, state, main)
+            continue
+        queue = state["queues"][phase]
+        if queue and state["counts"][phase] < MAX_BRANCHES:
+            item = _item_from(queue.pop(0))
+            state["counts"][phase] += 1
+            br, more = follow_step(*item, rng, -1.0 if phase == "down" else 1.0, switch,
+                                   room=MAX_BRANCHES - state["counts"][phase] - len(queue),
+                                   **kw)
+            queue += [_item_doc(m) for m in more]
+            yield "branch", _branch_done(scene, state, br)
+            continue
+        if phase == "down":
+            state["phase"] = "up"
+        else:
+            state.update(seed=state["seed"] + 1, phase="main",
+                         queues={"down": [], "up": []}, counts={"down": 0, "up": 0})
+    state["phase"] = "curves"
+    while state["curve_next"] < len(state["curve_jobs"]):
+        curve = _curve(scene, state["curve_jobs"][state["curve_next"]], log)
+        state["curve_next"] += 1
+        yield "curve", curve
+    state["phase"] = "done"
 
 
-def write(res, path):
-    """The continuation file (HDF5, docs/continuation.md): one group per branch, the events
-    table, the corner curves.  Written to ``path.partial`` and renamed when complete."""
-    import os
-    import time
+def _branch_done(scene, state, br):
+    """Number a finished branch and queue the curves of its corner collisions and folds
+    (``[continue] curve``): (index, branch)."""
+    b = state["branches"]
+    state["branches"] += 1
+    if "curve" in scene.cont:
+        state["curve_jobs"] += [_event_doc(b, e) for e in br.events
+                                if e.kind in ("corner", "fold")]
+    return b, br
+
+
+def _curve(scene, job, log):
+    """A located corner collision or fold (``_event_doc``) continued both ways in the
+    second parameter: (branch, param, what, param2 values, param values, kind, ends), or
+    None where it failed both ways (said in the log)."""
+    c = scene.cont
+    e = Event(job["kind"], float(job["lam"]), np.array(job["X"], float), job["detail"],
+              _problem_from(job["problem"]))
+    b = job["branch"]
+    follow_curve = corner_curve if e.kind == "corner" else fold_curve
+    what = e.detail.split(";")[0] if e.kind == "corner" else "fold"
+    parts, ends = [], []
+    for direction in (1.0, -1.0):
+        try:
+            x2, x1, _, _, evs = follow_curve(
+                e, c["curve"], tuple(c["curve_range"]), direction,
+                ds=abs(c["curve_range"][1] - c["curve_range"][0]) / 100.0)
+            parts.append((x2, x1))
+            ends += [f"{v.kind} at {c['curve']} = {v.lam:.10g}"
+                     + (f" ({v.detail})" if v.detail else "") for v in evs]
+        except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError) as err:
+            ends.append(f"failed: {err}")
+            log(f"{e.kind} curve of branch {b} at {e.lam!r}: {err}")
+    if not parts:
+        return None
+    x2 = np.concatenate([p[0][::-1] for p in parts[1:]] + [parts[0][0]])
+    x1 = np.concatenate([p[1][::-1] for p in parts[1:]] + [parts[0][1]])
+    return (b, e.lam, what, x2, x1, e.kind, "; ".join(ends))
+
+
+def _curve_line(curve, scene) -> str:
+    """What the console says of a finished curve."""
+    b, _, what, x2, _, kind, ends = curve
+    return (f"{kind} curve of branch {b} ({what}): {len(x2)} points over "
+            f"{scene.cont['curve']} in [{x2.min():.6g}, {x2.max():.6g}]; ends: {ends}")
+
+
+def stop_reason(e, param, switch=True) -> str:
+    """Why a branch stopped at ``e``, its last event one way, in words: the range's end,
+    the step budget, the step below ds_min, a failed step, a corner collision (continued
+    across it, or why not), a grazing, a zero-velocity impact, or where its orbit stops
+    being admissible."""
+    if e.kind == "end":
+        why = e.detail
+    elif e.kind == "corner":
+        why = f"a corner collision of {e.detail}"
+        if not switch:
+            why += "; not continued across it (continue.switch = false)"
+    elif e.kind in ENDING_WORDS:
+        why = ENDING_WORDS[e.kind] + ": the orbit of this itinerary ends there"
+    else:
+        why = e.kind
+    return f"{param} = {e.lam:.12g}: {why}"
+
+
+def _branch_lines(b, br, scene) -> str:
+    """What the console says of a finished branch: its word, range, points, events, and
+    why each of its ends stopped."""
+    c = scene.cont
+    p = c["parameter"]
+    lams = [pt.lam for pt in br.points]
+    stable = sum(bool(np.all(np.abs(pt.mu) < 1.0)) for pt in br.points)
+    ends = br.ends()
+    inner = [e for e in br.events if not any(e is s for s in ends)]
+    lines = [f"branch {b}: {br.word or '?'} over {p} in [{min(lams):.10g}, {max(lams):.10g}], "
+             f"{len(br.points)} points ({stable} stable); events: "
+             + (", ".join(f"{e.kind} at {e.lam:.12g}" for e in inner) or "none")]
+    lines += [f"  stopped at {stop_reason(e, p, c['switch'])}" for e in ends]
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------ the file
+def _branch_record(br, scene) -> dict:
+    """What the file keeps of a branch (docs/continuation.md, "The file"): its datasets,
+    its attributes and its events' rows."""
+    c = scene.cont
+    section = scene.section_period
+    pts = br.points
+    mu = np.array([pt.mu for pt in pts])
+    rows = [pt.problem.store(pt.X, pt.lam, section) for pt in pts]
+    data = {"param": np.array([pt.lam for pt in pts])}
+    for key in rows[0]:
+        data[key] = np.array([r_[key] for r_ in rows])
+    data["multiplier_re"] = mu.real
+    data["multiplier_im"] = mu.imag
+    with np.errstate(invalid="ignore"):
+        data["stable"] = (np.abs(mu).max(axis=1) < 1.0).astype(np.uint8)
+    data["admissible"] = np.array([pt.admissible for pt in pts], np.uint8)
+    data["admissibility_margin"] = np.array([pt.margin for pt in pts], float)
+    attrs = dict(word=br.word, origin=br.origin, points_per_cycle=pts[0].problem.n,
+                 itinerary=pts[0].problem.itinerary(),
+                 stops=[stop_reason(e, c["parameter"], c["switch"]) for e in br.ends()])
+    events = []
+    for e in br.events:
+        got = e.problem.store(e.X, e.lam, section)
+        # each event's state, as the branch stores it (the smallest over the cycle's
+        # impacts where there are several)
+        events.append((e.kind, float(e.lam), e.detail,
+                       {k: float(np.min(v)) for k, v in got.items()}))
+    return {"data": data, "attrs": attrs, "events": events}
+
+
+def _curve_record(curve, scene) -> dict:
+    c = scene.cont
+    b, lam, what, x2, x1, kind, ends = curve
+    return {"param": x2, "event_param": x1,
+            "attrs": dict(kind=kind, branch=b, at=lam, what=what, param_name=c["curve"],
+                          event_param_name=c["parameter"], ends=ends)}
+
+
+def _image(scene, head, branches, curves, state=None) -> bytes:
+    """The continuation file, whole, as bytes (HDF5 in memory: a failed write of them to
+    disk is an OSError of Python's, never a broken HDF5 state): the finished file, or with
+    ``state`` a partial one that --resume goes on from."""
+    import json
 
     import h5py
 
     from . import __version__
-    scene = res.scene
     c = scene.cont
-    section = scene.section_period
-    tmp = str(path) + ".partial"
-    with h5py.File(tmp, "w") as f:
+    with h5py.File("continuation.h5", "w", driver="core", backing_store=False) as f:
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, scene=scene.text,
                        model=scene.model, obstacle=scene.obstacle, parameter=c["parameter"],
-                       cornerbif_version=__version__,
-                       created=time.strftime("%Y-%m-%dT%H:%M:%S"),
-                       seeds=", ".join(res.seeds))
-        ev_rows = []
-        for b, br in enumerate(res.branches):
+                       cornerbif_version=__version__, created=head["created"],
+                       seeds=head["seeds"])
+        for b, rec in enumerate(branches):
             g = f.create_group(f"branches/{b:03d}")
-            pts = br.points
-            lam = np.array([pt.lam for pt in pts])
-            mu = np.array([pt.mu for pt in pts])
-            rows = [pt.problem.store(pt.X, pt.lam, section) for pt in pts]
-            g["param"] = lam
+            for key, v in rec["data"].items():
+                g[key] = v
             g["param"].attrs["name"] = c["parameter"]
-            for key in rows[0]:
-                g[key] = np.array([r_[key] for r_ in rows])
-            g["multiplier_re"] = mu.real
-            g["multiplier_im"] = mu.imag
-            g["stable"] = (np.abs(mu).max(axis=1) < 1.0).astype(np.uint8)
-            g.attrs.update(word=br.word, origin=br.origin, points_per_cycle=pts[0].problem.n,
-                           itinerary=pts[0].problem.itinerary())
-            for e in br.events:
-                got = e.problem.store(e.X, e.lam, section)
-                ev_rows.append((b, e.kind, e.lam, e.detail,
-                                {k: float(np.min(v)) for k, v in got.items()}))
+            g.attrs.update(rec["attrs"])
+        rows = [(b, *e) for b, rec in enumerate(branches) for e in rec["events"]]
         ev = f.create_group("events")
-        ev["branch"] = np.array([r[0] for r in ev_rows], np.int32)
-        ev["kind"] = np.array([r[1] for r in ev_rows], dtype=h5py.string_dtype())
-        ev["param"] = np.array([r[2] for r in ev_rows], float)
-        ev["detail"] = np.array([r[3] for r in ev_rows], dtype=h5py.string_dtype())
-        # each event's state, as the branch stores it (the smallest over the cycle's
-        # impacts where there are several)
-        for key in sorted({k for r in ev_rows for k in r[4]}):
-            ev[key] = np.array([r[4].get(key, math.nan) for r in ev_rows], float)
-        for k, (b, lam, what, x2, x1, kind, ends) in enumerate(res.curves):
+        ev["branch"] = np.array([r[0] for r in rows], np.int32)
+        ev["kind"] = np.array([r[1] for r in rows], dtype=h5py.string_dtype())
+        ev["param"] = np.array([r[2] for r in rows], float)
+        ev["detail"] = np.array([r[3] for r in rows], dtype=h5py.string_dtype())
+        for key in sorted({k for r in rows for k in r[4]}):
+            ev[key] = np.array([r[4].get(key, math.nan) for r in rows], float)
+        for k, rec in enumerate(curves):
             g = f.create_group(f"curves/{k:03d}")
-            g["param"] = x2
+            g["param"] = rec["param"]
             g["param"].attrs["name"] = c["curve"]
-            g["event_param"] = x1
+            g["event_param"] = rec["event_param"]
             g["event_param"].attrs["name"] = c["parameter"]
-            g.attrs.update(kind=kind, branch=b, at=lam, what=what, param_name=c["curve"],
-                           event_param_name=c["parameter"], ends=ends)
-        f.attrs["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
-    os.replace(tmp, path)
+            g.attrs.update(rec["attrs"])
+        if state is None:
+            f.attrs["completed"] = head["completed"]
+        else:
+            f["resume/state"] = json.dumps(state)
+        f.flush()
+        return f.id.get_file_image()
+
+
+def _load(path):
+    """A continuation file (finished or partial) as its records: (root attributes,
+    branches, curves, resume state or None), each record as ``_branch_record`` and
+    ``_curve_record`` make it (the numbers read back bit for bit)."""
+    import json
+
+    import h5py
+    with h5py.File(path, "r", locking=False) as f:
+        attrs = {k: _plain(v) for k, v in f.attrs.items()}
+        names = sorted(f["branches"]) if "branches" in f else []
+        ev = f["events"]
+        extra = [k for k in ev if k not in ("branch", "kind", "param", "detail")]
+        cols = {k: ev[k][...] for k in ev}
+        events = [[] for _ in names]
+        for i in range(cols["param"].shape[0]):
+            events[int(cols["branch"][i])].append(
+                (_plain(cols["kind"][i]), float(cols["param"][i]), _plain(cols["detail"][i]),
+                 {k: float(cols[k][i]) for k in extra}))
+        branches = []
+        for name, evs in zip(names, events):
+            g = f["branches"][name]
+            branches.append({"data": {k: g[k][...] for k in g},
+                             "attrs": {k: _plain(v) for k, v in g.attrs.items()},
+                             "events": evs})
+        curves = []
+        for name in sorted(f["curves"]) if "curves" in f else []:
+            g = f["curves"][name]
+            curves.append({"param": g["param"][...], "event_param": g["event_param"][...],
+                           "attrs": {k: _plain(v) for k, v in g.attrs.items()}})
+        state = json.loads(_plain(f["resume/state"][()])) if "resume/state" in f else None
+    return attrs, branches, curves, state
+
+
+def _plain(v):
+    """An HDF5 value as Python: bytes as str, arrays of strings as lists of str."""
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.ndarray) and v.dtype.kind in "OSU":
+        return [_plain(x) for x in v.tolist()]
+    return v
+
+
+def _write_bytes(path, image, kept):
+    """Write ``image`` to ``path`` whole or not at all (``outputs.replacing``: a temporary
+    name, flushed to disk, renamed), with SIGINT and SIGTERM deferred until it is done; a
+    full disk or a file-size limit is ``WriteFailed`` naming the file and what is ``kept``."""
+    from . import outputs
+    with outputs.signals_deferred():
+        with outputs.replacing(path, kept) as tmp:
+            with open(tmp, "wb") as fh:
+                fh.write(image)
+                fh.flush()
+                os.fsync(fh.fileno())
+
+
+def write(res, path):
+    """The continuation file of a ``Result`` (HDF5, docs/continuation.md): one group per
+    branch, the events table, the curves; written whole or not at all."""
+    now = time.strftime("%Y-%m-%dT%H:%M:%S")
+    head = {"created": now, "completed": now, "seeds": ", ".join(res.seeds)}
+    _write_bytes(str(path), _image(res.scene, head,
+                                   [_branch_record(b, res.scene) for b in res.branches],
+                                   [_curve_record(cv, res.scene) for cv in res.curves]),
+                 "the previous file, if any, is unchanged")
     return path
 
 
 def read(path):
-    """A continuation file as plain Python: {"parameter", "scene", "branches": [dict],
-    "events": [dict], "curves": [dict]}."""
-    import h5py
-    with h5py.File(path, "r") as f:
-        if f.attrs.get("format") != FORMAT:
-            raise ValueError(f"{path}: not a cornerbif continuation file")
-        out = {"parameter": str(f.attrs["parameter"]), "scene": str(f.attrs["scene"]),
-               "attrs": {k: (v.decode() if isinstance(v, bytes) else v)
-                         for k, v in f.attrs.items()},
-               "branches": [], "events": [], "curves": []}
-        for name in sorted(f.get("branches", {})):
-            g = f["branches"][name]
-            out["branches"].append({k: g[k][...] for k in g} | dict(g.attrs))
-        ev = f["events"]
-        extra = [k for k in ev if k not in ("branch", "kind", "param", "detail")]
-        for i in range(ev["param"].shape[0]):
-            out["events"].append({"branch": int(ev["branch"][i]),
-                                  "kind": ev["kind"][i].decode(),
-                                  "param": float(ev["param"][i]),
-                                  "detail": ev["detail"][i].decode()}
-                                 | {k: float(ev[k][i]) for k in extra})
-        for name in sorted(f.get("curves", {})):
-            g = f["curves"][name]
-            out["curves"].append({k: g[k][...] for k in g} | dict(g.attrs))
+    """A continuation file (finished, or the partial file of an interrupted run) as plain
+    Python: {"parameter", "scene", "attrs", "branches": [dict], "events": [dict],
+    "curves": [dict]}; ValueError for a file that is not one."""
+    try:
+        attrs, branches, curves, _ = _load(path)
+    except (OSError, KeyError, ValueError, IndexError, TypeError) as e:
+        raise ValueError(f"{path}: not a readable cornerbif continuation file ({e})") from None
+    if attrs.get("format") != FORMAT:
+        raise ValueError(f"{path}: not a cornerbif continuation file")
+    out = {"parameter": str(attrs["parameter"]), "scene": str(attrs["scene"]),
+           "attrs": attrs, "branches": [], "events": [], "curves": []}
+    for b, rec in enumerate(branches):
+        out["branches"].append(dict(rec["data"]) | rec["attrs"])
+        for kind, lam, detail, extra in rec["events"]:
+            out["events"].append({"branch": b, "kind": kind, "param": lam, "detail": detail}
+                                 | extra)
+    for rec in curves:
+        out["curves"].append({"param": rec["param"], "event_param": rec["event_param"]}
+                             | rec["attrs"])
     return out
+
+
+# ------------------------------------------------------------------ the command
+def run_scene(scene, log=print):
+    """Seed, continue both ways, switch at corners, continue located corner collisions in
+    the second parameter: the ``Result`` of a scene's ``[continue]``, in memory
+    (``run_to_file`` writes it as it goes)."""
+    state = _seed_stage(scene, log)
+    res = Result(scene, [], seeds=list(state["seeds_found"]))
+    for kind, unit in _units(scene, state, log):
+        if kind == "branch":
+            res.branches.append(unit[1])
+            log(_branch_lines(*unit, scene))
+        elif unit is not None:
+            res.curves.append(unit)
+            log(_curve_line(unit, scene))
+    return res
+
+
+def run_to_file(scene, out_path, *, resume=False, overwrite=False, log=print,
+                inputs=()) -> str | None:
+    """Run a scene's ``[continue]`` to ``out_path``, writing each branch and each curve to
+    ``out_path.partial`` as soon as it is finished; return ``out_path``, or None when
+    ``resume`` finds it already finished from this scene (``[plot]`` aside; ``log`` is
+    told so).
+
+    Before any work: the output passes ``outputs.check_output`` (never the scene file,
+    ``continue.seed_file`` or another of ``inputs``; an existing file replaced only with
+    ``overwrite`` and only when it is a continuation), its lock ``out_path.lock`` is taken
+    (another command writing it is refused), and the seed file is checked.  Each unit
+    rewrites the partial file whole through ``outputs.replacing`` (a new HDF5 file under a
+    temporary name, renamed): every state on disk is a complete, readable file, even after
+    SIGKILL.  ``resume`` goes on from the partial file of the same scene (another
+    scene's is refused, naming what differs, unless ``overwrite``) and completes the file
+    bit for bit as an uninterrupted run (every dataset; the times aside).
+
+    Interrupted (SIGINT, SIGTERM): ``SweepInterrupted`` saying what was kept where.  A
+    full disk or a file-size limit: ``WriteFailed``, the same.  Bad input:
+    ``SweepError``.
+    """
+    from . import outputs
+    from .errors import SweepError
+    c = scene.cont
+    out_path = str(out_path)
+    log = _quiet_on_closed(log)
+    if not c:
+        raise SweepError(f"scene {scene.name!r} has no [continue] table (parameter, range, "
+                         "...: docs/continuation.md)")
+    named = [i if isinstance(i, tuple) else (f"the input {i}", i) for i in inputs if i]
+    if "seed_file" in c:
+        named.append(("continue.seed_file", c["seed_file"]))
+    partial = out_path + ".partial"
+    lock_path = out_path + ".lock"
+    outputs.check_directory(out_path)
+    if resume and _already_complete(scene, out_path, named, overwrite, log):
+        return None
+    outputs.check_output(out_path, overwrite, named, kind="continuation")
+    for side in (partial, lock_path, outputs.temporary_name(partial)):
+        for what, p in named:
+            if outputs.same_file(side, p):
+                raise SweepError(f"-o {out_path}: {side}, which this command writes beside "
+                                 f"it, is {what}; name another output")
+    lock = _take_lock(out_path, lock_path)
+    try:
+        return _run_locked(scene, out_path, partial, resume, overwrite, log)
+    finally:
+        import fcntl
+        fcntl.flock(lock, fcntl.LOCK_UN)
+        lock.close()
+        try:
+            os.remove(lock_path)
+        except OSError:
+            pass
+
+
+def _quiet_on_closed(log):
+    """``log`` that falls silent once its stream is closed (a console piped to ``head``):
+    what cannot be shown never stops the work, nor loses it."""
+    closed = []
+
+    def say(msg):
+        if not closed:
+            try:
+                log(msg)
+            except OSError:
+                closed.append(True)
+    return say
+
+
+def _take_lock(out_path, lock_path):
+    """The output's lock (flock on ``OUT.lock``, as ``cornerbif sweep``'s): one command
+    writes an output at a time; a second one is refused at once."""
+    import fcntl
+
+    from .errors import SweepError, WriteFailed
+    from .outputs import reason
+    try:
+        lock = open(lock_path, "w")
+    except OSError as e:
+        raise WriteFailed(f"creating the lock {lock_path} failed ({reason(e)}); nothing was "
+                          "computed; free space and run the same command again") from None
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise SweepError(f"{out_path}: another cornerbif command is writing this output (lock "
+                         f"{lock_path} is held); wait for it to end") from None
+    return lock
+
+
+def _differences(text_a, text_b, most=4) -> str:
+    """What differs between two scenes as run (``[plot]`` aside, as ``config.same_run``):
+    'key: A there, B here' for the first few keys; '' when nothing does."""
+    from .config import without_plot
+    a, b = without_plot(text_a), without_plot(text_b)
+    if a is None:
+        return "its scene text is not a scene"
+
+    def flat(d, pre=""):
+        out = {}
+        for k, v in d.items():
+            if isinstance(v, dict):
+                out |= flat(v, f"{pre}{k}.")
+            else:
+                out[f"{pre}{k}"] = v
+        return out
+
+    fa, fb = flat(a), flat(b)
+    keys = sorted(k for k in set(fa) | set(fb) if fa.get(k, ...) != fb.get(k, ...))
+
+    def show(v):
+        t = "(absent)" if v is ... else repr(v)
+        return t if len(t) <= 60 else t[:60] + "..."
+    text = "; ".join(f"{k}: {show(fa.get(k, ...))} there, {show(fb.get(k, ...))} here"
+                     for k in keys[:most])
+    return text + (f"; and {len(keys) - most} more" if len(keys) > most else "")
+
+
+def _already_complete(scene, out_path, named, overwrite, log) -> bool:
+    """``--resume`` on an output that exists: True (and say so) when it is a finished
+    continuation of this scene; a finished one of another scene is refused naming what
+    differs (replaced with ``overwrite``), anything else is left to ``check_output``."""
+    from . import outputs
+    from .errors import SweepError
+    if not os.path.isfile(out_path):
+        return False
+    outputs.check_output(out_path, True, named, kind="continuation")
+    try:
+        attrs = _load(out_path)[0]
+    except Exception as e:  # noqa: BLE001 - a damaged file: cannot be complete
+        if overwrite:
+            return False
+        raise SweepError(f"{out_path} exists and cannot be read ({type(e).__name__}); pass "
+                         "--overwrite to replace it") from None
+    if not attrs.get("completed"):
+        return False
+    diff = _differences(attrs.get("scene", ""), scene.text)
+    if diff:
+        if overwrite:
+            return False
+        raise SweepError(f"{out_path} is a finished continuation of another scene ({diff}); "
+                         "--resume completes only this scene's: pass --overwrite to replace "
+                         "it, or name another output")
+    log(f"{out_path} is already complete (finished {attrs['completed']} from this scene); "
+        "nothing to do")
+    return True
+
+
+def _partial_state(partial, scene):
+    """What the partial file beside an output holds: ("none"), ("empty"), ("foreign",
+    why), ("damaged", why), ("other", differences) or ("ours", records) where records are
+    ``_load``'s (attrs, branches, curves, state)."""
+    from . import outputs
+    if not os.path.lexists(partial):
+        return "none", None
+    if not os.path.isfile(partial) or os.path.islink(partial):
+        return "foreign", "it is not a regular file"
+    if os.path.getsize(partial) == 0:
+        return "empty", None
+    if not outputs.is_kind(partial, "continuation"):
+        return "foreign", "it is not a cornerbif continuation's partial file"
+    try:
+        loaded = _load(partial)
+        attrs, branches, curves, state = loaded
+        diff = _differences(attrs.get("scene", ""), scene.text)
+        if diff:
+            return "other", diff
+        if state is None and not attrs.get("completed"):
+            raise ValueError("it holds no resume state")
+        if state is not None and (state.get("version") != STATE_VERSION
+                                  or state["branches"] != len(branches)):
+            raise ValueError("its resume state does not match its branches")
+    except Exception as e:  # noqa: BLE001 - crafted or damaged: said, never a traceback
+        return "damaged", f"{type(e).__name__}: {str(e)[:200]}"
+    return "ours", loaded
+
+
+def _finished_units(done) -> str:
+    """'2 finished branches and 1 curve' of ``done`` = (branches, curves)."""
+    nb, nc = done
+    return (f"{nb} finished branch{'es' if nb != 1 else ''}"
+            + (f" and {nc} curve{'s' if nc != 1 else ''}" if nc else ""))
+
+
+def _kept(partial, done) -> str:
+    """What is on disk, for a message: ``done`` = (branches, curves) in the partial file,
+    or None when there is none."""
+    if done is None:
+        return "nothing was kept (no branch had finished)"
+    one = done[0] == 1 and not done[1]
+    return f"the {_finished_units(done)} {'is' if one else 'are'} kept in {partial}"
+
+
+def _run_locked(scene, out_path, partial, resume, overwrite, log):
+    """``run_to_file`` once the output is checked and locked."""
+    from . import outputs
+    from .errors import Fault, SweepError, SweepInterrupted
+    tmp = outputs.temporary_name(partial)
+    if os.path.lexists(tmp) and os.path.isfile(tmp):
+        os.remove(tmp)              # a partial file's rewrite cut by a kill: never whole
+    what, got = _partial_state(partial, scene)
+    loaded = None
+    again = "pass --overwrite to start again"
+    if what == "foreign":
+        raise SweepError(f"{partial} exists and {got}; remove it yourself or name another "
+                         "output")
+    if what == "ours" and resume:
+        loaded = got
+    elif what == "ours" and not overwrite:
+        _, branches, curves, _ = got
+        raise SweepError(f"{partial} holds an interrupted continuation of this scene: "
+                         f"{_kept(partial, (len(branches), len(curves)))}; pass --resume to "
+                         "complete it, or --overwrite to start again")
+    elif what == "other" and not overwrite:
+        raise SweepError(f"{partial} holds an interrupted continuation of another scene "
+                         f"({got}); --resume completes only the same scene's ([plot] aside): "
+                         f"run it with that scene, or {again}")
+    elif what == "damaged" and not overwrite:
+        raise SweepError(f"{partial} cannot be resumed ({got}); {again}")
+    if loaded is None and what != "none":
+        os.remove(partial)
+    if loaded is not None:
+        attrs, branches, curves, state = loaded
+        head = {"created": attrs.get("created", ""), "seeds": attrs.get("seeds", "")}
+        done = (len(branches), len(curves))
+        if state is None:           # finished, killed before its rename
+            log(f"{partial} is complete; finishing it")
+        else:
+            log(f"resuming {partial}: {_finished_units(done)} before")
+    else:
+        try:
+            state = _seed_stage(scene, log)
+        except KeyboardInterrupt:
+            raise SweepInterrupted("interrupted while the seeds were found; nothing was kept; "
+                                   "run the same command again") from None
+        if not state["seeds"]:
+            raise Fault("no branch to continue (see above): nothing written")
+        head = {"created": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                "seeds": ", ".join(state["seeds_found"])}
+        branches, curves, done = [], [], None
+        c = scene.cont
+        log(f"continuing {len(state['seeds'])} seed(s) in {c['parameter']} over "
+            f"{c['range']} from {state['start']!r}: "
+            + ", ".join(repr(s["word"]) for s in state["seeds"]))
+    again = "run the same command with --resume to complete it"
+    try:
+        if state is not None:
+            for kind, unit in _units(scene, state, log):
+                if kind == "branch":
+                    branches.append(_branch_record(unit[1], scene))
+                    line = _branch_lines(*unit, scene)
+                else:
+                    line = None if unit is None else _curve_line(unit, scene)
+                    if unit is not None:
+                        curves.append(_curve_record(unit, scene))
+                # the unit and the state after it, in one file; an interrupt waits for it
+                with outputs.signals_deferred():
+                    _write_bytes(partial, _image(scene, head, branches, curves, state),
+                                 f"{_kept(partial, done)}; free space (or raise the "
+                                 f"file-size limit) and {again}")
+                    done = (len(branches), len(curves))
+                if line:
+                    log(line)           # said once it is on disk
+            head["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+            with outputs.signals_deferred():
+                _write_bytes(partial, _image(scene, head, branches, curves),
+                             f"{_kept(partial, done)}; free space (or raise the file-size "
+                             f"limit) and {again}")
+        with outputs.signals_deferred():
+            os.replace(partial, out_path)
+    except KeyboardInterrupt:
+        raise SweepInterrupted(f"interrupted; {_kept(partial, done)}"
+                               + (f"; {again}" if done else "; run the same command again")
+                               ) from None
+    except SweepError:
+        raise
+    except MemoryError:
+        raise Fault(f"out of memory while continuing; {_kept(partial, done)}") from None
+    except Exception as e:
+        if os.environ.get("CORNERBIF_DEBUG"):
+            raise
+        raise Fault(f"internal error ({type(e).__name__}: {str(e)[:300]}) while continuing; "
+                    "this is a bug in cornerbif: run again with CORNERBIF_DEBUG=1 for the "
+                    f"traceback and report it; {_kept(partial, done)}") from None
+    nev = sum(len(b["events"]) for b in branches)
+    log(f"wrote {out_path}: {len(branches)} branches, {nev} events, {len(curves)} curves")
+    return out_path

@@ -54,7 +54,7 @@ import uuid
 from . import io
 from .engine import block_carry, blocks, compute_block
 from .errors import Fault, SweepError
-from .local import carry_from_file, progress_bar
+from .local import Progress, block_runs, carry_from_file
 
 try:  # the plugin's base class; the module imports without Dask (the CLI says how to install)
     from distributed import WorkerPlugin as _PluginBase
@@ -230,6 +230,18 @@ def _connect(kind, arg):
             from None
 
 
+def _kill_workers(cluster):
+    """End the worker processes of a local cluster at once (after Ctrl-C)."""
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        try:
+            nanny.auto_restart = False
+            pid = nanny.process.pid
+            if pid:
+                os.kill(pid, 9)
+        except (AttributeError, OSError):   # gone already, or not a local process
+            pass
+
+
 def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numba_threads=None,
                     max_in_flight=None, stats=None):
     """Compute the unfinished blocks of ``f`` on a Dask cluster and write them here.
@@ -255,6 +267,7 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
     plugin = SceneSetup(scene, numba_threads)
     token = uuid.uuid4().hex[:8]
     bar = None
+    interrupted = False
     try:
         nthreads = client.nthreads()
         if not nthreads:
@@ -269,7 +282,11 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
              f"({len(every) - len(todo)} already done), at most {window} in flight"
              + ("; followed scene: one chunk at a time, in order" if followed else ""))
         if progress:
-            bar = progress_bar(scene, len(every), len(every) - len(todo))
+            # runs, counted per finished chunk (the workers' kernels are not watched)
+            from .sweep import estimate_seconds
+            total = sum(block_runs(scene, b) for b in every)
+            bar = Progress(scene, total, total - sum(block_runs(scene, b) for _, b in todo),
+                           estimate_seconds(scene, max(1, dask_threads * (numba_threads or 1))))
 
         def submit(i, blk, carry=None):
             stats["submitted"] += 1
@@ -283,7 +300,7 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
             stats["write_seconds"].append(time.perf_counter() - t0)
             stats["compute_seconds"].append(secs)
             if bar is not None:
-                bar.update(1)
+                bar.update(bar.done + block_runs(scene, blk))
             return block
 
         failed = stats["failed"]
@@ -323,13 +340,21 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
                     nf = submit(*nxt)
                     meta[nf.key] = nxt
                     ac.add(nf)
+    except BaseException:
+        interrupted = True          # Ctrl-C, SIGTERM, or an error of the driver's own
+        raise
     finally:
         if bar is not None:
-            bar.__exit__(None, None, None)
-        try:
-            client.unregister_worker_plugin(plugin.name)
-        except Exception:  # noqa: BLE001 - the cluster may be gone; nothing to clean then
-            pass
+            bar.close()
+        if interrupted and cluster is not None:
+            # this process's own workers are ended now: their kernels would run their chunks
+            # to the end, and the cluster's close wait for them (4 s and more after Ctrl-C)
+            _kill_workers(cluster)
+        else:
+            try:
+                client.unregister_worker_plugin(plugin.name)
+            except Exception:  # noqa: BLE001 - the cluster may be gone; nothing to clean then
+                pass
         client.close()
         if cluster is not None:
             cluster.close()

@@ -98,6 +98,19 @@ def int_settings(scene: Scene) -> np.ndarray:
     return registry.get(scene.model).int_settings(scene)
 
 
+def with_control(scene: Scene, ints: np.ndarray, control) -> np.ndarray:
+    """The kernel's integer settings under a sweep's control (``_jit.Control``: the stop flag
+    its kernels poll and the runs they finished): a copy with the control's address in the
+    model's ``control_slot``.  A model without one runs as before (it stops between blocks
+    only).  The result holds an address: only this process may use it, and only while
+    ``control`` is alive (the caller keeps a reference to it)."""
+    slot = getattr(registry.get(scene.model), "control_slot", None)
+    ints = np.array(ints, np.int64)
+    if slot is not None and control is not None:
+        ints[slot] = control.address
+    return ints
+
+
 def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
     """The model's kernel and cycle analysis on n items (rows of params / ics):
     (out, status, final, period, impacts per cycle, symbols) (``Model.run_items``)."""
@@ -109,6 +122,33 @@ def kernel_cache_cold(scene: Scene) -> bool:
     then compiles (``cornerbif sweep`` says so before it starts)."""
     from ._jit import cache_is_cold
     return cache_is_cold(registry.get(scene.model).kernel())
+
+
+def cold_compiles(scene: Scene, what=("sweep",)) -> list:
+    """The kernels of ``scene`` that compile on their first call here (``_jit.cache_is_cold``),
+    as (name, seconds) with the model's measured cold compile time (``Model.compiles``,
+    benchmarks/compile_time.py).  ``what``: "sweep" (the sweep's kernels, with the stability
+    kernels when ``[output] keep`` has "stability"), "stability" (those whatever keep says),
+    "continuation" (what ``cornerbif continue`` compiles)."""
+    from ._jit import cache_is_cold
+    compiles = getattr(registry.get(scene.model), "compiles", None)
+    if compiles is None:
+        return []
+    return [(name, seconds) for name, seconds, kernels in compiles(scene, tuple(what))
+            if any(cache_is_cold(k) for k in kernels)]
+
+
+def announce_compiles(scene: Scene, echo, what=("sweep",)) -> float:
+    """Say, before any work, each kernel of ``scene`` that compiles first (``cold_compiles``),
+    one line each through ``echo``, e.g. "compiling the two-particle kernel (about 14 s, once
+    per install) ...".  Returns the seconds announced (0: every kernel is cached)."""
+    from .sweep import duration
+    total = 0.0
+    for name, seconds in cold_compiles(scene, what):
+        echo(f"compiling {name} (about {duration(seconds)}, once per install; cached "
+             "afterwards) ...")
+        total += seconds
+    return total
 
 
 def symbol_bytes(sym, record):

@@ -1,36 +1,125 @@
 """The local backend: the sweep's blocks computed in this process (numba threads).
 
 Every unfinished block of the file in execution order goes through
-``engine.compute_block`` in the calling thread, and one writer thread (``BlockWriter``,
-the file's single writer) writes the finished blocks through ``io.write_pending`` while
-the next ones compute: the kernels release the GIL, so the file's compression runs
-beside them instead of after them.  A followed sweep carries each slab's final states
-to the next.  The Dask backend (``cornerbif.distributed``) runs the same blocks on a
-cluster.
+``engine.compute_block`` in a thread of its own (``compute_blocks``), and one writer thread
+(``BlockWriter``, the file's single writer) writes the finished blocks through
+``io.write_pending`` while the next ones compute: the kernels release the GIL, so the
+file's compression runs beside them instead of after them.  The calling (main) thread
+waits, shows the progress and answers Ctrl-C and SIGTERM at once (``run_blocks``).  A
+followed sweep carries each slab's final states to the next.  The Dask backend
+(``cornerbif.distributed``) runs the same blocks on a cluster.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
+import time
 
 from . import engine, io
+from ._jit import Control, KernelStopped
 
 FOLLOW_BATCH = 256   # followed slabs written together at most
+# seconds the main thread waits at a time while the blocks compute (the progress bar's
+# tick); Ctrl-C and SIGTERM end the wait at once (Python runs signal handlers in the main
+# thread only, which is why the blocks compute in another)
+WAIT = 0.05
+# after Ctrl-C, seconds the blocks' thread gets to see the stop flag and return (its kernels
+# read the flag every few thousand loop passes: milliseconds); a thread still busy after that
+# (numba compiling a kernel on its first call, which nothing can cut short) is left behind,
+# its block unwritten, and the process ends without it
+STOP_GRACE = 1.0
 # items a numba thread takes at a time from a block (dynamic scheduling): the writer thread
 # takes a core from the kernels' threads now and then, and with the default static split
 # the whole block waits for the thread it slowed
 PARALLEL_CHUNK = 16
 
 
-def progress_bar(scene, total, already):
-    """The sweep's progress bar on stderr (click), advanced past the finished blocks."""
-    import click
-    bar = click.progressbar(length=total, label=f"sweep {scene.name}", file=sys.stderr,
-                            show_pos=True, show_eta=True)
-    bar.__enter__()
-    bar.update(already)
-    return bar
+class Progress:
+    """The sweep's progress on stderr, counted in runs (grid points x starts): runs done of
+    all, their rate, and the time left, e.g. ``sweep fig06a: 5120/16008 runs (32 %), 410
+    runs/s, about 27 s left``.
+
+    ``update(done)`` is called by the waiting main thread a few times a second
+    (``run_blocks``: the kernels count finished runs into the sweep's control while a block
+    computes), so a one-block sweep shows progress too.  The rate is that of this session's
+    runs; before the first run has finished the time left is the estimate
+    (``sweep.estimate_seconds``), said as such.  On a terminal the line is redrawn at most
+    every ``REDRAW`` seconds; elsewhere a line is written every ``LOG_EVERY`` seconds."""
+
+    REDRAW = 0.25
+    LOG_EVERY = 10.0
+
+    def __init__(self, scene, total, already=0, estimate=None, stream=None):
+        self.label = f"sweep {scene.name}"
+        self.total = int(total)
+        self.already = int(already)
+        self.done = int(already)
+        self.estimate = estimate
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.start = time.monotonic()
+        self.shown = -math.inf
+        self.width = 0
+        self.update(self.done, force=True)
+
+    def line(self) -> str:
+        from .sweep import duration
+        now = time.monotonic() - self.start
+        new = self.done - self.already
+        text = f"{self.label}: {self.done}/{self.total} runs"
+        if self.total:
+            text += f" ({100.0 * self.done / self.total:.0f} %)"
+        left = self.total - self.done
+        if left <= 0:
+            return text + f", {duration(now)}"
+        if new > 0 and now > 0:
+            rate = new / now
+            text += f", {_rate(rate)} runs/s, about {duration(left / rate)} left"
+        elif self.estimate is not None:
+            text += (f", no run finished yet ({duration(now)}); the estimate is "
+                     f"{duration(self.estimate)} in all")
+        return text
+
+    def update(self, done, force=False):
+        """Show ``done`` runs (of all, finished ones included) if it is time to."""
+        self.done = max(self.done, min(int(done), self.total))
+        now = time.monotonic()
+        if not force and now - self.shown < (self.REDRAW if self.tty else self.LOG_EVERY):
+            return
+        self.shown = now
+        text = self.line()
+        try:
+            if self.tty:
+                self.stream.write("\r" + text.ljust(self.width))
+                self.width = len(text)
+            else:
+                self.stream.write(text + "\n")
+            self.stream.flush()
+        except (OSError, ValueError):      # a closed or broken stderr: no progress, no error
+            pass
+
+    def close(self):
+        self.update(self.done, force=True)
+        if self.tty:
+            try:
+                self.stream.write("\n")
+                self.stream.flush()
+            except (OSError, ValueError):
+                pass
+
+
+def _rate(x):
+    return f"{x:.3g}" if x < 1000 else f"{x:.0f}"
+
+
+def block_runs(scene, blk) -> int:
+    """The runs of a grid slab: its grid points times the starts."""
+    n = scene.n_ic
+    for s in blk:
+        n *= s.stop - s.start
+    return n
 
 
 def carry_from_file(scene, f, every, first_todo):
@@ -126,36 +215,126 @@ class BlockWriter:
 
 
 def run_blocks(scene, f, progress=False, block_points=None):
-    """Every unfinished block of ``f`` in order, computed here and written by a
-    ``BlockWriter`` while the next computes."""
+    """Every unfinished block of ``f`` in order, computed and written by a
+    ``BlockWriter`` while the next computes.
+
+    The blocks compute in a thread of their own (``run_interruptibly``; the kernels release
+    the GIL) while this thread, the main one, waits in short steps: Python runs the handlers
+    of SIGINT and SIGTERM there, so an interrupt is seen at once whatever a block costs.  It
+    then sets the stop flag of the sweep's ``Control``, which the kernels read every few
+    thousand loop passes: the block being computed is discarded (never written, never marked
+    done), every block finished before it is written (``BlockWriter.close``), and the
+    interrupt goes on to the caller (``sweep.run_sweep`` says what was kept).  While it waits
+    the main thread shows the progress (``Progress``) from the runs the kernels count into
+    the same control."""
     ints = engine.int_settings(scene)
     every = engine.blocks(scene, block_points)
     todo = [every[i] for i in io.unfinished(every, f)]
-    bar = progress_bar(scene, len(every), len(every) - len(todo)) if progress else None
+    total = sum(block_runs(scene, b) for b in every)
+    control = Control()
+    ints = engine.with_control(scene, ints, control)
     carry = None  # follow: final states of the previous grid slab
     if scene.follow != "none" and todo:
         carry = carry_from_file(scene, f, every, todo[0])
-    import numba
     # full blocks are written one by one (each marked done as soon as it is written);
     # thin followed slabs together
     writer = BlockWriter(f, FOLLOW_BATCH if scene.follow != "none" else 1)
-    last = 0
-    chunk = numba.get_parallel_chunksize()
-    numba.set_parallel_chunksize(PARALLEL_CHUNK)
+    state = {"done": total - sum(block_runs(scene, b) for b in todo), "block": 0}
+    bar = tick = None
+    if progress:
+        import numba
+
+        from .sweep import estimate_seconds
+        bar = Progress(scene, total, state["done"], estimate_seconds(scene,
+                                                                      numba.get_num_threads()))
+
+        def tick():
+            bar.update(state["done"] + min(control.done, state["block"]))
     try:
-        for blk in todo:
-            writer.wait_for_room(last)
-            block = engine.compute_block(scene, blk, carry, ints)
-            if scene.follow != "none":
-                carry = engine.block_carry(scene, block)
-            last = block_nbytes(block)
-            writer.put(blk, block, last)
-            if bar is not None:
-                bar.update(1)
+        run_interruptibly(lambda: compute_blocks(scene, todo, carry, ints, writer, control,
+                                                 state), control, tick)
     finally:
-        numba.set_parallel_chunksize(chunk)
         try:
             writer.close()        # finished blocks are kept on an interrupt too
         finally:
             if bar is not None:
-                bar.__exit__(None, None, None)
+                bar.close()
+
+
+def compute_blocks(scene, todo, carry, ints, writer, control, state):
+    """The blocks' work of ``run_blocks`` (in ``run_interruptibly``'s thread): each block of
+    ``todo`` through ``engine.compute_block`` (under ``control``), handed to ``writer``;
+    stops before the next block, or inside one (``KernelStopped``: the block is dropped),
+    once ``control`` is told to stop.  ``state`` counts the runs done for the progress."""
+    import numba
+    numba.set_parallel_chunksize(PARALLEL_CHUNK)   # per thread in numba: this one's
+    last = 0
+    for blk in todo:
+        writer.wait_for_room(last)
+        if control.stopped:
+            return
+        state["block"] = block_runs(scene, blk)
+        control.reset()
+        block = engine.compute_block(scene, blk, carry, ints)
+        if control.stopped:
+            return                 # computed as the flag was set: not trusted, dropped
+        if scene.follow != "none":
+            carry = engine.block_carry(scene, block)
+        last = block_nbytes(block)
+        writer.put(blk, block, last)
+        state["done"] += state["block"]
+        state["block"] = 0
+
+
+def run_interruptibly(work, control, tick=None):
+    """``work()`` in a thread of its own, its result returned, while this thread (the main
+    one) waits in steps of WAIT seconds, calling ``tick()`` after each: Ctrl-C and SIGTERM
+    are seen at once (Python runs signal handlers in the main thread only).  On an interrupt
+    (or any exception here) ``control`` is told to stop, so the kernels that ``work`` calls
+    under it (``engine.with_control``) return within milliseconds and raise
+    ``KernelStopped``, which ends ``work`` quietly; after at most STOP_GRACE seconds the
+    interrupt goes on.  The thread runs on this thread's numba thread count.  An exception
+    of ``work`` is raised here.
+
+    Any command may run its long kernel calls so, e.g. ``cornerbif continue``: build the
+    kernel's integer settings with ``engine.with_control(scene, ints, control)`` and keep
+    ``control`` alive for the call."""
+    import numba
+    threads = numba.get_num_threads()
+    finished = threading.Event()   # not Thread.join: in Python 3.11 a join cut short by
+    box = {}                       # Ctrl-C marks the thread stopped while it still runs
+
+    def target():
+        try:
+            numba.set_num_threads(threads)          # per thread in numba
+            box["value"] = work()
+        except KernelStopped:
+            pass
+        except BaseException as e:  # noqa: BLE001 - handed to the waiting thread
+            box["error"] = e
+        finally:
+            finished.set()
+    thread = threading.Thread(target=target, name="cornerbif-work", daemon=True)
+    try:
+        thread.start()
+        while not finished.wait(WAIT):
+            if tick is not None:
+                tick()
+    except BaseException:
+        control.stop()              # the kernels return within milliseconds
+        _wait_quietly(finished, STOP_GRACE)
+        raise
+    if "error" in box:
+        raise box["error"]
+    return box.get("value")
+
+
+def _wait_quietly(finished, grace):
+    """Wait up to ``grace`` seconds for the event ``finished``; further interrupts meanwhile
+    are ignored (the first one is already being handled)."""
+    end = time.monotonic() + grace
+    while not finished.is_set() and time.monotonic() < end:
+        try:
+            finished.wait(WAIT)
+        except KeyboardInterrupt:
+            pass

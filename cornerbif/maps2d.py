@@ -152,7 +152,7 @@ import math
 import numpy as np
 from numba import prange
 
-from ._jit import jit, pjit
+from ._jit import count_done, jit, pjit, stop_requested
 from .analysis import smallest_rotation
 
 #: region / symbol codes (out_region values); NONE marks NaN input
@@ -225,13 +225,21 @@ def step(a, b, omega1, kappa1, r):
     return s * a + pa, s * (h * a + b) + pb, k
 
 
+#: silent steps between two reads of a sweep's stop flag (``_jit.Control``): well under a
+#: millisecond of a run
+POLL_STEPS = 1 << 16
+
+
 @jit
-def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_region):
+def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_region,
+                control=0):
     """Serial kernel: ``transient`` silent steps from (a, b), then ``record`` recorded.
 
     Record j holds x_j and the region of x_j (the map applied to it), so
     ``out_region`` read as letters is the orbit's word.  Same arithmetic as
-    :func:`step`, bit for bit; NaN propagates (region -1).
+    :func:`step`, bit for bit; NaN propagates (region -1).  ``control``: the address of
+    a sweep's control (0: none), whose stop flag is read every POLL_STEPS silent steps;
+    told to stop, the run returns at once and its outputs are incomplete.
     """
     q = 0.25 * math.pi * omega1
     h = 0.5 * math.pi * omega1
@@ -244,18 +252,25 @@ def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_re
     pbg = -r1 * (h + kappa1)
     paa = 2.0 * r1 * r1
     pba = h * r1 * r1 + kappa1 * (r * r - 1.0)
-    for _ in range(transient):
-        c = q * a + b - kappa1
-        if c >= 0.0:
-            a, b = r * a + pab, r * (h * a + b) + pbb
-        elif c < 0.0 and a < e:
-            a, b = sg * a + paa, sg * (h * a + b) + pba
-        elif c < 0.0 and a >= e:
-            a, b = r * a + pag, r * (h * a + b) + pbg
-        else:
-            a = math.nan
-            b = math.nan
-            break
+    left = transient
+    while left > 0:
+        steps = min(left, POLL_STEPS)
+        left -= steps
+        for _ in range(steps):
+            c = q * a + b - kappa1
+            if c >= 0.0:
+                a, b = r * a + pab, r * (h * a + b) + pbb
+            elif c < 0.0 and a < e:
+                a, b = sg * a + paa, sg * (h * a + b) + pba
+            elif c < 0.0 and a >= e:
+                a, b = r * a + pag, r * (h * a + b) + pbg
+            else:
+                a = math.nan
+                b = math.nan
+                left = 0
+                break
+        if left > 0 and stop_requested(control):
+            return
     for j in range(record):
         out_a[j] = a
         out_b[j] = b
@@ -276,7 +291,7 @@ def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_re
 
 
 @pjit
-def iterate_batch(params, x0, transient, record, out_a, out_b, out_region):
+def iterate_batch(params, x0, transient, record, out_a, out_b, out_region, control=0):
     """Iterate every row of ``params`` = [omega1, kappa1, r] from x0 = [a, b].
 
     Parameters
@@ -289,10 +304,16 @@ def iterate_batch(params, x0, transient, record, out_a, out_b, out_region):
     out_a, out_b : (n, record) float64
     out_region : (n, record) int8
         Filled with x_j and the region of x_j (0 alpha, 1 beta, 2 gamma, -1 NaN).
+    control : int
+        The address of a sweep's control (``_jit.Control``; 0, the default: none): each
+        finished row is counted, and its stop flag cuts every row short (outputs
+        incomplete).
     """
     for i in prange(params.shape[0]):
         iterate_one(params[i, P_OMEGA1], params[i, P_KAPPA1], params[i, P_R],
-                    x0[i, 0], x0[i, 1], transient, record, out_a[i], out_b[i], out_region[i])
+                    x0[i, 0], x0[i, 1], transient, record, out_a[i], out_b[i], out_region[i],
+                    control)
+        count_done(control)
 
 
 @jit
@@ -395,7 +416,7 @@ def iterate(params, x0=None, transient=2000, record=400):
     out_a = np.empty((n, record), np.float64)
     out_b = np.empty((n, record), np.float64)
     out_r = np.empty((n, record), np.int8)
-    iterate_batch(params, x0, transient, record, out_a, out_b, out_r)
+    iterate_batch(params, x0, transient, record, out_a, out_b, out_r, 0)
     return out_a, out_b, out_r
 
 

@@ -24,6 +24,7 @@ This module imports neither numba nor h5py: ``cornerbif validate`` stays fast.
 from __future__ import annotations
 
 import math
+import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -53,14 +54,15 @@ class Param:
     def problem(self, value, key: str) -> str | None:
         """The message for a bad value at ``key``, or None when the value is allowed."""
         if not is_number(value):
-            return f"{key}: {value!r} is not a number; {self.name} must be {self.allowed}"
+            what = "is too large for a float64" if _is_int(value) else "is not a number"
+            return f"{key}: {shown(value)} {what}; {self.name} must be {self.allowed}"
         v = float(value)
         if self.inf_ok and v == math.inf:
             return None
         if not math.isfinite(v):
-            return f"{key}: {value!r} is not finite; {self.name} must be {self.allowed}"
+            return f"{key}: {shown(value)} is not finite; {self.name} must be {self.allowed}"
         if not self.ok(v):
-            return f"{key}: {value!r} is out of range; {self.name} must be {self.allowed}"
+            return f"{key}: {shown(value)} is out of range; {self.name} must be {self.allowed}"
         return None
 
 
@@ -290,6 +292,57 @@ class Model:
 
 
 # ------------------------------------------------------------------ small shared helpers
+# a value quoted in a message is cut to this many characters (a 50 MB title, a list of a
+# million entries or an integer of 4000 digits is named by its start and its size)
+SHOWN_CHARS = 80
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+class _Shown(reprlib.Repr):
+    """``reprlib`` with the sizes said: a long string, list or table is cut and its length
+    given; an integer past ``maxlong`` digits is named by its number of digits."""
+
+    def __init__(self, limit):
+        super().__init__()
+        self.maxlevel = 3
+        self.maxlist = self.maxtuple = self.maxdict = self.maxset = 8
+        self.maxstring = self.maxother = self.maxlong = limit
+
+    def repr_int(self, x, level):
+        if x.bit_length() > 4 * self.maxlong:       # no repr past 4300 digits, and slow
+            d = int(x.bit_length() * math.log10(2)) + 1     # exact, or one too many
+            d -= abs(x) < 10 ** (d - 1)
+            return f"<an integer of {d} digits>"
+        return super().repr_int(x, level)
+
+    def repr_str(self, x, level):
+        if len(x) <= self.maxstring:
+            return repr(x)
+        return repr(x[:self.maxstring]) + f"...<{len(x)} characters>"
+
+    def repr_list(self, x, level):
+        s = super().repr_list(x, level)
+        return s[:-1] + f" <{len(x)} entries>]" if len(x) > self.maxlist else s
+
+    def repr_dict(self, x, level):
+        s = super().repr_dict(x, level)
+        return s[:-1] + f" <{len(x)} keys>}}" if len(x) > self.maxdict else s
+
+
+def shown(x, limit: int = SHOWN_CHARS) -> str:
+    """``repr(x)`` for a message, cut to about ``limit`` characters with the size of what
+    was cut: never the whole of a huge value, and never an error of its own (an integer
+    past Python's 4300 digits has no repr; a list nested thousands deep overflows it)."""
+    try:
+        s = _Shown(limit).repr(x)
+    except (ValueError, RecursionError):
+        return f"<a {type(x).__name__} too large to show>"
+    return s if len(s) <= 2 * limit else s[:2 * limit] + "...>"
+
+
 def is_number(x) -> bool:
     """An int or a float (not a bool) that a float can hold (10**400 cannot)."""
     if not isinstance(x, (int, float)) or isinstance(x, bool):

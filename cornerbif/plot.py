@@ -3,19 +3,60 @@
 matplotlib's recipe: ``draw_*(ax, data, **kw) -> artists`` plus ``figure``,
 which makes the whole figure.  matplotlib is imported here only, so
 ``cornerbif sweep`` starts fast and needs no display.
+
+What one figure may draw together is checked before anything is drawn
+(``check_together``: files of one parameter, a flow against its map, branches over their
+sweep); a figure is written whole or not at all (``outputs.save_figure``); the warnings
+numpy and matplotlib give on what a file holds by design are silenced while drawing
+(``quiet``).
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
+import os
 import tomllib
+import warnings
 
 import numpy as np
 
 from . import plot_attractors, plot_normal_form, registry, theory
+from . import status as S
+from .errors import SweepError
 from .io import check_readable
-from .plot_style import title_lines
+from .plot_style import bounded, legend, plain, title_lines
+
+
+class Undrawable(SweepError, ValueError):
+    """Files or options one figure cannot show truthfully, refused before anything is drawn
+    (exit 2); the message names each file and what it holds."""
+
+
+@contextlib.contextmanager
+def quiet():
+    """Drawing, without the warnings numpy and matplotlib give on what a file holds by
+    design: NaN where a run has no value and infinities where it escaped (numpy's overflow,
+    invalid value, All-NaN slice: the figure counts what it leaves out), and a layout that
+    cannot be tightened around long texts (the figure keeps its layout)."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
+        warnings.filterwarnings("ignore", message=".*[Tt]ight.?layout")
+        yield
+
+
+def save(fig, out, **kw):
+    """Write ``fig`` to ``out`` whole or not at all (``outputs.save_figure``), then free it;
+    a failed write is ``WriteFailed`` naming ``out`` (the previous figure is unchanged)."""
+    import matplotlib.pyplot as plt
+
+    from .outputs import save_figure
+    try:
+        with quiet():
+            save_figure(fig, out, **kw)
+    finally:
+        plt.close(fig)
+    return out
 
 LABELS = {
     "initial.u": r"start $u(t_0)$", "initial.v": r"start $v(t_0)$",
@@ -126,45 +167,147 @@ class RecordedData(dict):
                 self._file = None
 
 
+# values larger than this in size are escapes (a figure's transforms overflow near 1e308):
+# drawn as infinities are, not at all, and counted on the figure
+DRAW_LIMIT = 1e100
+
+
+def beyond_drawing(v):
+    """``v`` with its values beyond DRAW_LIMIT in size as infinities of their sign."""
+    v = np.asarray(v)
+    if v.dtype.kind != "f":
+        return v
+    with np.errstate(invalid="ignore"):
+        big = np.abs(v) > DRAW_LIMIT
+    return np.where(big, np.copysign(np.inf, v), v) if big.any() else v
+
+
+# the letters of a cycle word (analysis.detect_cycle: the corner clusters alpha, beta, gamma
+# and x, any other cluster)
+WORD_LETTERS = b"abgx"
+
+
+def _words(sym):
+    """The file's cycle words (``symbols``) as str no wider than the longest (the file's
+    field may be many times wider: memory per run).  A word holding a character no kernel
+    writes (a crafted file's) reads as no word: a figure never draws it."""
+    width = sym.dtype.itemsize
+    allowed = np.zeros(256, bool)
+    allowed[list(b"\0" + WORD_LETTERS)] = True
+    ok = allowed[np.ascontiguousarray(sym).view(np.uint8)]
+    if width and not ok.all():
+        sym = np.where(ok.reshape(sym.shape + (width,)).all(axis=-1), sym, b"")
+    return sym.astype(f"U{max(1, int(np.char.str_len(sym).max(initial=0)))}")
+
+
 class PlotData:
-    """What the plot needs, read from one file."""
+    """What the plot needs, read from one file.
+
+    Only the grid points the sweep finished (``done``) are shown: a partial file's other
+    points read as not run (status -1, no cycle, no values), and ``partial_note`` says how
+    many are finished; a file with none finished is refused (``FileFormatError``)."""
 
     def __init__(self, path):
+        from .io import FileFormatError
         with check_readable(path) as f:
             self.path = str(path)
             self.scene_text = f.attrs["scene"]
             self.scene = tomllib.loads(self.scene_text)
             from .config import sweep_items
             self.axes = [k for k, _ in sweep_items(self.scene.get("sweep", {}))]
+            self.done = f["done"][...].astype(bool)
+            G = self.done.shape
+            self._check_axes(f, G)
             self.values = {a: f[a][...] for a in self.axes}
+            self.n_done, self.n_points = int(np.count_nonzero(self.done)), int(self.done.size)
+            if self.n_done == 0:
+                raise FileFormatError(
+                    f"{path}: no grid point of its sweep is finished (0 of {self.n_points}): "
+                    "nothing to show; a sweep stopped before its first block is completed by "
+                    "cornerbif sweep SCENE -o OUT --resume")
             self.status = f["status"][...]
             self.period = f["period"][...]
             self.ipc = f["impacts_per_cycle"][...]
-            # as str no wider than the longest word (the file's field may be many times
-            # wider: memory per run)
-            sym = f["symbols"][...]
-            self.symbols = sym.astype(f"U{max(1, int(np.char.str_len(sym).max(initial=0)))}")
+            self.symbols = _words(f["symbols"][...])
             self.model = self.scene.get("scene", {}).get("model", registry.DEFAULT_MODEL)
             self.spec = registry.models().get(self.model)
             # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
             self.role = self.spec.normal_form_role if self.spec else None
-            self.done = f["done"][...]
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
-            self.data = RecordedData(path, {n: f[n].shape for n in RECORDED if n in f},
-                                     swmr=f.swmr_mode)
+            runs = self.status.shape
+            shapes = {n: f[n].shape for n in RECORDED if n in f}
+            for n, shp in shapes.items():
+                if shp[:len(runs)] != runs:
+                    raise FileFormatError(f"{path}: dataset {n!r} has shape {shp}, which does "
+                                          f"not match the runs {runs}")
+            self.data = RecordedData(path, shapes, swmr=f.swmr_mode)
             self.follow = self.scene.get("sweep", {}).get("follow", "none")
-            self.has_table = "attractors" in f            # cornerbif.attractors
-            self.complete = bool(f.attrs.get("completed", ""))
+            self.complete = bool(f.attrs.get("completed", "")) and self.n_done == self.n_points
+            # the attractor table (cornerbif.attractors) is written when the sweep finishes
+            self.has_table = "attractors" in f and self.complete
             # the stability observable (docs/stability.md), per run
             self.stability = {}
-            if "stability/lyapunov" in f:
-                self.stability["lyapunov"] = f["stability/lyapunov"][..., 0]
-            if "stability/multiplier_re" in f:
-                self.stability["multiplier"] = np.hypot(f["stability/multiplier_re"][..., 0],
-                                                        f["stability/multiplier_im"][..., 0])
-            self.period_tol = float(self.scene.get("run", {}).get("period_tol", 1e-6))
+            for what, names in (("lyapunov", ("stability/lyapunov",)),
+                                ("multiplier", ("stability/multiplier_re",
+                                                "stability/multiplier_im"))):
+                if not all(n in f for n in names):
+                    continue
+                if any(f[n].shape[:len(runs)] != runs or f[n].ndim != len(runs) + 1
+                       or f[n].dtype.kind != "f" for n in names):
+                    raise FileFormatError(f"{path}: its stability datasets ({', '.join(names)}) "
+                                          f"do not match the runs {runs}")
+                vals = [f[n][..., 0] for n in names]
+                with np.errstate(all="ignore"):
+                    self.stability[what] = beyond_drawing(vals[0] if len(vals) == 1
+                                                          else np.hypot(*vals))
+            try:
+                self.period_tol = float(self.scene.get("run", {}).get("period_tol", 1e-6))
+            except (TypeError, ValueError):
+                self.period_tol = 1e-6
+        self.unfinished = ~self.done if self.n_done < self.n_points else None
+        if self.unfinished is not None:
+            # what a partial file holds at its unfinished points is not a result (fill
+            # values, or anything a crafted file put there): read as not run
+            per_run = self.unfinished.reshape(G + (1,) * (self.status.ndim - len(G)))
+            per_run = np.broadcast_to(per_run, self.status.shape)
+            self.status = np.where(per_run, -1, self.status)
+            self.period = np.where(per_run, 0, self.period)
+            self.ipc = np.where(per_run, 0, self.ipc)
+            self.symbols = np.where(per_run, "", self.symbols)
+            self.stability = {k: np.where(per_run, np.nan, v) for k, v in self.stability.items()}
         self._attractors = None
         self._y = {}                 # y(kind), computed once
+
+    def _check_axes(self, f, G):
+        """The swept parameters of the file's scene are its grid's axes: one dataset of
+        finite values each, of the grid's length along its axis."""
+        import h5py
+
+        from .io import FileFormatError
+        if len(self.axes) != len(G):
+            raise FileFormatError(f"{self.path}: its scene sweeps {len(self.axes)} parameter(s), "
+                                  f"its grid has {len(G)} axes")
+        for i, a in enumerate(self.axes):
+            ok = (a in f and isinstance(f[a], h5py.Dataset) and f[a].shape == (G[i],)
+                  and f[a].dtype.kind in "fiu")
+            if not ok:
+                raise FileFormatError(f"{self.path}: the values of its swept parameter "
+                                      f"{bounded(a)!r} are missing or do not match the grid")
+            v = f[a][...]
+            if not (np.isfinite(v).all() and np.abs(v).max(initial=0.0) <= DRAW_LIMIT):
+                raise FileFormatError(f"{self.path}: its swept parameter {bounded(a)!r} has "
+                                      f"values that are not finite or beyond {DRAW_LIMIT:g} in "
+                                      "size, which no figure can place")
+
+    def partial_note(self) -> str:
+        """What a figure or ``info`` says of a file that is not complete ("" when it is)."""
+        if self.n_done < self.n_points:
+            return (f"partial sweep: {self.n_done} of {self.n_points} grid points finished; "
+                    "only these are shown")
+        if not self.complete:
+            return ("every grid point finished, but the sweep was not stamped complete "
+                    "(cornerbif sweep --resume finishes it)")
+        return ""
 
     def attractors(self):
         """Distinct attractors among the starts of each grid point (``analysis.distinct_attractors``).
@@ -231,6 +374,10 @@ class PlotData:
         if name not in self.data:
             return None
         v = self.data[name] if rows == slice(None) else self.data.rows(name, rows)
+        if self.unfinished is not None:          # a partial file: its finished points only
+            un = self.unfinished[rows]
+            v = np.where(un.reshape(un.shape + (1,) * (v.ndim - un.ndim)), np.nan, v)
+        v = beyond_drawing(v)
         if kind == "impact_height":
             # u - kappa: the impact's height above the corners of z = kappa + beta |sin|
             # (and the triangle's valleys), where a kappa sweep's cascade lies
@@ -414,10 +561,115 @@ def is_continuation(path) -> bool:
 
     from .continuation import FORMAT
     try:
-        with h5py.File(path, "r") as f:
+        with h5py.File(path, "r", locking=False) as f:
             return f.attrs.get("format") == FORMAT
-    except OSError:
+    except Exception:  # noqa: BLE001 - not HDF5, unreadable: not a continuation file
         return False
+
+
+# what a continuation file's branch holds per point, beside its parameter values
+BRANCH_ARRAYS = ("impact_u", "impact_v_in", "section_u", "section_v", "stable",
+                 "multiplier_re", "multiplier_im")
+
+
+def read_continuation(path) -> dict:
+    """A continuation file for a figure or ``info``: ``continuation.read``, with "path", after
+    the checks ``io.check_readable`` makes of a sweep: an HDF5 file of format
+    ``cornerbif-continuation`` this version reads, referring to no other file (links,
+    external storage, virtual datasets), within memory, each branch's datasets one row per
+    point of its parameter values (finite), the events' and curves' likewise.  Else
+    ``FileFormatError`` naming the file."""
+    import h5py
+
+    from .continuation import FORMAT, FORMAT_VERSION, read
+    from .io import FileFormatError, available_memory
+    path = str(path)
+    if not os.path.exists(path):
+        raise FileFormatError(f"{path}: no such file")
+    if os.path.getsize(path) == 0:
+        raise FileFormatError(f"{path}: the file is empty")
+    if not h5py.is_hdf5(path):
+        raise FileFormatError(f"{path}: not an HDF5 file")
+    try:
+        with h5py.File(path, "r", locking=False) as f:
+            if f.attrs.get("format") != FORMAT:
+                raise FileFormatError(f"{path}: not a cornerbif continuation file")
+            ver = int(f.attrs.get("format_version", -1))
+            if ver > FORMAT_VERSION:
+                raise FileFormatError(f"{path}: continuation format version {ver} is newer "
+                                      f"than this cornerbif reads ({FORMAT_VERSION}); upgrade "
+                                      "cornerbif")
+            bad, total = [], 0
+
+            def visit(name, link):
+                if isinstance(link, (h5py.ExternalLink, h5py.SoftLink)):
+                    bad.append(f"link {name}")
+            f.visititems_links(visit)
+            if not bad:
+                sets = []
+                f.visititems(lambda n, o: sets.append(o) if isinstance(o, h5py.Dataset)
+                             else None)
+                for ds in sets:
+                    if ds.is_virtual or ds.external:
+                        bad.append(f"dataset {ds.name}")
+                    total += ds.size * ds.dtype.itemsize
+            if bad:
+                raise FileFormatError(f"{path}: refers to other files ({', '.join(bad[:3])}); "
+                                      "refused")
+            avail = available_memory()
+            if avail is not None and total > avail // 2:
+                raise FileFormatError(f"{path}: holds {total / 2**30:.1f} GiB of data, more than "
+                                      f"half of the {avail / 2**30:.1f} GiB of memory available")
+        cont = read(path)
+        _check_continuation(cont)
+    except FileFormatError:
+        raise
+    except Exception as e:  # noqa: BLE001 - h5py's and a crafted file's zoo of errors
+        why = (str(e).splitlines() or [type(e).__name__])[0].removeprefix(f"{path}: ")
+        raise FileFormatError(f"{path}: a damaged continuation file ({bounded(why, 200)})") \
+            from None
+    cont["path"] = path
+    return cont
+
+
+def _check_continuation(cont):
+    """What the figures and ``info`` need of a continuation file (``read_continuation``);
+    a ValueError says what is not so."""
+    if not cont["parameter"] or not isinstance(cont["parameter"], str):
+        raise ValueError("no parameter")
+    tomllib.loads(cont["scene"])
+    for b, br in enumerate(cont["branches"]):
+        lam = np.asarray(br.get("param"))
+        if lam.ndim != 1 or lam.size == 0 or lam.dtype.kind != "f" or not np.isfinite(lam).all():
+            raise ValueError(f"branch {b}: its parameter values are not a list of numbers")
+        if "stable" not in br:
+            raise ValueError(f"branch {b}: no 'stable'")
+        for key in BRANCH_ARRAYS:
+            v = br.get(key)
+            if v is None:
+                continue
+            if not (isinstance(v, np.ndarray) and v.ndim in (1, 2) and v.shape[0] == lam.size
+                    and v.dtype.kind in "fiub"):
+                raise ValueError(f"branch {b}: {key} does not hold one row per point")
+    for e in cont["events"]:
+        if not (0 <= e["branch"] < len(cont["branches"])):
+            raise ValueError(f"an event of branch {e['branch']}, which the file does not hold")
+    for k, cv in enumerate(cont["curves"]):
+        x, y = np.asarray(cv.get("param")), np.asarray(cv.get("event_param"))
+        if x.ndim != 1 or x.shape != y.shape or x.dtype.kind != "f" or y.dtype.kind != "f":
+            raise ValueError(f"curve {k}: its two parameters' values do not match")
+        if not (0 <= int(cv.get("branch", -1)) < len(cont["branches"])):
+            raise ValueError(f"curve {k}: of a branch the file does not hold")
+
+
+def continuation_note(cont) -> str:
+    """What a figure or ``info`` says of a continuation file that is not finished ("" when
+    it is)."""
+    if cont["attrs"].get("completed"):
+        return ""
+    n = len(cont["branches"])
+    return (f"partial continuation: {n} branch{'' if n == 1 else 'es'} finished "
+            "(cornerbif continue SCENE -o OUT --resume completes it)")
 
 
 def _runs(mask):
@@ -436,8 +688,14 @@ def _runs(mask):
 
 
 def _word_label(word) -> str:
-    """A cycle word in the paper's notation (b^3 g -> beta^3 gamma; '?' when unknown)."""
-    return plot_attractors.label_tex(str(word)) if word else "?"
+    """A cycle word in the paper's notation (b^3 g -> beta^3 gamma; '?' when unknown); a
+    file's word of other characters is shown as it is (``plain``)."""
+    w = str(word) if word else ""
+    if not w:
+        return "?"
+    if set(w.partition("#")[0]) - set(WORD_LETTERS.decode()):
+        return plain(w)
+    return plot_attractors.label_tex(w)
 
 
 def branch_colors(conts) -> dict:
@@ -461,7 +719,9 @@ def draw_branches(ax, cont: dict, y="impact_u", colors=None):
     for b, br in enumerate(cont["branches"]):
         color = colors[str(br["word"])]
         x = br["param"]
-        vals = br[key]
+        vals = br.get(key)
+        if vals is None:                 # a branch that stores other values
+            continue
         vals = vals[:, None] if vals.ndim == 1 else vals
         st = br["stable"].astype(bool)
         any_unstable |= not st.all()
@@ -487,6 +747,8 @@ def draw_branches(ax, cont: dict, y="impact_u", colors=None):
             vals = e[key]
         else:
             br = cont["branches"][e["branch"]]
+            if key not in br:
+                continue
             i = int(np.argmin(np.abs(br["param"] - e["param"])))
             vals = br[key][i] if br[key].ndim == 1 else br[key][i].min()
         arts += ax.plot([e["param"]], [vals], mk, color=c, ms=6, mec="k", mew=0.5,
@@ -495,19 +757,32 @@ def draw_branches(ax, cont: dict, y="impact_u", colors=None):
     return arts
 
 
-def figure_branches(paths, out, y=None, title=None, plot_cfg=None, style=None):
+def figure_branches(paths, out, y=None, title=None, plot_cfg=None, style=None, color_by=None):
     """Continuation files drawn alone: branches against the parameter, and the corner
     curves in the plane of the two parameters when the files have them; in the project's
     style with the user's sheet over it (``style``, or ``[plot] style``), ``[plot] ylim``
-    the window of the branches' panel."""
+    the window of the branches' panel.  ``check_together`` first: files continued in one
+    parameter of one model, a ``y`` they store; ``color_by`` is refused (a branch is
+    drawn stable solid, unstable dashed)."""
     from . import plot_style
-    from .continuation import read
-    conts = [read(p) for p in paths]
+    conts = [read_continuation(p) for p in paths]
     scene = tomllib.loads(conts[0]["scene"])
     if plot_cfg is None:                 # the first file's scene, as a sweep's figure
         plot_cfg = scene.get("plot", {})
-    with plot_style.style(style or plot_cfg.get("style")):
+    check_together([], conts, y=y, color_by=color_by, plot_cfg=plot_cfg)
+    with plot_style.style(style or plot_cfg.get("style")), quiet():
         return _figure_branches(conts, scene, out, y, title, plot_cfg)
+
+
+def branch_keys(conts) -> set:
+    """The values the branches of ``conts`` store per point (``BRANCH_Y``'s values)."""
+    return {k for c in conts for b in c["branches"] for k in b if k in BRANCH_Y.values()}
+
+
+def own_branch_y(conts) -> str:
+    """What branches draw by default: impact heights, else the section's velocity."""
+    have = branch_keys(conts)
+    return "impact_u" if "impact_u" in have or not have else "section_v"
 
 
 def _figure_branches(conts, scene, out, y, title, plot_cfg):
@@ -519,14 +794,11 @@ def _figure_branches(conts, scene, out, y, title, plot_cfg):
     fig, axs = plt.subplots(1, 2 if curves else 1, figsize=(12 if curves else 7, 4.5),
                             dpi=150, squeeze=False)
     ax = axs[0, 0]
-    have = {k for c in conts for b in c["branches"] for k in b}
-    own = "impact_u" if "impact_u" in have or not have else "section_v"
+    own = own_branch_y(conts)
     kind = y or plot_cfg.get("y") or own
-    plot_cfg = cfg_for_y(plot_cfg, y, own)      # the scene's ylim is for its own y
-    if have and BRANCH_Y.get(kind) not in have:
-        plt.close(fig)
-        raise ValueError(f"y = {kind!r}: the branches store "
-                         + ", ".join(k for k, v in BRANCH_Y.items() if v in have))
+    if BRANCH_Y.get(kind) not in branch_keys(conts):
+        kind = own                      # the scene's [plot] y is a diagram's (check_together)
+    plot_cfg = cfg_for_y(plot_cfg, kind, own)      # the scene's ylim is for its own y
     title = title or plot_cfg.get("title")
     colors = branch_colors(conts)
     for c in conts:
@@ -534,17 +806,21 @@ def _figure_branches(conts, scene, out, y, title, plot_cfg):
     if "ylim" in plot_cfg:
         ax.set_ylim(*plot_cfg["ylim"])
     name = conts[0]["parameter"]
-    ax.set_xlabel(LABELS.get(name, name))
+    ax.set_xlabel(LABELS.get(name, plain(name)))
     sc = scene.get("scene", {})
     ax.set_ylabel(y_label(kind, sc.get("model")))
-    ax.legend(loc="best", fontsize=7)
+    legend(ax, loc="best", fontsize=7)
+    notes = [n for n in (continuation_note(c) for c in conts) if n]
+    if not any(c["branches"] for c in conts):
+        notes.append("no branch: the continuation found no orbit to follow from its start")
+    if notes:
+        ax.text(0.5, 0.5, "\n".join(title_lines(n, 60) for n in notes), transform=ax.transAxes,
+                ha="center", va="center", fontsize=7, color="tab:red")
     if curves:
         draw_corner_curves_continued(axs[0, 1], conts, colors)
     fig.suptitle(title_lines(title or sc.get("title", ""), 100), fontsize=9)
     fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return save(fig, out)
 
 
 def draw_corner_curves_continued(ax, conts, colors=None):
@@ -574,21 +850,60 @@ def draw_corner_curves_continued(ax, conts, colors=None):
                         lw=2, label=r"$\kappa_C$, eq (11)")
         arts += ax.plot(w, [theory.kappa_CC(t, r, beta) for t in w], ":", color="tab:blue",
                         lw=2, label=r"$\kappa_{CC}$, eq (17)")
-    ax.set_xlabel(LABELS.get(names[0], names[0]))
-    ax.set_ylabel(LABELS.get(names[1], names[1]))
-    ax.legend(loc="best", fontsize=7)
+    ax.set_xlabel(LABELS.get(names[0], plain(names[0])))
+    ax.set_ylabel(LABELS.get(names[1], plain(names[1])))
+    legend(ax, loc="best", fontsize=7)
     return arts
 
 
+# how a run that reached no cycle ended, by its status (cornerbif.status; -1: not run)
+ENDINGS = {S.OK: "ended without one (chaos, or a period too long for the record)",
+           S.NO_IMPACT: "never impacted (within the time budget)",
+           S.STUCK: "stuck to the obstacle",
+           S.MAX_EVENTS: "spent the event budget (chattering)",
+           S.ESCAPED: "escaped (amplitude past the escape bound)",
+           S.BELOW_OBSTACLE: "started below the obstacle",
+           S.STEP_LIMIT: "ran out of root-search steps",
+           S.NONFINITE: "reached a non-finite state",
+           -1: "not run"}
+
+
+def status_name(code: int, names=None) -> str:
+    """A run's status in the file's words (``names``: its ``status_codes``, else
+    ``status.NAMES``): -1 is NOT_RUN, a code neither knows 'unknown (N)'."""
+    code = int(code)
+    if code == -1:
+        return "NOT_RUN"
+    name = (names or S.NAMES).get(str(code) if names else code)
+    return bounded(name, 40) if name else f"unknown ({code})"
+
+
+def endings(status, no_cycle) -> str:
+    """How the runs ``no_cycle`` (a mask) that reached no cycle ended, by status, most
+    first: '3 ended without one (chaos, ...), 2 escaped (...)'; '' when there are none."""
+    codes, counts = np.unique(np.asarray(status)[no_cycle], return_counts=True)
+    order = sorted(zip(counts.tolist(), codes.tolist()), key=lambda t: (-t[0], t[1]))
+    return ", ".join(f"{n} {ENDINGS.get(c, f'of unknown status {c}')}" for n, c in order)
+
+
 def attractor_summary(data: PlotData, tex: bool = True) -> str:
-    """One line: how many attractors coexist, and where (for the figure and ``cornerbif info``)."""
+    """One line: how many attractors coexist, and where; how the runs without a cycle
+    ended, by status (for the figure and ``cornerbif info``).  "No cycle (chaos, or a
+    period too long)" is said only of runs that ended well without one."""
     labels, count = data.attractors()
     if count.size == 0:
         return ""
     n = count.size
     k = int(count.max())
+    run = data.status != -1                     # a partial file's unfinished points aside
+    no_cycle = (labels < 0) & run
+    how = endings(data.status, no_cycle)
     if k == 0:
-        return "no start reached a cycle (chaos, or a period too long for the record)"
+        if not no_cycle.any():
+            return "no run finished"
+        if (data.status[no_cycle] == S.OK).all():
+            return "no start reached a cycle (chaos, or a period too long for the record)"
+        return f"no start reached a cycle: of {int(no_cycle.sum())} runs, {how}"
     parts = [f"coexisting attractors: up to {k}"]
     if k >= 2 and data.axes:
         a = data.axes[0]
@@ -596,9 +911,11 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
         vals = data.values[a][where]
         parts.append(f"{int((count >= 2).sum())} of {n} points have 2 or more "
                      f"({LABELS.get(a, a) if tex else a} in [{vals.min():.6g}, {vals.max():.6g}])")
-    none = int((labels < 0).all(axis=-1).sum())
+    none = int(no_cycle.all(axis=-1).sum())
     if none:
         parts.append(f"{none} points without a cycle")
+    if no_cycle.any():
+        parts.append(f"runs without a cycle: {how}")
     return "; ".join(parts)
 
 
@@ -756,20 +1073,24 @@ def draw_plane_curves(ax, data: PlotData):
         if a == "omega":
             ax.plot(w, kc, "r-", lw=0.8, label=r"$\kappa_C$ (11)")
             ax.plot(w, kcc, "b-", lw=0.8, label=r"$\kappa_{CC}$ (17)")
-            ax.set_ylim(y.min(), y.max())
+            if y.max() > y.min():
+                ax.set_ylim(y.min(), y.max())
         else:
             ax.plot(kc, w, "r-", lw=0.8, label=r"$\kappa_C$ (11)")
             ax.plot(kcc, w, "b-", lw=0.8, label=r"$\kappa_{CC}$ (17)")
-            ax.set_xlim(x.min(), x.max())
+            if x.max() > x.min():
+                ax.set_xlim(x.min(), x.max())
         ax.legend(loc="upper left", fontsize=7)
 
 
 def _need_table(data: PlotData):
-    """Basin images and fractions read the file's attractor table (cornerbif.attractors)."""
-    with check_readable(data.path) as f:
-        if "attractors" not in f:
-            raise ValueError(f"{data.path}: has no attractor table (written by an older "
-                             "cornerbif, or not finished); run its sweep again")
+    """Basin images and fractions read the file's attractor table (cornerbif.attractors),
+    which a sweep writes when it finishes."""
+    if not data.has_table:
+        raise Undrawable(f"{data.path}: has no attractor table (written by an older "
+                         "cornerbif, or not finished), which this figure draws; "
+                         + ("complete the sweep (cornerbif sweep SCENE -o OUT --resume)"
+                            if not data.complete else "run its sweep again"))
 
 
 def coexisting_words(symbols):
@@ -836,7 +1157,20 @@ def draw_comparison(fig, datas, kind, plot_cfg):
         if "ylim" in plot_cfg:
             ax.set_ylim(*plot_cfg["ylim"])
     dist = hausdorff_per_point(datas[0].y(kind), datas[1].y(kind))
-    axs[2].semilogy(datas[0].values[a], dist, "k.", ms=1.5)
+    shown = np.isfinite(dist) & (dist > 0)
+    axs[2].plot(datas[0].values[a][shown], dist[shown], "k.", ms=1.5)
+    if shown.any():
+        axs[2].set_yscale("log")
+    else:
+        # a log scale needs a positive distance somewhere
+        axs[2].text(0.5, 0.5, "no distance to show: " + (
+            "the two agree at every value" if np.isfinite(dist).any()
+            else "no parameter value where both hold values"), transform=axs[2].transAxes,
+            ha="center", va="center", fontsize=7, color="0.3")
+    if (np.isfinite(dist) & (dist == 0)).any() and shown.any():
+        axs[2].text(0.99, 0.02, f"equal (distance 0) at {int((dist == 0).sum())} values",
+                    transform=axs[2].transAxes, ha="right", va="bottom", fontsize=6,
+                    color="0.3")
     axs[2].set_ylabel("distance\nflow to map", fontsize=8)
     axs[2].set_title("(c) their distance at each parameter value (Hausdorff, per point)",
                      fontsize=8, loc="left")
@@ -848,13 +1182,284 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
            style=None):
     """Draw one or more files of the same kind into ``out`` (png, pdf or svg), in the
     project's style (``plot_style``) with the user's style sheet over it (``style``, or
-    ``[plot] style``).  See ``_figure``."""
+    ``[plot] style``), continuation files ``branches`` over them.  What the files and
+    options ask is checked before anything is drawn (``check_together``); the figure is
+    written whole or not at all (``save``).  See ``_figure``."""
     from . import plot_style
     datas = [PlotData(p) for p in paths]
+    conts = [read_continuation(b) for b in branches]
     cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    check_together(datas, conts, y=y, color_by=color_by, plot_cfg=cfg)
+    color_by = color_by or scene_color_by(datas, cfg)
     cfg = cfg_for_y(cfg, y, datas[0].default_y())
-    with plot_style.style(style or cfg.get("style")):
-        return _figure(datas, out, y, title, cfg, color_by, branches)
+    with plot_style.style(style or cfg.get("style")), quiet():
+        return _figure(datas, out, y, title, cfg, color_by, conts)
+
+
+def draw_files(files, out, y=None, title=None, color_by=None, style=None):
+    """``cornerbif plot``: the sweeps among ``files`` drawn with the continuation files
+    over them (``figure``), or the continuation files alone (``figure_branches``)."""
+    conts = [f for f in files if is_continuation(f)]
+    sweeps = [f for f in files if f not in conts]
+    if sweeps:
+        return figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
+                      style=style)
+    return figure_branches(conts, out, y=y, title=title, style=style, color_by=color_by)
+
+
+# ------------------------------------------------------------------ what one figure draws
+# the [plot] kinds that draw one file, in words
+ONE_FILE_KINDS = {"timeseries": "time series of one grid point",
+                  "corner_curves": "the corner curves of eqs (11), (17)",
+                  "obstacle": "the obstacle's shape",
+                  "fractions": "basin fractions against one swept parameter"}
+
+
+def _described(d: PlotData) -> str:
+    """A file as a refusal names it: its path, what it sweeps, its model."""
+    what = ("sweeps " + " and ".join(bounded(a) for a in d.axes) if d.axes
+            else "sweeps no parameter")
+    return f"{d.path} {what} (model {bounded(d.model)})"
+
+
+def _held_y(d: PlotData) -> list:
+    """The values a diagram of ``d`` can draw against its parameter (``--y``)."""
+    return [k for k, n in Y_DATASETS.items() if n in d.data] + ["winding", "period"]
+
+
+def _cont_model(cont) -> tuple:
+    """(model, obstacle) of a continuation file."""
+    a = cont["attrs"]
+    return str(a.get("model", "")), str(a.get("obstacle", "") or "")
+
+
+def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
+    """Refuse (``Undrawable``, exit 2), before anything is drawn, files and options that one
+    figure cannot show truthfully.  One figure draws:
+
+    * one file, as its scene's ``[plot] kind`` says;
+    * diagrams of one swept parameter overlaid: files of one model sweeping the same
+      parameter (followed up and down, Fig. 7(b); scenes compared), each named in the
+      legend;
+    * a flow against its map (sections 4-5; ``gallery.GROUPS`` fig09, fig10, fig11, fig16):
+      two files, of models flow and map2d, at the same system values and of one ``[plot]
+      kind``: a diagram of the same swept values (Fig. 16; their distance per value), or
+      single runs (regions of the same starts, Fig. 9; return maps, Fig. 10; orbits, Fig. 11);
+    * continuation files over a diagram of the parameter they are continued in (same model
+      and obstacle), or alone: files continued in one parameter of one model.
+
+    ``y`` (``--y``) is what a diagram or branches draw against the parameter: every file
+    must hold it.  ``color_by`` (``--color-by``) colours one file's diagram or chart by its
+    stability datasets.  A chart (two swept parameters), a basin and the one-file kinds
+    draw one file.
+    """
+    if not datas:
+        return _check_branches_alone(conts, y, color_by)
+    cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
+    kind = cfg.get("kind", "diagram")
+    names = "; ".join(_described(d) for d in datas)
+    pair = len(datas) == 2 and sorted(str(d.role) for d in datas) == ["flow", "map"]
+    if kind in plot_normal_form.KINDS:
+        for d in datas:
+            if d.axes:
+                raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws single runs (a "
+                                 "scene without sweep axes: sections 4-5)")
+            if d.role not in ("flow", "map"):
+                raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws a flow or "
+                                 "map2d file")
+        if len(datas) > 1 and not pair:
+            raise Undrawable(f"[plot] kind {kind!r} draws one file, or a flow against its map "
+                             f"(one file of model flow, one of map2d); got {names}")
+        if pair:
+            other = datas[1].scene.get("plot", {}).get("kind", "diagram")
+            if plot_cfg is None and other != kind:
+                raise Undrawable(f"{datas[0].path} is drawn as [plot] kind {kind!r}, "
+                                 f"{datas[1].path} as {bounded(other)!r}: a flow is drawn "
+                                 "against its map in one kind")
+            _check_one_system(*datas)
+            if kind == "regions":
+                _check_same_starts(*datas)
+        _no_options(kind, y, color_by, conts, datas)
+        return
+    if kind in ONE_FILE_KINDS:
+        if len(datas) > 1:
+            raise Undrawable(f"[plot] kind {kind!r} ({ONE_FILE_KINDS[kind]}) draws one file; "
+                             f"got {names}")
+        if kind == "fractions" and len(datas[0].axes) != 1:
+            raise Undrawable(f"{_described(datas[0])}: [plot] kind 'fractions' draws a file "
+                             "swept over one parameter")
+        _no_options(kind, y, color_by, conts, datas)
+        return
+    if kind != "diagram":
+        raise Undrawable(f"{datas[0].path}: [plot] kind {bounded(kind)!r} is not a figure this "
+                         "cornerbif draws")
+    for d in datas:
+        if not d.axes:
+            raise Undrawable(f"{_described(d)}: nothing to draw as a diagram (a scene of "
+                             "single runs is drawn by [plot] kind timeseries, regions, "
+                             "return_map or orbit)")
+        if len(d.axes) > 2:
+            raise Undrawable(f"{_described(d)}: a figure draws one or two swept parameters")
+    d0 = datas[0]
+    if any(len(d.axes) == 2 for d in datas):
+        basin = all(a.startswith("initial.") for a in d0.axes)
+        what = "a basin image (two swept starts)" if basin else "a chart (two swept parameters)"
+        if len(datas) > 1:
+            raise Undrawable(f"{what} draws one file; got {names}")
+        if conts:
+            raise Undrawable(f"{conts[0]['path']}: continuation branches are drawn over a "
+                             f"diagram of one swept parameter; {_described(d0)}")
+        if y:
+            raise Undrawable(f"--y {y}: {d0.path} is drawn as {what}, which colours each point "
+                             "(by its period or attractor); --y chooses what a diagram of one "
+                             "swept parameter draws")
+        if color_by and basin:
+            raise Undrawable(f"--color-by {color_by}: {d0.path} is drawn as {what}, coloured "
+                             "by each start's attractor")
+        if color_by:
+            _check_stability(d0, color_by)
+        return
+    if len({d.axes[0] for d in datas}) > 1:
+        raise Undrawable(f"files drawn on one axis sweep the same parameter; got {names}")
+    if len({d.model for d in datas}) > 1 and not pair:
+        raise Undrawable("files of different models are drawn together only as a flow against "
+                         f"its map (two files: model flow and model map2d); got {names}")
+    if pair:
+        _check_one_system(*datas)
+        a = d0.axes[0]
+        va, vb = datas[0].values[a], datas[1].values[a]
+        if va.shape != vb.shape or not np.allclose(va, vb, rtol=1e-12, atol=0.0):
+            raise Undrawable(f"{datas[0].path} and {datas[1].path} sweep {bounded(a)} over "
+                             "different values: a flow is compared with its map value by value "
+                             "(sweep both over the same values)")
+        if conts:
+            raise Undrawable(f"{conts[0]['path']}: continuation branches are not drawn on a "
+                             "flow against its map; draw them over one of the two")
+    if color_by and len(datas) > 1:
+        raise Undrawable(f"--color-by {color_by}: colours the runs of one file; "
+                         f"{len(datas)} files are drawn together ({names})")
+    if color_by:
+        _check_stability(d0, color_by)
+    ykind = y or ("section_v" if pair else cfg.get("y") or d0.default_y())
+    for d in datas:
+        if ykind is None or ykind not in _held_y(d):
+            raise Undrawable(f"{d.path}: holds no {ykind or 'recorded'} values to draw (it holds "
+                             f"{', '.join(_held_y(d))}; impact values need output.keep "
+                             "\"impacts\", section values \"section\")")
+    for c in conts:
+        _check_branches_over(c, d0, ykind)
+
+
+def _check_branches_over(cont, d0: PlotData, ykind):
+    """A continuation file drawn over the diagram of ``d0``: continued in its parameter, of
+    its model and obstacle, storing ``ykind``."""
+    p = d0.axes[0]
+    if cont["parameter"] != p:
+        raise Undrawable(f"{cont['path']}: its branches are continued in "
+                         f"{bounded(cont['parameter'])!r}; {_described(d0)}: branches are drawn "
+                         "over a diagram of the parameter they are continued in")
+    model, obstacle = _cont_model(cont)
+    own = str(d0.scene.get("system", {}).get("obstacle", "") or "")
+    if model != d0.model or (obstacle and own and obstacle != own):
+        raise Undrawable(f"{cont['path']} continues orbits of model {bounded(model)}"
+                         + (f", obstacle {bounded(obstacle)}" if obstacle else "")
+                         + f"; {_described(d0)}" + (f", obstacle {bounded(own)}" if own else "")
+                         + ": branches are drawn over a diagram of their own system")
+    _same_system(cont["path"], tomllib.loads(cont["scene"]), d0.path, d0.scene, {p},
+                 "branches are drawn over the diagram of their own system")
+    if cont["branches"] and BRANCH_Y.get(ykind) not in branch_keys([cont]):
+        stored = [k for k, v in BRANCH_Y.items() if v in branch_keys([cont])]
+        raise Undrawable(f"{cont['path']}: its branches store {', '.join(stored) or 'no values'}"
+                         f", not {ykind} (the diagram's y); choose one of these with --y, or "
+                         "draw the diagram alone")
+
+
+def _check_branches_alone(conts, y, color_by):
+    """Continuation files drawn alone: one parameter, one model, ``y`` stored."""
+    if color_by:
+        raise Undrawable(f"--color-by {color_by}: continuation files are drawn stable solid, "
+                         "unstable dashed (from each point's multipliers); --color-by colours "
+                         "the runs of a sweep kept with \"stability\"")
+    described = "; ".join(f"{c['path']} continues in {bounded(c['parameter'])} (model "
+                          f"{bounded(_cont_model(c)[0])})" for c in conts)
+    if len({c["parameter"] for c in conts}) > 1 or len({_cont_model(c)[0] for c in conts}) > 1:
+        raise Undrawable("continuation files drawn together are continued in one parameter of "
+                         f"one model; got {described}")
+    have = branch_keys(conts)
+    if y and have and BRANCH_Y.get(y) not in have:
+        raise Undrawable(f"--y {y}: the branches of {', '.join(c['path'] for c in conts)} store "
+                         + ", ".join(k for k, v in BRANCH_Y.items() if v in have))
+
+
+def _no_options(kind, y, color_by, conts, datas):
+    """The one-file and normal-form kinds draw what their kind says: no --y, no
+    --color-by, no branches over them."""
+    files = " and ".join(d.path for d in datas)
+    drawn = f"{files} {'are' if len(datas) > 1 else 'is'} drawn as [plot] kind {kind!r}"
+    if y:
+        raise Undrawable(f"--y {y}: {drawn}, which chooses what it draws; --y is for "
+                         "diagrams of one swept parameter")
+    if color_by:
+        raise Undrawable(f"--color-by {color_by}: {drawn}; --color-by colours a diagram or a "
+                         "chart")
+    if conts:
+        raise Undrawable(f"{conts[0]['path']}: continuation branches are drawn over a diagram "
+                         f"of one swept parameter; {drawn}")
+
+
+def _check_stability(d: PlotData, what):
+    """``--color-by what`` needs the file's stability datasets."""
+    if what not in COLOR_BY:
+        raise Undrawable(f"color_by: {bounded(what)!r} is not allowed; allowed: "
+                         + ", ".join(COLOR_BY))
+    if what not in d.stability:
+        raise Undrawable(f"--color-by {what}: {d.path} has no stability/ datasets to colour by; "
+                         "re-run its scene with output.keep containing \"stability\"")
+
+
+def scene_color_by(datas, cfg):
+    """The scene's ``[plot] color_by`` where it applies (one file's diagram or chart, kept with
+    its stability datasets), else None: a scene's default never refuses a figure."""
+    what = cfg.get("color_by")
+    d0 = datas[0]
+    if (what in COLOR_BY and len(datas) == 1 and cfg.get("kind", "diagram") == "diagram"
+            and len(d0.axes) in (1, 2) and what in d0.stability
+            and not all(a.startswith("initial.") for a in d0.axes)):
+        return what
+    return None
+
+
+def _check_one_system(a: PlotData, b: PlotData):
+    """A flow and its map compared: the same values of the system's keys they share (the
+    swept ones aside)."""
+    _same_system(a.path, a.scene, b.path, b.scene, set(a.axes) | set(b.axes),
+                 "a flow is compared with its map at the same system values")
+
+
+def _same_system(pa, scene_a, pb, scene_b, swept, why):
+    """Refuse two files whose scenes give a system key they share (``swept`` aside)
+    different values; ``why`` says why they must agree."""
+    sa, sb = scene_a.get("system", {}), scene_b.get("system", {})
+    if not (isinstance(sa, dict) and isinstance(sb, dict)):
+        return
+    for key in sorted(set(sa) & set(sb) - set(swept)):
+        va, vb = sa[key], sb[key]
+        same = (math.isclose(va, vb, rel_tol=1e-12, abs_tol=0.0)
+                if all(isinstance(v, (int, float)) for v in (va, vb)) else va == vb)
+        if not same:
+            raise Undrawable(f"{pa} and {pb} are not one system: {bounded(key)} = "
+                             f"{bounded(va)} and {bounded(vb)}; {why}")
+
+
+def _check_same_starts(a: PlotData, b: PlotData):
+    """The regions of a flow and its map are compared start by start."""
+    same = all(k in a.initial and k in b.initial and a.initial[k].shape == b.initial[k].shape
+               and np.allclose(a.initial[k], b.initial[k], rtol=1e-12, atol=0.0,
+                               equal_nan=True) for k in ("u", "v"))
+    if not same:
+        raise Undrawable(f"{a.path} and {b.path} do not hold the same starts: the regions of a "
+                         "flow and its map are compared start by start (the same [initial] "
+                         "count, seed and box)")
 
 
 def cfg_for_y(cfg: dict, y, default_y) -> dict:
@@ -868,8 +1473,8 @@ def cfg_for_y(cfg: dict, y, default_y) -> dict:
 
 
 def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branches=()):
-    """Draw one or more files of the same kind (``datas``, their PlotData) into ``out``
-    (png, pdf or svg).
+    """Draw one or more files of the same kind (``datas``, their PlotData, passed by
+    ``check_together``) into ``out`` (png, pdf or svg).
 
     ``plot_cfg`` replaces the file's ``[plot]`` table (the gallery passes the
     committed scene's, so a figure setting never forces a new sweep).
@@ -877,7 +1482,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     "timeseries" (Figs 1b, 5, 6d, 17) or "corner_curves" (Fig. 7a).
     ``color_by`` (or ``[plot] color_by``): "lyapunov" or "multiplier" colours a diagram's
     points, or the left panel of an (omega, kappa) chart, by the run's stability.
-    ``branches``: continuation files (``cornerbif continue``) drawn over a diagram.
+    ``branches``: continuation files (``read_continuation``) drawn over a diagram.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -886,24 +1491,20 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
     kind_ = plot_cfg.get("kind", "diagram")
-    color_by = color_by or plot_cfg.get("color_by")
     if color_by is not None and color_by not in COLOR_BY:
-        raise ValueError(f"color_by: {color_by!r} is not allowed; allowed: "
+        raise Undrawable(f"color_by: {bounded(color_by)!r} is not allowed; allowed: "
                          + ", ".join(COLOR_BY))
     if kind_ in plot_normal_form.KINDS:
         return plot_normal_form.figure(datas, out, plot_cfg, title)
     if kind_ in ("timeseries", "corner_curves", "obstacle"):
-        if len(datas) > 1:
-            raise ValueError(f"plot kind {kind_!r} draws one file, got {len(datas)}")
         if kind_ == "timeseries":
             fig, _ = figure_timeseries(plt, d0, plot_cfg, title)
         elif kind_ == "obstacle":
             fig = figure_obstacle(plt, d0, plot_cfg, title)
         else:
             fig = figure_corner_curves(plt, d0, plot_cfg, title)
-        fig.savefig(out)
-        plt.close(fig)
-        return out
+        _partial_notes(fig, datas)
+        return save(fig, out)
     roles = {d.role for d in datas}
     if len(datas) == 2 and roles == {"flow", "map"} and len(d0.axes) == 1:
         datas.sort(key=lambda d: d.role != "flow")
@@ -913,19 +1514,16 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         sc = datas[1].scene.get("scene", {})
         fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 80),
                      fontsize=9)
+        _partial_notes(fig, datas)
         fig.tight_layout()
-        fig.savefig(out)
-        plt.close(fig)
-        return out
+        return save(fig, out)
     basin = len(d0.axes) == 2 and all(a.startswith("initial.") for a in d0.axes)
     if kind_ == "fractions":
-        if len(datas) > 1 or len(d0.axes) != 1:
-            raise ValueError("plot kind 'fractions' draws one file swept over one parameter")
         _need_table(d0)
         fig, ax = plt.subplots(figsize=(8, 4.5), dpi=150)
         plot_attractors.draw_fractions(ax, d0.path, d0.values[d0.axes[0]])
         draw_corner_points(ax, d0, corner_line=False, mono=True)
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+        legend(ax, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
         ax.set_xlabel(LABELS.get(d0.axes[0], d0.axes[0]))
     elif basin:
         _need_table(d0)
@@ -954,12 +1552,14 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         ys = [d.y_rows(kind) for d in datas] if kind else [None]
         if ys[0] is None:
             plt.close(fig)
-            raise ValueError(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
+            raise Undrawable(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
                              "(output.keep of its scene; impact values need \"impacts\", "
                              "section values \"section\")")
         colors = ["k", "tab:orange", "tab:green", "tab:purple"]
         from . import plot_style
         n_drawn = sum(plot_style.count_finite(v) for v in ys if v is not None)
+        n_inf = (sum(plot_style.count_infinite(v) for v in ys if v is not None)
+                 if kind not in ("winding", "period") else 0)
         ms = plot_cfg.get("marker_size") or plot_style.marker_size(n_drawn)
         by_label = (len(datas) == 1 and not color_by and kind not in ("winding", "period")
                     and ys[0].ndim == 3 and d0.has_table)
@@ -973,7 +1573,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             lo, hi = plot_cfg["ylim"]
             n_out = plot_style.count_outside(yall, lo, hi)
             window = (lo, hi)
-        elif branches:
+        elif any(c["branches"] for c in branches):
             # continued branches may reach past the sweep's values: the axes take them all
             lo, hi, n_out, window = None, None, 0, None
         else:
@@ -982,24 +1582,11 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             window = (lo, hi) if win else None
         del yall
         if color_by:
-            if len(datas) > 1:
-                plt.close(fig)
-                raise ValueError(f"color_by: draws one file, got {len(datas)}")
             sc = draw_bifurcation_colored(ax, d0, kind, color_by, ms=ms)
             fig.colorbar(sc, ax=ax, label=COLOR_BY[color_by][0], extend="both")
-            if ax.get_legend_handles_labels()[0]:
-                ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
-                          frameon=False, markerscale=3)
-        conts = []
-        if branches:
-            from .continuation import read
-            conts = [read(bp) for bp in branches]
-            for bp, cont in zip(branches, conts):
-                if cont["parameter"] != d0.axes[0]:
-                    plt.close(fig)
-                    raise ValueError(f"{bp}: its branches are continued in "
-                                     f"{cont['parameter']!r}, the diagram sweeps "
-                                     f"{d0.axes[0]!r}")
+            legend(ax, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
+                   frameon=False, markerscale=3)
+        conts = list(branches)
         # a branch takes the colour its orbit has in the diagram (its family's, with
         # families): one colour map for both
         families = plot_cfg.get("orbits") == "families"
@@ -1027,7 +1614,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             lab = None
             if len(datas) > 1:
                 lab = (follow_label(d) if d.follow != "none"
-                       else d.scene["scene"].get("name", f"file {i + 1}"))
+                       else plain(d.scene["scene"].get("name", f"file {i + 1}")))
             down = len(datas) > 1 and d.follow == "down"
             draw_bifurcation(ax, d, kind, ms=ms * (1.8 if down else 1.0),
                              color=colors[i % len(colors)], label=lab,
@@ -1061,8 +1648,13 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
         # what the figure holds beside its points, right of the axes below the legend
         # (inside the axes it lay on the data: Fig. 19(a)'s summary over its lowest points)
         notes = [attractor_summary(d0)] if len(datas) == 1 else []
+        notes += [f"{os.path.basename(c['path'])}: no branch (the continuation found no orbit "
+                  "to follow)" for c in conts if not c["branches"]]
         if n_out:
             notes.append(f"{n_out} of {n_fin} values outside the y window")
+        if n_inf:
+            notes.append(f"{n_inf} values not finite or beyond {DRAW_LIMIT:g} in size "
+                         "(escapes) are not drawn")
         notes = [n for n in notes if n]
         if notes:
             ax.text(1.02, 0.0, "\n\n".join(title_lines(n, 44) for n in notes),
@@ -1079,9 +1671,6 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
                 if leg is not None:
                     ax.add_artist(leg)
                 ax.legend(*zip(*extra), loc="lower right", fontsize=7, framealpha=0.9)
-    elif len(d0.axes) not in (1, 2):
-        plt.close(fig)
-        raise ValueError(f"{d0.path}: a scene without a sweep axis has nothing to draw")
     if "xlim" in plot_cfg:
         ax.set_xlim(*plot_cfg["xlim"])
     if "ylim" in plot_cfg:
@@ -1089,13 +1678,21 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     sc = d0.scene.get("scene", {})
     ax.set_title(title_lines(title or plot_cfg.get("title")
                              or sc.get("title", sc.get("name", "")), 80), fontsize=9)
-    if not all(d.complete for d in datas):
-        ax.text(0.99, 0.01, "incomplete sweep", transform=ax.transAxes, ha="right", va="bottom",
-                color="r", fontsize=8)
+    _partial_notes(fig, datas, conts if len(d0.axes) == 1 and kind_ != "fractions" else ())
     fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return save(fig, out)
+
+
+def _partial_notes(fig, datas, conts=()):
+    """A file that is not complete says so at the figure's foot, in red: how many of its
+    grid points (or branches) are finished and shown (``PlotData.partial_note``)."""
+    several = len(datas) + len(conts) > 1
+    notes = [(d.path, d.partial_note()) for d in datas]
+    notes += [(c["path"], continuation_note(c)) for c in conts]
+    text = "\n".join(f"{plain(os.path.basename(p), 40)}: {n}" if several else n
+                      for p, n in notes if n)
+    if text:
+        fig.text(0.995, 0.005, text, ha="right", va="bottom", fontsize=7, color="tab:red")
 
 
 # ------------------------------------------------------------------ time series (Figs 1b, 5, 6d, 17)
@@ -1111,6 +1708,15 @@ def timeseries_choice(data: PlotData, plot_cfg: dict):
     ``max_panels`` (default 4) panels.
     """
     point = tuple(plot_cfg.get("point", [0] * len(data.axes)))
+    shape = data.done.shape
+    if len(point) != len(shape) or not all(isinstance(i, int) and 0 <= i < n
+                                           for i, n in zip(point, shape)):
+        raise Undrawable(f"{data.path}: plot.point {bounded(list(point))} is not a point of its "
+                         f"grid (of shape {shape}: one index per swept parameter, from 0)")
+    if not data.done[point]:
+        raise Undrawable(f"{data.path}: plot.point {list(point)} is not finished "
+                         f"({data.partial_note()}); complete the sweep, or choose a finished "
+                         "point")
     labels, _ = data.attractors()
     lab = labels[point]
     ic = plot_cfg.get("ic", "distinct")

@@ -80,11 +80,17 @@ def _greek(w: str) -> str:
     return "$" + w.replace("$", "").replace(" ", r"\,") + "$"
 
 
+# the most letters of a word (after run-length: b^11 is one) a label shows; the rest "..."
+LABEL_LETTERS = 16
+
+
 def label_tex(label: str) -> str:
-    """A label in the paper's notation: 'bbbg#2' -> '$\\beta^{3}\\gamma$ #2'."""
+    """A label in the paper's notation: 'bbbg#2' -> '$\\beta^{3}\\gamma$ #2'; a word of more
+    than LABEL_LETTERS runs shows its first ones, then '...'."""
     word, _, k = label.partition("#")
-    w = _greek(run_length(word, tex=True, empty="?"))
-    return f"{w} #{k}" if k else w
+    runs = run_length(word, tex=True, empty="?").split(" ")
+    w = _greek(" ".join(runs[:LABEL_LETTERS])) + (" ..." if len(runs) > LABEL_LETTERS else "")
+    return f"{w} #{k[:12]}" if k else w
 
 
 def draw_basin(ax, path, axes, values, labels_of=None):

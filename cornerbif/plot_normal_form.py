@@ -218,7 +218,8 @@ def figure(datas, out, plot_cfg, title=None):
     """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d)."""
     import matplotlib.pyplot as plt
 
-    from .plot_style import title_lines
+    from .plot import save
+    from .plot_style import legend, title_lines
 
     kind = plot_cfg["kind"]
     for d in datas:
@@ -236,7 +237,7 @@ def figure(datas, out, plot_cfg, title=None):
             axs[0][1].text(0.01, 0.01, f"same letter as the flow: {100 * agree:.2f} % of starts",
                            transform=axs[0][1].transAxes, fontsize=7)
         for ax in axs[0]:
-            ax.legend(loc="upper right", fontsize=6, markerscale=5)
+            legend(ax, loc="upper right", fontsize=6, markerscale=5)
     elif kind == "return_map":
         fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.4), dpi=150,
                                 squeeze=False, sharey=True)
@@ -259,7 +260,7 @@ def figure(datas, out, plot_cfg, title=None):
             a0m, A0m = return_values(datas[1])
             ax = axs[0][0]
             ax.plot(a0m, A0m, "-", color="tab:red", lw=0.6, alpha=0.7, label="linear maps")
-            ax.legend(loc="upper center", fontsize=7)
+            legend(ax, loc="upper center", fontsize=7)
             # inset: the grazing transition Sigma_2, where the flow has a square-root form
             omega, omega1, kappa1, r = _system(datas[0])
             e = 2.0 + 4.0 / r
@@ -281,7 +282,7 @@ def figure(datas, out, plot_cfg, title=None):
         draw_orbit_frame(ax, datas)
         for d in sorted(datas, key=lambda d: d.role == "flow"):
             draw_orbit(ax, d, ms=ms or 4.0)
-        ax.legend(loc="lower center", fontsize=6)
+        legend(ax, loc="lower center", fontsize=6)
         # right: the approach to x_beta* along (0, 1) and the switching iterate there
         omega, omega1, kappa1, r = _system(datas[0])
         xs = theory.fixed_point("beta", omega1, kappa1, r)
@@ -311,6 +312,4 @@ def figure(datas, out, plot_cfg, title=None):
     fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", sc.get("name", "")),
                              90), fontsize=9)
     fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return save(fig, out)

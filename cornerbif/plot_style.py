@@ -13,6 +13,8 @@ import re
 
 import numpy as np
 
+from .errors import SweepError
+
 # one style for every figure: serif text in the paper's sizes, thin frames, vector fonts
 # embedded as text (Type 42) so that a journal's PDF checks accept them, rasterised point
 # clouds at 300 dpi inside vector output
@@ -46,30 +48,75 @@ SQUEEZE = 2.0
 SAMPLE = 1_000_000
 
 
+class StyleRefused(SweepError, ValueError):
+    """A style sheet matplotlib would not take whole (exit 2, before drawing)."""
+
+
 @contextlib.contextmanager
 def style(user=None):
     """The project's style, then the user's style sheet (a name matplotlib knows or a
-    .mplstyle path) over it; a sheet that is neither raises ValueError (``check_style``)."""
+    .mplstyle path) over it; a sheet that is neither, or that matplotlib would not take
+    whole, is refused before anything is drawn (``check_style``: ``SweepError``, exit 2)."""
     import matplotlib.pyplot as plt
     problem = check_style(user)
     if problem:
-        raise ValueError(problem)
+        raise StyleRefused(problem)
     sheets = [STYLE] + ([user] if user else [])
     with plt.style.context(sheets):
         yield
 
 
-def check_style(user) -> str | None:
-    """A problem with a user's style sheet, or None: a name of matplotlib's or a file."""
+def check_style(user, key: str = "style") -> str | None:
+    """A problem with a user's style sheet given at ``key``, or None: a name of matplotlib's,
+    or a readable file (``config.style_problem``, which ``validate`` uses for ``[plot]
+    style``) of lines 'key: value', each key one of matplotlib's settings and each value one
+    it takes (matplotlib itself would print a warning of its own and go on)."""
     if user is None:
         return None
-    import matplotlib.style as mstyle
-    if not isinstance(user, str) or not user:
-        return f"style: {user!r} must be a style name or the path of a .mplstyle file"
-    if user in mstyle.available or os.path.isfile(user):
-        return None
-    return (f"style: {user!r} is neither a file nor one of matplotlib's styles "
-            f"({', '.join(sorted(mstyle.available)[:6])}, ...)")
+    from .config import style_problem
+    problem = style_problem(user, key)
+    if problem or not os.path.isfile(user):
+        return problem
+    return _style_file_problem(user, key)
+
+
+# the largest style sheet read (matplotlib's own are a few kB)
+STYLE_BYTES = 1 << 20
+
+
+def _style_file_problem(path: str, key: str) -> str | None:
+    """What is wrong with the style sheet at ``path`` (``check_style``), or None."""
+    import matplotlib as mpl
+    name = f"{key}: {bounded(path, 200)}"
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(STYLE_BYTES + 1)
+    except OSError as e:
+        return f"{name}: cannot be read ({e.strerror or e})"
+    if len(raw) > STYLE_BYTES:
+        return f"{name}: more than {STYLE_BYTES >> 20} MiB, not a style sheet"
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return f"{name}: not a text file (a style sheet is lines 'key: value', UTF-8)"
+    probe = mpl.RcParams()
+    for n, line in enumerate(text.splitlines(), 1):
+        body = re.sub(r"""#(?=(?:[^"]*"[^"]*")*[^"]*$).*""", "", line).strip()
+        if not body:
+            continue
+        key, colon, val = (x.strip() for x in body.partition(":"))
+        where = f"{name}, line {n} ({bounded(line.strip(), 80)!r})"
+        if not colon:
+            return f"{where}: not 'key: value'"
+        if key not in mpl.rcParams:
+            return f"{where}: {bounded(key)!r} is not a matplotlib setting"
+        if len(val) >= 2 and val[0] == val[-1] == '"':
+            val = val[1:-1]
+        try:
+            probe[key] = val
+        except Exception as e:  # noqa: BLE001 - each validator raises its own kind
+            return f"{where}: not a value of {key} ({bounded(str(e), 120)})"
+    return None
 
 
 def robust_range(values, tail=TAIL, squeeze=SQUEEZE, pad=0.04):
@@ -131,6 +178,12 @@ def _scan(values, picks):
 def count_finite(values) -> int:
     """How many of ``values`` (an array or ``Rows``, read a slab at a time) are finite."""
     return sum(int(np.count_nonzero(np.isfinite(block))) for _, block in row_slabs(values))
+
+
+def count_infinite(values) -> int:
+    """How many of ``values`` (an array or ``Rows``, a slab at a time) are infinite (the
+    escapes a figure does not draw: ``plot.beyond_drawing``)."""
+    return sum(int(np.count_nonzero(np.isinf(block))) for _, block in row_slabs(values))
 
 
 def count_outside(values, lo, hi) -> int:
@@ -308,9 +361,19 @@ def title_tex(text: str) -> str:
 def title_lines(text: str, width: int) -> str:
     """A figure's title (``title_tex``) in lines of about ``width`` characters as drawn (a
     formula counts its glyphs, not its markup), broken between words but never inside a
-    formula, a |...|, an 'a = b' or an equation's reference '(eq 11)'."""
-    words = _UNBROKEN.sub(lambda m: m.group(0).replace(" ", "\0"),
-                          title_tex(text or "")).split()
+    formula, a |...|, an 'a = b' or an equation's reference '(eq 11)'.  At most TITLE_MAX
+    characters of ``text`` (``bounded``: a file's title may be of any length); a text whose
+    formulas matplotlib cannot draw (a crafted file's) is drawn as it is, its $ signs
+    literal (``drawable``).  A word of plain text longer than a line is cut into lines."""
+    text = bounded(text or "", TITLE_MAX)
+    tex = title_tex(text)
+    if not drawable(tex):
+        tex = text.replace("\\$", "$").replace("$", "\\$")
+    words = []
+    for w in _UNBROKEN.sub(lambda m: m.group(0).replace(" ", "\0"), tex).split():
+        plain_text = "$" not in w and "\0" not in w
+        words += ([w[i:i + width] for i in range(0, len(w), width)]
+                  if plain_text and len(w) > width > 0 else [w])
     lines, line, used = [], [], 0
     for w in words:
         n = _drawn_length(w.replace("\0", " "))
@@ -328,3 +391,64 @@ def _drawn_length(word: str) -> int:
     """About how many characters ``word`` takes when drawn: a TeX command is one glyph,
     $, braces, ^ and _ none."""
     return len(re.sub(r"[${}^_]", "", re.sub(r"\\[A-Za-z]+", "x", word)))
+
+
+# ------------------------------------------------------------------ free text
+# the longest free text a figure or ``cornerbif info`` shows of a file (a title; a scene's
+# name, a word, a command, a label): the rest is cut, with an ellipsis
+TITLE_MAX = 500
+LABEL_MAX = 60
+ELLIPSIS = "..."
+
+
+def bounded(text, limit: int = LABEL_MAX) -> str:
+    """``text`` as one printable line of at most ``limit`` characters: line breaks, tabs and
+    other control characters (a terminal's escapes) become spaces; a longer text is cut and
+    ends with an ellipsis, never inside a $...$ formula (which would then not parse).  Reads
+    no more of ``text`` than it shows (a title of 50 MB costs nothing)."""
+    s = text if isinstance(text, str) else str(text)
+    cut = len(s) > limit
+    s = "".join(c if c.isprintable() else " " for c in s[: limit - len(ELLIPSIS) if cut
+                                                          else limit])
+    if cut:
+        if (s.count("$") - s.count("\\$")) % 2:
+            s = s[: s.rfind("$")]
+        s = s.rstrip() + ELLIPSIS
+    return s
+
+
+def plain(text, limit: int = LABEL_MAX) -> str:
+    """A file's text for a legend or a note: ``bounded``, its $ signs drawn as dollars
+    (matplotlib would read them as the start of a formula)."""
+    return bounded(text, limit).replace("\\$", "$").replace("$", "\\$")
+
+
+_PARSER = []
+
+
+def drawable(text: str) -> bool:
+    """Whether matplotlib can draw ``text``: no line of it is mathtext (an even number of
+    unescaped $), or each such line parses (``config.undrawable``'s test)."""
+    lines = [x for x in text.split("\n") if x.count("$") - x.count("\\$") >= 2]
+    if not lines:
+        return True
+    from matplotlib import cbook
+    from matplotlib.mathtext import MathTextParser
+    if not _PARSER:
+        _PARSER.append(MathTextParser("path"))
+    for line in lines:
+        if not cbook.is_math_text(line):
+            continue
+        try:
+            _PARSER[0].parse(line, dpi=72)
+        except Exception:  # noqa: BLE001 - pyparsing's and matplotlib's own errors, and
+            return False   # RecursionError from a formula nested too deeply
+    return True
+
+
+def legend(ax, *args, **kw):
+    """``ax.legend`` when something in the axes is labelled (matplotlib warns of an empty
+    legend, and draws nothing); None otherwise."""
+    if args or "handles" in kw or ax.get_legend_handles_labels()[0]:
+        return ax.legend(*args, **kw)
+    return None

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+from typing import NamedTuple
 
 import numpy as np
 
@@ -98,14 +99,73 @@ WRITE_BYTES_PER_SECOND = 400e6
 
 
 def estimate_seconds(scene: Scene, threads: int) -> float:
-    """Time of the sweep on ``threads`` cores: the kernels at the model's measured events per
-    second (an upper bound for scenes that stop early, ``run.stop = "period"``) and the
-    writer at WRITE_BYTES_PER_SECOND (as if it did not run beside them: an upper bound)."""
+    """Time of the sweep on ``threads`` cores, in seconds: the middle of ``estimate_time``."""
+    return estimate_time(scene, threads).seconds
+
+
+# grid points the time model reads at most (evenly spread over the grid, both ends included)
+ESTIMATE_SAMPLES = 64
+# seconds of one core per run beside its kernel (its start drawn, its cycle analysed, its
+# rows handed to the writer): fig09_map's 20000 runs of 2 map steps took 0.06 s of CPU on two
+# threads (benchmarks/estimate_time.py)
+RUN_OVERHEAD = 3e-6
+
+
+class Estimate(NamedTuple):
+    """A sweep's time: ``seconds`` the middle, ``low`` .. ``high`` the range it may take, and
+    ``reasons`` why the range is wide (empty: the model is close, within a few tens of per cent
+    on this machine, benchmarks/estimate_time.py)."""
+
+    seconds: float
+    low: float
+    high: float
+    reasons: tuple
+
+
+def estimate_time(scene: Scene, threads: int) -> Estimate:
+    """The sweep's time on ``threads`` cores: the kernels by the model's time model of a run
+    (``Model.run_seconds``: per impact and per obstacle piece or section period crossed,
+    measured on this machine) over up to ESTIMATE_SAMPLES grid points, RUN_OVERHEAD a run
+    beside the kernel, and the writer at WRITE_BYTES_PER_SECOND (as if it did not run beside
+    them: an upper bound).  Runs spread over the threads, but a sweep takes at least its
+    slowest run.  A model without a time model runs at its measured ``events_per_second``
+    per impact."""
     spec = registry.get(scene.model)
-    items = int(np.prod(scene.shape or (1,))) * scene.n_ic
-    compute = items * (scene.transient + scene.record) / (spec.events_per_second
-                                                          * max(1, threads))
-    return compute + estimate_bytes(scene) / WRITE_BYTES_PER_SECOND
+    runs = int(np.prod(scene.shape or (1,))) * scene.n_ic
+    threads = max(1, int(threads))
+    model = getattr(spec, "run_seconds", None)
+    if model is None:
+        per = (scene.transient + scene.record) / spec.events_per_second
+        costs, reasons = [(per, per, per)], []
+    else:
+        costs, reasons = [], []
+        for idx in sample_points(scene.shape, ESTIMATE_SAMPLES):
+            sec, lo, hi, why = model(scene, scene.point(idx))
+            costs.append((sec, lo, hi))
+            reasons += [w for w in why if w not in reasons]
+    mean = np.mean(np.asarray(costs, float), axis=0) + RUN_OVERHEAD
+    top = np.max(np.asarray(costs, float), axis=0)
+    write = estimate_bytes(scene) / WRITE_BYTES_PER_SECOND
+    sec, lo, hi = (float(max(runs * m / threads, t) + write) for m, t in zip(mean, top))
+    return Estimate(sec, lo, hi, tuple(reasons))
+
+
+def sample_points(shape, most):
+    """Up to ``most`` grid indices evenly spread over a grid of ``shape`` (row-major order, the
+    first and the last included)."""
+    n = int(np.prod(shape or (1,)))
+    flat = np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(np.int64))
+    return [tuple(int(i) for i in np.unravel_index(f, shape)) if shape else () for f in flat]
+
+
+def estimate_words(est: Estimate) -> str:
+    """An estimate in words: 'about 3.5 min', or with its range and reasons when it is
+    uncertain: 'about 3.5 min, uncertain: 1.2 min to 10.5 min (runs escape ...)'."""
+    text = f"about {duration(est.seconds)}"
+    if est.reasons and est.high > 1.5 * est.low:
+        text += (f", uncertain: {duration(est.low)} to {duration(est.high)} "
+                 f"({'; '.join(est.reasons)})")
+    return text
 
 
 def duration(seconds: float) -> str:
@@ -265,9 +325,10 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     """
     partial = out_path + ".partial"
     lock_path = out_path + ".lock"
-    if resume and not overwrite and _finished(scene, out_path, partial, inputs, echo):
-        return None
-    check_output(out_path, overwrite, inputs)
+    d = check_directory(out_path)
+    outputs.check_name_length(out_path, d)
+    # the lock first: a sweep still finishing this output is "another sweep", not a
+    # finished file
     lock = open(lock_path, "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -276,6 +337,9 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
         raise SweepError(f"{out_path}: another sweep is writing this output (lock {lock_path} "
                          "is held)") from None
     try:
+        if resume and not overwrite and _finished(scene, out_path, partial, inputs, echo):
+            return None
+        check_output(out_path, overwrite, inputs)
         with _NumbaThreads(None if scheduler else threads):
             _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress,
                           command, block_points, scheduler, stats, echo)

@@ -431,7 +431,8 @@ def test_seeds_from_a_sweep_file(tmp_path):
     """`[continue] seed_file`: the attractors of a sweep file at its grid value nearest the
     start seed the branches (here Fig. 6(a)'s beta orbit at kappa = -0.02, ending at
     kappa_C); a file swept with another system (here for the fold scene: another obstacle
-    and no forcing) is refused naming the first key that differs, and nothing is written."""
+    and no forcing) is refused before any work (exit 2: bad input) naming the first key
+    that differs, and nothing is written."""
     from click.testing import CliRunner
 
     from cornerbif.cli import main
@@ -451,7 +452,8 @@ def test_seeds_from_a_sweep_file(tmp_path):
     assert abs(kc - theory.kappa_C(1.999, 0.8)) < 1e-10
     r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_fold.toml"), "-o",
                           str(tmp_path / "x.h5"), "--set", f'continue.seed_file="{sw}"'])
-    assert r.exit_code == 1 and "system.F" in r.output and "nothing written" in r.output
+    assert r.exit_code == 2 and "system.F" in r.output and "continue.seed_file" in r.output
+    assert not (tmp_path / "x.h5").exists() and not (tmp_path / "x.h5.partial").exists()
 
 
 def test_two_particle_limits_are_said():
@@ -470,8 +472,8 @@ def test_two_particle_limits_are_said():
 
 
 def test_a_seed_file_without_what_the_seed_reads_is_refused(tmp_path):
-    """A flow sweep file that did not keep the impacts cannot seed: refused, naming the
-    observable to keep."""
+    """A flow sweep file that did not keep the impacts cannot seed: refused before any work
+    (exit 2), naming the observable to keep."""
     from click.testing import CliRunner
 
     from cornerbif.cli import main
@@ -484,7 +486,7 @@ def test_a_seed_file_without_what_the_seed_reads_is_refused(tmp_path):
     r = CliRunner().invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"),
                                   "-o", str(tmp_path / "c.h5"),
                                   "--set", f'continue.seed_file="{sw}"'])
-    assert r.exit_code == 1 and "does not keep 'impacts'" in r.output, r.output
+    assert r.exit_code == 2 and "does not keep 'impacts'" in r.output, r.output
 
 
 def test_validate_says_what_continue_will_do():

@@ -200,7 +200,7 @@ def test_the_window_ignores_infinities_and_sees_every_branch_of_a_large_file():
 
 def test_marks_and_the_obstacle_figure_are_checked_against_the_scene():
     from cornerbif import config
-    with pytest.raises(config.SceneError, match=r"plot.marks: 1.5 \(far\) is outside the swept"):
+    with pytest.raises(config.SceneError, match=r"plot.marks\[0\]: 1.5 \('far'\) is outside the swept"):
         config.load(os.path.join(ROOT, "configs", "fig06a.toml"),
                     ['plot.marks=[[1.5, "far"]]'])
     with pytest.raises(config.SceneError, match="obstacle 'sine'"):
@@ -443,11 +443,14 @@ def test_a_continuation_figure_keeps_its_scenes_window_for_its_own_y_only(tmp_pa
     br = {"param": np.linspace(0.0, 1.0, 5), "stable": np.ones(5, bool), "word": "b",
           "impact_u": np.linspace(0.01, 0.02, 5), "impact_v_in": np.linspace(-18, -1, 5)}
     cont = {"branches": [br], "events": [], "curves": [], "parameter": "kappa",
-            "scene": '[scene]\nmodel = "flow"\n[plot]\nylim = [0.0, 0.03]\n'}
-    monkeypatch.setattr("cornerbif.continuation.read", lambda p: cont)
+            "scene": '[scene]\nmodel = "flow"\n[plot]\nylim = [0.0, 0.03]\n',
+            "attrs": {"model": "flow", "completed": "now"}, "path": "c.h5"}
+    monkeypatch.setattr(P, "read_continuation", lambda p: cont)
     seen = []
+    # the figure is saved whole (outputs.save_figure): the stand-in writes an empty file
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
-                        lambda fig, out, **k: seen.append(fig.axes[0].get_ylim()))
+                        lambda fig, out, **k: (seen.append(fig.axes[0].get_ylim()),
+                                               open(out, "wb").close()))
     P.figure_branches(["c.h5"], str(tmp_path / "a.png"))
     P.figure_branches(["c.h5"], str(tmp_path / "b.png"), y="impact_v")
     assert seen[0] == (0.0, 0.03)
@@ -467,7 +470,8 @@ def test_a_diagrams_title_is_its_scenes_and_its_notes_sit_outside_the_axes(tmp_p
     from cornerbif import plot as P
     seen = {}
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
-                        lambda fig, out, **k: seen.setdefault("fig", fig))
+                        lambda fig, out, **k: (seen.setdefault("fig", fig),
+                                               open(out, "wb").close()))
     P.figure([str(kappa_sweep)], str(tmp_path / "f.png"),
              plot_cfg={"orbits": "families", "ylim": [-0.016, 0.0]})
     ax = seen["fig"].axes[0]

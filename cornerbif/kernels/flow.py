@@ -14,7 +14,7 @@ import numpy as np
 from numba import prange
 
 from .. import status as S
-from .._jit import jit, jit_inline, pjit
+from .._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
 from ..models import params as P
 from ..models.impact import restitution
 from ..models.obstacle import (
@@ -455,7 +455,8 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
     impacted corner t0 between two sections, on whichever shifted copy of the
     orbit the run landed.
     ``final`` receives the state at the last section crossed (for ``follow``).
-    Returns the status code.
+    Returns the status code; ``STOPPED`` (outputs incomplete) when the sweep's control
+    (``ints[I_CONTROL]``) asks it to stop, which it reads every POLL_EVERY passes.
     """
     tol = p[P.TOL]
     r = p[P.R]
@@ -472,6 +473,9 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
     # the time budget in pieces: run.max_periods units of the slower of the obstacle's and
     # the oscillator's time scales (``oscillator.budget_pieces``)
     max_pieces = budget_pieces(p, d, ints[P.I_MAX_PIECES])
+    # the sweep's control (0: none): its stop flag is read every POLL_EVERY passes of the loop
+    control = ints[P.I_CONTROL]
+    passes = 0
     # stuck where the contact force is certified positive for all time (no corner, N > 0:
     # ``obstacle.contact_floor``) is stuck for good
     forever = contact_floor(p) > 0.0
@@ -556,6 +560,9 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
     c_stuck = False
     c_event = 0            # 1 when crossing it stuck counts as an event
     while True:
+        passes += 1
+        if passes & (POLL_EVERY - 1) == 0 and stop_requested(control):
+            return STOPPED
         if at_corner:
             # ---- at corner j (stuck or in flight): section, early stop --------------------
             at_corner = False
@@ -848,7 +855,9 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
 
     ``o_rec0[i]`` receives the number of item i's first recorded impact (early stop).
 
-    Each item writes only its own rows; results do not depend on the thread count.
+    Each item writes only its own rows; results do not depend on the thread count.  Under
+    a sweep's control (``ints[I_CONTROL]``, ``_jit.Control``) each finished item is counted,
+    and a run told to stop returns ``STOPPED`` within POLL_EVERY passes of its loop.
     """
     n = params.shape[0]
     # prange hands each thread a contiguous range; neighbouring items (neighbouring
@@ -864,6 +873,7 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
                               ints, ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i],
                               o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i],
                               o_final[i], o_rec0[i:i + 1])
+        count_done(ints[P.I_CONTROL])
 
 
 @pjit
@@ -886,6 +896,7 @@ def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corne
                               ints, ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i],
                               o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i],
                               o_rec0[i:i + 1])
+        count_done(ints[P.I_CONTROL])
 
 
 @pjit

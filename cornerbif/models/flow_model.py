@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .._jit import raise_if_stopped
 from ..analysis import detect_cycles
 from ..kernels.fill import full
 from ..kernels.flow import obstacle_heights, run_batch, run_batch_profile
@@ -118,7 +119,69 @@ def obstacle_top(ctx):
     return None
 
 
+# --- the time model of a run (``sweep.estimate_time``) --------------------------------------
+# Seconds of one core per impact (with its share of the cycle analysis) and per obstacle piece
+# crossed, by the kernel's path: "free" (sigma = 0, F = 0, k > 0: flights rotate in closed form
+# and a piece without impact is crossed by the Sturm test alone), "searched" (damped or forced:
+# every piece needs a certified search) and "profile" (a cam).  Measured by
+# benchmarks/estimate_time.py --calibrate on this machine (2026-11-27, one thread, process CPU
+# time, runs of 300 impacts from t = 0 at omega = 2, 200 and 2e4: fig06a, fig06a with sigma =
+# 0.01; cam_cycloidal at omega = 1, 100, 1e4): free 200 ns an impact and 12.5 ns a piece,
+# searched 400 and 51 ns, profile 113 ns a piece.  A cam's impact costs 1.5 us an impact
+# asked for (transient + record), measured on the whole cam_cycloidal sweep (omega 0.5 .. 3,
+# 0.31 s of CPU a thread for 1004 runs of 400 impacts on two): its follower chatters and
+# sticks, and some runs spend their event budget (run.max_events) on a few impacts and
+# thousands of releases (4 us an impact asked for at omega = 1, 1 us at omega = 100).
+COST_IMPACT = {"free": 2.0e-7, "searched": 4.0e-7, "profile": 1.5e-6}
+COST_PIECE = {"free": 1.25e-8, "searched": 5.1e-8, "profile": 1.13e-7}
+# a run's flights last about half the oscillator's period (pi / k between impacts: 0.89 pi
+# measured at omega = 2 .. 2e4, k = 1, and 0.86 pi for the cam)
+FLIGHT_SHARE = 0.5
+# where the estimate rests on the guessed flight time (the pieces' cost at least half of it),
+# or runs escape after a number of impacts found from the mean impact only, it may be off by
+# UNCERTAIN_FACTOR either way; elsewhere by CLOSE_FACTOR (benchmarks/estimate_time.py)
+UNCERTAIN_FACTOR = 3.0
+CLOSE_FACTOR = 1.5
+
+
+def escape_impacts(speed, r, k, escape):
+    """About how many impacts a run takes to escape (``run.escape``) off an obstacle moving at
+    up to ``speed``: law (5) adds (1 + r) z' to the velocity at each impact (z' averages 2/pi
+    of its peak) and keeps r of it, so v_n tends to V = (1 + r) (2/pi) speed / (1 - r); the
+    run escapes once v / k exceeds ``escape``.  inf when it never does (V / k <= escape)."""
+    if not (k > 0.0 and speed > 0.0):
+        return math.inf
+    kick = (1.0 + r) * (2.0 / math.pi) * speed
+    need = escape * k
+    if r >= 1.0:
+        return math.ceil(need / kick) + 1
+    limit = kick / (1.0 - r)
+    if limit <= need or r <= 0.0:
+        return math.inf if limit <= need else 2
+    return math.ceil(math.log1p(-need / limit) / math.log(r)) + 1
+
+
+# --- what a first run compiles (``engine.announce_compiles``) ------------------------------
+# cold compile seconds on this machine (benchmarks/compile_time.py, 2026-11-27, load about 2:
+# a fresh numba cache, cold run less warm run, each with what it shares with others already
+# compiled; under a heavier load of the shared machine they were up to four times longer)
+COMPILE_SECONDS = {"analysis": 2.3, "flow": 25.1, "profile": 28.8, "t0": 1.4, "stability": 4.0,
+                   "continuation": 1.5}
+# the cycle analysis and the file's chunk writer: every sweep of the flow and two-particle
+# models calls them
+ANALYSIS_KERNELS = ("analysis.detect_cycles", "analysis.cycle_signatures",
+                    "chunkwrite._shuffle_bytes", "kernels.fill._fill")
+# what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the
+# functions the continuation calls from Python, each cached on its own)
+CONTINUATION_KERNELS = ("stability.flight_matrix", "stability.impact_saltation",
+                        "stability.multipliers", "models.oscillator.acceleration")
+
+
 class FlowModel(Model):
+    # the slot of int_settings that carries the address of a sweep's control (the stop flag
+    # and runs finished, ``_jit.Control``; ``engine.with_control``)
+    control_slot = P.I_CONTROL
+
     def check(self, ctx):
         problems = []
         if not ctx.problems:
@@ -142,11 +205,14 @@ class FlowModel(Model):
                                 f"top z = {top!r} over the start times (initial.t): a start "
                                 "at such a t0 would lie below it; raise the upper end")
         z0 = max(kap) if kap else None
+        what = "kappa"
         if z0 is not None and ctx.obstacle == "profile" and getattr(ctx, "profile", None):
-            z0 += max(ctx.values_list("beta")) * float(ctx.profile.lift(0.0))
+            g0 = float(ctx.profile.lift(0.0))
+            z0 += max(b * g0 for b in ctx.values_list("beta"))
+            what = f"kappa + beta g(0), g(0) = {g0!r},"
         if ctx.drawn and rng and kap and rng[1] <= z0:
             problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
-                            f"(z(0) = kappa up to {max(kap)!r}); the upper end must exceed it")
+                            f"(z(0) = {what} up to {z0!r}); the upper end must exceed it")
         return problems
 
     def check_point(self, values: dict) -> str | None:
@@ -194,6 +260,81 @@ class FlowModel(Model):
     def kernel(self):
         return run_batch
 
+    def compiles(self, scene, what):
+        """What a first run of ``scene`` compiles, for ``what`` ("sweep", "stability",
+        "continuation"; ``engine.cold_compiles``): (name, seconds, jitted functions) per
+        kernel, the seconds from COMPILE_SECONDS."""
+        from .._jit import dispatchers
+        out = []
+        if "sweep" in what or "continuation" in what:
+            out.append(("the cycle analysis", COMPILE_SECONDS["analysis"],
+                        dispatchers(*ANALYSIS_KERNELS)))
+            if scene.obstacle == "profile":
+                out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["profile"],
+                            [run_batch_profile, obstacle_heights]))
+            else:
+                out.append(("the flow kernel", COMPILE_SECONDS["flow"], [run_batch]))
+                if scene.initial.get("t", (0.0, 0.0))[1] > 0.0 or "initial.t" in [
+                        a.name for a in scene.axes]:
+                    out.append(("the obstacle's heights at the start times",
+                                COMPILE_SECONDS["t0"], [obstacle_heights]))
+        if "stability" in what or ("sweep" in what and "stability" in scene.keep):
+            out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
+                        [batch_stability]))
+        if "continuation" in what and CONTINUATION_KERNELS:
+            out.append(("the flow continuation's functions", COMPILE_SECONDS["continuation"],
+                        dispatchers(*CONTINUATION_KERNELS)))
+        return out
+
+    def run_seconds(self, scene, values):
+        """The time model of one run at the parameter ``values`` of a grid point
+        (``sweep.estimate_time``): (seconds of one core, low, high, reasons the estimate is
+        uncertain).
+
+        A run pays per impact and per obstacle piece it crosses (``COST_IMPACT``,
+        ``COST_PIECE``, by kernel path).  Its impacts are transient + record, fewer when
+        it escapes first (``escape_impacts``); its flights last FLIGHT_SHARE of the
+        oscillator's period 2 pi / k (2 pi / Omega for k = 0 with forcing; one piece for a
+        free particle), so it crosses about that over the piece's length pieces per
+        impact, at most its time budget (``run.max_periods``, docs/guarantees.md
+        "Budgets").  With ``run.stop = "period"`` the transient may end early: the low end
+        is the record alone."""
+        w, k, r = float(values["omega"]), float(values["k"]), float(values["r"])
+        sigma, F = float(values["sigma"]), float(values["F"])
+        Om = float(values["Omega"])
+        ob = scene.obstacle
+        piece = (P.obstacle_period(ob, w, scene.profile)
+                 / P.pieces_per_period(ob, scene.profile))
+        if ob == "profile":
+            path = "profile"
+        else:
+            path = "free" if sigma == 0.0 and F == 0.0 and k > 0.0 else "searched"
+        scale = (2 * math.pi / k if k > 0 else 2 * math.pi / Om if F != 0 and Om > 0 else 0.0)
+        reasons = []
+        flight = FLIGHT_SHARE * scale
+        if flight <= 0.0:
+            flight = piece
+            reasons.append("a free particle (k = 0, F = 0) has no flight time of its own")
+        n = scene.transient + scene.record
+        esc = escape_impacts(obstacle_speed(scene, values), r, k, scene.escape)
+        if esc < n:
+            n = esc
+            reasons.append(f"runs escape (run.escape = {scene.escape:g}) after about {esc} "
+                           "impacts off the fast obstacle")
+        budget = scene.max_periods * max(4.0 * piece, scale) / piece
+        pieces = min(n * max(1.0, flight / piece), budget)
+        cost_pieces = pieces * COST_PIECE[path]
+        seconds = n * COST_IMPACT[path] + cost_pieces
+        if cost_pieces >= 0.5 * seconds:
+            reasons.append(f"runs cross about {max(1.0, flight / piece):.2g} obstacle pieces "
+                           "between impacts")
+        f = UNCERTAIN_FACTOR if reasons else CLOSE_FACTOR
+        low, high = seconds / f, seconds * f
+        if scene.stop == "period" and n > scene.record:
+            low *= scene.record / n
+            reasons.append("runs stop once their cycle is found (run.stop = \"period\")")
+        return seconds, low, high, reasons
+
     def word_seed(self, values, scene, param, word):
         from ..continuation import seed_from_word
         return seed_from_word(values, scene.obstacle, param, word, scene.tol)
@@ -239,6 +380,19 @@ class FlowModel(Model):
         return out, st, final, period, ipc, sym
 
 
+def obstacle_speed(scene, values) -> float:
+    """The obstacle's largest speed |z'| at one grid point: beta omega for sine and
+    rectified_sine, the triangle's steeper slope, beta omega max |g'| for a profile."""
+    w, beta = float(values["omega"]), float(values["beta"])
+    if scene.obstacle == "triangle":
+        t1, t2 = values.get("theta1"), values.get("theta2")
+        return max(beta * w if t1 is None else float(t1), beta * w if t2 is None else float(t2))
+    if scene.obstacle == "profile":
+        th = np.linspace(0.0, scene.profile.period, 1025)
+        return beta * w * float(np.abs(scene.profile.lift(th, 1)).max())
+    return beta * w
+
+
 def corner_places(params, ids, t, cornered):
     """``impacts/corner``: the place of each impact's corner among its period's corners.
 
@@ -282,6 +436,7 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     kernel = run_batch_profile if params.shape[1] > P.NPARAM else run_batch
     kernel(np.ascontiguousarray(params, dtype=np.float64), ints, ics, out["t"], out["u"], out["v_in"],
            out["v_out"], out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
+    raise_if_stopped(ints[P.I_CONTROL])     # stopped: nothing half-computed goes on
     period = np.zeros(n, np.int64)
     ipc = np.zeros(n, np.int64)
     sym = np.zeros((n, rec), np.uint8)

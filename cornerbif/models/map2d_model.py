@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import status as S
+from .._jit import raise_if_stopped
 from ..maps2d import detect_map_cycles, iterate_batch
 from ..model import Coord, CycleSeries, Field, Model, Param, anything, positive
 from ..stability import batch_map_stability, new_outputs
@@ -35,9 +36,22 @@ PER_ITERATE = {"cycle_duration": ("period of the cycle in iterates", None),
 STABILITY = tuple(Field(f.name, f.source, *PER_ITERATE[f.source], axis=f.axis)
                   if f.source in PER_ITERATE else f for f in STABILITY_FIELDS)
 NO_OBSTACLE = -np.inf   # any (a0, b1) is a start
+I_CONTROL = 2           # int_settings: the address of the sweep's control (``_jit.Control``)
+
+
+# cold compile seconds on this machine (benchmarks/compile_time.py, 2026-11-27;
+# ``engine.announce_compiles``)
+COMPILE_SECONDS = {"map2d": 1.5, "stability": 1.0, "continuation": 0.0}
+# what ``cornerbif continue`` compiles for this model beyond the sweep's kernels: nothing (the
+# maps' orbits are solved in numpy, cornerbif.theory)
+CONTINUATION_KERNELS = ()
 
 
 class Map2dModel(Model):
+    # the slot of int_settings that carries the address of a sweep's control (the stop flag
+    # and runs finished, ``_jit.Control``; ``engine.with_control``)
+    control_slot = I_CONTROL
+
     def wall_at_start(self, params):
         return np.full(params.shape[0], NO_OBSTACLE)
 
@@ -46,10 +60,35 @@ class Map2dModel(Model):
         return np.array([values["omega"] - 2.0, values["kappa"], values["r"]], dtype=float)
 
     def int_settings(self, scene):
-        return np.array([scene.transient, scene.record], np.int64)
+        """(transient, record, the address of the sweep's control: 0 for none,
+        ``engine.with_control``)."""
+        return np.array([scene.transient, scene.record, 0], np.int64)
 
     def kernel(self):
         return iterate_batch
+
+    def compiles(self, scene, what):
+        """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
+        from .._jit import dispatchers
+        out = []
+        if "sweep" in what or "continuation" in what:
+            out.append(("the map2d kernels", COMPILE_SECONDS["map2d"],
+                        [iterate_batch, detect_map_cycles]
+                        + dispatchers("analysis.cycle_signatures", "chunkwrite._shuffle_bytes")))
+        if "stability" in what or ("sweep" in what and "stability" in scene.keep):
+            out.append(("the map2d stability kernel", COMPILE_SECONDS["stability"],
+                        [batch_map_stability]))
+        if "continuation" in what and CONTINUATION_KERNELS:
+            out.append(("the map2d continuation's functions", COMPILE_SECONDS["continuation"],
+                        dispatchers(*CONTINUATION_KERNELS)))
+        return out
+
+    def run_seconds(self, scene, values):
+        """The time model of one run (``sweep.estimate_time``): its transient + record map
+        steps at ``events_per_second``; (seconds, low, high, reasons): within a factor 1.5,
+        never uncertain."""
+        seconds = (scene.transient + scene.record) / self.events_per_second
+        return seconds, seconds / 1.5, seconds * 1.5, []
 
     def orbit_seed(self, values, scene, param, word, run):
         from ..continuation import map_seed
@@ -70,8 +109,10 @@ class Map2dModel(Model):
         a = np.empty((n, rec))
         b = np.empty((n, rec))
         reg = np.empty((n, rec), np.int8)
+        control = int(ints[I_CONTROL]) if ints.shape[0] > I_CONTROL else 0
         iterate_batch(np.ascontiguousarray(params), np.ascontiguousarray(ics), scene.transient,
-                      rec, a, b, reg)
+                      rec, a, b, reg, control)
+        raise_if_stopped(control)
         period = np.zeros(n, np.int64)
         sym = np.zeros((n, max(1, rec // 2)), np.uint8)
         detect_map_cycles(reg, a, b, scene.period_tol, period, sym)

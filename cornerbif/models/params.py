@@ -163,7 +163,9 @@ I_TRANSIENT = 0
 I_RECORD = 1
 I_MAX_EVENTS = 2
 I_MAX_PIECES = 3
-NINT = 4
+I_CONTROL = 4      # the address of the sweep's control (``_jit.Control``: stop flag, runs
+                   # finished), 0 for none: ``engine.with_control``
+NINT = 5
 
 
 def obstacle_period(obstacle: str, omega: float, profile=None) -> float:

@@ -42,8 +42,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import is_number, shown
+
 MAX_PIECES = 8        # pieces per period (the packed vector's room; docs/cams.md)
 MAX_DEGREE = 7
+# The ranges in which the certified bounds and the kernels stay finite and meaningful
+# (docs/cams.md, "Limits"); each refusal names its key, its value and the range, and why:
+# the period, an angle of omega t (2 pi one revolution, 360 written in degrees); outside,
+# rescale omega: the same obstacle in time, with the pieces' powers phi^7 within float64
+MIN_PERIOD, MAX_PERIOD = 1e-3, 1e4
+# a piece's span as a share of the period: a shorter piece is a step rather than a shape
+# (a law's coefficients grow as rise / span^5), and the spans' sum is checked to 1e-12 of
+# the period, which a piece of 1e-12 would pass unseen
+MIN_SPAN_SHARE = 1e-6
+# the lift g in units of beta (scale beta for a larger obstacle): a law's rise, a
+# sinusoid's a and b; within it (and MIN_SPAN_SHARE, MAX_TURN) the enclosures of the
+# derivatives up to the fourth (divided by span^4, or times n^4) stay far inside float64
+MAX_LIFT = 1e6
+# ... and of the enclosure of g on a piece: ten times that, since heights add up over the
+# pieces (8 rises of MAX_LIFT) and an enclosure exceeds the lift (a cycloid's by 1/(2 pi))
+MAX_ENCLOSURE = 10 * MAX_LIFT
+# n times the span: the radians a sinusoid piece turns through; the kernels evaluate
+# sin(n phi), whose argument float64 rounds to 1e-16 of it (1e-10 rad at 1e6), and its
+# bounds grow as n^4
+MAX_TURN = 1e6
+# what float64 holds: the certified bounds in time (beta omega^j |g^(j)|), the Sturm floors
+# and the pieces' lengths in time must stay below it (``scale_problem``)
+FLOAT_MAX = 1.7976931348623157e308
 LAWS = ("dwell", "constant_velocity", "parabolic", "simple_harmonic", "cycloidal",
         "polynomial_345")
 KEYS = ("span", "poly", "sine", "law", "rise")
@@ -118,7 +143,8 @@ class Profile:
 
 # ------------------------------------------------------------------ reading a scene's table
 def _num(x):
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(float(x))
+    """A finite number (an int too large for a float64 is not one)."""
+    return is_number(x) and math.isfinite(float(x))
 
 
 def _law(law, span, rise, start):
@@ -155,48 +181,69 @@ def _law(law, span, rise, start):
 
 def read(table, key="system.profile") -> Profile:
     """A scene's ``[system.profile]`` table -> a checked ``Profile``; ``ProfileError``
-    lists every problem, each naming its key (``system.profile.pieces[2].poly``)."""
+    lists every problem, each naming its key (``system.profile.pieces[2].poly``), its value
+    and what is allowed: every number finite and within the ranges in which the certified
+    bounds and the kernels stay finite and meaningful (MIN_PERIOD..MAX_PERIOD,
+    MIN_SPAN_SHARE, MAX_LIFT, MAX_TURN, MAX_PIECES, MAX_DEGREE)."""
     problems = []
     if not isinstance(table, dict):
-        raise ProfileError([f"{key}: {table!r} must be a table with period and pieces"])
+        raise ProfileError([f"{key}: {shown(table)} must be a table with period and pieces"])
     unknown = [k for k in table if k not in ("period", "pieces", "corners")]
     for k in unknown:
-        problems.append(f"{key}.{k}: unknown key; allowed: period, pieces, corners")
+        problems.append(f"{key}.{str(k)[:60]}: unknown key; allowed: period, pieces, corners")
     period = table.get("period", 2 * math.pi)
-    if not _num(period) or period <= 0:
-        problems.append(f"{key}.period: {period!r} must be a positive number (an angle, "
-                        "radians of omega t)")
-        period = 2 * math.pi
+    if not (_num(period) and MIN_PERIOD <= period <= MAX_PERIOD):
+        problems.append(f"{key}.period: {shown(period)} must be a number in [{MIN_PERIOD:g}, "
+                        f"{MAX_PERIOD:g}]: an angle, radians of omega t (2 pi one revolution); "
+                        "for a period outside it rescale omega, which gives the same obstacle "
+                        "in time")
+        period = None                   # the spans are checked against no period
+    else:
+        period = float(period)
     raw = table.get("pieces")
     if not isinstance(raw, list) or not raw:
-        raise ProfileError(problems + [f"{key}.pieces: {raw!r} must be a non-empty list of "
+        raise ProfileError(problems + [f"{key}.pieces: {shown(raw)} must be a non-empty list of "
                                        "pieces (tables with span and poly, sine or law)"])
+    if len(raw) > MAX_PIECES:
+        raise ProfileError(problems + [f"{key}.pieces: {len(raw)} smooth pieces at least (a "
+                                       f"parabolic law counts two); at most {MAX_PIECES} per "
+                                       "period (the packed vector's room)"])
     pieces = []
     height = 0.0
     for i, pc in enumerate(raw):
         k = f"{key}.pieces[{i}]"
         if not isinstance(pc, dict):
-            problems.append(f"{k}: {pc!r} must be a table")
+            problems.append(f"{k}: {shown(pc)} must be a table")
             continue
         for x in pc:
             if x not in KEYS:
-                problems.append(f"{k}.{x}: unknown key; allowed: {', '.join(KEYS)}")
+                problems.append(f"{k}.{str(x)[:60]}: unknown key; allowed: {', '.join(KEYS)}")
         span = pc.get("span")
         if not _num(span) or span <= 0:
-            problems.append(f"{k}.span: {span!r} must be a positive number (an angle)")
+            problems.append(f"{k}.span: {shown(span)} must be a positive number (an angle)")
             continue
+        span = float(span)
+        if period is not None and not MIN_SPAN_SHARE * period <= span <= period:
+            problems.append(f"{k}.span: {span!r} must be within [{MIN_SPAN_SHARE:g}, 1] times "
+                            f"the period {period!r}: a shorter piece is a step rather than a "
+                            "shape (a law's coefficients grow as rise / span^5)")
+            continue
+        if period is None and not MIN_SPAN_SHARE * MIN_PERIOD <= span <= MAX_PERIOD:
+            continue                    # no period to compare with: its problem stands
         if "law" in pc:
             law = pc["law"]
             if law not in LAWS:
-                problems.append(f"{k}.law: {law!r} is not a motion law; allowed: "
+                problems.append(f"{k}.law: {shown(law)} is not a motion law; allowed: "
                                 + ", ".join(LAWS))
                 continue
             if "poly" in pc or "sine" in pc:
                 problems.append(f"{k}: give a law or poly/sine, not both")
                 continue
             rise = pc.get("rise", 0.0)
-            if not _num(rise):
-                problems.append(f"{k}.rise: {rise!r} must be a finite number")
+            if not (_num(rise) and abs(rise) <= MAX_LIFT):
+                problems.append(f"{k}.rise: {shown(rise)} must be a number within "
+                                f"+-{MAX_LIFT:g} (the lift, in units of beta: scale beta for a "
+                                "larger one)")
                 continue
             if law == "dwell" and rise != 0.0:
                 problems.append(f"{k}.rise: {rise!r} but a dwell does not rise")
@@ -206,24 +253,39 @@ def read(table, key="system.profile") -> Profile:
             if "rise" in pc:
                 problems.append(f"{k}.rise: only a law takes a rise")
             poly = pc.get("poly", [0.0])
-            if (not isinstance(poly, list) or not poly or not all(_num(c) for c in poly)):
-                problems.append(f"{k}.poly: {poly!r} must be a list of finite coefficients "
-                                "c0, c1, ... (in the local angle)")
-                continue
-            if len(poly) > MAX_DEGREE + 1:
+            if isinstance(poly, list) and len(poly) > MAX_DEGREE + 1:
                 problems.append(f"{k}.poly: degree {len(poly) - 1} is past the limit "
                                 f"{MAX_DEGREE}")
+                continue
+            if (not isinstance(poly, list) or not poly or not all(_num(c) for c in poly)):
+                problems.append(f"{k}.poly: {shown(poly)} must be a list of finite coefficients "
+                                "c0, c1, ... (in the local angle)")
                 continue
             a = b = n = 0.0
             if "sine" in pc:
                 sn = pc["sine"]
                 if not (isinstance(sn, list) and len(sn) == 3 and all(_num(x) for x in sn)):
-                    problems.append(f"{k}.sine: {sn!r} must be [a, b, n]: a sin(n phi) + "
+                    problems.append(f"{k}.sine: {shown(sn)} must be [a, b, n]: a sin(n phi) + "
                                     "b cos(n phi), finite")
                     continue
                 a, b, n = (float(x) for x in sn)
+                if max(abs(a), abs(b)) > MAX_LIFT:
+                    problems.append(f"{k}.sine: {shown(sn)}: a and b must be within "
+                                    f"+-{MAX_LIFT:g} (the lift, in units of beta: scale beta "
+                                    "for a larger one)")
+                    continue
+                if abs(n) * span > MAX_TURN:
+                    problems.append(f"{k}.sine: n = {n!r} over the span {span!r} turns "
+                                    f"{abs(n) * span:.3g} radians; at most {MAX_TURN:g} (sin(n "
+                                    "phi) is evaluated to 1e-16 of its argument, and its "
+                                    "bounds grow as n^4)")
+                    continue
             c = [float(x) for x in poly] + [0.0] * (MAX_DEGREE + 1 - len(poly))
-            new = [Piece(float(span), tuple(c), a, b, n)]
+            new = [Piece(span, tuple(c), a, b, n)]
+        lifts = [_lift_problem(p) for p in new]
+        if any(lifts):
+            problems.append(f"{k}: {next(x for x in lifts if x)}")
+            continue
         for p in new:
             pieces.append((i, p))
         last = new[-1]
@@ -236,17 +298,20 @@ def read(table, key="system.profile") -> Profile:
     total = sum(p.span for _, p in pieces)
     if abs(total - period) > 1e-12 * period:
         raise ProfileError([f"{key}.pieces: the spans add up to {total!r}, not the period "
-                            f"{float(period)!r}: the pieces must cover one period exactly"])
+                            f"{period!r}: the pieces must cover one period exactly"])
     # continuity and corners at every joint, the period's end included
     first = {}
     for m, (i, _) in enumerate(pieces):
         first.setdefault(i, m)
     chosen = table.get("corners")
     if chosen is not None:
-        if not (isinstance(chosen, list) and all(isinstance(c, int) and not isinstance(c, bool)
-                                                 and 0 <= c < len(raw) for c in chosen)):
-            raise ProfileError([f"{key}.corners: {chosen!r} must be a list of piece indices "
-                                f"0..{len(raw) - 1} (the pieces whose start is a corner)"])
+        if not (isinstance(chosen, list) and len(chosen) <= len(raw)
+                and all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c < len(raw)
+                        for c in chosen)
+                and len(set(chosen)) == len(chosen)):
+            raise ProfileError([f"{key}.corners: {shown(chosen)} must be a list of piece "
+                                f"indices 0..{len(raw) - 1}, each at most once (the pieces "
+                                "whose start is a corner)"])
         chosen = {first[c] for c in chosen}
     corners = []
     for m, (i, pc) in enumerate(pieces):
@@ -269,7 +334,65 @@ def read(table, key="system.profile") -> Profile:
             corners.append(m in chosen)
     if problems:
         raise ProfileError(problems)
-    return Profile(float(period), tuple(p for _, p in pieces), tuple(corners))
+    return Profile(period, tuple(p for _, p in pieces), tuple(corners))
+
+
+def _lift_problem(piece) -> str | None:
+    """A piece whose certified bounds (``bounds``) are not finite or whose lift leaves
+    +-MAX_ENCLOSURE, as the end of a problem (None when it is within both)."""
+    with np.errstate(all="ignore"):
+        b = bounds(piece)
+    if not all(math.isfinite(x) for x in b):
+        return ("its certified bounds of g and its derivatives overflow float64; give smaller "
+                "coefficients")
+    lift = max(abs(b[0]), abs(b[1]))
+    if lift > MAX_ENCLOSURE:
+        return (f"the lift reaches {lift:.6g} on this piece (its certified enclosure, from the "
+                f"height the pieces before leave); at most {MAX_ENCLOSURE:g} in units of beta: "
+                "scale beta for a larger obstacle")
+    return None
+
+
+def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: float,
+                  sigma: float = 0.0):
+    """What of the kernels' numbers a profile at (omega, beta, k, kappa, sigma) would make
+    non-finite, as (parameter, why) or None, each computed as the kernels compute it
+    (``models.obstacle``): the period in time (period / omega), the certified bounds in
+    time of the second to fourth derivatives of z (beta omega^j, then times the largest
+    bound of the j-th derivative of g over the pieces, ``bounds``), the bound of the
+    contact force's N'' (``profile_npp``) and the Sturm floors (``sturm_bound``).  Each
+    grows with |omega|, beta, sigma and k (a floor also as 1 / k^2), so a scene checks its
+    extremes."""
+    f = np.float64
+    with np.errstate(all="ignore"):
+        w, b, kk, sg = f(abs(omega)), f(beta), f(k), f(sigma)
+        if not math.isfinite(f(profile.period) / w):
+            return "omega", f"the period in time, {profile.period!r} / omega, overflows float64"
+        per_piece = [bounds(pc) for pc in profile.pieces]
+        G = [max(max(abs(x[2]), abs(x[3])) for x in per_piece),      # g'', g''', g''''
+             max(x[4] for x in per_piece), max(x[5] for x in per_piece)]
+        for j, g in zip((2, 3, 4), G):
+            if not (math.isfinite(b * w ** j) and math.isfinite(b * w ** j * g)):
+                top = (FLOAT_MAX / 1e3 / (b * max(g, 1.0))) ** (1.0 / j) if b > 0 else 0.0
+                return "omega", (f"the certified bound of z's derivative {j}, beta omega^{j} "
+                                 f"max|g^({j})| (beta {beta!r}, max|g^({j})| {g:.6g}), overflows "
+                                 f"float64; omega at most about {top:.3g} with this beta")
+        npp = b * w * w * (w * w * G[2] + 2.0 * sg * w * G[1] + kk * kk * G[0])
+        if not math.isfinite(npp):
+            name = "sigma" if not math.isfinite(2.0 * sg * w * G[1]) else "k"
+            return name, ("the bound of the contact force's second derivative, beta omega^2 "
+                          "(omega^2 G4 + 2 sigma omega G3 + k^2 G2), overflows float64")
+        for pc in profile.pieces:
+            try:
+                st = f(sturm_bound(pc, k, omega))
+            except OverflowError:
+                st = f(math.inf)
+            floor = -f(kappa) - b * st / (kk * kk) if k > 0.0 else f(0.0)
+            if not (math.isfinite(st) and math.isfinite(floor)):
+                return "k", (f"the Sturm comparison's floor of a piece, -kappa - beta (k^2 g + "
+                             f"omega^2 g'')_max / k^2 (k {k!r}, omega {omega!r}), overflows "
+                             "float64")
+    return None
 
 
 # ------------------------------------------------------------------ certified bounds

@@ -99,7 +99,8 @@ I_TRANSIENT = 0    # z-u impacts skipped before recording
 I_RECORD = 1       # z-u impacts recorded
 I_MAX_EVENTS = 2   # budget of events (impacts, stick and release)
 I_MAX_PERIODS = 3  # budget of section periods
-NINT = 4
+I_CONTROL = 4      # the address of the sweep's control (``_jit.Control``), 0 for none
+NINT = 5
 
 
 def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float = 1e6,

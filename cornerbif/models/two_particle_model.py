@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from .._jit import raise_if_stopped
 from ..analysis import detect_cycles
 from ..kernels import two_particle as K
 from ..kernels.fill import full
@@ -48,7 +49,31 @@ STABILITY = tuple(Field(f.name, f.source, f.long_name, f.units, axis=(f.axis[0],
                   for f in STABILITY_FIELDS)
 
 
+# the time model of a run (``sweep.estimate_time``): seconds of one core per z-u impact (with
+# the w-z impacts between and the cycle analysis) and per section period crossed, measured by
+# benchmarks/estimate_time.py --calibrate (2026-11-27, one thread, process CPU time, Fig. 19(a)
+# runs of 300 z-u impacts from t = 0 at omega0 = 2, 200, 2e4: 880 ns and 81 ns); an estimate
+# resting on the sections' cost may be off by UNCERTAIN_FACTOR either way
+COST_IMPACT = 8.8e-7
+COST_SECTION = 8.1e-8
+UNCERTAIN_FACTOR = 3.0
+CLOSE_FACTOR = 1.5       # otherwise (benchmarks/estimate_time.py)
+
+
+# cold compile seconds on this machine (benchmarks/compile_time.py, 2026-11-27;
+# ``engine.announce_compiles``)
+COMPILE_SECONDS = {"two_particle": 21.3, "stability": 14.6, "continuation": 5.4}
+# what ``cornerbif continue`` compiles for this model beyond the sweep's kernels
+CONTINUATION_KERNELS = ("stability.two_particle_steps", "stability.flight_matrix",
+                        "stability.impact_saltation", "stability.zu_saltation",
+                        "models.oscillator.acceleration", "models.oscillator.forcing")
+
+
 class TwoParticleModel(Model):
+    # the slot of int_settings that carries the address of a sweep's control (the stop flag
+    # and runs finished, ``_jit.Control``; ``engine.with_control``)
+    control_slot = TP.I_CONTROL
+
     def check(self, ctx):
         problems = []
         rz, ru = ctx.ranges.get("z"), ctx.ranges.get("u")
@@ -101,6 +126,48 @@ class TwoParticleModel(Model):
     def kernel(self):
         return K.run_batch
 
+    def compiles(self, scene, what):
+        """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
+        from .._jit import dispatchers
+        from ..stability import batch_two_particle_stability
+        from .flow_model import ANALYSIS_KERNELS
+        from .flow_model import COMPILE_SECONDS as FLOW
+        out = []
+        if "sweep" in what or "continuation" in what:
+            out.append(("the cycle analysis", FLOW["analysis"], dispatchers(*ANALYSIS_KERNELS)))
+            out.append(("the two-particle kernel", COMPILE_SECONDS["two_particle"],
+                        [K.run_batch]))
+        if "stability" in what or ("sweep" in what and "stability" in scene.keep):
+            out.append(("the two-particle stability kernel", COMPILE_SECONDS["stability"],
+                        [batch_two_particle_stability]))
+        if "continuation" in what and CONTINUATION_KERNELS:
+            out.append(("the two-particle continuation's functions",
+                        COMPILE_SECONDS["continuation"], dispatchers(*CONTINUATION_KERNELS)))
+        return out
+
+    def run_seconds(self, scene, values):
+        """The time model of one run at the parameter ``values`` of a grid point
+        (``sweep.estimate_time``): (seconds of one core, low, high, reasons the estimate is
+        uncertain).  A run pays per z-u impact and per section period it crosses
+        (COST_IMPACT, COST_SECTION); between two z-u impacts about half the slower
+        particle's period pi / min(omega1, omega2) passes (measured: 1.00 pi at Fig. 19(a)),
+        at most the run's time budget (``run.max_periods`` units of the slower of the
+        section period and 2 pi / min(omega1, omega2), docs/guarantees.md "Budgets")."""
+        w0 = float(values["omega0"])
+        slow = min(float(values["omega1"]), float(values["omega2"]))
+        section = scene.section_period or 2.0 * math.pi / w0
+        n = scene.transient + scene.record
+        flight = math.pi / slow
+        budget = scene.max_periods * max(section, 2.0 * math.pi / slow) / section
+        sections = min(n * max(1.0, flight / section), budget)
+        seconds = n * COST_IMPACT + sections * COST_SECTION
+        reasons = []
+        if sections * COST_SECTION >= 0.5 * seconds:
+            reasons.append(f"runs cross about {max(1.0, flight / section):.2g} section periods "
+                           "between impacts")
+        f = UNCERTAIN_FACTOR if reasons else CLOSE_FACTOR
+        return seconds, seconds / f, seconds * f, reasons
+
     def orbit_seed(self, values, scene, param, word, run):
         from ..continuation import two_particle_seed
         n = int(np.isfinite(run["sz"]).sum())
@@ -125,6 +192,7 @@ class TwoParticleModel(Model):
         final = np.full((n, 4), np.nan)
         K.run_batch(np.ascontiguousarray(params), ints, np.ascontiguousarray(ics), o_zu, corner,
                     o_wz, o_sec, st, final)
+        raise_if_stopped(ints[TP.I_CONTROL])     # stopped: nothing half-computed goes on
         out = {"t": np.ascontiguousarray(o_zu[:, :, K.ZU_T]), "u": o_zu[:, :, K.ZU_U].copy(),
                "v_in": np.ascontiguousarray(o_zu[:, :, K.ZU_VIN]),
                "v_out": o_zu[:, :, K.ZU_VOUT].copy(),

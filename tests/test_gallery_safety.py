@@ -1,0 +1,616 @@
+"""`cornerbif gallery` as safe as `cornerbif sweep` (issue 28).
+
+* A smoke run has folders of its own and never replaces a full run's files; a full run never
+  reuses a smoke file.
+* The gallery replaces only files it wrote itself (a user's sweep, figure, record or text file
+  in its way is refused, by name, before any work; ``--overwrite`` for cornerbif files of the
+  right kind only).
+* Bad input (a missing or read-only folder, an unknown ``--only``, a broken scene among many)
+  is refused before any work, naming the file.
+* Faults: SIGINT and SIGTERM (exit 130, what was kept), SIGKILL at random moments, a real
+  full disk (tmpfs) in the sweep and in the figure step, ``ulimit -f`` (exit 1, one message):
+  after each, the same command again completes every output equal to an uninterrupted run
+  (HDF5 datasets byte for byte, PNGs pixel for pixel, the record's facts).
+
+Every run here uses copies of two or three shipped scenes, shrunk, in a temporary folder: no
+test writes into the repository's docs/gallery or gallery_data.
+"""
+
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from matplotlib.image import imread
+
+from cornerbif import config, gallery, run_sweep
+from cornerbif.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(__file__))
+CONFIGS = os.path.join(ROOT, "configs")
+# the shipped scenes, shrunk so a whole (not smoke) run takes about a second
+SHRINK = {"fig06a": [("num = 2001", "num = 161"), ("count = 8", "count = 4")],
+          "fig05": [("count = 64", "count = 16")],
+          "fig07a": [], "cont_beta": []}
+# the fault tests' scenes: a continuation drawn over a sweep (cont_beta over fig06a), a single
+# point with its time series (fig05), the theory's curves (fig07a); each a figure and a file
+NAMES = FIGS = ("cont_beta", "fig05", "fig06a", "fig07a")
+
+
+def scenes(folder, names=("fig05", "fig06a", "fig07a"), **edits):
+    """Copies of shipped scenes in ``folder`` (shrunk: SHRINK; ``edits``: more (old, new)
+    replacements per scene)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for n in names:
+        text = open(os.path.join(CONFIGS, f"{n}.toml")).read()
+        for a, b in SHRINK.get(n, []) + edits.get(n, []):
+            assert a in text, (n, a)
+            text = text.replace(a, b)
+        (folder / f"{n}.toml").write_text(text)
+    return folder
+
+
+def gallery_cli(*args):
+    return CliRunner().invoke(main, ["gallery", *map(str, args)])
+
+
+def gallery_proc(cfg, out, data, *extra, **kw):
+    return [sys.executable, "-m", "cornerbif.cli", "gallery", "--configs", str(cfg), "--out",
+            str(out), "--data", str(data), *extra]
+
+
+def snapshot(*folders):
+    """Every file under the folders: path -> bytes (what must not change)."""
+    got = {}
+    for f in folders:
+        for dirpath, _, names in os.walk(f):
+            for n in names:
+                p = os.path.join(dirpath, n)
+                with open(p, "rb") as fh:
+                    got[p] = fh.read()
+    return got
+
+
+def assert_same_h5(a, b):
+    with h5py.File(a) as f, h5py.File(b) as g:
+        names = []
+        f.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        other = []
+        g.visititems(lambda n, o: other.append(n) if isinstance(o, h5py.Dataset) else None)
+        assert sorted(names) == sorted(other), (a, b)
+        for n in names:
+            x, y = f[n][...], g[n][...]
+            assert x.dtype == y.dtype and x.shape == y.shape, n
+            if x.dtype == object:               # variable-length strings: their values
+                assert x.tolist() == y.tolist(), (a, n)
+            else:
+                assert x.tobytes() == y.tobytes(), (a, n)
+
+
+def assert_same_gallery(ref, got, figures, datas):
+    """Every output of ``got`` equal to the uninterrupted ``ref`` (dirs: (out, data))."""
+    for s in datas:
+        assert_same_h5(os.path.join(ref[1], f"{s}.h5"), os.path.join(got[1], f"{s}.h5"))
+    for fig in figures:
+        a, b = (imread(os.path.join(d[0], f"{fig}.png")) for d in (ref, got))
+        assert a.shape == b.shape and np.array_equal(a, b), fig
+    ra, rb = (json.load(open(os.path.join(d[0], "gallery_run.json"))) for d in (ref, got))
+    assert "drawing" not in rb
+    fa = {e["figure"]: (e["facts"], e["smoke"]) for e in ra["figures"]}
+    fb = {e["figure"]: (e["facts"], e["smoke"]) for e in rb["figures"]}
+    assert fa == fb
+
+
+# ---------------------------------------------------------------- smoke against full
+def test_smoke_run_has_places_of_its_own_and_never_replaces_a_full_run(tmp_path, monkeypatch):
+    """Issue 28: `gallery --smoke --only fig06a` (the README's CI test) rewrote the full
+    gallery's fig06a.png, gallery_run.json and gallery_data/fig06a.h5. Now its defaults are
+    gallery_smoke/ and gallery_smoke/data/, and pointed at a full run's folders it is refused
+    (exit 2, every file named, even with --overwrite), with nothing changed."""
+    monkeypatch.chdir(tmp_path)
+    scenes(tmp_path / "configs", ("fig06a", "fig07a"))
+    r = gallery_cli("--only", "fig06a")
+    assert r.exit_code == 0, r.output
+    full = snapshot("docs/gallery", "gallery_data")
+    assert set(full) == {"docs/gallery/fig06a.png", "docs/gallery/gallery_run.json",
+                         "gallery_data/fig06a.h5"}
+    r = gallery_cli("--smoke", "--only", "fig06a")
+    assert r.exit_code == 0, r.output
+    assert snapshot("docs/gallery", "gallery_data") == full
+    assert os.path.exists("gallery_smoke/fig06a.png")
+    assert os.path.exists("gallery_smoke/data/fig06a.h5")
+    assert gallery.made_by("gallery_smoke/data/fig06a.h5") == "smoke"
+    assert gallery.made_by("gallery_data/fig06a.h5") == "full"
+    for extra in ([], ["--overwrite"]):
+        r = gallery_cli("--smoke", "--only", "fig06a", "--out", "docs/gallery", "--data",
+                        "gallery_data", *extra)
+        assert r.exit_code == 2, r.output
+        for f in full:
+            assert f in r.output
+        assert "never replaces a full run's files" in r.output and "Traceback" not in r.output
+        assert snapshot("docs/gallery", "gallery_data") == full
+    # a smoke run into its own folders, where a full figure was put: refused too
+    shutil.copy("docs/gallery/fig06a.png", "gallery_smoke/fig06a.png")
+    rec = json.load(open("gallery_smoke/gallery_run.json"))
+    rec["figures"][0]["smoke"] = False
+    with open("gallery_smoke/gallery_run.json", "w") as fh:
+        json.dump(rec, fh)
+    r = gallery_cli("--smoke", "--only", "fig06a")
+    assert r.exit_code == 2 and "gallery_smoke/fig06a.png" in r.output, r.output
+
+
+def test_full_run_never_reuses_a_smoke_file(tmp_path):
+    """A smoke file's own scene says it is one (its title ends with gallery.SMOKE_MARK), so a
+    full run into the same folders sweeps again instead of reusing it and replaces it (the
+    gallery's own, stale). A file from before the mark says so only in its command
+    ("cornerbif gallery (smoke)"): a scene the smoke shrink leaves as it is (fig07a: 1 start,
+    0 + 1 impacts) gives such a file the full scene itself, and it is not reused either."""
+    cfg = scenes(tmp_path / "cfg", ("fig06a", "fig07a"))
+    out, data = tmp_path / "g", tmp_path / "d"
+    r = gallery_cli("--configs", cfg, "--out", out, "--data", data, "--smoke")
+    assert r.exit_code == 0, r.output
+    with h5py.File(data / "fig06a.h5") as f:
+        assert config.loads(f.attrs["scene"]).title.endswith(gallery.SMOKE_MARK)
+    recs = gallery.run(str(cfg), str(out), str(data), echo=lambda *a: None)
+    assert {s["action"] for r in recs for s in r["scenes"].values()} == {"swept"}
+    for s in ("fig06a", "fig07a"):
+        assert gallery.made_by(str(data / f"{s}.h5")) == "full"
+    assert not any(e["smoke"] for e in json.load(open(out / "gallery_run.json"))["figures"])
+    # an older smoke file: the full scene, made by "cornerbif gallery (smoke)"
+    scene = config.load(str(cfg / "fig07a.toml"))
+    os.remove(data / "fig07a.h5")
+    run_sweep(scene, str(data / "fig07a.h5"), command="cornerbif gallery (smoke)")
+    assert gallery.file_matches(str(data / "fig07a.h5"), scene)
+    recs = gallery.run(str(cfg), str(out), str(data), only=("fig07a",), echo=lambda *a: None)
+    assert recs[0]["scenes"]["fig07a"]["action"] == "swept"
+    assert gallery.made_by(str(data / "fig07a.h5")) == "full"
+
+
+# ---------------------------------------------------------------- files in the way
+def _user_sweep(path, num=41):
+    r = CliRunner().invoke(main, ["sweep", os.path.join(CONFIGS, "fig06a.toml"), "-o", str(path),
+                                  "--set", f"sweep.kappa.num={num}", "--set", "initial.count=2",
+                                  "--set", "run.transient=10", "--set", "run.record=10"])
+    assert r.exit_code == 0, r.output
+
+
+def _text(path, text="my notes\n"):
+    path.write_text(text)
+
+
+def _png(path):
+    import matplotlib.pyplot as plt
+    fig = plt.figure(figsize=(1, 1))
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _user_partial(path):
+    _user_sweep(path, num=7)
+    os.replace(path, str(path) + ".partial")
+
+
+IN_THE_WAY = {
+    # name: (file made, where it goes, refused even with --overwrite)
+    "a user's sweep of another scene": (_user_sweep, "data/fig06a.h5", False),
+    "a user's interrupted sweep": (_user_partial, "data/fig06a.h5", False),
+    "a text file where a sweep goes": (_text, "data/fig06a.h5", True),
+    "a text file where a figure goes": (_text, "out/fig06a.png", True),
+    "a figure the record does not list": (_png, "out/fig06a.png", False),
+    "a JSON file where the record goes": (lambda p: _text(p, '{"mine": 1}'),
+                                          "out/gallery_run.json", True),
+    "a folder where a sweep goes": (lambda p: p.mkdir(), "data/fig06a.h5", True),
+}
+
+
+@pytest.mark.parametrize("case", sorted(IN_THE_WAY))
+@pytest.mark.parametrize("smoke", [True, False])
+def test_a_file_the_gallery_did_not_write_is_refused_before_any_work(tmp_path, case, smoke):
+    """Issue 28: `gallery --data DIR` replaced a user's finished sweep (4001 points) with no
+    --overwrite and no warning. Every file in the way that the gallery did not write is
+    refused before any work (exit 2, named, nothing written or changed); --overwrite
+    replaces only cornerbif files of the kind that goes there (the user's sweep, a figure),
+    never a text file, a JSON file or a folder."""
+    make, where, always = IN_THE_WAY[case]
+    cfg = scenes(tmp_path / "cfg", ("fig06a", "fig07a"))
+    (tmp_path / "out").mkdir()
+    (tmp_path / "data").mkdir()
+    path = tmp_path / where
+    make(path)
+    before = snapshot(tmp_path / "out", tmp_path / "data")
+    args = ["--configs", cfg, "--out", tmp_path / "out", "--data", tmp_path / "data"]
+    args += ["--smoke"] if smoke else []
+    r = gallery_cli(*args)
+    assert r.exit_code == 2, r.output
+    assert str(path) in r.output and "Traceback" not in r.output
+    assert snapshot(tmp_path / "out", tmp_path / "data") == before
+    r = gallery_cli(*args, "--overwrite")
+    if always:
+        assert r.exit_code == 2 and str(path) in r.output, r.output
+        assert snapshot(tmp_path / "out", tmp_path / "data") == before
+    else:
+        assert r.exit_code == 0, r.output
+        assert gallery.made_by(str(tmp_path / "data" / "fig06a.h5")) == (
+            "smoke" if smoke else "full")
+
+
+def test_every_file_in_the_way_is_named_at_once_and_a_users_same_sweep_is_reused(tmp_path):
+    """Two files in the way: both named in one refusal, with what to do said once. A user's
+    finished sweep of exactly the scene the gallery would sweep is reused, never replaced
+    (its bytes unchanged)."""
+    cfg = scenes(tmp_path / "cfg", ("fig06a", "fig07a"))
+    out, data = tmp_path / "out", tmp_path / "data"
+    data.mkdir()
+    _user_sweep(data / "fig06a.h5")
+    _user_sweep(data / "fig07a.h5")   # a continuation or sweep of another scene at fig07a's name
+    r = gallery_cli("--configs", cfg, "--out", out, "--data", data)
+    assert r.exit_code == 2
+    assert str(data / "fig06a.h5") in r.output and str(data / "fig07a.h5") in r.output
+    assert r.output.count("--overwrite") == 1 and "for each of these 2 files" in r.output
+    assert not out.exists()
+    for f in ("fig06a.h5", "fig07a.h5"):
+        os.remove(data / f)
+    r = CliRunner().invoke(main, ["sweep", str(cfg / "fig06a.toml"), "-o", str(data / "fig06a.h5")])
+    assert r.exit_code == 0, r.output
+    mine = (data / "fig06a.h5").read_bytes()
+    recs = gallery.run(str(cfg), str(out), str(data), echo=lambda *a: None)
+    acts = {s: v["action"] for r in recs for s, v in r["scenes"].items()}
+    assert acts == {"fig06a": "reused", "fig07a": "swept"}
+    assert (data / "fig06a.h5").read_bytes() == mine
+
+
+def test_continuation_files_carry_who_made_them(tmp_path):
+    """A continuation file has no command of its own (``continuation.run_to_file``); the
+    gallery marks its own when finished (root attribute ``command``), so a user's
+    continuation of another scene at a gallery name is refused (exit 2, named; replaced
+    with --overwrite), and a full run's continuation is refused to a smoke run."""
+    from cornerbif import continuation
+    cfg = scenes(tmp_path / "cfg", ("cont_beta", "fig06a"))
+    out, data = tmp_path / "g", tmp_path / "d"
+    data.mkdir()
+    mine = config.load(str(cfg / "cont_beta.toml"), ["continue.range=[-0.02, -0.01]"])
+    continuation.run_to_file(mine, str(data / "cont_beta.h5"), log=lambda *a: None)
+    assert gallery.made_by(str(data / "cont_beta.h5")) is None
+    before = snapshot(data)
+    for smoke in ([], ["--smoke"]):
+        r = gallery_cli("--configs", cfg, "--out", out, "--data", data, *smoke)
+        assert r.exit_code == 2 and str(data / "cont_beta.h5") in r.output, r.output
+        assert "not the gallery's" in r.output and snapshot(data) == before
+    r = gallery_cli("--configs", cfg, "--out", out, "--data", data, "--overwrite")
+    assert r.exit_code == 0, r.output
+    assert gallery.made_by(str(data / "cont_beta.h5")) == "full"
+    full = snapshot(data, out)
+    r = gallery_cli("--configs", cfg, "--out", out, "--data", data, "--smoke", "--overwrite")
+    assert r.exit_code == 2 and "written by a full gallery run" in r.output, r.output
+    assert str(data / "cont_beta.h5") in r.output and snapshot(data, out) == full
+    r = gallery_cli("--configs", cfg, "--out", out, "--data", data)
+    assert r.exit_code == 0 and "cont_beta: reused" in r.output, r.output
+
+
+# ---------------------------------------------------------------- bad input, before any work
+def _broken(cfg):
+    p = cfg / "fig07a.toml"
+    p.write_text(p.read_text().replace("r = 0.8", "r = 5.0").replace("omega = 2.0",
+                                                                      "omega = -1.0"))
+    return "fig07a.toml", ["system.r: 5.0", "system.omega: -1"]
+
+
+def _over_missing(cfg):
+    text = open(os.path.join(CONFIGS, "cont_beta.toml")).read()
+    assert 'over = "fig06a"' in text
+    (cfg / "cont_beta.toml").write_text(text.replace('over = "fig06a"', 'over = "fig99"'))
+    return "cont_beta.toml", ["continue.over = 'fig99'"]
+
+
+def _no_configs(cfg):
+    shutil.rmtree(cfg)
+    return str(cfg), ["does not exist"]
+
+
+def _configs_a_file(cfg):
+    shutil.rmtree(cfg)
+    cfg.write_text("x")
+    return str(cfg), ["is a file"]          # said by click, before the command starts
+
+
+def _no_scenes(cfg):
+    for p in cfg.iterdir():
+        os.remove(p)
+    return str(cfg), ["no scene files"]
+
+
+def _toml_error(cfg):
+    (cfg / "fig05.toml").write_text("[scene\n")
+    return "fig05.toml", ["TOML"]
+
+
+def _out_a_file(cfg):
+    (cfg.parent / "out").write_text("x")
+    return "--out", ["is a file"]           # said by click, before the command starts
+
+
+BAD = {
+    "missing configs": _no_configs,
+    "configs is a file": _configs_a_file,
+    "no scenes": _no_scenes,
+    "one broken scene among three": _broken,
+    "a TOML syntax error": _toml_error,
+    "continue.over names no scene": _over_missing,
+    "--only names no figure": lambda cfg: ("--only", ["fig99 not in"]),
+    "--out is a file": _out_a_file,
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_is_refused_before_any_work(tmp_path, case):
+    """Each refused with exit 2 and a message naming the file (a broken scene: its file and
+    every problem, today only the first problem's text was shown, without the file), and
+    nothing made: no output folder, no sweep."""
+    cfg = scenes(tmp_path / "cfg")
+    name, needles = BAD[case](cfg)
+    args = ["--configs", cfg, "--out", tmp_path / "out", "--data", tmp_path / "d"]
+    if case == "--only names no figure":
+        args += ["--only", "fig99"]
+    r = gallery_cli(*args, "--smoke")
+    assert r.exit_code == 2, r.output
+    assert name in r.output and all(n in r.output for n in needles), r.output
+    assert "Traceback" not in r.output
+    assert not (tmp_path / "d").exists()
+    assert case == "--out is a file" or not (tmp_path / "out").exists()
+
+
+def _mount_tmpfs(path, opts):
+    if os.geteuid() != 0 or not shutil.which("mount"):
+        pytest.skip("mounting a tmpfs needs root and mount(8)")
+    path.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", opts, "tmpfs", str(path)],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.skip(f"this machine does not let us mount a tmpfs ({r.stderr.strip()})")
+
+
+@pytest.mark.parametrize("which", ["--out", "--data"])
+def test_a_read_only_folder_is_refused_before_any_work(tmp_path, which):
+    """Issue 28: `gallery --out` a read-only folder swept first and failed after. Now it is
+    refused before any sweep (exit 2, the folder named), --out or --data alike (a real
+    read-only filesystem: root ignores permission bits)."""
+    mnt = tmp_path / "ro"
+    _mount_tmpfs(mnt, "ro,size=1M")
+    try:
+        cfg = scenes(tmp_path / "cfg", ("fig06a",))
+        other = tmp_path / "other"
+        args = ["--configs", cfg, "--smoke", "--out", mnt if which == "--out" else other,
+                "--data", mnt if which == "--data" else other]
+        r = gallery_cli(*args)
+        assert r.exit_code == 2, r.output
+        assert str(mnt) in r.output and "not writable" in r.output and "Traceback" not in r.output
+        assert not other.exists()
+    finally:
+        subprocess.run(["umount", str(mnt)])
+
+
+# ---------------------------------------------------------------- faults, then a rerun
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """An uninterrupted run of the fault tests' scenes (full, shrunk): (out, data)."""
+    base = tmp_path_factory.mktemp("ref")
+    cfg = scenes(base / "cfg", NAMES, fig06a=[("num = 161", "num = 801")])
+    r = subprocess.run(gallery_proc(cfg, base / "g", base / "d"), capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    return cfg, (str(base / "g"), str(base / "d"))
+
+
+
+
+def one_clear_message(r):
+    """exit 1 or 130 with a single error line and no traceback."""
+    assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr[-2000:]
+    lines = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert len(lines) == 1, r.stderr
+    assert "run the same command again" in lines[0], lines[0]
+    return lines[0]
+
+
+def rerun(cfg, out, data):
+    r = subprocess.run(gallery_proc(cfg, out, data), capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    return r.stdout
+
+
+@pytest.mark.parametrize("sig,cut", [(signal.SIGINT, "fig06a"), (signal.SIGTERM, "cont_beta")],
+                         ids=["SIGINT-in-a-sweep", "SIGTERM-in-a-continuation"])
+def test_an_interrupt_says_what_was_kept_and_a_rerun_completes_it(tmp_path, reference, sig, cut):
+    """Issue 28: an interrupted gallery printed "Aborted!" with exit 1. Now Ctrl-C or SIGTERM
+    (sent once the sweep of fig06a, or the continuation cont_beta drawn over it, has its
+    partial file) exits 130 with one message naming what was finished and the partial file
+    that holds the cut one; the same command again resumes it (a cut sweep is "resumed", not
+    "swept"), reuses the finished ones, and every output equals the uninterrupted run's."""
+    cfg, ref = reference
+    out, data = tmp_path / "g", tmp_path / "d"
+    p = subprocess.Popen(gallery_proc(cfg, out, data), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    partial = data / f"{cut}.h5.partial"
+    deadline = time.time() + 120
+    while not partial.exists() and time.time() < deadline:
+        time.sleep(0.005)
+    p.send_signal(sig)
+    stdout, stderr = p.communicate(timeout=600)     # a numba compile ends before it stops
+    r = subprocess.CompletedProcess(p.args, p.returncode, stdout, stderr)
+    assert r.returncode == 130, (stdout, stderr)
+    msg = one_clear_message(r)
+    assert msg.startswith("error: interrupted"), msg
+    if not (data / f"{cut}.h5").exists():       # the signal landed before it ended
+        assert f"its finished part is kept in {partial}" in msg, msg
+    if cut == "cont_beta":
+        assert "fig06a (swept)" in msg
+    again = rerun(cfg, out, data)
+    assert "fig06a: swept" not in again, again
+    assert_same_gallery(ref, (str(out), str(data)), FIGS, FIGS)
+
+
+def test_sigkill_at_random_moments_then_a_rerun_is_bitwise_equal(tmp_path, reference):
+    """4 runs killed with SIGKILL (by process id) at random moments (in a sweep, the
+    continuation, the figures, the record; an uninterrupted run takes 6-8 s here): the same
+    command again always completes to the uninterrupted run's outputs, and never sweeps
+    again what a killed run finished."""
+    cfg, ref = reference
+    rng = random.Random(28)
+    for trial in range(4):
+        out, data = tmp_path / f"g{trial}", tmp_path / f"d{trial}"
+        p = subprocess.Popen(gallery_proc(cfg, out, data), stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+        time.sleep(rng.uniform(0.8, 6.0))
+        os.kill(p.pid, signal.SIGKILL)
+        p.wait()
+        finished = [s for s in FIGS if (data / f"{s}.h5").exists()]
+        again = rerun(cfg, out, data)
+        for s in finished:
+            assert f"{s}: reused" in again, (trial, again)
+        assert_same_gallery(ref, (str(out), str(data)), FIGS, FIGS)
+
+
+FILL_AT = """
+import os, sys
+from cornerbif import {module} as M
+real = M.{func}
+def fill_then(*a, **kw):
+    if not os.path.exists({filler!r}):     # another process takes the rest of the disk
+        with open({filler!r}, "wb") as fh:
+            try:
+                while True:
+                    fh.write(b"x" * 65536)
+                    fh.flush()
+            except OSError:
+                pass
+    return real(*a, **kw)
+M.{func} = fill_then
+from cornerbif.cli import main
+sys.argv = ["cornerbif"] + sys.argv[1:]
+main()
+"""
+
+
+@pytest.mark.parametrize("step", ["figure", "sweep"])
+def test_a_full_disk_stops_with_one_message_and_a_rerun_completes(tmp_path, reference, step):
+    """Issue 28: a full disk during the figure step gave chained OSErrors and a 0-byte PNG.
+    On a real small filesystem (tmpfs) filled by another file when the first figure is drawn
+    (or when the first block of a sweep is written): exit 1, one message that says a rerun
+    continues, no empty or partial figure left, the record still whole JSON; with the disk
+    freed the same command completes every output equal to the uninterrupted run's,
+    reusing the sweeps finished before."""
+    cfg, ref = reference
+    mnt = tmp_path / "mnt"
+    _mount_tmpfs(mnt, "size=16M")
+    try:
+        out, data = mnt / "g", mnt / "d"
+        filler = mnt / "filler"
+        module, func = ("plot", "figure") if step == "figure" else ("io", "write_block")
+        code = FILL_AT.format(module=module, func=func, filler=str(filler))
+        r = subprocess.run([sys.executable, "-c", code, *gallery_proc(cfg, out, data)[3:]],
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 1, (r.stdout, r.stderr[-3000:])
+        msg = one_clear_message(r)
+        assert "ENOSPC" in msg or "no room" in msg, msg
+        for f in os.listdir(out):
+            if f.endswith(".png"):
+                assert imread(str(out / f)).size > 0, f
+        assert not [f for f in os.listdir(out) if f.endswith(".partial")]
+        json.load(open(out / "gallery_run.json"))
+        finished = [s for s in FIGS if (data / f"{s}.h5").exists()]
+        if step == "figure":
+            assert finished == ["cont_beta", "fig06a"]
+        os.remove(filler)
+        again = rerun(cfg, out, data)
+        for s in finished:
+            assert f"{s}: reused" in again, again
+        assert_same_gallery(ref, (str(out), str(data)), FIGS, FIGS)
+    finally:
+        subprocess.run(["umount", str(mnt)])
+
+
+ULIMIT_AT_FIGURE = """
+import resource, sys
+from cornerbif import plot
+real = plot.figure
+def limited(*a, **kw):       # a file-size limit of 64 KiB from the figure step on
+    resource.setrlimit(resource.RLIMIT_FSIZE, (65536, resource.RLIM_INFINITY))
+    return real(*a, **kw)
+plot.figure = limited
+from cornerbif.cli import main
+sys.argv = ["cornerbif"] + sys.argv[1:]
+main()
+"""
+
+
+@pytest.mark.parametrize("step", ["sweep", "figure"])
+def test_a_file_size_limit_stops_with_one_message_and_a_rerun_completes(tmp_path, reference,
+                                                                        step):
+    """`ulimit -f`: from the start (the sweep's room check refuses the first block: 200 KiB
+    is below a block and its 256 KiB reserve) or from the figure step on (the PNG of about
+    300 KB passes 64 KiB: EFBIG): exit 1, one message; without the limit the same command
+    completes every output equal to the uninterrupted run's."""
+    import resource
+    cfg, ref = reference
+    out, data = tmp_path / "g", tmp_path / "d"
+    if step == "sweep":
+        cap = 200 * 1024
+        r = subprocess.run(gallery_proc(cfg, out, data), capture_output=True, text=True,
+                           timeout=600, preexec_fn=lambda: resource.setrlimit(
+                               resource.RLIMIT_FSIZE, (cap, cap)))
+    else:
+        r = subprocess.run([sys.executable, "-c", ULIMIT_AT_FIGURE,
+                            *gallery_proc(cfg, out, data)[3:]], capture_output=True, text=True,
+                           timeout=600)
+    assert r.returncode == 1, (r.stdout, r.stderr[-3000:])
+    msg = one_clear_message(r)
+    assert ("EFBIG" in msg or "no room" in msg), msg
+    if step == "figure":
+        assert not (out / "cont_beta.png").exists() and (data / "cont_beta.h5").exists()
+    again = rerun(cfg, out, data)
+    if step == "figure":
+        assert "cont_beta: reused" in again
+    assert_same_gallery(ref, (str(out), str(data)), FIGS, FIGS)
+
+
+FAIL_IN_RECORD = """
+import builtins, errno, os, sys
+from cornerbif import outputs
+n = [0]
+def full_disk_open(path, *a, **kw):       # the third record written: the disk is full
+    if str(path).endswith("gallery_run.json.partial"):
+        n[0] += 1
+        if n[0] == 3:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
+    return builtins.open(path, *a, **kw)
+outputs.open = full_disk_open
+from cornerbif.cli import main
+sys.argv = ["cornerbif"] + sys.argv[1:]
+main()
+"""
+
+
+def test_the_record_is_whole_or_not_written(tmp_path, reference):
+    """gallery_run.json is rewritten whole after every figure (outputs.write_text): a failed
+    write ends the run (exit 1, one message) with the last whole record in place, listing
+    the figures still to draw (``drawing``), and a rerun completes it."""
+    cfg, ref = reference
+    out, data = tmp_path / "g", tmp_path / "d"
+    code = FAIL_IN_RECORD
+    r = subprocess.run([sys.executable, "-c", code, *gallery_proc(cfg, out, data)[3:]],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 1, (r.stdout, r.stderr[-3000:])
+    one_clear_message(r)
+    rec = json.load(open(out / "gallery_run.json"))
+    assert [e["figure"] for e in rec["figures"]] == ["cont_beta"]
+    assert rec["drawing"] == {"smoke": False, "figures": ["fig05", "fig06a", "fig07a"]}
+    rerun(cfg, out, data)
+    assert_same_gallery(ref, (str(out), str(data)), FIGS, FIGS)
