@@ -228,31 +228,45 @@ def ensure_room(path, nbytes, size=None, what="the next block"):
 def write_block(f, index, block):
     """Write one finished block (a slab of the grid) and mark it done, flushing in order.
 
-    Its chunks are compressed first (``chunkwrite.prepare_slab``), and the room for what
-    they will add to the file is checked before anything is written (``ensure_room``: the
-    compressed chunks, the parts HDF5 compresses itself counted uncompressed): a full disk
-    or a file-size limit stops the sweep with the file as it was after the last block,
-    which --resume completes."""
+    The room for it is checked before anything is written (``ensure_room``): where the disk
+    and the file-size limit leave room for the block's size in memory, each dataset's slab
+    is compressed and written in turn (``chunkwrite.prepare_slab``, one at a time: the
+    memory of a sweep is two blocks, ``sweep.estimate_memory``); where they do not, every
+    chunk is compressed first and the room checked against what the block will add to the
+    file (the compressed chunks, the parts HDF5 compresses itself counted uncompressed),
+    which holds the block's compressed copy as well, only then.  A full disk or a
+    file-size limit stops the sweep with the file as it was after the last block, which
+    --resume completes."""
     # each dataset's chunkwrite.Layout (None: a block's array the file does not keep), read
     # from HDF5 at the first block written through this File object and kept on it
     layouts = f.__dict__.setdefault("_cornerbif_layouts", {})
+    # f.filename is the name the file was created under (open_partial renames it); the
+    # directory is the same, and HDF5 knows the file's size
+    size = f.id.get_filesize()
+    left = room(f.filename, size)
+    roomy = left is None or left >= sum(np.asarray(a).nbytes for a in block.values()) + WRITE_RESERVE
     try:
-        slabs = []
-        for name, arr in block.items():
+        names = []
+        for name in block:
             if name not in layouts:
                 layouts[name] = chunkwrite.Layout(f[name]) if name in f else None
             if layouts[name] is not None:
-                slabs.append(chunkwrite.prepare_slab(layouts[name], index, arr))
+                names.append(name)
+        slabs = None if roomy else [chunkwrite.prepare_slab(layouts[n], index, block[n])
+                                    for n in names]
     except (OSError, RuntimeError) as e:      # reading a layout from HDF5
         raise WriteFailed(f"writing {f.filename} failed ({reason(e)}); every point marked "
                           "done before is kept; free space and run the same command with "
                           "--resume", broken=True) from None
-    # f.filename is the name the file was created under (open_partial renames it); the
-    # directory is the same, and HDF5 knows the file's size
-    ensure_room(f.filename, sum(s.nbytes for s in slabs), f.id.get_filesize())
+    if slabs is not None:
+        ensure_room(f.filename, sum(s.nbytes for s in slabs), size)
     try:
-        for slab in slabs:
-            slab.write()
+        if slabs is None:
+            for n in names:
+                chunkwrite.prepare_slab(layouts[n], index, block[n]).write()
+        else:
+            for slab in slabs:
+                slab.write()
         f.flush()
         f["done"][index] = 1
         f.flush()

@@ -68,7 +68,7 @@ def test_room_refuses_a_block_the_disk_cannot_take(tmp_path, monkeypatch, refere
 
     def shrinking(path, size=None):
         calls["n"] += 1
-        return 1000 if calls["n"] == 4 else real(path, size)
+        return 1000 if calls["n"] >= 4 else real(path, size)     # the disk fills for good
 
     monkeypatch.setattr(io, "room", shrinking)
     args = ["sweep", FIG06A, "-o", str(out), *SETS]
