@@ -59,8 +59,16 @@ class Commands(click.Group):
 
     def invoke(self, ctx):
         from . import outputs
-        outputs.install_signal_handlers()
-        sys.unraisablehook = _quiet_failed_hdf5
+        handlers = outputs.install_signal_handlers()
+        hook, sys.unraisablehook = sys.unraisablehook, _quiet_failed_hdf5
+        try:
+            return self._invoke(ctx)
+        finally:
+            outputs.restore_signal_handlers(handlers)
+            sys.unraisablehook = hook
+
+    def _invoke(self, ctx):
+        from . import outputs
         try:
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
@@ -143,25 +151,34 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     from .sweep import default_output, run_sweep
     out = out or default_output(scene)
     cores = _check_threads(threads)
+    from .sweep import check_budget, check_directory, plan_output
+    check_directory(out)
+    # what the sweep will do with its output, refused before anything else is said
+    plan = plan_output(scene, out, resume, overwrite, (scene_path,))
     if dry_run:
         for line in _describe(scene, out, threads or cores):
             click.echo(line)
-        from .sweep import check_budget, check_output
-        check_output(out, overwrite or resume, (scene_path,))
-        for note in check_budget(scene, out):
-            click.echo(f"note: {note}")
-        click.echo("ok: the sweep can start (disk, memory) and can write its output")
+        if plan == "done":
+            click.echo(f"ok: {out} is already complete (finished from this scene); --resume "
+                       "has nothing to do")
+            return
+        if plan == "start":
+            for note in check_budget(scene, out):
+                click.echo(f"note: {note}")
+        click.echo(f"ok: the sweep can {'resume ' + out + '.partial' if plan == 'resume' else 'start'}"
+                   " (disk, memory) and can write its output")
         return
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
-    from .sweep import estimate_time, estimate_words
-    eta = estimate_time(scene, threads or cores)
-    if eta.high > 60 and not resume:
-        click.echo(f"this sweep will take {estimate_words(eta)} on {threads or cores} "
-                   "thread(s) (cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps every "
-                   "finished point, --resume completes it)", err=True)
-    from .engine import announce_compiles
-    announce_compiles(scene, lambda m: click.echo(m, err=True), ("sweep",))
+    if plan != "done":
+        from .sweep import estimate_time, estimate_words
+        eta = estimate_time(scene, threads or cores)
+        if eta.high > 60 and plan == "start":
+            click.echo(f"this sweep will take {estimate_words(eta)} on {threads or cores} "
+                       "thread(s) (cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps "
+                       "every finished point, --resume completes it)", err=True)
+        from .engine import announce_compiles
+        announce_compiles(scene, lambda m: click.echo(m, err=True), ("sweep",))
     path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
                      progress=progress, command=_command_line(scene_path, out, sets, threads,
                                                               resume, overwrite, block_points,

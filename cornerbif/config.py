@@ -515,6 +515,35 @@ def same_run(text_a: str, text_b: str) -> bool:
     return a is not None and a == without_plot(text_b)
 
 
+def scene_difference(text_a, text_b, most=4) -> str:
+    """What differs between two scenes as run (``[plot]`` aside, as ``config.same_run``):
+    'key: A there, B here' for the first few keys; '' when nothing does."""
+    a, b = without_plot(text_a), without_plot(text_b)
+    if a is None:
+        return "its scene text is not a scene"
+    if b is None:
+        return "the other scene text is not a scene"
+
+    def flat(d, pre=""):
+        out = {}
+        for k, v in d.items():
+            if isinstance(v, dict):
+                out |= flat(v, f"{pre}{k}.")
+            else:
+                out[f"{pre}{k}"] = v
+        return out
+
+    fa, fb = flat(a), flat(b)
+    keys = sorted(k for k in set(fa) | set(fb) if fa.get(k, ...) != fb.get(k, ...))
+
+    def show(v):
+        t = "(absent)" if v is ... else repr(v)
+        return t if len(t) <= 60 else t[:60] + "..."
+    text = "; ".join(f"{k}: {show(fa.get(k, ...))} there, {show(fb.get(k, ...))} here"
+                     for k in keys[:most])
+    return text + (f"; and {len(keys) - most} more" if len(keys) > most else "")
+
+
 # --------------------------------------------------------------------------- loading
 # what a path that is not a regular file is, by its kind (os.stat's mode)
 _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),

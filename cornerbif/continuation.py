@@ -2252,34 +2252,6 @@ def _take_lock(out_path, lock_path):
     return lock
 
 
-def _differences(text_a, text_b, most=4) -> str:
-    """What differs between two scenes as run (``[plot]`` aside, as ``config.same_run``):
-    'key: A there, B here' for the first few keys; '' when nothing does."""
-    from .config import without_plot
-    a, b = without_plot(text_a), without_plot(text_b)
-    if a is None:
-        return "its scene text is not a scene"
-
-    def flat(d, pre=""):
-        out = {}
-        for k, v in d.items():
-            if isinstance(v, dict):
-                out |= flat(v, f"{pre}{k}.")
-            else:
-                out[f"{pre}{k}"] = v
-        return out
-
-    fa, fb = flat(a), flat(b)
-    keys = sorted(k for k in set(fa) | set(fb) if fa.get(k, ...) != fb.get(k, ...))
-
-    def show(v):
-        t = "(absent)" if v is ... else repr(v)
-        return t if len(t) <= 60 else t[:60] + "..."
-    text = "; ".join(f"{k}: {show(fa.get(k, ...))} there, {show(fb.get(k, ...))} here"
-                     for k in keys[:most])
-    return text + (f"; and {len(keys) - most} more" if len(keys) > most else "")
-
-
 def _already_complete(scene, out_path, named, overwrite, log) -> bool:
     """``--resume`` on an output that exists: True (and say so) when it is a finished
     continuation of this scene; a finished one of another scene is refused naming what
@@ -2298,7 +2270,8 @@ def _already_complete(scene, out_path, named, overwrite, log) -> bool:
                          "--overwrite to replace it") from None
     if not attrs.get("completed"):
         return False
-    diff = _differences(attrs.get("scene", ""), scene.text)
+    from .config import scene_difference
+    diff = scene_difference(attrs.get("scene", ""), scene.text)
     if diff:
         if overwrite:
             return False
@@ -2326,7 +2299,8 @@ def _partial_state(partial, scene):
     try:
         loaded = _load(partial)
         attrs, branches, curves, state = loaded
-        diff = _differences(attrs.get("scene", ""), scene.text)
+        from .config import scene_difference
+        diff = scene_difference(attrs.get("scene", ""), scene.text)
         if diff:
             return "other", diff
         if state is None and not attrs.get("completed"):

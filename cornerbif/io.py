@@ -192,6 +192,9 @@ def symbol_dtype(record):
 # bytes kept free beyond a block's data: HDF5's metadata and chunk index, the done marks and
 # the attributes written when the file is finished
 WRITE_RESERVE = 256 * 1024
+# bytes a new file needs beyond its scene attribute before its first block: HDF5's
+# superblock, groups and dataset headers (a one-run file of fig02 takes 31 KB in all)
+CREATE_RESERVE = 32 * 1024
 
 
 def room(path, size=None):
@@ -213,16 +216,20 @@ def room(path, size=None):
     return left
 
 
-def ensure_room(path, nbytes, size=None, what="the next block"):
+def ensure_room(path, nbytes, size=None, what="the next block", reserve=WRITE_RESERVE,
+                then="every finished point is kept; free space and run the same command with "
+                     "--resume"):
     """Refuse, before writing, data that the file's disk or size limit cannot take
-    (``nbytes``, what the write adds to the file, plus WRITE_RESERVE)."""
-    need = nbytes + WRITE_RESERVE
+    (``nbytes``, what the write adds to the file, plus ``reserve`` for HDF5's own
+    structures); the message ends with ``then`` (what was kept, what to do)."""
+    need = nbytes + reserve
     left = room(path, size)
     if left is not None and left < need:
-        raise WriteFailed(f"{path}: no room for {what} ({need / 2**20:.1f} MiB needed, "
-                          f"{max(left, 0) / 2**20:.1f} MiB left on its disk or under this "
-                          "process's file-size limit); every finished point is kept; free "
-                          "space and run the same command with --resume")
+        def size_text(n):
+            return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{max(n, 0) / 2**10:.0f} KiB"
+        raise WriteFailed(f"{path}: no room for {what} ({size_text(need)} needed, "
+                          f"{size_text(left)} left on its disk or under this process's "
+                          f"file-size limit); {then}")
 
 
 def write_block(f, index, block):
@@ -332,6 +339,10 @@ def check_readable(path):
     """
     if not os.path.exists(path):
         raise FileFormatError(f"{path}: no such file")
+    kind = outputs.not_a_regular_file(path)
+    if kind:
+        raise FileFormatError(f"{path}: is {kind}, not a file cornerbif wrote (never opened: "
+                              "reading it may never end)")
     if os.path.getsize(path) == 0:
         raise FileFormatError(f"{path}: the file is empty")
     if not h5py.is_hdf5(path):
@@ -451,7 +462,8 @@ def open_partial(partial, scene, command=""):
     """Set a new partial file up under a temporary name: a partial file exists only once
     every dataset is in place and single-writer/multiple-reader mode is on."""
     init = partial + ".init"
-    ensure_room(init, 0)
+    ensure_room(init, 2 * len(scene.text), what="a new file", reserve=CREATE_RESERVE,
+                then="nothing was computed; free space and run the same command again")
     with create(init, scene, scene.n_ic, command=command, versions=versions()):
         pass
     os.replace(init, partial)
@@ -490,26 +502,37 @@ def _same_scene(f, scene) -> bool:
                                                                scene.text)
 
 
+def scene_difference(text_a, text_b) -> str:
+    """Where two scene texts differ, in words for a message: ' (system.omega: 1.999 there,
+    2.001 here)', or '' when nothing does (``config.scene_difference``)."""
+    from .config import scene_difference as what
+    d = what(text_a, text_b)
+    return f" ({d})" if d else ""
+
+
 def _scene_difference(f, scene) -> str:
-    """Where a file's scene and ``scene`` differ, in words: ' (system.omega: 1.999 there,
-    2.001 here)', or '' when it cannot be said."""
-    from .config import without_plot
-    a, b = without_plot(str(f.attrs.get("scene", ""))), without_plot(scene.text)
-    if not isinstance(a, dict) or not isinstance(b, dict):
-        return ""
-    for t in sorted(set(a) | set(b)):
-        x, y = a.get(t, {}), b.get(t, {})
-        if not isinstance(x, dict) or not isinstance(y, dict):
-            if x != y:
-                return f" ([{t}])"
-            continue
-        for k in sorted(set(x) | set(y), key=str):
-            if x.get(k) != y.get(k):
-                def short(v):
-                    r = repr(v)
-                    return r if len(r) <= 40 else r[:37] + "..."
-                return f" ({t}.{k}: {short(x.get(k))} there, {short(y.get(k))} here)"
-    return ""
+    return scene_difference(str(f.attrs.get("scene", "")), scene.text)
+
+
+def partial_scene(path):
+    """The scene text of a sweep's partial file at ``path`` (a writer killed in it leaves
+    it readable in single-writer/multiple-reader mode), or None when there is none: no file,
+    not a regular file, not a cornerbif sweep's file."""
+    if not os.path.exists(path) or outputs.not_a_regular_file(path):
+        return None
+    try:
+        if not h5py.is_hdf5(path):
+            return None
+        try:
+            f = h5py.File(path, "r", locking=False)
+        except OSError:
+            f = h5py.File(path, "r", swmr=True, locking=False)
+        with f:
+            if f.attrs.get("format") != outputs.SWEEP_FORMAT:
+                return None
+            return str(f.attrs.get("scene", ""))
+    except Exception:  # noqa: BLE001 - unreadable means: not a partial file to resume
+        return None
 
 
 def rebuild(partial, scene):
@@ -614,12 +637,14 @@ def _amend(partial, dest, change, after=None):
 
     Outside single-writer/multiple-reader mode HDF5 leaves a file it was writing when
     killed unreadable; the partial file itself is therefore only ever written in that mode,
-    and a kill or a full disk during the change leaves it as it was, to resume.  The
-    change and the rename run with SIGINT and SIGTERM deferred (an interrupt lands before
-    or after, never inside HDF5); a write that fails inside HDF5 leaves this process's
-    HDF5 state unusable, so it is reported as ``WriteFailed(broken=True)``: the command
-    ends at once, without HDF5's clean-up (which crashed once, exit 139).  ``after`` (a
-    function of nothing) runs in the same deferred section, right after the rename."""
+    and a kill, an interrupt or a full disk during the change leaves it as it was, to
+    resume (an interrupt is raised between two of h5py's calls into HDF5, never inside
+    one, so the copy it cuts is closed and removed cleanly).  A write that fails inside
+    HDF5 leaves this process's HDF5 state unusable, so it is reported as
+    ``WriteFailed(broken=True)``: the command ends at once, without HDF5's clean-up, which
+    can crash on such a state.  The rename and ``after`` (a function of nothing, run right
+    after it) run with SIGINT and SIGTERM deferred, so the rename and what follows it
+    happen together or not at all."""
     tmp = partial + ".amend"
     ensure_room(tmp, os.path.getsize(partial), what="the finished file's copy")
     try:
@@ -627,25 +652,25 @@ def _amend(partial, dest, change, after=None):
     except BaseException:
         _remove(tmp)
         raise
+    try:
+        g = h5py.File(tmp, "r+")
+    except (OSError, RuntimeError) as e:
+        _remove(tmp)
+        raise WriteFailed(f"finishing {partial} failed ({reason(e)}); every point is kept; "
+                          "free space and run the same command with --resume") from None
+    try:
+        change(g)
+        g.close()
+    except (OSError, RuntimeError) as e:       # h5py raises either for a failed write
+        _remove(tmp)
+        raise WriteFailed(f"finishing {partial} failed ({reason(e)}); every point is kept "
+                          f"in {partial}; free space and run the same command with "
+                          "--resume", broken=True) from None
+    except BaseException:
+        g.close()
+        _remove(tmp)
+        raise
     with outputs.signals_deferred():
-        try:
-            g = h5py.File(tmp, "r+")
-        except (OSError, RuntimeError) as e:
-            _remove(tmp)
-            raise WriteFailed(f"finishing {partial} failed ({reason(e)}); every point is kept; "
-                              "free space and run the same command with --resume") from None
-        try:
-            change(g)
-            g.close()
-        except (OSError, RuntimeError) as e:   # h5py raises either for a failed write
-            _remove(tmp)
-            raise WriteFailed(f"finishing {partial} failed ({reason(e)}); every point is kept "
-                              f"in {partial}; free space and run the same command with "
-                              "--resume", broken=True) from None
-        except BaseException:
-            g.close()
-            _remove(tmp)
-            raise
         os.replace(tmp, dest)
         if after is not None:
             after()

@@ -1,4 +1,4 @@
-"""The one guard of every file a command writes, and how it is written (issue 28).
+"""The one guard of every file a command writes, and how it is written.
 
 Every command that writes a file (``sweep``, ``continue``, ``plot``, ``gallery``) passes
 its outputs through ``check_output`` before any work:
@@ -29,6 +29,9 @@ import threading
 
 from .errors import SweepError, WriteFailed
 
+# the root attribute ``format`` of each kind of cornerbif file
+SWEEP_FORMAT = "cornerbif"
+CONTINUATION_FORMAT = "cornerbif-continuation"
 # what a command may replace, by kind: a name for messages and a test of the file
 KIND_NAMES = {
     "sweep": "a cornerbif HDF5 file (a sweep)",
@@ -49,8 +52,30 @@ FIGURE_SIGNATURES = {".png": (b"\x89PNG\r\n\x1a\n",), ".pdf": (b"%PDF-",),
                      ".svg": (b"<?xml", b"<svg")}
 
 
-def _hdf5_format(path):
-    """The root attribute ``format`` of an HDF5 file, or None (not HDF5, unreadable)."""
+def not_a_regular_file(path: str) -> str | None:
+    """What ``path`` is when it is not a regular file a command may open and read ('a
+    directory', 'a FIFO', 'a character device', ...), or None.  A FIFO or a device is never
+    opened: reading one may block for ever or never end."""
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None                       # missing: the caller says so in its own words
+    if stat.S_ISREG(mode):
+        return None
+    for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def hdf5_format(path):
+    """The root attribute ``format`` of a regular HDF5 file ("cornerbif" for a sweep,
+    "cornerbif-continuation"), or None (missing, not a regular file, not HDF5, unreadable)."""
+    if not os.path.exists(path) or not_a_regular_file(path):
+        return None
     try:
         import h5py
         if not h5py.is_hdf5(path):
@@ -65,10 +90,12 @@ def _hdf5_format(path):
 def is_kind(path: str, kind: str) -> bool:
     """Whether the existing file ``path`` is of ``kind`` (``KIND_NAMES``)."""
     if kind == "sweep":
-        return _hdf5_format(path) == "cornerbif"
+        return hdf5_format(path) == SWEEP_FORMAT
     if kind == "continuation":
-        return _hdf5_format(path) == "cornerbif-continuation"
+        return hdf5_format(path) == CONTINUATION_FORMAT
     if kind == "figure":
+        if not_a_regular_file(path):
+            return False
         sigs = FIGURE_SIGNATURES.get(os.path.splitext(path)[1].lower(), ())
         try:
             with open(path, "rb") as fh:
@@ -81,6 +108,8 @@ def is_kind(path: str, kind: str) -> bool:
             return os.path.splitext(path)[1].lower() != ".svg" or b"<svg" in head
         return False
     if kind == "gallery_record":
+        if not_a_regular_file(path):
+            return False
         try:
             with open(path, "rb") as fh:
                 if os.fstat(fh.fileno()).st_size > 64 * 2**20:
@@ -90,11 +119,6 @@ def is_kind(path: str, kind: str) -> bool:
         except (OSError, ValueError, UnicodeDecodeError):
             return False
     raise ValueError(kind)
-
-
-def is_cornerbif_file(path: str) -> bool:
-    """Whether ``path`` is an HDF5 file that ``cornerbif sweep`` wrote."""
-    return is_kind(path, "sweep")
 
 
 def check_directory(out_path: str, option: str = "-o") -> str:
@@ -200,6 +224,19 @@ def temporary_name(path: str) -> str:
     return path + ".partial"
 
 
+def fresh_file(path: str):
+    """Create ``path`` empty for a writer that opens it by name: a leftover regular file of
+    an earlier write cut short is replaced; a link, a directory or a device at that name is
+    refused, never written through."""
+    if os.path.lexists(path):
+        if os.path.islink(path) or not os.path.isfile(path):
+            raise SweepError(f"{path}: is in the way of a temporary file (a link, a directory "
+                             "or a device); remove it")
+        os.remove(path)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    os.close(fd)
+
+
 def _remove(path):
     try:
         os.remove(path)
@@ -215,6 +252,7 @@ def replacing(path: str, kept: str = "the previous file, if any, is unchanged"):
     ``kept``; an interrupt or any other error removes the temporary file and propagates."""
     tmp = temporary_name(path)
     try:
+        fresh_file(tmp)
         yield tmp
         with signals_deferred():
             os.replace(tmp, path)
@@ -255,23 +293,44 @@ def _terminate(signum, frame):
 def install_signal_handlers():
     """SIGTERM interrupts as Ctrl-C does (a command keeps what it finished and exits 130);
     past a file-size limit (``ulimit -f``) a write fails with EFBIG and the command stops
-    with a message, instead of the process being killed by SIGXFSZ."""
+    with a message, instead of the process being killed by SIGXFSZ.  Returns what it
+    replaced, for ``restore_signal_handlers``."""
     if threading.current_thread() is not threading.main_thread():
         return
-    signal.signal(signal.SIGTERM, _terminate)
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        pass                     # started in the background with SIGINT ignored: keep it so
+    old = {signal.SIGTERM: signal.signal(signal.SIGTERM, _terminate)}
     if hasattr(signal, "SIGXFSZ"):
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        old[signal.SIGXFSZ] = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    return old
+
+
+def restore_signal_handlers(old):
+    """Put back what ``install_signal_handlers`` replaced (a command run inside another
+    program leaves its handlers as it found them)."""
+    for sig, h in (old or {}).items():
+        if h is not None:
+            signal.signal(sig, h)
+
+
+_DEFERRED = threading.local()
 
 
 @contextlib.contextmanager
 def signals_deferred():
-    """Run a critical section (an atomic rename, a stamp that must not be cut in HDF5) with
-    SIGINT and SIGTERM recorded instead of raised; a signal that came is raised at its end,
-    so an interrupt lands before or after the section, never inside it."""
+    """Run a critical section (an atomic rename, the removal of a finished output's partial
+    file) with SIGINT and SIGTERM recorded instead of raised; a signal that came is raised at
+    the end of the outermost such section, so an interrupt lands before or after it, never
+    inside.  Nested sections are one section: the message of an interrupt then says what
+    the whole of it did."""
     if threading.current_thread() is not threading.main_thread():
         yield
+        return
+    depth = getattr(_DEFERRED, "depth", 0)
+    if depth:
+        _DEFERRED.depth = depth + 1
+        try:
+            yield
+        finally:
+            _DEFERRED.depth = depth
         return
     got = []
     old = {}
@@ -279,9 +338,11 @@ def signals_deferred():
         old[sig] = signal.getsignal(sig)
         if old[sig] not in (signal.SIG_IGN, None):
             signal.signal(sig, lambda s, f: got.append(s))
+    _DEFERRED.depth = 1
     try:
         yield
     finally:
+        _DEFERRED.depth = 0
         for sig, h in old.items():
             if h not in (signal.SIG_IGN, None):
                 signal.signal(sig, h)
@@ -289,3 +350,65 @@ def signals_deferred():
         if got[0] == signal.SIGTERM:
             raise Terminated()
         raise KeyboardInterrupt()
+
+
+# ------------------------------------------------------------------ one writer per output
+def check_unlocked(out_path: str, what: str = "cornerbif command"):
+    """Refuse (``SweepError``) when another process holds ``out_path``'s lock: its files
+    are being written, so nothing about them can be judged yet."""
+    import fcntl
+    try:
+        fd = os.open(out_path + ".lock", os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError:
+        return                            # no lock file (or a link, refused when locking)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:
+        raise SweepError(f"{out_path}: another {what} is writing this output (lock "
+                         f"{out_path}.lock is held); wait for it to end") from None
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def output_lock(out_path: str, what: str = "cornerbif command"):
+    """Hold ``OUT.lock`` while a command writes ``out_path``: a second writer is refused at
+    once (``SweepError``).  The lock file is opened without following a link and without
+    truncating (a link planted at its name is refused, never written through), and removed
+    while still held; a lock taken on a file that was removed meanwhile (its holder ended
+    between our open and our lock) is taken again on the file now at the name."""
+    import fcntl
+    lock_path = out_path + ".lock"
+    for _ in range(8):
+        try:
+            fd = os.open(lock_path, os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+        except OSError as e:
+            if e.errno == errno.ELOOP:
+                raise SweepError(f"{lock_path}: is a symbolic link; a cornerbif lock is a plain "
+                                 "file (remove the link)") from None
+            raise WriteFailed(f"creating the lock {lock_path} failed ({reason(e)}); nothing "
+                              "was computed; free space and run the same command again") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise SweepError(f"{out_path}: another {what} is writing this output (lock "
+                             f"{lock_path} is held); wait for it to end") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(lock_path, follow_symlinks=False).st_ino
+        except OSError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    else:
+        raise SweepError(f"{out_path}: its lock {lock_path} keeps changing hands; run again")
+    try:
+        yield
+    finally:
+        try:
+            os.remove(lock_path)        # while held: a newcomer finds no lock, or its own
+        except OSError:
+            pass
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        os.close(fd)

@@ -556,15 +556,10 @@ BRANCH_Y = {"impact_u": "impact_u", "impact_v": "impact_v_in", "section_u": "sec
 
 
 def is_continuation(path) -> bool:
-    """Whether ``path`` is a ``cornerbif continue`` file (root attribute ``format``)."""
-    import h5py
-
-    from .continuation import FORMAT
-    try:
-        with h5py.File(path, "r", locking=False) as f:
-            return f.attrs.get("format") == FORMAT
-    except Exception:  # noqa: BLE001 - not HDF5, unreadable: not a continuation file
-        return False
+    """Whether ``path`` is a ``cornerbif continue`` file (root attribute ``format``; a
+    FIFO or a device is never opened: ``outputs.hdf5_format``)."""
+    from .outputs import CONTINUATION_FORMAT, hdf5_format
+    return hdf5_format(path) == CONTINUATION_FORMAT
 
 
 # what a continuation file's branch holds per point, beside its parameter values

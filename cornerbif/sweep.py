@@ -9,7 +9,6 @@ file once its data are flushed, so an interrupted sweep resumes where it stopped
 
 from __future__ import annotations
 
-import fcntl
 import os
 from typing import NamedTuple
 
@@ -18,7 +17,7 @@ import numpy as np
 from . import engine, io, outputs, registry
 from .config import Scene, same_run
 from .errors import SweepError, SweepInterrupted, WriteFailed
-from .outputs import check_directory, is_cornerbif_file  # noqa: F401 - the sweep's names
+from .outputs import check_directory
 
 __all__ = ["run_sweep", "check_budget", "estimate_bytes", "estimate_memory", "simulate",
            "SweepError", "SweepInterrupted"]
@@ -44,6 +43,12 @@ def estimate_bytes(scene: Scene) -> int:
     attractor per run); the dimension scales (a copy in each group); the scene as run
     (an attribute) and the file's fixed part (``FILE_OVERHEAD``).  What the file takes on
     disk is less: ``estimate_file_bytes``."""
+    return sum(_byte_parts(scene).values())
+
+
+def _byte_parts(scene: Scene) -> dict:
+    """``estimate_bytes`` by part: "runs" (the per-run datasets), "table", "scales",
+    "scene" (the scene as run, twice: an attribute is stored as it is) and "overhead"."""
     spec = registry.get(scene.model)
     points = int(np.prod(scene.shape or (1,)))
     n = points * scene.n_ic
@@ -62,17 +67,28 @@ def estimate_bytes(scene: Scene) -> int:
     groups = 1 + len({f.name.split("/")[0] for f in fields if "/" in f.name}) + 3
     scales = groups * (8 * sum(len(a.values) for a in scene.axes) + 4 * scene.record
                        + 4 * scene.n_ic)
-    return n * per + table + points + scales + 2 * len(scene.text) + FILE_OVERHEAD
+    return {"runs": n * per + points, "table": table, "scales": scales,
+            "scene": 2 * len(scene.text), "overhead": FILE_OVERHEAD}
+
+
+def sure_file_bytes(scene: Scene) -> int:
+    """Bytes the finished file takes at the very least: its per-run datasets at deflate's
+    limit of compression (``RATIO_DEFLATE_LIMIT``) and the scene as run, an attribute
+    stored as it is; the attractor table (whose size depends on the attractors found) and
+    HDF5's own structures are not counted."""
+    parts = _byte_parts(scene)
+    return int(RATIO_DEFLATE_LIMIT * parts["runs"]) + len(scene.text)
 
 
 # the peak memory of a sweep's process: its baseline (interpreter, numpy, numba, h5py and the
 # compiled kernels: 173 MiB measured for a tiny warm sweep, benchmarks/same_output.py
 # --peak-memory; and 26 MiB more at 10^6 starts since the writer is a thread of its own,
-# whose allocations glibc serves from another arena) and 1.3 times the blocks of kernel
+# whose allocations glibc serves from another arena) and 1.4 times the blocks of kernel
 # outputs alive at once (two: one computing, one being written, cornerbif.local.BlockWriter;
-# with the analysis' copies, measured at 10^6 starts by benchmarks/memory_estimate.py)
+# with the analysis' copies, measured at 10^6 starts by benchmarks/memory_estimate.py: at 1.3
+# map2d's estimate was 1003 MiB against a peak of 996-1007)
 PROCESS_BASELINE = 200 * 2**20
-BLOCK_FACTOR = 1.3
+BLOCK_FACTOR = 1.4
 BLOCKS_IN_FLIGHT = 2
 
 
@@ -246,14 +262,14 @@ def check_budget(scene: Scene, out_path: str, written=None) -> list:
 
     The disk holds the file and, while the file is finished, a copy of it (``io._amend``);
     the file-size limit (``ulimit -f``) holds one file.  The refusal is sure to be true: it
-    counts the file at deflate's limit of compression (``RATIO_DEFLATE_LIMIT``), and on a
-    resume (``written`` = (bytes of the partial file, share of the grid done)) at least at
-    the size it has; the notes count the ratios measured on the shipped scenes, or on a
-    resume the ratio of what is written."""
+    counts the file at its least (``sure_file_bytes``), and on a resume (``written`` =
+    (bytes of the partial file, share of the grid done)) at least at the size it has; the
+    notes count the ratios measured on the shipped scenes, or on a resume the ratio of what
+    is written."""
     free = _free_bytes(os.path.dirname(os.path.abspath(out_path)))
     limit = _size_limit()
     have = 0 if written is None else written[0]
-    sure = max(int(FILE_OVERHEAD + RATIO_DEFLATE_LIMIT * estimate_bytes(scene)), have)
+    sure = max(sure_file_bytes(scene), have)
     low, typical, high = estimate_file_bytes(scene, written)
     notes = []
     for room, need, likely, where in ((free, 2 * sure - have, 2 * high - have, "free on its disk"),
@@ -324,62 +340,75 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     output must not replace (the scene file).
     """
     partial = out_path + ".partial"
-    lock_path = out_path + ".lock"
     d = check_directory(out_path)
     outputs.check_name_length(out_path, d)
     # the lock first: a sweep still finishing this output is "another sweep", not a
     # finished file
-    lock = open(lock_path, "w")
-    try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        lock.close()
-        raise SweepError(f"{out_path}: another sweep is writing this output (lock {lock_path} "
-                         "is held)") from None
-    try:
-        if resume and not overwrite and _finished(scene, out_path, partial, inputs, echo):
+    with outputs.output_lock(out_path, "sweep"):
+        if plan_output(scene, out_path, resume, overwrite, inputs, locked=True) == "done":
+            if io.partial_scene(partial) is not None and same_run(io.partial_scene(partial),
+                                                                  scene.text):
+                io.remove_stale(partial)  # killed between the finished file's rename and this
+            if echo is not None:
+                echo(f"{out_path} is already complete (finished from this scene); nothing to do")
             return None
-        check_output(out_path, overwrite, inputs)
         with _NumbaThreads(None if scheduler else threads):
             _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress,
                           command, block_points, scheduler, stats, echo)
         return out_path
-    finally:
-        fcntl.flock(lock, fcntl.LOCK_UN)
-        lock.close()
+
+
+def plan_output(scene: Scene, out_path: str, resume: bool, overwrite: bool, inputs=(),
+                locked: bool = False) -> str:
+    """What a sweep will do with its output, decided before any work (and by ``--dry-run``):
+    "done" (``--resume`` of an output finished from this scene, ``[plot]`` aside: nothing
+    to do, so that a script may always pass ``--resume``), "resume" (a partial file of this
+    scene to complete) or "start"; raises ``SweepError`` for what it must refuse: an output
+    or a partial file of another scene (naming what differs, and never replaced without
+    ``--overwrite``), an input, a file of another kind, an output another sweep is writing
+    (unless ``locked``: this process holds the lock)."""
+    if not locked:
+        outputs.check_unlocked(out_path, "sweep")
+    partial = out_path + ".partial"
+    named = [("the scene file", p) for p in inputs]
+    theirs = io.partial_scene(partial) if os.path.lexists(partial) else None
+    if os.path.lexists(partial) and theirs is None:
+        raise SweepError(f"{partial}: is in the way and is not a cornerbif sweep's partial file "
+                         "(remove it yourself, or name another output)")
+    mine = theirs is not None and same_run(theirs, scene.text)
+    if resume and not overwrite and os.path.lexists(out_path):
+        outputs.check_output(out_path, True, named, kind="sweep")
         try:
-            os.remove(lock_path)
-        except OSError:
-            pass
-
-
-def _finished(scene, out_path, partial, inputs, echo) -> bool:
-    """``--resume`` on an output that exists: True (and say so) when it is a finished sweep
-    of this scene (``[plot]`` aside), so that a script may always pass ``--resume``; a
-    finished file of another scene, or any other file, is refused (never replaced)."""
-    check_directory(out_path)
-    if not os.path.exists(out_path) or os.path.isdir(out_path):
-        return False
-    outputs.check_output(out_path, True, [("the scene file", p) for p in inputs], kind="sweep")
-    try:
-        with io.check_readable(out_path) as f:
-            text = str(f.attrs.get("scene", ""))
-            completed = str(f.attrs.get("completed", ""))
-    except io.FileFormatError as e:
-        raise SweepError(f"{out_path} exists and cannot be resumed ({e}); pass --overwrite "
-                         "to replace it") from None
-    if not completed:
-        return False
-    if not same_run(text, scene.text):
-        raise SweepError(f"{out_path} is a finished sweep of another scene; --resume completes "
-                         "only this scene's sweep: pass --overwrite to replace it, or name "
-                         "another output")
-    if os.path.exists(partial):
-        io.remove_stale(partial)   # killed between the finished file's rename and this removal
-    if echo is not None:
-        echo(f"{out_path} is already complete (finished {completed} from this scene); nothing "
-             "to do")
-    return True
+            with io.check_readable(out_path) as f:
+                text = str(f.attrs.get("scene", ""))
+                completed = str(f.attrs.get("completed", ""))
+        except io.FileFormatError as e:
+            raise SweepError(f"{out_path} exists and cannot be resumed ({e}); pass --overwrite "
+                             "to replace it") from None
+        if completed and same_run(text, scene.text):
+            return "done"
+        if mine:
+            raise SweepError(f"{out_path} is a finished sweep of another scene and {partial} "
+                             "holds an interrupted sweep of this one: pass --resume --overwrite "
+                             f"to complete it (it then replaces {out_path}), or name another "
+                             "output")
+        raise SweepError(f"{out_path} is a finished sweep of another scene"
+                         f"{io.scene_difference(text, scene.text)}; --resume completes only "
+                         "this scene's sweep: pass --overwrite to replace it, or name another "
+                         "output")
+    check_output(out_path, overwrite, inputs)
+    if theirs is None:
+        return "start"
+    if resume:
+        if not mine:
+            raise SweepError(f"{partial}: the scene differs from the one this file was started "
+                             f"with{io.scene_difference(theirs, scene.text)}; --resume needs the "
+                             "same scene ([plot] aside), or --overwrite to start again")
+        return "resume"
+    if overwrite:
+        return "start"
+    raise SweepError(f"{partial} holds an interrupted sweep; pass --resume to complete it or "
+                     "--overwrite to start again")
 
 
 def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress, command,

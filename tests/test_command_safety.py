@@ -109,12 +109,25 @@ def test_blocks_are_checked_at_their_compressed_size_under_a_file_size_limit(tmp
 
 
 def test_a_disk_that_cannot_hold_the_file_is_refused_before_any_work(tmp_path, monkeypatch):
-    """The refusal counts the file at deflate's limit of compression, so it is true: here a
-    disk of 10 KiB cannot hold even the file's fixed part. Exit 2, nothing written."""
-    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 10 * 1024)
+    """The refusal counts the file at its least (``sure_file_bytes``: the per-run data at
+    deflate's limit of compression and the scene attribute, stored as it is), so it is
+    true: a disk with less room than the scene's text cannot hold the file. Exit 2, nothing
+    written. With room for that but not for a new file's HDF5 structures, the command stops
+    when it creates the file: exit 1, "nothing was computed"."""
+    sc = config.load(FIG06A, [s for s in TINY[1::2] if "=" in s])
+    sure = sweep_mod.sure_file_bytes(sc)
+    assert sure >= len(sc.text)
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: sure - 1)
     out = tmp_path / "x.h5"
     r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY])
     assert r.exit_code == 2 and "needs at least" in r.output and "free on its disk" in r.output
+    assert not list(tmp_path.iterdir())
+    import cornerbif.io as io_mod
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 2 * sure)
+    monkeypatch.setattr(io_mod, "room", lambda path, size=None: 2 * sure)
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY])
+    assert r.exit_code == 1 and "no room for a new file" in r.output, r.output
+    assert "nothing was computed" in r.output
     assert not list(tmp_path.iterdir())
 
 
@@ -212,12 +225,39 @@ def _stamp_run(tmp_path, out, action):
 
 
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
-def test_a_signal_while_the_file_is_stamped_lands_after_it(tmp_path, sig):
-    """SIGINT or SIGTERM while the attractor table is written: the stamp and the rename run
-    with the signals deferred, so the file is finished whole and the command ends cleanly
-    (exit 0: the work was done), never inside HDF5, never a crash."""
+def test_a_signal_while_the_file_is_stamped_keeps_the_partial_file(tmp_path, sig):
+    """SIGINT or SIGTERM while the attractor table is written into the finished file's
+    copy: the copy is dropped, the partial file is kept as it was, exit 130 with one line
+    naming it (never a crash, never a half-stamped output); --resume finishes it to the
+    bytes of an uninterrupted run."""
     out = tmp_path / "a.h5"
     r = _stamp_run(tmp_path, out, f"os.kill(os.getpid(), signal.{sig})")
+    no_traceback(r)
+    assert r.returncode == 130, (r.returncode, r.stderr[-2000:])
+    assert "--resume" in r.stderr and ".partial" in r.stderr
+    assert not out.exists() and os.path.exists(str(out) + ".partial")
+    assert not os.path.exists(str(out) + ".partial.amend")
+    r = cli("sweep", FIG06A, "-o", out, *TINY, "--resume")
+    assert r.returncode == 0, r.stderr[-2000:]
+    ref = tmp_path / "ref.h5"
+    assert cli("sweep", FIG06A, "-o", ref, *TINY).returncode == 0
+    assert datasets(ref) == datasets(out)
+
+
+def test_a_signal_between_the_rename_and_the_removal_lands_after_both(tmp_path):
+    """The finished file's rename and the removal of its partial file run with signals
+    deferred: a SIGINT there lands once both are done, and the command ends with the file
+    whole (exit 0: the work was done)."""
+    code = STAMP.replace("A.tabulate = stamp", "A.tabulate = stamp\n"
+                         "import cornerbif.io as io\n"
+                         "real_remove = io._remove\n"
+                         "def remove(path):\n"
+                         "    os.kill(os.getpid(), signal.SIGINT)\n"
+                         "    real_remove(path)\n"
+                         "io._remove = remove").format(action="pass")
+    out = tmp_path / "a.h5"
+    r = subprocess.run([sys.executable, "-c", code, "sweep", FIG06A, "-o", str(out), *TINY],
+                       capture_output=True, text=True, timeout=600)
     no_traceback(r)
     assert r.returncode == 0, (r.returncode, r.stderr[-2000:])
     assert out.exists() and not os.path.exists(str(out) + ".partial")
@@ -285,3 +325,25 @@ def test_sigterm_keeps_what_is_finished_as_ctrl_c_does(tmp_path):
     a, b = datasets(ref), datasets(out)
     assert a == b
     assert np.array_equal(np.frombuffer(a["status"], np.int8), np.frombuffer(b["status"], np.int8))
+
+
+def test_nested_deferred_sections_are_one_section():
+    """A signal in an inner deferred section is raised at the end of the outermost one
+    (it was raised at the inner one's end, cutting the outer section short, and the
+    continuation's message then said nothing was kept while a branch was)."""
+    from cornerbif import outputs
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with outputs.signals_deferred():
+            with outputs.signals_deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)               # the handler runs at the next bytecode
+                done.append("inner")
+            done.append("outer")
+    assert done == ["inner", "outer"]
+    with pytest.raises(outputs.Terminated):
+        with outputs.signals_deferred():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)
+            done.append("again")
+    assert done[-1] == "again"
