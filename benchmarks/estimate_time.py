@@ -8,7 +8,9 @@ runs cross many obstacle pieces or section periods per impact) is swept in a sub
 (``sweep.run_sweep`` timed alone, after a tiny sweep of the same scene has loaded its
 kernels) and the table gives the measured wall seconds (and the process's CPU seconds over
 the threads: this machine is shared, and other users' load stretches the wall time) beside
-``sweep.estimate_time``'s middle, range and reasons, and their ratio.
+``sweep.estimate_time``'s middle, range and reasons, and their ratio; last, the CPU time per
+impact asked for (transient + record, every run): a cam's ``COST_IMPACT`` is that of the
+shipped cam_cycloidal sweep (``--only cam_cycloidal``).
 
 ``--calibrate`` measures the coefficients of the time model (``COST_IMPACT``,
 ``COST_PIECE`` in ``models/flow_model.py``, ``COST_IMPACT``, ``COST_SECTION`` in
@@ -75,7 +77,8 @@ run_sweep(sc, os.path.join({tmp!r}, "out.h5"), threads={threads}, overwrite=True
 print(json.dumps({{"measured": time.perf_counter() - t0, "estimate": est.seconds,
                   "cpu": time.process_time() - c0,
                   "low": est.low, "high": est.high, "reasons": list(est.reasons),
-                  "runs": int(np.prod(sc.shape or (1,))) * sc.n_ic}}))
+                  "runs": int(np.prod(sc.shape or (1,))) * sc.n_ic,
+                  "asked": sc.transient + sc.record}}))
 """
 
 
@@ -98,7 +101,8 @@ def check(threads, only):
         print(f"{label:28s} {r['runs']:6d} runs  measured {r['measured']:8.2f} s (CPU/threads "
               f"{r['cpu'] / threads:7.2f} s)  estimate "
               f"{r['estimate']:9.2f} s ({r['low']:.3g} .. {r['high']:.3g})  estimate/measured "
-              f"{ratio:6.2f}  {'in range' if inside else 'OUT of range'}"
+              f"{ratio:6.2f}  {'in range' if inside else 'OUT of range'}  "
+              f"{r['cpu'] / (r['runs'] * r['asked']) * 1e9:.0f} ns CPU an impact asked for"
               + (f"  [{'; '.join(r['reasons'])}]" if r["reasons"] else ""), flush=True)
     return rows
 

@@ -2,6 +2,7 @@
 
     python benchmarks/interrupt_latency.py [--trials 8] [--only LABEL ...] [--seed 1]
     python benchmarks/interrupt_latency.py --cost [--rounds 9] [--scene fig04c]
+    python benchmarks/interrupt_latency.py --stability [--count 16]
 
 Each scene of ``SCENES`` is swept through the CLI in a subprocess (numba's cache warmed
 first by a tiny run of the same scene), ``--progress`` on; once the progress line shows (the
@@ -19,6 +20,15 @@ thread, process CPU time) with the integer settings of a plain call (no control:
 counts its passes only) and under a sweep's ``Control`` (the stop flag read every POLL_EVERY
 passes, each finished run counted atomically), alternated round by round; the median ratio.
 (``benchmarks/ab.py`` compares the plain call against another tree.)
+
+``--stability`` measures whether the stability and Lyapunov pass of a block needs to read the
+stop flag, per model (Fig. 4(c) flow, Fig. 19(a) two_particle, Fig. 15(b) map2d): one grid
+point of ``--count`` starts recording run.record = MAX_RECORD events each, kept stability,
+on this process's numba threads; the pass's seconds (``run_items`` with stability less without,
+best of 2) and per recorded event; the largest block this machine's memory admits (a grid of
+such blocks: ``sweep.estimate_memory`` of two blocks within ``io.available_memory``) and its
+pass at that rate; and the seconds from a stop set halfway through the pass to ``run_items``'
+return (``KernelStopped``), or the pass's end where it does not read the flag.
 """
 
 from __future__ import annotations
@@ -123,9 +133,99 @@ def cost(scene_name, rounds):
           f"(quartiles {q[0]:.3f} - {q[2]:.3f}) over {rounds} rounds")
 
 
+# (model, scene, its first axis, keep with stability, the module and name of the stability
+# kernel its run_items calls)
+STABILITY_SCENES = [
+    ("flow", "fig04c", "omega", 'output.keep=["impacts", "stability"]',
+     "cornerbif.models.flow_model", "batch_stability"),
+    ("two_particle", "fig19a", "omega0", 'output.keep=["impacts", "stability"]',
+     "cornerbif.stability", "batch_two_particle_stability"),
+    ("map2d", "fig15b", "kappa", 'output.keep=["section", "stability"]',
+     "cornerbif.models.map2d_model", "batch_map_stability")]
+
+
+def _run_items_to_end(spec, prm, ics, ints, scene, box):
+    from cornerbif._jit import KernelStopped
+    try:
+        spec.run_items(prm, ics, ints, scene)
+        box["end"] = "finished"
+    except KernelStopped:
+        box["end"] = "KernelStopped"
+
+
+def stability_pass(count):
+    import dataclasses
+    import importlib
+    import threading
+
+    import numpy as np
+
+    from cornerbif import config, engine, io, registry
+    from cornerbif._jit import Control
+    from cornerbif.config import MAX_RECORD
+    from cornerbif.sweep import PROCESS_BASELINE, estimate_memory
+    avail = io.available_memory()
+    print(f"{'model':13s} {'events':>9s} {'pass s':>7s} {'ns/event':>9s} {'largest block':>14s} "
+          f"{'its pass s':>10s}  stop -> return s")
+    for model, name, axis, keep, module, kernel in STABILITY_SCENES:
+        sets = [f"sweep.{axis}.num=1", f"initial.count={count}", "run.transient=100",
+                f"run.record={MAX_RECORD}", keep]
+        sc = config.load(os.path.join(ROOT, "configs", name + ".toml"), sets)
+        spec = registry.get(sc.model)
+        idx, _ = engine.block_indices(sc, (slice(0, 1),))
+        params = spec.pack_points(sc, idx)
+        ics = engine.draw_initial(sc, np.zeros(1, np.int64), spec.wall_at_start(params), params)
+        prm, ics = np.repeat(params, count, axis=0), ics.reshape(count, -1)
+        ints = engine.int_settings(sc)
+        spec.run_items(prm[:2], ics[:2], ints, sc)
+        # the stability kernel timed, and its start told, from inside run_items
+        mod = importlib.import_module(module)
+        real = getattr(mod, kernel)
+        began = threading.Event()
+        spent = []
+
+        def timed(*args, real=real, began=began, spent=spent):
+            began.set()
+            t0 = time.perf_counter()
+            real(*args)
+            spent.append(time.perf_counter() - t0)
+        setattr(mod, kernel, timed)
+        try:
+            for _ in range(2):
+                spec.run_items(prm, ics, ints, sc)
+            seconds = min(spent)
+            events = count * MAX_RECORD
+            # the starts of one grid point whose two blocks (a grid of them) fit the memory
+            lo, hi = 1, 2**20
+            while lo < hi:
+                mid = (lo + hi + 1) // 2
+                two = 2 * estimate_memory(dataclasses.replace(sc, n_ic=mid)) - PROCESS_BASELINE
+                lo, hi = (mid, hi) if avail is None or two <= avail else (lo, mid - 1)
+            largest = lo * MAX_RECORD
+            control = Control()
+            box = {}
+            began.clear()
+            th = threading.Thread(target=_run_items_to_end, args=(
+                spec, prm, ics, engine.with_control(sc, ints, control), sc, box))
+            th.start()
+            began.wait()
+            time.sleep(seconds / 2)
+            t0 = time.perf_counter()
+            control.stop()
+            th.join()
+            stop = time.perf_counter() - t0
+        finally:
+            setattr(mod, kernel, real)
+        print(f"{model:13s} {events:9d} {seconds:7.3f} {seconds / events * 1e9:9.1f} "
+              f"{largest:14.3g} {largest * seconds / events:10.1f}  {stop:.3f} ({box.get('end')})",
+              flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cost", action="store_true")
+    ap.add_argument("--stability", action="store_true")
+    ap.add_argument("--count", type=int, default=16)
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--scene", default="fig04c")
     ap.add_argument("--trials", type=int, default=8)
@@ -134,6 +234,8 @@ def main():
     a = ap.parse_args()
     if a.cost:
         return cost(a.scene, a.rounds)
+    if a.stability:
+        return stability_pass(a.count)
     rng = random.Random(a.seed)
     print(f"{'scene':34s} {'trials':>6s} {'median s':>9s} {'max s':>7s}  exit codes")
     for label, scene, args, wait, warm_args in SCENES:

@@ -75,10 +75,12 @@ def load_f64(typingctx, address, i):
 # The kernels of a sweep poll a small int64 array, the ``Control`` of their call, through its
 # address in their integer settings (0: none, as for ``simulate`` and the Dask workers): the
 # stop flag (``cornerbif.local`` sets it on Ctrl-C or SIGTERM; the kernels then return within
-# a few thousand loop passes, and the block they were computing is discarded, never written)
-# and the number of runs finished (the progress bar reads it while a block computes).
+# a few thousand loop passes, and the block they were computing is discarded, never written;
+# the stability kernels read it before each run's rows) and the number of runs finished (the
+# progress bar reads it while a block computes).
 C_STOP = 0          # nonzero: stop now
-C_DONE = 1          # runs finished (added to by the kernels' threads, atomically)
+C_DONE = 1          # runs finished (added to by the kernels' threads, atomically; a run cut
+                    # short by the stop flag is not: it did not finish)
 C_SIZE = 2
 POLL_EVERY = 4096   # passes of a run's event loop between two reads of the stop flag (a power
                     # of 2: a mask; a few microseconds to milliseconds of a run)

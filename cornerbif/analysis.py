@@ -26,6 +26,7 @@ import numpy as np
 from numba import prange
 
 from ._jit import jit, pjit
+from .model import cut
 
 A, B, G, X = ord("a"), ord("b"), ord("g"), ord("x")
 
@@ -147,12 +148,8 @@ _PLAIN = re.compile(r"[abgx]+")
 MAX_WORD_LETTERS = 1000
 # the longest text of a word (spaces, '^' and counts included)
 MAX_WORD_TEXT = 10 * MAX_WORD_LETTERS
-
-
-def _short(text, n=40) -> str:
-    """A text for a message: repr'd, cut to n characters."""
-    text = str(text)
-    return repr(text) if len(text) <= n else repr(text[:n]) + "..."
+# the characters of a word a message quotes (``model.cut``)
+WORD_SHOWN = 40
 
 
 def parse_word(word: str, allow_x: bool = False) -> str:
@@ -165,9 +162,9 @@ def parse_word(word: str, allow_x: bool = False) -> str:
     """
     s = str(word)
     if len(s) > MAX_WORD_TEXT:
-        raise ValueError(f"word {_short(s)} is {len(s)} characters long; a word is written "
-                         f"in at most {MAX_WORD_TEXT} (cycles of at most {MAX_WORD_LETTERS} "
-                         "letters)")
+        raise ValueError(f"word {cut(s, WORD_SHOWN, quote=True)} is {len(s)} characters long; "
+                         f"a word is written in at most {MAX_WORD_TEXT} (cycles of at most "
+                         f"{MAX_WORD_LETTERS} letters)")
     s = s.replace("(", " ").replace(")", " ").lower()
     token = _TOKEN_X if allow_x else _TOKEN
     letters = "a, b, g" + (", x" if allow_x else "")
@@ -180,16 +177,18 @@ def parse_word(word: str, allow_x: bool = False) -> str:
             continue
         m = token.match(s, pos)
         if m is None or m.end() == pos:
-            raise ValueError(f"word {_short(word)}: cannot read {_short(s[pos:])} "
-                             f"(letters {letters}, optional ^n)")
+            raise ValueError(f"word {cut(word, WORD_SHOWN, quote=True)}: cannot read "
+                             f"{cut(s[pos:], WORD_SHOWN, quote=True)} (letters {letters}, "
+                             "optional ^n)")
         letter = _LETTER.get(m.group(1), m.group(1))
         digits = (m.group(2) or "1").lstrip("0") or "0"
         count = int(digits) if len(digits) <= 6 else MAX_WORD_LETTERS + 1
         total += count
         if total > MAX_WORD_LETTERS:
-            raise ValueError(f"word {_short(word)} has more than {MAX_WORD_LETTERS} letters "
-                             "(the longest cycle cornerbif solves: its orbit's matrices grow "
-                             "as the square and their solution as the cube of the length)")
+            raise ValueError(f"word {cut(word, WORD_SHOWN, quote=True)} has more than "
+                             f"{MAX_WORD_LETTERS} letters (the longest cycle cornerbif solves: "
+                             "its orbit's matrices grow as the square and their solution as "
+                             "the cube of the length)")
         out.append(letter * count)
         pos = m.end()
     res = "".join(out)

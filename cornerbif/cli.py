@@ -57,6 +57,14 @@ class Commands(click.Group):
       traceback).
     """
 
+    def make_context(self, info_name, args, parent=None, **extra):
+        """The arguments read (click's), an interrupt meanwhile ending as every command's
+        does: exit 130 (click would say "Aborted!" and exit 1)."""
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except KeyboardInterrupt:
+            _fail("interrupted", EXIT_INTERRUPTED)
+
     def invoke(self, ctx):
         from . import outputs
         handlers = outputs.install_signal_handlers()
@@ -88,6 +96,9 @@ class Commands(click.Group):
             _fail("interrupted", EXIT_INTERRUPTED)
         except RecursionError:
             _fail("an input nested too deeply to be read", EXIT_INPUT)
+        except BrokenPipeError:
+            raise                      # the reader of the output left (``info | head``):
+            #                            click ends quietly (exit 1), as for --help
         except MemoryError:
             _fail("out of memory (the machine could not give what this input asks for; "
                   "shrink it)", EXIT_FAULT)
@@ -149,7 +160,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
         parse_scheduler(scheduler)
         require_dask()
     from .sweep import default_output, run_sweep
-    out = out or default_output(scene)
+    out = default_output(scene) if out is None else out
     cores = _check_threads(threads)
     from .sweep import check_budget, check_directory, plan_output
     check_directory(out)
@@ -290,7 +301,8 @@ def plot(files, out, y, title, color_by, style):
     sheet or any other file), whole or not at all."""
     from . import outputs, plot_style
     from .io import FileFormatError
-    out = out or os.path.splitext(files[0])[0] + ".png"
+    from .model import cut
+    out = os.path.splitext(files[0])[0] + ".png" if out is None else out
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".png", ".pdf", ".svg"):
         _fail(f"-o {out}: the figure must be .png, .pdf or .svg")
@@ -323,12 +335,12 @@ def plot(files, out, y, title, color_by, style):
     except Exception as e:  # noqa: BLE001 - a file crafted past the readers' checks
         if os.environ.get("CORNERBIF_DEBUG"):
             raise
-        why = plot_style.bounded(f"{type(e).__name__}: {e}", 300)
+        why = cut(f"{type(e).__name__}: {e}", 300)
         _fail(f"{', '.join(files)}: cannot be drawn ({why}); nothing was written. The files "
               "hold values cornerbif does not write (damaged or crafted), or this is a bug in "
               "cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
-    for w in {plot_style.bounded(str(w.message).splitlines()[0] if str(w.message) else
-                                 w.category.__name__, 200) for w in said}:
+    for w in {cut(str(w.message).splitlines()[0] if str(w.message) else
+                   w.category.__name__, 200) for w in said}:
         click.echo(f"note: drawing {out}: {w}", err=True)
     click.echo(f"wrote {out}")
 
@@ -373,13 +385,22 @@ def continue_(scene_path, out, sets, resume, overwrite):
     if not scene.cont:
         _fail(f"{scene_path}: no [continue] table (parameter, range, ...: "
               "docs/continuation.md)")
-    from .sweep import default_output
-    out = out or default_output(scene).removesuffix(".h5") + "_continue.h5"
+    import shlex
+
     from . import continuation as C
-    from .engine import announce_compiles
-    announce_compiles(scene, lambda m: click.echo(m, err=True), ("continuation",))
-    C.run_to_file(scene, out, resume=resume, overwrite=overwrite, log=click.echo,
-                  inputs=[("the scene file", scene_path)])
+    from .sweep import default_output
+    out = default_output(scene).removesuffix(".h5") + "_continue.h5" if out is None else out
+    inputs = [("the scene file", scene_path)]
+    # what continue will do with its output, refused before anything else is said
+    if C.plan_output(scene, out, resume, overwrite, inputs) != "done":
+        from .engine import announce_compiles
+        announce_compiles(scene, lambda m: click.echo(m, err=True), ("continuation",))
+    command = ["cornerbif", "continue", scene_path, "-o", out]
+    for s in sets:
+        command += ["--set", s]
+    command += ["--resume"] * resume + ["--overwrite"] * overwrite
+    C.run_to_file(scene, out, resume=resume, overwrite=overwrite, log=click.echo, inputs=inputs,
+                  command=" ".join(shlex.quote(str(p)) for p in command))
 
 
 @main.command()
@@ -406,8 +427,8 @@ def info(file):
     except Exception as e:  # noqa: BLE001 - a file crafted past the readers' checks
         if os.environ.get("CORNERBIF_DEBUG"):
             raise
-        from .plot_style import bounded
-        _fail(f"{file}: cannot be summarised ({bounded(f'{type(e).__name__}: {e}', 300)}); the "
+        from .model import cut
+        _fail(f"{file}: cannot be summarised ({cut(f'{type(e).__name__}: {e}', 300)}); the "
               "file holds values cornerbif does not write (damaged or crafted), or this is a "
               "bug in cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
     for line in lines:

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import registry
+from .model import KEY_CHARS, cut, shown
 from .model import is_number as _is_number
-from .model import shown
 
 FOLLOW = ("none", "up", "down")
 
@@ -308,23 +308,12 @@ def _suggest(word, options):
     return f" (did you mean '{m[0]}'?)" if m else ""
 
 
-def _name(k) -> str:
-    """A key as a message names it: cut to 60 characters (a key of a megabyte is a key)."""
-    return _cut(k if isinstance(k, str) else shown(k), 60)
-
-
 def _is_int(x):
     return isinstance(x, int) and not isinstance(x, bool)
 
 
-def _cut(text: str, limit: int = 80) -> str:
-    """A text quoted as given (an override), cut to ``limit`` characters with its length."""
-    return text if len(text) <= limit else f"{text[:limit]}...<{len(text)} characters>"
-
-
-def _fmt(x):
-    """A value as a message quotes it: its repr, shortened when huge (``model.shown``)."""
-    return shown(x)
+# the name _read_continue's helpers quote a value by (``model.shown``)
+_fmt = shown
 
 
 # the two forms of a [sweep] axis: a --set of one form's key replaces the other form
@@ -364,16 +353,16 @@ def parse_override(text: str):
     than MAX_INT_DIGITS digits, lists nested past MAX_NESTING); only a value that is not
     TOML at all is read as a bare string."""
     if "=" not in text:
-        raise SceneError([f"--set {_fmt(text)}: expected key=value, e.g. --set system.omega=2.001"])
+        raise SceneError([f"--set {shown(text)}: expected key=value, e.g. --set system.omega=2.001"])
     key, val = text.split("=", 1)
     key = key.strip()
     val = val.strip()
     parts = key.split(".")
     if not all(p.strip() for p in parts):
-        raise SceneError([f"--set {_fmt(text)}: the key {_fmt(key)} has an empty part; keys "
+        raise SceneError([f"--set {shown(text)}: the key {shown(key)} has an empty part; keys "
                           "are dotted names such as system.omega"])
     if len(parts) > MAX_NESTING:
-        raise SceneError([f"--set {_fmt(text)}: the key has {len(parts)} parts; at most "
+        raise SceneError([f"--set {shown(text)}: the key has {len(parts)} parts; at most "
                           f"{MAX_NESTING} (tables inside one another)"])
     if len(val.encode("utf-8", "surrogatepass")) > MAX_SCENE_BYTES:
         raise SceneError([f"--set {key}=...: a value of {len(val)} characters; at most "
@@ -440,7 +429,8 @@ def nesting_problem(raw, root: str = "") -> str | None:
             return (f"{key}: {shown(node)}; an integer has at most {MAX_INT_DIGITS} digits (a "
                     "number of the scene fits a float64: up to about 1.8e308)")
         if isinstance(node, dict):
-            items = [(v, f"{key}.{_name(k)}" if key else _name(k)) for k, v in node.items()]
+            items = [(v, f"{key}.{cut(k, KEY_CHARS)}" if key else cut(k, KEY_CHARS))
+                     for k, v in node.items()]
         elif isinstance(node, list):
             items = [(v, f"{key}[{i}]") for i, v in enumerate(node)]
         else:
@@ -537,8 +527,7 @@ def scene_difference(text_a, text_b, most=4) -> str:
     keys = sorted(k for k in set(fa) | set(fb) if fa.get(k, ...) != fb.get(k, ...))
 
     def show(v):
-        t = "(absent)" if v is ... else repr(v)
-        return t if len(t) <= 60 else t[:60] + "..."
+        return "(absent)" if v is ... else shown(v)
     text = "; ".join(f"{k}: {show(fa.get(k, ...))} there, {show(fb.get(k, ...))} here"
                      for k in keys[:most])
     return text + (f"; and {len(keys) - most} more" if len(keys) > most else "")
@@ -599,7 +588,7 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
             problems += e.problems
             continue
         set_dotted(raw, key, val)
-        given.append((key, _cut(ov) if isinstance(ov, str) else f"{key}={_fmt(val)}"))
+        given.append((key, cut(ov) if isinstance(ov, str) else f"{key}={shown(val)}"))
     if problems:
         raise SceneError(problems)
     try:
@@ -636,7 +625,7 @@ class _Walk:
             if k not in allowed:
                 where = [t for t, keys in TABLES.items() if keys and k in keys and t != name]
                 hint = f" (it belongs in [{where[0]}])" if where else _suggest(str(k), allowed)
-                self.problems.append(f"{name}.{_name(k)}: unknown key{hint}; allowed: "
+                self.problems.append(f"{name}.{cut(k, KEY_CHARS)}: unknown key{hint}; allowed: "
                                      f"{', '.join(allowed)}")
 
     def param(self, name, value, key):
@@ -679,13 +668,13 @@ def _text(w, key, text, limit, what):
     otherwise a problem naming the key and the length or the character (and "" instead,
     so that nothing downstream carries it)."""
     if len(text) > limit:
-        w.problems.append(f"{key}: {_fmt(text)} is {len(text)} characters; at most {limit} "
+        w.problems.append(f"{key}: {shown(text)} is {len(text)} characters; at most {limit} "
                           f"({what})")
         return ""
     bad = next((c for c in text if (ord(c) < 0x20 and c not in "\n\t")
                 or 0x7F <= ord(c) <= 0x9F), None)
     if bad is not None:
-        w.problems.append(f"{key}: {_fmt(text)} holds the control character {bad!r} at "
+        w.problems.append(f"{key}: {shown(text)} holds the control character {bad!r} at "
                           f"{text.index(bad)}; free text may hold newlines and tabs, no other "
                           "control characters (it is printed to terminals)")
         return ""
@@ -697,7 +686,7 @@ def _read_scene(w):
     w.unknown("scene", TABLES["scene"])
     name = sc.get("name", "scene")
     if not isinstance(name, str) or not name:
-        w.problems.append(f"scene.name: {_fmt(name)} must be a non-empty string")
+        w.problems.append(f"scene.name: {shown(name)} must be a non-empty string")
         name = "scene"
     else:
         name = _text(w, "scene.name", name, MAX_NAME, "a short name: the default output file "
@@ -705,7 +694,7 @@ def _read_scene(w):
                      "text in scene.title") or "scene"
     title = sc.get("title", name)
     if not isinstance(title, str):
-        w.problems.append(f"scene.title: {_fmt(title)} must be a string")
+        w.problems.append(f"scene.title: {shown(title)} must be a string")
         title = ""
     else:
         title = _text(w, "scene.title", title, MAX_TITLE, "a figure's title, stored in the "
@@ -715,7 +704,7 @@ def _read_scene(w):
             w.problems.append(p)
     model = sc.get("model", registry.DEFAULT_MODEL)
     if model not in MODELS:
-        w.problems.append(f"scene.model: {_fmt(model)} is not a model"
+        w.problems.append(f"scene.model: {shown(model)} is not a model"
                           f"{_suggest(str(model), MODELS)}; allowed: " + ", ".join(MODELS))
         model = registry.DEFAULT_MODEL   # validate the rest as such; the error above stands
     w.name, w.title, w.model = name, title, model
@@ -730,7 +719,7 @@ def _read_system(w):
     obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", default_obstacle))
     if spec.obstacles and not (isinstance(obstacle, str) and obstacle in spec.obstacles):
         allowed = tuple(spec.obstacles)
-        w.problems.append(f"system.obstacle: {_fmt(obstacle)} is not an obstacle"
+        w.problems.append(f"system.obstacle: {shown(obstacle)} is not an obstacle"
                           f"{_suggest(str(obstacle), allowed)}; allowed: {', '.join(allowed)}")
         obstacle = spec.system_extra["obstacle"]
     system = {}
@@ -746,7 +735,7 @@ def _read_system(w):
     section_period = sy.get("section_period") if "section_period" in spec.system_extra else None
     if section_period is not None:
         if not _is_number(section_period) or not math.isfinite(section_period) or section_period <= 0:
-            w.problems.append(f"system.section_period: {_fmt(section_period)} must be a positive number")
+            w.problems.append(f"system.section_period: {shown(section_period)} must be a positive number")
             section_period = None
         else:
             section_period = float(section_period)
@@ -815,7 +804,7 @@ def _finite_value(w, key):
                 return True
             w.problems.append(p)
             return False
-        w.problems.append(f"{where}: {_fmt(v)} must be a finite number")
+        w.problems.append(f"{where}: {shown(v)} must be a finite number")
         return False
     return check
 
@@ -826,12 +815,12 @@ def _read_axis(w, k, spec, check=None):
     key = f"sweep.{k}"
     check = check or w.param
     if not isinstance(spec, dict):
-        w.problems.append(f"{key}: {_fmt(spec)} must be {{ start = .., stop = .., num = .. }} "
+        w.problems.append(f"{key}: {shown(spec)} must be {{ start = .., stop = .., num = .. }} "
                           "or { values = [...] }")
         return None
     extra = set(spec) - {"start", "stop", "num", "values"}
     for e in sorted(extra):
-        w.problems.append(f"{key}.{_name(e)}: unknown key"
+        w.problems.append(f"{key}.{cut(e, KEY_CHARS)}: unknown key"
                           f"{_suggest(e, ('start', 'stop', 'num', 'values'))}; "
                           "allowed: start, stop, num, values")
     if "values" in spec:
@@ -839,7 +828,7 @@ def _read_axis(w, k, spec, check=None):
             w.problems.append(f"{key}: give either values or start/stop/num, not both")
         vals = spec["values"]
         if not isinstance(vals, list) or not vals:
-            w.problems.append(f"{key}.values: {_fmt(vals)[:80]} must be a non-empty list of numbers")
+            w.problems.append(f"{key}.values: {shown(vals)} must be a non-empty list of numbers")
             return None
         if len(vals) > MAX_AXIS_VALUES:
             w.problems.append(f"{key}.values: {len(vals)} values on one axis; at most "
@@ -856,7 +845,7 @@ def _read_axis(w, k, spec, check=None):
         return None
     num = spec["num"]
     if not _is_int(num):
-        w.problems.append(f"{key}.num: {_fmt(num)} must be an integer >= 1")
+        w.problems.append(f"{key}.num: {shown(num)} must be an integer >= 1")
         ok = False
     elif num < 1:
         w.problems.append(f"{key}.num: {num} must be an integer >= 1")
@@ -898,14 +887,14 @@ def _read_sweep(w):
     params = w.spec.params
     follow = sw.get("follow", "none")
     if follow not in FOLLOW:
-        w.problems.append(f"sweep.follow: {_fmt(follow)} is not allowed; allowed: {', '.join(FOLLOW)}")
+        w.problems.append(f"sweep.follow: {shown(follow)} is not allowed; allowed: {', '.join(FOLLOW)}")
         follow = "none"
     axes = []
     for k, spec in sweep_items(sw):
         if k.startswith(IC_PREFIX):
             c = k[len(IC_PREFIX):]
             if c not in w.spec.start_names:
-                w.problems.append(f"sweep.{_name(k)}: {_fmt(c)} is not a start coordinate of model "
+                w.problems.append(f"sweep.{cut(k, KEY_CHARS)}: {shown(c)} is not a start coordinate of model "
                                   f"{w.model!r}; allowed: "
                                   + ", ".join(IC_PREFIX + x for x in w.spec.start_names))
                 continue
@@ -914,7 +903,7 @@ def _read_sweep(w):
                 axes.append(Axis(k, values))
             continue
         if k not in params:
-            w.problems.append(f"sweep.{_name(k)}: {_fmt(k)} is not a parameter of model {w.model!r}"
+            w.problems.append(f"sweep.{cut(k, KEY_CHARS)}: {shown(k)} is not a parameter of model {w.model!r}"
                               f"{_suggest(str(k), params)}; allowed: {', '.join(params)}")
             continue
         if not _applies(w, params[k], w.obstacle, f"sweep.{k}"):
@@ -1001,12 +990,12 @@ def _read_initial(w):
     w.unknown("initial", TABLES["initial"])
     n_ic = ini.get("count", INITIAL_DEFAULTS["count"])
     if not _is_int(n_ic) or not 1 <= n_ic <= MAX_STARTS:
-        w.problems.append(f"initial.count: {_fmt(n_ic)} must be an integer in 1..{MAX_STARTS} "
+        w.problems.append(f"initial.count: {shown(n_ic)} must be an integer in 1..{MAX_STARTS} "
                           "(starts are keyed by point * 2^20 + start)")
         n_ic = 1
     seed = ini.get("seed", INITIAL_DEFAULTS["seed"])
     if not _is_int(seed) or not 0 <= seed < MAX_INT:
-        w.problems.append(f"initial.seed: {_fmt(seed)} must be an integer in 0..2^62 - 1")
+        w.problems.append(f"initial.seed: {shown(seed)} must be an integer in 0..2^62 - 1")
         seed = 0
     coords = w.spec.start_names
     for c in TABLES["initial"][len(INITIAL_DEFAULTS):]:
@@ -1017,7 +1006,7 @@ def _read_initial(w):
              if a.name.startswith(IC_PREFIX)]
     for c in swept:
         if c in ini:
-            w.problems.append(f"initial.{c}: {_fmt(ini[c])} but sweep.initial.{c} sweeps it; "
+            w.problems.append(f"initial.{c}: {shown(ini[c])} but sweep.initial.{c} sweeps it; "
                               "give one of the two")
     # every start coordinate swept or fixed (a range [a, a]): one start per cell
     if swept and all(c in swept or _fixed(ini.get(c, list(w.spec.coord(c).default)))
@@ -1035,12 +1024,12 @@ def _read_initial(w):
             rng = [rng, rng]
         if (not isinstance(rng, list) or len(rng) != 2 or not all(_is_number(x) for x in rng)
                 or not all(math.isfinite(x) for x in rng)):
-            w.problems.append(f"initial.{c}: {_fmt(rng)} must be a range [low, high] of finite numbers")
+            w.problems.append(f"initial.{c}: {shown(rng)} must be a range [low, high] of finite numbers")
             rng = default
         elif rng[1] < rng[0]:
-            w.problems.append(f"initial.{c}: {_fmt(rng)} has high < low")
+            w.problems.append(f"initial.{c}: {shown(rng)} has high < low")
         elif not math.isfinite(float(rng[1]) - float(rng[0])):
-            w.problems.append(f"initial.{c}: {_fmt(rng)}: high - low overflows float64 (a start "
+            w.problems.append(f"initial.{c}: {shown(rng)}: high - low overflows float64 (a start "
                               "is drawn as low + (high - low) x, x in [0, 1)); the ends must "
                               "lie within about 1.8e308 of each other")
             rng = default
@@ -1056,7 +1045,7 @@ def _read_run(w):
     w.unknown("run", TABLES["run"])
     preset = rn.get("preset", DEFAULT_PRESET)
     if not isinstance(preset, str) or preset not in PRESETS:
-        w.problems.append(f"run.preset: {_fmt(preset)} is not a preset"
+        w.problems.append(f"run.preset: {shown(preset)} is not a preset"
                           f"{_suggest(str(preset), PRESETS)}; allowed: {', '.join(PRESETS)}")
         preset = DEFAULT_PRESET
     run = {}
@@ -1065,7 +1054,7 @@ def _read_run(w):
         v = rn.get(k, default)
         if k == "stop":
             if v is not None and v not in STOPS:
-                w.problems.append(f"run.stop: {_fmt(v)} is not allowed; allowed: {', '.join(STOPS)}")
+                w.problems.append(f"run.stop: {shown(v)} is not allowed; allowed: {', '.join(STOPS)}")
                 v = None
             elif v == "period" and not w.spec.early_stop:
                 which = " or ".join(repr(m.name) for m in _all_models() if m.early_stop)
@@ -1083,12 +1072,12 @@ def _read_run(w):
             if not _is_int(v) or not lo <= v <= hi:
                 why = (" (the cycle's word is a fixed-length string in the file)" if k == "record"
                        else " (held in int64 by the kernels)")
-                w.problems.append(f"run.{k}: {_fmt(v)} must be an integer in {lo}..{hi}"
+                w.problems.append(f"run.{k}: {shown(v)} must be an integer in {lo}..{hi}"
                                   + (why if _is_int(v) and v > hi else ""))
                 v = default if default is not None else 1
         else:
             if not _is_number(v) or not math.isfinite(v) or v <= 0:
-                w.problems.append(f"run.{k}: {_fmt(v)} must be a positive finite number")
+                w.problems.append(f"run.{k}: {shown(v)} must be a positive finite number")
                 v = default
             elif k == "tol" and v > 1e-3:
                 w.problems.append(f"run.tol: {v!r} is too coarse; the event-time tolerance must be <= 1e-3")
@@ -1107,12 +1096,12 @@ def _read_output(w):
     w.unknown("output", TABLES["output"])
     keep = outp.get("keep", list(KEEP_DEFAULT))
     if isinstance(keep, list) and len(keep) > len(KEEP):
-        w.problems.append(f"output.keep: {_fmt(keep)}: {len(keep)} entries; it lists each "
+        w.problems.append(f"output.keep: {shown(keep)}: {len(keep)} entries; it lists each "
                           f"observable at most once: {', '.join(w.spec.observables)}")
         keep = list(w.spec.observables)
     if not isinstance(keep, list) or not all(isinstance(x, str) for x in keep):
         hint = f' (a list: keep = ["{keep}"])' if isinstance(keep, str) and keep in KEEP else ""
-        w.problems.append(f"output.keep: {_fmt(keep)} must be a list drawn from "
+        w.problems.append(f"output.keep: {shown(keep)} must be a list drawn from "
                           f"{', '.join(w.spec.observables)}{hint}")
         # one problem: nothing more is said of it (every observable, so that no check that
         # needs one, such as plot.kind's, adds a second)
@@ -1154,28 +1143,16 @@ def _normal_form_needs():
 
 def undrawable(text: str, key: str) -> str | None:
     """A problem when matplotlib cannot draw ``text`` (a title or a label: its mathtext,
-    between $ signs, does not parse, or nests past what its parser can recurse), else None.
-    matplotlib is imported only when some line of the text is mathtext."""
-    lines = [x for x in text.split("\n") if x.count("$") - x.count("\\$") >= 2]
-    if not lines:
+    between $ signs, does not parse, or nests past what its parser can recurse), else None
+    (``plot_style.mathtext_problem``, which imports matplotlib only when some line of the
+    text is mathtext)."""
+    from .plot_style import mathtext_problem
+    found = mathtext_problem(text)
+    if found is None:
         return None
-    from matplotlib import cbook
-    from matplotlib.mathtext import MathTextParser
-    parser = MathTextParser("path")
-    for line in lines:
-        if not cbook.is_math_text(line):
-            continue
-        try:
-            parser.parse(line, dpi=72)
-        except RecursionError:
-            why = "its formula nests too deeply for matplotlib's parser"
-        except Exception as e:  # noqa: BLE001 - pyparsing's and matplotlib's own errors
-            why = (str(e).strip().splitlines() or [type(e).__name__])[-1][:120]
-        else:
-            continue
-        return (f"{key}: {_fmt(text)}: matplotlib cannot draw {_fmt(line)} ({why}); the text "
-                "between $ signs is matplotlib's mathtext (a literal dollar is \\$)")
-    return None
+    line, why = found
+    return (f"{key}: {shown(text)}: matplotlib cannot draw {shown(line)} ({why}); the text "
+            "between $ signs is matplotlib's mathtext (a literal dollar is \\$)")
 
 
 def _plot_window(pl, lim, problems):
@@ -1183,17 +1160,17 @@ def _plot_window(pl, lim, problems):
     MIN_PLOT_WIDTH)."""
     v = pl[lim]
     if not (isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)):
-        problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high], two numbers")
+        problems.append(f"plot.{lim}: {shown(v)} must be [low, high], two numbers")
         return
     lo, hi = float(v[0]), float(v[1])
     if not all(math.isfinite(x) and abs(x) <= MAX_PLOT_LIMIT for x in (lo, hi)):
-        problems.append(f"plot.{lim}: {_fmt(v)} must be finite, within +-{MAX_PLOT_LIMIT:g} "
+        problems.append(f"plot.{lim}: {shown(v)} must be finite, within +-{MAX_PLOT_LIMIT:g} "
                         "(matplotlib's ticks and transforms take differences and products "
                         "of the ends)")
     elif not lo < hi:
-        problems.append(f"plot.{lim}: {_fmt(v)} must be [low, high] with low < high")
+        problems.append(f"plot.{lim}: {shown(v)} must be [low, high] with low < high")
     elif hi - lo < max(MIN_PLOT_WIDTH * max(abs(lo), abs(hi)), 1.0 / MAX_PLOT_LIMIT):
-        problems.append(f"plot.{lim}: {_fmt(v)} is {hi - lo!r} wide; a window must be at least "
+        problems.append(f"plot.{lim}: {shown(v)} is {hi - lo!r} wide; a window must be at least "
                         f"{MIN_PLOT_WIDTH:g} of its ends' magnitude (and {1.0 / MAX_PLOT_LIMIT:g})"
                         " wide, or its ticks and pixels are not distinct")
 
@@ -1210,29 +1187,47 @@ def _read_plot(w):
     problems = w.problems
     for k, v in plot.items():
         if not _plain(v):
-            problems.append(f"plot.{_name(k)}: {_fmt(v)} must be a string, a number or a list "
+            problems.append(f"plot.{cut(k, KEY_CHARS)}: {shown(v)} must be a string, a number or a list "
                             "of them")
     if "color_by" in plot:
         if plot["color_by"] not in PLOT_COLOR_BY:
-            problems.append(f"plot.color_by: {_fmt(plot['color_by'])} is not allowed; allowed: "
+            problems.append(f"plot.color_by: {shown(plot['color_by'])} is not allowed; allowed: "
                             + ", ".join(PLOT_COLOR_BY))
         elif "stability" not in w.keep:
             problems.append("plot.color_by: colours come from the stability datasets; "
                             "output.keep must contain \"stability\"")
     if "y" in plot and plot["y"] not in PLOT_Y:
-        problems.append(f"plot.y: {_fmt(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
+        problems.append(f"plot.y: {shown(plot['y'])} is not allowed; allowed: {', '.join(PLOT_Y)}")
     for lim in ("xlim", "ylim"):
         if lim in plot:
             _plot_window(plot, lim, problems)
     if "marker_size" in plot:
         v = plot["marker_size"]
         if not (_is_number(v) and math.isfinite(v) and 0 < v <= MAX_MARKER_SIZE):
-            problems.append(f"plot.marker_size: {_fmt(v)} must be a number of points in (0, "
+            problems.append(f"plot.marker_size: {shown(v)} must be a number of points in (0, "
                             f"{MAX_MARKER_SIZE:g}] (a marker's size; default: from the number "
                             "of points drawn)")
+    _read_plot_text(w, plot)
+    if "orbits" in plot and plot["orbits"] not in ("words", "families"):
+        problems.append(f"plot.orbits: {shown(plot['orbits'])} must be \"words\" (a colour per "
+                        "orbit) or \"families\" (one per family such as beta^N gamma)")
+    if "style" in plot:
+        p = style_problem(plot["style"], "plot.style")
+        if p:
+            problems.append(p)
+    _read_plot_kind(w, plot)
+    _read_plot_runs(w, plot)
+    w.plot = plot
+
+
+def _read_plot_text(w, plot):
+    """``[plot] title`` and ``marks``: free text within its limits (MAX_TITLE, MAX_MARKS,
+    MAX_MARK_LABEL) that matplotlib can draw (``undrawable``), marks on the one swept axis
+    within its range."""
+    problems = w.problems
     if "title" in plot:
         if not isinstance(plot["title"], str):
-            problems.append(f"plot.title: {_fmt(plot['title'])} must be a string")
+            problems.append(f"plot.title: {shown(plot['title'])} must be a string")
         elif _text(w, "plot.title", plot["title"], MAX_TITLE, "a figure's title"):
             p = undrawable(_title_lines(plot["title"]), "plot.title")
             if p:
@@ -1245,7 +1240,7 @@ def _read_plot(w):
         elif not (isinstance(v, list) and all(isinstance(m, list) and len(m) == 2
                                               and _is_number(m[0]) and math.isfinite(m[0])
                                               and isinstance(m[1], str) for m in v)):
-            problems.append(f"plot.marks: {_fmt(v)} must be a list of [value, \"label\"] "
+            problems.append(f"plot.marks: {shown(v)} must be a list of [value, \"label\"] "
                             "pairs (values on the swept axis, marked by dotted lines)")
         elif len(w.axes) != 1:
             problems.append("plot.marks: marks values on a diagram's one swept axis; this scene "
@@ -1255,22 +1250,23 @@ def _read_plot(w):
             for i, (x, lab) in enumerate(v):
                 key = f"plot.marks[{i}]"
                 if not lo <= x <= hi:
-                    problems.append(f"{key}: {x!r} ({_fmt(lab)}) is outside the swept "
+                    problems.append(f"{key}: {x!r} ({shown(lab)}) is outside the swept "
                                     f"{w.axes[0].name} range [{lo!r}, {hi!r}]")
                 if _text(w, key, lab, MAX_MARK_LABEL, "a label beside a dotted line"):
                     p = undrawable(f"{lab} = {x:.10g}", key)     # as the legend draws it
                     if p:
                         problems.append(p)
-    if "orbits" in plot and plot["orbits"] not in ("words", "families"):
-        problems.append(f"plot.orbits: {_fmt(plot['orbits'])} must be \"words\" (a colour per "
-                        "orbit) or \"families\" (one per family such as beta^N gamma)")
-    if "style" in plot:
-        p = style_problem(plot["style"], "plot.style")
-        if p:
-            problems.append(p)
+
+
+def _read_plot_kind(w, plot):
+    """``[plot] kind``: one of PLOT_KINDS that the scene's model, obstacle, axes and kept
+    observables can draw (the normal-form kinds: the corner normal form, single runs;
+    timeseries: impacts kept; obstacle: Fig. 2's obstacles; fractions: one swept
+    parameter)."""
+    problems = w.problems
     kind = plot.get("kind", "diagram")
     if kind not in PLOT_KINDS:
-        problems.append(f"plot.kind: {_fmt(kind)} is not a plot kind"
+        problems.append(f"plot.kind: {shown(kind)} is not a plot kind"
                         f"{_suggest(str(kind)[:100], PLOT_KINDS)}; allowed: {', '.join(PLOT_KINDS)}")
         kind = None
     if kind in NORMAL_FORM_KINDS:
@@ -1304,30 +1300,35 @@ def _read_plot(w):
         problems.append("plot.kind: 'fractions' draws the share of the starts reaching each "
                         "attractor against one swept parameter; this scene sweeps "
                         + (", ".join(a.name for a in w.axes) or "nothing"))
+
+
+def _read_plot_runs(w, plot):
+    """``[plot] ic``, ``point``, ``cycles`` and ``max_panels``: which starts and grid point a
+    figure of single runs shows, over how many periods, in how many panels."""
+    problems = w.problems
     if "ic" in plot:
         v = plot["ic"]
         if not (v == "distinct" or (isinstance(v, list) and 0 < len(v) <= w.n_ic
                                     and all(_is_int(i) and 0 <= i < w.n_ic for i in v))):
-            problems.append(f"plot.ic: {_fmt(v)} must be \"distinct\" or a list of at most "
+            problems.append(f"plot.ic: {shown(v)} must be \"distinct\" or a list of at most "
                             f"{w.n_ic} start indices in 0..{w.n_ic - 1}")
     if "point" in plot:
         v = plot["point"]
         shape = [len(a.values) for a in w.axes]
         if not (isinstance(v, list) and len(v) == len(shape)
                 and all(_is_int(i) and 0 <= i < n for i, n in zip(v, shape))):
-            problems.append(f"plot.point: {_fmt(v)} must be a grid index with one entry per swept "
+            problems.append(f"plot.point: {shown(v)} must be a grid index with one entry per swept "
                             f"axis ({len(shape)}), each in 0..len-1 (grid {tuple(shape)})")
     if "cycles" in plot:
         v = plot["cycles"]
         if not (_is_number(v) and math.isfinite(v) and 0 < v <= MAX_PLOT_CYCLES):
-            problems.append(f"plot.cycles: {_fmt(v)} must be a number in (0, {MAX_PLOT_CYCLES}] "
+            problems.append(f"plot.cycles: {shown(v)} must be a number in (0, {MAX_PLOT_CYCLES}] "
                             "(periods drawn, each from a fixed number of samples)")
     if "max_panels" in plot:
         v = plot["max_panels"]
         if not (_is_int(v) and 1 <= v <= MAX_PANELS):
-            problems.append(f"plot.max_panels: {_fmt(v)} must be an integer in 1..{MAX_PANELS} "
+            problems.append(f"plot.max_panels: {shown(v)} must be an integer in 1..{MAX_PANELS} "
                             "(a time-series figure's panels, one per start)")
-    w.plot = plot
 
 
 def _title_lines(text: str) -> str:
@@ -1348,30 +1349,30 @@ def style_problem(style, key: str) -> str | None:
     with a '/' or ending in .mplstyle is a path; relative to the working directory, as
     ``cornerbif plot`` reads it)."""
     if not isinstance(style, str) or not style:
-        return (f"{key}: {_fmt(style)} must be a matplotlib style name or the path of a "
+        return (f"{key}: {shown(style)} must be a matplotlib style name or the path of a "
                 ".mplstyle file")
     if len(style) > MAX_STYLE_PATH or "\0" in style:
-        return (f"{key}: {_fmt(style)} ({len(style)} characters) is neither a style name nor "
+        return (f"{key}: {shown(style)} ({len(style)} characters) is neither a style name nor "
                 f"a path (at most {MAX_STYLE_PATH} characters, no NUL)")
     try:
         st = os.stat(style)
     except OSError:
         st = None
     if st is None and ("/" in style or os.sep in style or style.endswith(".mplstyle")):
-        return f"{key}: {_fmt(style)}: no such style sheet (a path, relative to the working directory)"
+        return f"{key}: {shown(style)}: no such style sheet (a path, relative to the working directory)"
     if st is not None:
         if not stat.S_ISREG(st.st_mode):
-            return f"{key}: {_fmt(style)} is not a regular file (a .mplstyle style sheet)"
+            return f"{key}: {shown(style)} is not a regular file (a .mplstyle style sheet)"
         if st.st_size > MAX_STYLE_BYTES:
-            return (f"{key}: {_fmt(style)} is {st.st_size} bytes; a style sheet is at most "
+            return (f"{key}: {shown(style)} is {st.st_size} bytes; a style sheet is at most "
                     f"{MAX_STYLE_BYTES} (a few hundred lines of rc settings)")
         if not os.access(style, os.R_OK):
-            return f"{key}: {_fmt(style)}: cannot read the style sheet (permission denied)"
+            return f"{key}: {shown(style)}: cannot read the style sheet (permission denied)"
         return None
     import matplotlib.style as mstyle
     if style in mstyle.available:
         return None
-    return (f"{key}: {_fmt(style)} is neither a file nor one of matplotlib's styles"
+    return (f"{key}: {shown(style)} is neither a file nor one of matplotlib's styles"
             f"{_suggest(style, mstyle.available)} ({', '.join(sorted(mstyle.available)[:6])}, ...)")
 
 
@@ -1379,9 +1380,10 @@ def _read_continue(w):
     """``[continue]``: one-parameter continuation of the periodic orbits found at the
     start (``cornerbif continue``, cornerbif.continuation).  Every key is checked here, so
     that ``validate`` refuses what ``continue`` could not run: numbers finite and within
-    their parameter's own bounds, steps that can move the parameter in double precision,
-    seed words of the model's letters and of bounded length (``analysis.parse_word``), and
-    paths and names as text."""
+    their parameter's own bounds, steps that can move the parameter in double precision
+    (``_continue_steps``), seed words of the model's letters and of bounded length
+    (``analysis.parse_word``), a second parameter whose curves can be made
+    (``_continue_curve``), and paths and names as text (``_continue_names``)."""
     w.cont = {}
     if "continue" not in w.raw:
         return
@@ -1398,7 +1400,7 @@ def _read_continue(w):
                   "per obstacle period); sweep it, or continue a built-in obstacle")
         return
     name = c.get("parameter")
-    numeric = [k for k in w.spec.params]
+    numeric = list(w.spec.params)
     if not isinstance(name, str) or name not in numeric:
         pr.append(f"continue.parameter: {_fmt(name)} is not a numeric parameter of model "
                   f"{w.model!r}{_suggest(str(name), numeric)}; allowed: {', '.join(numeric)}")
@@ -1417,7 +1419,6 @@ def _read_continue(w):
     if rng is None:
         return
     out["range"] = rng
-    width = rng[1] - rng[0]
     start = c.get("start", w.system.get(name))
     if not _is_number(start) or not rng[0] <= start <= rng[1]:
         pr.append(f"continue.start: {_fmt(start)} must be a number within continue.range "
@@ -1435,6 +1436,30 @@ def _read_continue(w):
             if s != "all":
                 _check_seed_word(w, s)
     out["seed"] = seed
+    _continue_steps(w, c, rng[1] - rng[0], out)
+    ev = c.get("events", list(CONTINUE_EVENTS))
+    if not (isinstance(ev, list) and all(isinstance(x, str) and x in CONTINUE_EVENTS
+                                         for x in ev)
+            and len(set(ev)) == len(ev)):
+        pr.append(f"continue.events: {_fmt(ev)} must be a list drawn from "
+                  + ", ".join(CONTINUE_EVENTS) + ", each at most once (a corner collision, "
+                  "a grazing and a zero-velocity impact end a branch whether listed or not)")
+        ev = list(CONTINUE_EVENTS)
+    out["events"] = list(ev)
+    sw = c.get("switch", True)
+    if not isinstance(sw, bool):
+        pr.append(f"continue.switch: {_fmt(sw)} must be true or false")
+    out["switch"] = bool(sw) if isinstance(sw, bool) else True
+    _continue_curve(w, c, numeric, out)
+    _continue_names(w, c, out)
+    w.cont = out
+
+
+def _continue_steps(w, c, width, out):
+    """``[continue] ds``, ``ds_min``, ``ds_max`` into ``out``: numbers > 0 (defaults: the
+    range's ``width`` / 200, * 1e-9, / 20), ds_min <= ds <= ds_max, ds_max within the range,
+    ds_min a step that moves the parameter in double precision (``MIN_CONTINUE_STEP``)."""
+    pr = w.problems
     for k, default in (("ds", width / 200.0), ("ds_min", width * 1e-9),
                        ("ds_max", width / 20.0)):
         v = c.get(k, default)
@@ -1454,57 +1479,76 @@ def _read_continue(w):
     if not out["ds_min"] <= out["ds"] <= out["ds_max"]:
         pr.append(f"continue.ds: ds_min {out['ds_min']!r} <= ds {out['ds']!r} <= ds_max "
                   f"{out['ds_max']!r} must hold")
-    ev = c.get("events", list(CONTINUE_EVENTS))
-    if not (isinstance(ev, list) and all(isinstance(x, str) and x in CONTINUE_EVENTS
-                                         for x in ev)
-            and len(set(ev)) == len(ev)):
-        pr.append(f"continue.events: {_fmt(ev)} must be a list drawn from "
-                  + ", ".join(CONTINUE_EVENTS) + ", each at most once (a corner collision, "
-                  "a grazing and a zero-velocity impact end a branch whether listed or not)")
-        ev = list(CONTINUE_EVENTS)
-    out["events"] = list(ev)
-    sw = c.get("switch", True)
-    if not isinstance(sw, bool):
-        pr.append(f"continue.switch: {_fmt(sw)} must be true or false")
-    out["switch"] = bool(sw) if isinstance(sw, bool) else True
-    if "curve" in c:
-        cv = c["curve"]
-        if not isinstance(cv, str) or cv not in numeric or cv == name:
-            pr.append(f"continue.curve: {_fmt(cv)} must be another numeric parameter of "
-                      f"model {w.model!r} (the second parameter of the corner-collision "
-                      f"curves){_suggest(str(cv), numeric)}; allowed: "
-                      + ", ".join(k for k in numeric if k != name))
-        elif any(a.name == cv for a in w.axes):
-            pr.append(f"continue.curve: {cv!r} is also swept ([sweep] {cv}); remove the axis")
-        else:
-            crng = _continue_range(w, c, "curve_range", cv)
-            at = w.system.get(cv)
-            if crng is not None and not (_is_number(at) and crng[0] <= at <= crng[1]):
-                pr.append(f"continue.curve_range: {_fmt(c.get('curve_range'))} must hold "
-                          f"system.{cv} = {_fmt(at)} (the curves start there)")
-            out["curve"] = cv
-            out["curve_range"] = c.get("curve_range")
+
+
+# the events whose located points ``[continue] curve`` continues in the second parameter
+CURVE_EVENTS = ("corner", "fold")
+
+
+def _continue_curve(w, c, numeric, out):
+    """``[continue] curve`` and ``curve_range`` into ``out``: the curves of the located
+    corner collisions and folds (``CURVE_EVENTS``) in a second numeric parameter, not
+    swept, over a range holding its value; each key needs the other, and the curves need
+    one of their events in ``continue.events`` (a corner collision not listed there still
+    ends its branch, but is not located as an event: no curve would be made)."""
+    pr = w.problems
+    name = out["parameter"]
+    if "curve" not in c:
+        if "curve_range" in c:
+            pr.append(f"continue.curve_range: {_fmt(c['curve_range'])} without continue.curve "
+                      "(the second parameter of the curves)")
+        return
+    cv = c["curve"]
+    if not isinstance(cv, str) or cv not in numeric or cv == name:
+        pr.append(f"continue.curve: {_fmt(cv)} must be another numeric parameter of "
+                  f"model {w.model!r} (the second parameter of the corner-collision "
+                  f"curves){_suggest(str(cv), numeric)}; allowed: "
+                  + ", ".join(k for k in numeric if k != name))
+        return
+    if any(a.name == cv for a in w.axes):
+        pr.append(f"continue.curve: {cv!r} is also swept ([sweep] {cv}); remove the axis")
+        return
+    at = w.system.get(cv)
+    if "curve_range" not in c:
+        pr.append(f"continue.curve_range is missing: continue.curve = {cv!r} needs the range "
+                  f"of its curves, [low, high] holding system.{cv} = {_fmt(at)} (where they "
+                  "start)")
+        return
+    if not any(e in out["events"] for e in CURVE_EVENTS):
+        pr.append(f"continue.curve: {cv!r} continues the located "
+                  + " and ".join(map(repr, CURVE_EVENTS)) + " events, but continue.events "
+                  f"{_fmt(out['events'])} lists neither, so no curve would be made: add "
+                  "one of them to continue.events, or remove continue.curve")
+    crng = _continue_range(w, c, "curve_range", cv)
+    if crng is not None and not (_is_number(at) and crng[0] <= at <= crng[1]):
+        pr.append(f"continue.curve_range: {_fmt(c.get('curve_range'))} must hold "
+                  f"system.{cv} = {_fmt(at)} (the curves start there)")
+    out["curve"] = cv
+    out["curve_range"] = c.get("curve_range")
+
+
+def _continue_names(w, c, out):
+    """``[continue] seed_file`` (a path: text without NUL, at most MAX_STYLE_PATH bytes)
+    and ``over`` (a scene's name: printable, at most MAX_OVER_NAME characters) into
+    ``out``."""
+    pr = w.problems
     if "seed_file" in c:
         sf = c["seed_file"]
         if (not isinstance(sf, str) or not sf or "\0" in sf
                 or len(os.fsencode(sf)) > MAX_STYLE_PATH):
-            pr.append(f"continue.seed_file: {_short_text(sf)} must be the path of a sweep file "
-                      f"(cornerbif sweep) of this model over {name!r} (text without NUL "
-                      f"characters, at most {MAX_STYLE_PATH} bytes)")
+            pr.append(f"continue.seed_file: {_fmt(sf)} must be the path of a sweep file "
+                      f"(cornerbif sweep) of this model over {out['parameter']!r} (text "
+                      f"without NUL characters, at most {MAX_STYLE_PATH} bytes)")
         else:
             out["seed_file"] = sf
-    if "curve_range" in c and "curve" not in c:
-        pr.append(f"continue.curve_range: {_fmt(c['curve_range'])} without continue.curve "
-                  "(the second parameter of the curves)")
     if "over" in c:
         ov = c["over"]
         if (not isinstance(ov, str) or not ov or len(ov) > MAX_OVER_NAME
                 or any(not ch.isprintable() for ch in ov)):
-            pr.append(f"continue.over: {_short_text(ov)} must be the name of a scene (printable "
+            pr.append(f"continue.over: {_fmt(ov)} must be the name of a scene (printable "
                       f"text of at most {MAX_OVER_NAME} characters)")
         else:
             out["over"] = ov
-    w.cont = out
 
 
 # [continue] ds_min: the smallest step, relative to the range's width (the continuation's
@@ -1514,12 +1558,6 @@ MIN_CONTINUE_STEP = 1e-14
 MAX_OVER_NAME = 200
 
 
-def _short_text(v, n=60) -> str:
-    """A value for a message, cut to n characters (a path or a name can be long)."""
-    t = _fmt(v)
-    return t if len(t) <= n else t[:n] + "..."
-
-
 def _continue_range(w, c, key, name):
     """``[continue] range`` or ``curve_range``: [low, high], both finite numbers within the
     parameter's own bounds, low < high and the width finite; None (and a problem) if not."""
@@ -1527,7 +1565,7 @@ def _continue_range(w, c, key, name):
     if not (isinstance(rng, list) and len(rng) == 2 and all(_is_number(x) for x in rng)
             and all(math.isfinite(x) for x in rng) and rng[0] < rng[1]
             and math.isfinite(float(rng[1]) - float(rng[0]))):
-        w.problems.append(f"continue.{key}: {_short_text(rng)} must be [low, high], both finite, "
+        w.problems.append(f"continue.{key}: {_fmt(rng)} must be [low, high], both finite, "
                           "low < high (and high - low finite)")
         return None
     ok = all([w.param(name, x, f"continue.{key}") for x in rng])
@@ -1545,15 +1583,15 @@ def _check_seed_word(w, s):
     try:
         letters = parse_word(s, allow_x=True)
     except ValueError as e:
-        w.problems.append(f"continue.seed: {_short_text(s)}: {e}")
+        w.problems.append(f"continue.seed: {_fmt(s)}: {e}")
         return
     if smooth and set(letters) != {"x"}:
-        w.problems.append(f"continue.seed: {_short_text(s)}: on the smooth obstacle "
+        w.problems.append(f"continue.seed: {_fmt(s)}: on the smooth obstacle "
                           f"{w.obstacle!r} every cluster is x; seed \"all\" or a word of x "
                           "(\"x\", \"xx\", \"x^3\"), the clusters per cycle")
     elif not smooth and "x" in letters:
         where = f"obstacle {w.obstacle!r}" if obstacle is not None else f"model {w.model!r}"
-        w.problems.append(f"continue.seed: {_short_text(s)}: x is the cluster of a smooth "
+        w.problems.append(f"continue.seed: {_fmt(s)}: x is the cluster of a smooth "
                           f"obstacle (sine); on {where} a seed word is letters a, b, g "
                           "(e.g. \"b\", \"a\", \"b^5 g\"); \"all\" continues every "
                           "attractor whatever its word")
@@ -1583,7 +1621,7 @@ def from_dict(raw, drawn_starts: bool = True) -> Scene:
         raise SceneError([deep])
     wide = [f"{t}: {len(b)} keys; a table of a scene has at most {MAX_TABLE_KEYS} (the "
             "format's tables have about 15)" for t, b in
-            [("the scene's top level", raw)] + [(_name(t), b) for t, b in raw.items()
+            [("the scene's top level", raw)] + [(cut(t, KEY_CHARS), b) for t, b in raw.items()
                                                  if isinstance(b, dict)]
             if len(b) > MAX_TABLE_KEYS]
     if wide:                 # before a problem is said of each key (unknown, misspelt)
@@ -1591,10 +1629,10 @@ def from_dict(raw, drawn_starts: bool = True) -> Scene:
     w = _Walk(raw, drawn_starts)
     for t, body in raw.items():
         if t not in TABLES:
-            w.problems.append(f"{_name(t)}: unknown table{_suggest(str(t), TABLES)}; allowed: "
+            w.problems.append(f"{cut(t, KEY_CHARS)}: unknown table{_suggest(str(t), TABLES)}; allowed: "
                               + ", ".join(f"[{x}]" for x in TABLES))
         elif not isinstance(body, dict):
-            w.problems.append(f"{t}: {_fmt(body)} must be a table [{t}]")
+            w.problems.append(f"{t}: {shown(body)} must be a table [{t}]")
     for _, read in READERS:
         read(w)
     if w.problems:

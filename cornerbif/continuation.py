@@ -1,5 +1,5 @@
 """Periodic orbits of any itinerary, stable or not, and their continuation through corner
-events (issue 18, docs/continuation.md).
+events (docs/continuation.md).
 
 A periodic orbit of the ``flow`` model is a closed chain of impacts: impact i lies on the
 obstacle's piece j_i at local time tau_i and leaves it with velocity v_i (law 5); the
@@ -25,9 +25,11 @@ circle), and locates each sign change by the secant method on the arclength.  Ev
 it keeps passes the admissibility test (``admissible``), and every branch says why each of
 its ends stopped (``stop_reason``).
 
-``run_to_file`` is ``cornerbif continue``: the output checked and locked before any work,
-each branch and curve written to the partial file as soon as it is finished (with the
-state to go on from), and ``resume`` completing it bitwise as an uninterrupted run.
+``run_to_file`` is ``cornerbif continue``: the output locked and its fate decided before
+any work (``plan_output``, as ``cornerbif sweep`` decides), the seeds found with the kernel
+under a stop flag (an interrupt ends it within about a second), each branch and curve
+written to the partial file as soon as it is finished (with the state to go on from), and
+``resume`` completing it bitwise as an uninterrupted run.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from .models import params as P
 from .models.obstacle import corner_of, piece_start, z_state
 from .models.oscillator import acceleration, derive, particular
 from .models.params import OBSTACLES
+from .outputs import CONTINUATION_FORMAT
 from .stability import flight_matrix, impact_saltation, multipliers
 
 NEWTON_TOL = 1e-12     # |residual| (scaled) at which Newton stops
@@ -1560,7 +1563,7 @@ def section_state(problem, X, lam, section, at=None):
 
 
 # ------------------------------------------------------------------ a scene's continuation
-FORMAT = "cornerbif-continuation"
+FORMAT = CONTINUATION_FORMAT         # the root attribute ``format`` (``outputs``)
 FORMAT_VERSION = 1
 # the version of the resume state a partial file keeps (``resume/state``, JSON)
 STATE_VERSION = 1
@@ -1630,8 +1633,9 @@ def seeds_from_file(scene):
     except SweepError:
         raise
     except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so
+        from .model import cut
         raise _seed_file_error(scene, f"cannot be read as a sweep ({type(e).__name__}: "
-                                      f"{str(e)[:200]}): damaged, or not written by cornerbif"
+                                      f"{cut(e)}): damaged, or not written by cornerbif"
                                ) from None
     series = ([(run_all["u"][None], "impacts"), (run_all["v_in"][None], "impacts")]
               if "u" in run_all else
@@ -1695,10 +1699,12 @@ def _seed_runs(scene, f):
     return run_all, f["period"][g], f["symbols"][g].astype(str), float(x[g])
 
 
-def find_seeds(scene):
+def find_seeds(scene, control=None):
     """The distinct attractors reached from the scene's starts at the continuation's start
     (the kernel and ``analysis.distinct_attractors``): a list of (word, one run's record:
-    the model's outputs of that run and "ipc", its impacts per cycle)."""
+    the model's outputs of that run and "ipc", its impacts per cycle).  ``control``
+    (``_jit.Control``): the kernel polls its stop flag (``engine.with_control``) and, told
+    to stop, returns within milliseconds, raising ``KernelStopped``."""
     from . import engine
     from .analysis import distinct_attractors, words
     c = scene.cont
@@ -1709,8 +1715,9 @@ def find_seeds(scene):
     params = np.repeat(row[None], scene.n_ic, axis=0)
     ics = engine.draw_initial(run_scene, np.zeros(1, np.int64),
                               spec.wall_at_start(params[:1]), params[:1]).reshape(scene.n_ic, -1)
-    out, _, _, period, ipc, sym = spec.run_items(params, np.ascontiguousarray(ics),
-                                                 spec.int_settings(run_scene), run_scene)
+    ints = engine.with_control(run_scene, spec.int_settings(run_scene), control)
+    out, _, _, period, ipc, sym = spec.run_items(params, np.ascontiguousarray(ics), ints,
+                                                 run_scene)
     w = words(sym)
     series = ([(out["u"][None], "impacts"), (out["v_in"][None], "impacts")]
               if np.isfinite(out["u"]).any() else
@@ -1790,7 +1797,23 @@ def _seed_stage(scene, log):
     """The work before the first branch: the attractors at the start (the scene's starts
     run by the kernel, or ``seed_file``'s runs), the seed words no start reached solved
     directly, each seed's orbit solved and checked admissible (a seed that cannot be is
-    said and skipped).  Returns the run's state (``_units``) holding the seeds."""
+    said and skipped).  Returns the run's state (``_units``) holding the seeds.
+
+    It runs in a thread of its own (``local.run_interruptibly``) with the kernel under a
+    stop flag (``find_seeds``), so that SIGINT and SIGTERM end it within about a second
+    whatever the scene (at omega = 1e9 the starts' runs take minutes): the interrupt is
+    raised here, as ``KeyboardInterrupt``, with nothing written."""
+    from ._jit import Control
+    from .local import run_interruptibly
+    control = Control()
+    state = run_interruptibly(lambda: _seeds(scene, log, control), control)
+    if state is None:                   # the kernel was told to stop (``KernelStopped``)
+        raise KeyboardInterrupt
+    return state
+
+
+def _seeds(scene, log, control):
+    """``_seed_stage``'s work, the kernel under ``control``."""
     c = scene.cont
     values = {k: v for k, v in scene.system.items() if v is not None}
     start = c["start"]
@@ -1804,7 +1827,7 @@ def _seed_stage(scene, log):
         if "all" not in wanted:
             found = [f for f in found if any(_matches(f[0], s) for s in wanted)]
     else:
-        found = find_seeds(scene)
+        found = find_seeds(scene, control)
     values[c["parameter"]] = start
     for s in wanted:
         if s != "all" and not any(_matches(f[0], s) for f in found):
@@ -2013,7 +2036,9 @@ def _curve_record(curve, scene) -> dict:
 def _image(scene, head, branches, curves, state=None) -> bytes:
     """The continuation file, whole, as bytes (HDF5 in memory: a failed write of them to
     disk is an OSError of Python's, never a broken HDF5 state): the finished file, or with
-    ``state`` a partial one that --resume goes on from."""
+    ``state`` a partial one that --resume goes on from.  ``head``: the root attributes
+    ``created``, ``seeds``, ``command`` (the command line that made it; optional) and, when
+    finished, ``completed``."""
     import json
 
     import h5py
@@ -2024,7 +2049,7 @@ def _image(scene, head, branches, curves, state=None) -> bytes:
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, scene=scene.text,
                        model=scene.model, obstacle=scene.obstacle, parameter=c["parameter"],
                        cornerbif_version=__version__, created=head["created"],
-                       seeds=head["seeds"])
+                       seeds=head["seeds"], command=head.get("command", ""))
         for b, rec in enumerate(branches):
             g = f.create_group(f"branches/{b:03d}")
             for key, v in rec["data"].items():
@@ -2161,60 +2186,131 @@ def run_scene(scene, log=print):
     return res
 
 
-def run_to_file(scene, out_path, *, resume=False, overwrite=False, log=print,
-                inputs=()) -> str | None:
+def run_to_file(scene, out_path, *, resume=False, overwrite=False, log=print, inputs=(),
+                command="") -> str | None:
     """Run a scene's ``[continue]`` to ``out_path``, writing each branch and each curve to
     ``out_path.partial`` as soon as it is finished; return ``out_path``, or None when
     ``resume`` finds it already finished from this scene (``[plot]`` aside; ``log`` is
     told so).
 
-    Before any work: the output passes ``outputs.check_output`` (never the scene file,
-    ``continue.seed_file`` or another of ``inputs``; an existing file replaced only with
-    ``overwrite`` and only when it is a continuation), its lock ``out_path.lock`` is taken
-    (another command writing it is refused), and the seed file is checked.  Each unit
-    rewrites the partial file whole through ``outputs.replacing`` (a new HDF5 file under a
-    temporary name, renamed): every state on disk is a complete, readable file, even after
-    SIGKILL.  ``resume`` goes on from the partial file of the same scene (another
-    scene's is refused, naming what differs, unless ``overwrite``) and completes the file
-    bit for bit as an uninterrupted run (every dataset; the times aside).
+    Before any work: no file written beside the output (its partial file, its lock, their
+    temporaries) may be one of ``inputs`` or ``continue.seed_file``; the output's lock
+    ``out_path.lock`` is taken (``outputs.output_lock``: another command writing it is
+    refused); then ``plan_output`` decides, as ``cornerbif sweep`` does, whether there is
+    nothing to do, a partial file to resume or a run to start, and refuses what it must.
+    Each unit rewrites the partial file whole through ``outputs.replacing`` (a new HDF5
+    file under a temporary name, renamed): every state on disk is a complete, readable
+    file, even after SIGKILL.  ``resume`` goes on from the partial file of the same scene
+    and completes the file bit for bit as an uninterrupted run (every dataset; the times
+    aside).  ``command``: the command line, kept in the file (root attribute ``command``,
+    as a sweep's); a resumed file keeps the one it was started with.
 
-    Interrupted (SIGINT, SIGTERM): ``SweepInterrupted`` saying what was kept where.  A
-    full disk or a file-size limit: ``WriteFailed``, the same.  Bad input:
-    ``SweepError``.
+    Interrupted (SIGINT, SIGTERM; within about a second while the seeds are found too):
+    ``SweepInterrupted`` saying what was kept where.  A full disk or a file-size limit:
+    ``WriteFailed``, the same.  Bad input: ``SweepError``.
     """
     from . import outputs
     from .errors import SweepError
-    c = scene.cont
     out_path = str(out_path)
     log = _quiet_on_closed(log)
-    if not c:
+    if not scene.cont:
         raise SweepError(f"scene {scene.name!r} has no [continue] table (parameter, range, "
                          "...: docs/continuation.md)")
-    named = [i if isinstance(i, tuple) else (f"the input {i}", i) for i in inputs if i]
-    if "seed_file" in c:
-        named.append(("continue.seed_file", c["seed_file"]))
+    _inputs(scene, out_path, inputs)       # before the lock: its file is never an input
+    with outputs.output_lock(out_path):
+        plan = plan_output(scene, out_path, resume, overwrite, inputs, locked=True)
+        if plan == "done":
+            partial = out_path + ".partial"
+            left = _partial_state(partial, scene)[0] == "ours"
+            if left:
+                os.remove(partial)          # this scene's too: the output holds all of it
+            log(f"{out_path} is already complete (finished {_finished(out_path)[1]} from this "
+                "scene); nothing to do" + (f" (removed {partial}, an interrupted run of the "
+                                           "same scene)" if left else ""))
+            return None
+        return _run_locked(scene, out_path, plan, log, command)
+
+
+def plan_output(scene, out_path, resume, overwrite, inputs=(), locked=False) -> str:
+    """What ``cornerbif continue`` will do with its output, decided before any work (and
+    before anything is said), as ``sweep.plan_output`` decides a sweep's: "done"
+    (``resume`` of an output finished from this scene, ``[plot]`` aside: nothing to do, so
+    that a script may always pass --resume), "resume" (the partial file of this scene to
+    complete; with ``overwrite`` also where it waits behind another scene's finished
+    output, which it then replaces) or "start".  ``SweepError`` for what it must refuse:
+    the output or a file beside it being an input, an existing output without
+    ``overwrite`` or not a continuation file, an output another command is writing (unless
+    ``locked``: this process holds the lock), a partial file that is not a continuation's
+    (never removed), and another scene's or a damaged partial file without ``overwrite``
+    (never removed by --resume, which completes only this scene's)."""
+    from . import outputs
+    from .config import same_run, scene_difference
+    from .errors import SweepError
+    named = _inputs(scene, out_path, inputs)
+    if not locked:
+        outputs.check_unlocked(out_path)
     partial = out_path + ".partial"
-    lock_path = out_path + ".lock"
-    outputs.check_directory(out_path)
-    if resume and _already_complete(scene, out_path, named, overwrite, log):
-        return None
+    what, got = _partial_state(partial, scene)
+    if what == "foreign":
+        raise SweepError(f"{partial}: is in the way ({got}); remove it yourself, or name "
+                         "another output")
+    tmp = outputs.temporary_name(partial)
+    if os.path.lexists(tmp) and (os.path.islink(tmp) or not os.path.isfile(tmp)):
+        raise SweepError(f"{tmp}: is in the way of the partial file's rewrites (a link, a "
+                         "directory or a device); remove it yourself, or name another output")
+    if resume and not overwrite and os.path.lexists(out_path):
+        outputs.check_output(out_path, True, named, kind="continuation")
+        text, completed = _finished(out_path)
+        if completed and same_run(text, scene.text):
+            return "done"
+        whose = ("is a finished continuation of another scene" if completed else
+                 "exists and is not a finished continuation (it cannot be read, or was never "
+                 "completed)")
+        if what == "ours":
+            raise SweepError(f"{out_path} {whose} and {partial} holds an interrupted "
+                             "continuation of this scene: pass --resume --overwrite to complete "
+                             f"it (it then replaces {out_path}), or name another output")
+        diff = f" ({scene_difference(text, scene.text)})" if completed else ""
+        raise SweepError(f"{out_path} {whose}{diff}; --resume completes only this scene's "
+                         "continuation: pass --overwrite to replace it, or name another output")
     outputs.check_output(out_path, overwrite, named, kind="continuation")
-    for side in (partial, lock_path, outputs.temporary_name(partial)):
+    if what in ("none", "empty"):
+        return "start"
+    if what == "ours" and resume:
+        return "resume"
+    if overwrite and not resume:
+        return "start"
+    if what == "ours":
+        _, branches, curves, _ = got
+        raise SweepError(f"{partial} holds an interrupted continuation of this scene: "
+                         f"{_kept(partial, (len(branches), len(curves)))}; pass --resume to "
+                         "complete it, or --overwrite to start again")
+    again = "--overwrite (without --resume)" if resume else "--overwrite"
+    if what == "other":
+        raise SweepError(f"{partial} holds an interrupted continuation of another scene ({got}); "
+                         "--resume completes only the same scene's ([plot] aside): run it with "
+                         f"that scene, or pass {again} to start again")
+    raise SweepError(f"{partial} cannot be resumed ({got}); pass {again} to start again")
+
+
+def _inputs(scene, out_path, inputs) -> list:
+    """The command's inputs named (``outputs._named``; ``continue.seed_file`` too), once the
+    output's folder and name are checked (``outputs.check_directory``,
+    ``check_name_length``) and no file written beside the output (its partial file, its
+    lock, their temporaries) is one of them."""
+    from . import outputs
+    from .errors import SweepError
+    outputs.check_name_length(out_path, outputs.check_directory(out_path))
+    named = list(outputs._named(inputs))
+    if "seed_file" in scene.cont:
+        named.append(("continue.seed_file", scene.cont["seed_file"]))
+    partial = out_path + ".partial"
+    for side in (partial, out_path + ".lock", outputs.temporary_name(partial)):
         for what, p in named:
             if outputs.same_file(side, p):
                 raise SweepError(f"-o {out_path}: {side}, which this command writes beside "
                                  f"it, is {what}; name another output")
-    lock = _take_lock(out_path, lock_path)
-    try:
-        return _run_locked(scene, out_path, partial, resume, overwrite, log)
-    finally:
-        import fcntl
-        fcntl.flock(lock, fcntl.LOCK_UN)
-        lock.close()
-        try:
-            os.remove(lock_path)
-        except OSError:
-            pass
+    return named
 
 
 def _quiet_on_closed(log):
@@ -2231,75 +2327,36 @@ def _quiet_on_closed(log):
     return say
 
 
-def _take_lock(out_path, lock_path):
-    """The output's lock (flock on ``OUT.lock``, as ``cornerbif sweep``'s): one command
-    writes an output at a time; a second one is refused at once."""
-    import fcntl
-
-    from .errors import SweepError, WriteFailed
-    from .outputs import reason
+def _finished(path) -> tuple:
+    """(scene text, completion time) of an existing continuation file; the time is '' when
+    it was never completed or cannot be read."""
+    import h5py
     try:
-        lock = open(lock_path, "w")
-    except OSError as e:
-        raise WriteFailed(f"creating the lock {lock_path} failed ({reason(e)}); nothing was "
-                          "computed; free space and run the same command again") from None
-    try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        lock.close()
-        raise SweepError(f"{out_path}: another cornerbif command is writing this output (lock "
-                         f"{lock_path} is held); wait for it to end") from None
-    return lock
-
-
-def _already_complete(scene, out_path, named, overwrite, log) -> bool:
-    """``--resume`` on an output that exists: True (and say so) when it is a finished
-    continuation of this scene; a finished one of another scene is refused naming what
-    differs (replaced with ``overwrite``), anything else is left to ``check_output``."""
-    from . import outputs
-    from .errors import SweepError
-    if not os.path.isfile(out_path):
-        return False
-    outputs.check_output(out_path, True, named, kind="continuation")
-    try:
-        attrs = _load(out_path)[0]
-    except Exception as e:  # noqa: BLE001 - a damaged file: cannot be complete
-        if overwrite:
-            return False
-        raise SweepError(f"{out_path} exists and cannot be read ({type(e).__name__}); pass "
-                         "--overwrite to replace it") from None
-    if not attrs.get("completed"):
-        return False
-    from .config import scene_difference
-    diff = scene_difference(attrs.get("scene", ""), scene.text)
-    if diff:
-        if overwrite:
-            return False
-        raise SweepError(f"{out_path} is a finished continuation of another scene ({diff}); "
-                         "--resume completes only this scene's: pass --overwrite to replace "
-                         "it, or name another output")
-    log(f"{out_path} is already complete (finished {attrs['completed']} from this scene); "
-        "nothing to do")
-    return True
+        with h5py.File(path, "r", locking=False) as f:
+            return (str(_plain(f.attrs.get("scene", ""))),
+                    str(_plain(f.attrs.get("completed", ""))))
+    except Exception:  # noqa: BLE001 - damaged or crafted: not a finished file
+        return "", ""
 
 
 def _partial_state(partial, scene):
-    """What the partial file beside an output holds: ("none"), ("empty"), ("foreign",
-    why), ("damaged", why), ("other", differences) or ("ours", records) where records are
-    ``_load``'s (attrs, branches, curves, state)."""
+    """What the partial file beside an output holds: ("none"), ("empty"), ("foreign", why:
+    not a regular file, or not a continuation's), ("damaged", why), ("other", what differs)
+    or ("ours", records) where records are ``_load``'s (attrs, branches, curves, state)."""
     from . import outputs
+    from .config import scene_difference
     if not os.path.lexists(partial):
         return "none", None
-    if not os.path.isfile(partial) or os.path.islink(partial):
-        return "foreign", "it is not a regular file"
+    kind = "a symbolic link" if os.path.islink(partial) else outputs.not_a_regular_file(partial)
+    if kind:
+        return "foreign", f"it is {kind}"
     if os.path.getsize(partial) == 0:
         return "empty", None
-    if not outputs.is_kind(partial, "continuation"):
+    if outputs.hdf5_format(partial) != FORMAT:
         return "foreign", "it is not a cornerbif continuation's partial file"
     try:
         loaded = _load(partial)
         attrs, branches, curves, state = loaded
-        from .config import scene_difference
         diff = scene_difference(attrs.get("scene", ""), scene.text)
         if diff:
             return "other", diff
@@ -2309,7 +2366,8 @@ def _partial_state(partial, scene):
                                   or state["branches"] != len(branches)):
             raise ValueError("its resume state does not match its branches")
     except Exception as e:  # noqa: BLE001 - crafted or damaged: said, never a traceback
-        return "damaged", f"{type(e).__name__}: {str(e)[:200]}"
+        from .model import cut
+        return "damaged", f"{type(e).__name__}: {cut(e)}"
     return "ours", loaded
 
 
@@ -2329,97 +2387,116 @@ def _kept(partial, done) -> str:
     return f"the {_finished_units(done)} {'is' if one else 'are'} kept in {partial}"
 
 
-def _run_locked(scene, out_path, partial, resume, overwrite, log):
-    """``run_to_file`` once the output is checked and locked."""
+def _run_locked(scene, out_path, plan, log, command):
+    """``run_to_file`` once the output is locked and ``plan_output`` said "resume" or
+    "start": the partial file resumed (``_resumed``) or started afresh (``_started``), its
+    units written (``_write_units``), the file renamed to ``out_path``."""
     from . import outputs
-    from .errors import Fault, SweepError, SweepInterrupted
+    partial = out_path + ".partial"
     tmp = outputs.temporary_name(partial)
-    if os.path.lexists(tmp) and os.path.isfile(tmp):
+    if os.path.isfile(tmp) and not os.path.islink(tmp):
         os.remove(tmp)              # a partial file's rewrite cut by a kill: never whole
-    what, got = _partial_state(partial, scene)
-    loaded = None
-    again = "pass --overwrite to start again"
-    if what == "foreign":
-        raise SweepError(f"{partial} exists and {got}; remove it yourself or name another "
-                         "output")
-    if what == "ours" and resume:
-        loaded = got
-    elif what == "ours" and not overwrite:
-        _, branches, curves, _ = got
-        raise SweepError(f"{partial} holds an interrupted continuation of this scene: "
-                         f"{_kept(partial, (len(branches), len(curves)))}; pass --resume to "
-                         "complete it, or --overwrite to start again")
-    elif what == "other" and not overwrite:
-        raise SweepError(f"{partial} holds an interrupted continuation of another scene "
-                         f"({got}); --resume completes only the same scene's ([plot] aside): "
-                         f"run it with that scene, or {again}")
-    elif what == "damaged" and not overwrite:
-        raise SweepError(f"{partial} cannot be resumed ({got}); {again}")
-    if loaded is None and what != "none":
-        os.remove(partial)
-    if loaded is not None:
-        attrs, branches, curves, state = loaded
-        head = {"created": attrs.get("created", ""), "seeds": attrs.get("seeds", "")}
+    if plan == "resume":
+        head, branches, curves, state = _resumed(scene, partial, log)
         done = (len(branches), len(curves))
-        if state is None:           # finished, killed before its rename
-            log(f"{partial} is complete; finishing it")
-        else:
-            log(f"resuming {partial}: {_finished_units(done)} before")
     else:
-        try:
-            state = _seed_stage(scene, log)
-        except KeyboardInterrupt:
-            raise SweepInterrupted("interrupted while the seeds were found; nothing was kept; "
-                                   "run the same command again") from None
-        if not state["seeds"]:
-            raise Fault("no branch to continue (see above): nothing written")
+        if os.path.lexists(partial):
+            os.remove(partial)      # plan_output: empty, or to start again (--overwrite)
+        state = _started(scene, log)
         head = {"created": time.strftime("%Y-%m-%dT%H:%M:%S"),
-                "seeds": ", ".join(state["seeds_found"])}
+                "seeds": ", ".join(state["seeds_found"]), "command": command}
         branches, curves, done = [], [], None
-        c = scene.cont
-        log(f"continuing {len(state['seeds'])} seed(s) in {c['parameter']} over "
-            f"{c['range']} from {state['start']!r}: "
-            + ", ".join(repr(s["word"]) for s in state["seeds"]))
-    again = "run the same command with --resume to complete it"
-    try:
-        if state is not None:
-            for kind, unit in _units(scene, state, log):
-                if kind == "branch":
-                    branches.append(_branch_record(unit[1], scene))
-                    line = _branch_lines(*unit, scene)
-                else:
-                    line = None if unit is None else _curve_line(unit, scene)
-                    if unit is not None:
-                        curves.append(_curve_record(unit, scene))
-                # the unit and the state after it, in one file; an interrupt waits for it
-                with outputs.signals_deferred():
-                    _write_bytes(partial, _image(scene, head, branches, curves, state),
-                                 f"{_kept(partial, done)}; free space (or raise the "
-                                 f"file-size limit) and {again}")
-                    done = (len(branches), len(curves))
-                if line:
-                    log(line)           # said once it is on disk
-            head["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
-            with outputs.signals_deferred():
-                _write_bytes(partial, _image(scene, head, branches, curves),
-                             f"{_kept(partial, done)}; free space (or raise the file-size "
-                             f"limit) and {again}")
-        with outputs.signals_deferred():
-            os.replace(partial, out_path)
-    except KeyboardInterrupt:
-        raise SweepInterrupted(f"interrupted; {_kept(partial, done)}"
-                               + (f"; {again}" if done else "; run the same command again")
-                               ) from None
-    except SweepError:
-        raise
-    except MemoryError:
-        raise Fault(f"out of memory while continuing; {_kept(partial, done)}") from None
-    except Exception as e:
-        if os.environ.get("CORNERBIF_DEBUG"):
-            raise
-        raise Fault(f"internal error ({type(e).__name__}: {str(e)[:300]}) while continuing; "
-                    "this is a bug in cornerbif: run again with CORNERBIF_DEBUG=1 for the "
-                    f"traceback and report it; {_kept(partial, done)}") from None
+    if state is not None:
+        done = _write_units(scene, partial, head, branches, curves, state, done, log)
+    _rename(partial, out_path, done)
     nev = sum(len(b["events"]) for b in branches)
     log(f"wrote {out_path}: {len(branches)} branches, {nev} events, {len(curves)} curves")
     return out_path
+
+
+def _resumed(scene, partial, log):
+    """The partial file of this scene as ``_write_units`` goes on from it: (head, branches,
+    curves, state); state None when it is finished (killed before its rename)."""
+    attrs, branches, curves, state = _partial_state(partial, scene)[1]
+    head = {"created": attrs.get("created", ""), "seeds": attrs.get("seeds", ""),
+            "command": attrs.get("command", "")}
+    if state is None:
+        log(f"{partial} is complete; finishing it")
+    else:
+        log(f"resuming {partial}: {_finished_units((len(branches), len(curves)))} before")
+    return head, branches, curves, state
+
+
+def _started(scene, log):
+    """The state of a new run: its seeds (``_seed_stage``), said; an interrupt meanwhile is
+    ``SweepInterrupted`` (nothing is written yet), no seed at all a ``Fault``."""
+    from .errors import Fault, SweepInterrupted
+    try:
+        state = _seed_stage(scene, log)
+    except KeyboardInterrupt:
+        raise SweepInterrupted("interrupted while the seeds were found; nothing was kept; "
+                               "run the same command again") from None
+    if not state["seeds"]:
+        raise Fault("no branch to continue (see above): nothing written")
+    c = scene.cont
+    log(f"continuing {len(state['seeds'])} seed(s) in {c['parameter']} over "
+        f"{c['range']} from {state['start']!r}: "
+        + ", ".join(repr(s["word"]) for s in state["seeds"]))
+    return state
+
+
+def _write_units(scene, partial, head, branches, curves, state, done, log):
+    """Continue from ``state``, rewriting the partial file whole after each finished unit
+    (the unit and the state after it, in one file) and, at the end, as a finished file;
+    return ``done`` = (branches, curves) on disk.  An interrupt waits for a write under
+    way and is ``SweepInterrupted`` saying what is kept; a failed write is ``WriteFailed``
+    (``outputs.replacing``), an exhausted memory a ``Fault``, the same."""
+    from . import outputs
+    from .errors import Fault, SweepError, SweepInterrupted
+    again = "run the same command with --resume to complete it"
+    room = "free space (or raise the file-size limit) and " + again
+    try:
+        for kind, unit in _units(scene, state, log):
+            if kind == "branch":
+                branches.append(_branch_record(unit[1], scene))
+                line = _branch_lines(*unit, scene)
+            else:
+                line = None if unit is None else _curve_line(unit, scene)
+                if unit is not None:
+                    curves.append(_curve_record(unit, scene))
+            with outputs.signals_deferred():    # what is said kept is what is on disk
+                _write_bytes(partial, _image(scene, head, branches, curves, state),
+                             f"{_kept(partial, done)}; {room}")
+                done = (len(branches), len(curves))
+            if line:
+                log(line)               # said once it is on disk
+        head["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+        _write_bytes(partial, _image(scene, head, branches, curves),
+                     f"{_kept(partial, done)}; {room}")
+    except KeyboardInterrupt:
+        raise SweepInterrupted(f"interrupted; {_kept(partial, done)}; "
+                               + (again if done else "run the same command again")) from None
+    except MemoryError:
+        raise Fault(f"out of memory while continuing; {_kept(partial, done)}") from None
+    except SweepError:
+        raise
+    except Exception:
+        log(f"stopped by an unexpected error; {_kept(partial, done)}")
+        raise                       # a bug: ``cli.Commands`` says so, in its one message
+    return done
+
+
+def _rename(partial, out_path, done):
+    """The finished partial file becomes ``out_path`` (one atomic rename, signals deferred:
+    an interrupt raised once it is done finds the output whole, and the run ends as done)."""
+    from . import outputs
+    from .errors import WriteFailed
+    try:
+        with outputs.signals_deferred():
+            os.replace(partial, out_path)
+    except KeyboardInterrupt:
+        pass                        # the rename was done: nothing is left to keep
+    except OSError as e:
+        raise WriteFailed(f"renaming {partial} to {out_path} failed ({outputs.reason(e)}); "
+                          f"{_kept(partial, done)}; run the same command with --resume to "
+                          "finish it") from None

@@ -90,6 +90,10 @@ def parse_scheduler(spec: str):
         if not n.isdigit() or int(n) < 1:
             raise SweepError(f"--scheduler {spec!r}: N in local:N must be a whole number >= 1 "
                              f"(got {n!r})")
+        if int(n) > _cores():
+            raise SweepError(f"--scheduler {spec!r}: local:N starts N worker processes on this "
+                             f"machine, which has {_cores()} cores; N is at most {_cores()} "
+                             "(more workers than cores only share them)")
         return "local", int(n)
     return "address", spec
 

@@ -140,15 +140,32 @@ def cold_compiles(scene: Scene, what=("sweep",)) -> list:
 
 def announce_compiles(scene: Scene, echo, what=("sweep",)) -> float:
     """Say, before any work, each kernel of ``scene`` that compiles first (``cold_compiles``),
-    one line each through ``echo``, e.g. "compiling the two-particle kernel (about 14 s, once
-    per install) ...".  Returns the seconds announced (0: every kernel is cached)."""
-    from .sweep import duration
+    one line each through ``echo`` (``compile_words``).  Returns the seconds announced (0:
+    every kernel is cached)."""
     total = 0.0
     for name, seconds in cold_compiles(scene, what):
-        echo(f"compiling {name} (about {duration(seconds)}, once per install; cached "
-             "afterwards) ...")
+        echo(compile_words(name, seconds))
         total += seconds
     return total
+
+
+def compile_words(name: str, seconds: float) -> str:
+    """The announcement of a first compile, e.g. "compiling the flow kernel (once per install,
+    then cached; about 25 s on the machine it was timed on, longer on a slower or busier one)
+    ...": ``seconds`` is a time measured elsewhere (``Model.compiles``,
+    benchmarks/compile_time.py), said rounded (``rough_seconds``) and as what it is."""
+    return (f"compiling {name} (once per install, then cached; about {rough_seconds(seconds)} "
+            "on the machine it was timed on, longer on a slower or busier one) ...")
+
+
+def rough_seconds(seconds: float) -> str:
+    """A time measured on another machine in round words: whole seconds below 10 s (at least
+    1), multiples of 5 s below a minute, whole minutes above."""
+    if seconds < 10:
+        return f"{max(1, round(seconds))} s"
+    if seconds < 60:
+        return f"{5 * round(seconds / 5)} s"
+    return f"{round(seconds / 60)} min"
 
 
 def symbol_bytes(sym, record):

@@ -9,16 +9,23 @@ from the same scene (the file's root attribute ``scene`` against the committed s
 records the run.  Most figures are one scene; ``GROUPS`` lists those drawn from several
 files.
 
-What the gallery promises about existing files (issue 28); ``plan`` checks every output of
-the whole run before the first sweep, and refuses (exit 2) naming every file in the way:
+What the gallery promises about existing files: ``plan`` checks every output of the whole
+run before the first sweep, and refuses (exit 2) naming every file in the way, every file
+in the way of one written beside an output (a lock, a partial file, a sweep's temporaries:
+a link, a folder or a user's file there; ``outputs.check_side_files``), every data file
+another command is writing (its lock held), every figure its scenes cannot make (the
+rules of ``plot.check_together``, from the scenes: ``_check_drawable``), and a second
+gallery on the same figures or data folder (the gallery holds ``OUT/gallery_run.json.lock``
+and ``DATA/.gallery.lock`` from before its plan's judgements to its end: ``_lock``):
 
 * it replaces only its own files, and only stale ones: a data file is its own when its root
-  attribute ``command`` says ``cornerbif gallery`` (``made_by``; a continuation file is
-  marked so once finished, ``_stamp``), a figure when ``OUT/gallery_run.json`` lists it
-  (``record_owners``).  A complete file of the same scene is reused, whoever made it.  Any
-  other file in the way is refused unless ``overwrite`` (``--overwrite``), and a file of
-  another kind (a text file, a sweep where a continuation goes) always is
-  (``outputs.check_output``);
+  attribute ``command`` says ``cornerbif gallery`` (``made_by``; written by ``run_sweep``
+  and ``continuation.run_to_file`` when the file is started, and kept by a resume, so a
+  user's file the gallery resumed stays the user's), a figure when
+  ``OUT/gallery_run.json`` lists it (``record_owners``).  A complete file of the same
+  scene is reused, whoever made it.  Any other file in the way is refused unless
+  ``overwrite`` (``--overwrite``), and a file of another kind (a text file, a sweep where a
+  continuation goes) always is (``outputs.check_output``);
 * ``smoke=True`` shrinks every scene (a few grid points, starts and impacts) so the whole
   path runs in seconds (the CI test of this module).  A smoke scene's title ends with
   ``SMOKE_MARK``, so every file it makes says so in its ``scene`` attribute; it writes to
@@ -28,16 +35,18 @@ the whole run before the first sweep, and refuses (exit 2) naming every file in 
   ``outputs.save_figure``; ``outputs.write_text``); an interrupt (exit 130), a kill or a
   full disk (exit 1) keeps every finished sweep and the interrupted one's finished points,
   and the same command run again continues where it stopped, to the same files as an
-  uninterrupted run.
+  uninterrupted run.  A refusal that only the run meets (another command took a data
+  file's lock after the plan, a seed file that cannot seed) ends it as a fault (exit 1),
+  saying what was kept: the run had begun.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import glob
 import json
 import os
-import shutil
 import time
 import tomllib
 
@@ -48,6 +57,7 @@ from . import outputs, registry
 from .analysis import run_length
 from .config import SceneError
 from .errors import Fault, SweepError, SweepInterrupted, WriteFailed
+from .model import cut
 
 # figures drawn from several scenes: name -> scenes (overlaid, or flow against map)
 GROUPS = {
@@ -68,6 +78,9 @@ COMMAND = {False: "cornerbif gallery (full)", True: "cornerbif gallery (smoke)"}
 # where the figures (and the record) and the data go: a smoke run has places of its own
 DEFAULTS = {False: ("docs/gallery", "gallery_data"), True: ("gallery_smoke", "gallery_smoke/data")}
 RECORD = "gallery_run.json"
+# the gallery's lock of its data folder is DATA/DATA_LOCK.lock (``_lock``): hidden, never a
+# scene's file (scenes are *.toml, found without hidden names) nor beside one
+DATA_LOCK = ".gallery"
 
 
 def smoke_raw(raw: dict) -> dict:
@@ -129,13 +142,9 @@ def file_matches(h5: str, scene: C.Scene) -> bool:
     if not os.path.isfile(h5):
         return False
     if scene.cont:
-        import h5py
-        try:
-            with h5py.File(h5, "r", locking=False) as f:
-                return (bool(f.attrs.get("completed", ""))
-                        and C.same_run(str(f.attrs["scene"]), scene.text))
-        except (OSError, KeyError):
-            return False
+        a = file_attrs(h5)
+        return (a is not None and a["format"] == outputs.CONTINUATION_FORMAT
+                and bool(a["completed"]) and C.same_run(a["scene"], scene.text))
     try:
         with check_readable(h5) as f:
             if not f.attrs.get("completed", ""):
@@ -160,18 +169,26 @@ def _text(v) -> str:
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
 
 
+# the kind of a cornerbif file by its root attribute ``format`` (``outputs.KIND_NAMES``)
+KIND_OF_FORMAT = {outputs.SWEEP_FORMAT: "sweep", outputs.CONTINUATION_FORMAT: "continuation"}
+
+
 def file_attrs(path: str):
     """The root attributes ``format``, ``scene``, ``command`` and ``completed`` of an HDF5
-    file (a partial one whose writer was killed too: read in SWMR mode), or None when it
-    cannot be read."""
+    file (a sweep's partial file whose writer was killed too: HDF5 then says it is "already
+    open for write", and it is read in SWMR mode), or None when it cannot be read or is not
+    a regular file (a FIFO or a device is never opened)."""
     import h5py
+    if outputs.not_a_regular_file(path):
+        return None
     for kw in ({}, {"swmr": True}):
         try:
             with h5py.File(path, "r", locking=False, **kw) as f:
                 return {k: _text(f.attrs.get(k, "")) for k in ("format", "scene", "command",
                                                                 "completed")}
-        except Exception:  # noqa: BLE001 - unreadable: not known to be anyone's
-            continue
+        except Exception as e:  # noqa: BLE001 - unreadable: not known to be anyone's
+            if "already open for write" not in str(e):
+                return None     # (a cut file is never read in SWMR mode: it may not end)
     return None
 
 
@@ -197,44 +214,103 @@ def _what_file(path: str, d) -> str:
     """An existing data file (or partial file) in words, for a refusal: what it is, of
     which scene and who made it."""
     a = file_attrs(path) or {}
-    kind = {"cornerbif": "sweep", "cornerbif-continuation": "continuation"}.get(
-        a.get("format"), "file")
+    kind = KIND_OF_FORMAT.get(a.get("format"), "file")
     state = "finished" if a.get("completed") else "unfinished"
     of = (f"of {d.source}" if C.same_run(a.get("scene", ""), d.scene.text)
           else f"of another scene than {d.source}")
     cmd = a.get("command", "")
-    cmd = (repr(cmd if len(cmd) <= 80 else cmd[:77] + "...")) if cmd else "no recorded command"
-    return f"a {state} {kind} {of}, made by {cmd}"
+    return f"a {state} {kind} {of}, made by {cut(cmd, quote=True) if cmd else 'no recorded command'}"
+
+
+def record_problem(doc) -> str | None:
+    """What makes ``doc`` (a parsed ``OUT/gallery_run.json``) no gallery record, or None.
+    Nothing in a record is trusted: the gallery writes an object whose ``figures`` is a list
+    of objects, each naming its figure (a string) and saying ``smoke`` (true or false) when
+    it does, ``runs`` (when present) a list of objects with ``smoke`` true or false, and
+    ``drawing`` (when present, the figures a run still had to draw) an object with ``smoke``
+    and a list of figure names; every field the gallery reads is checked here."""
+    if not isinstance(doc, dict):
+        return "its top level is not an object"
+    figs = doc.get("figures")
+    if not isinstance(figs, list):
+        return f"'figures' is {_json_kind(figs)}, not a list of figures"
+    for i, e in enumerate(figs):
+        if not isinstance(e, dict):
+            return f"figures[{i}] is {_json_kind(e)}, not an object"
+        if not isinstance(e.get("figure"), str):
+            return f"figures[{i}].figure is {_json_kind(e.get('figure'))}, not a figure's name"
+        if "smoke" in e and not isinstance(e["smoke"], bool):
+            return f"figures[{i}].smoke is {_json_kind(e['smoke'])}, not true or false"
+    runs = doc.get("runs", [])
+    if not isinstance(runs, list):
+        return f"'runs' is {_json_kind(runs)}, not a list of runs"
+    for i, r in enumerate(runs):
+        if not isinstance(r, dict):
+            return f"runs[{i}] is {_json_kind(r)}, not an object"
+        if "smoke" in r and not isinstance(r["smoke"], bool):
+            return f"runs[{i}].smoke is {_json_kind(r['smoke'])}, not true or false"
+    if "drawing" in doc:
+        dr = doc["drawing"]
+        if not isinstance(dr, dict):
+            return f"'drawing' is {_json_kind(dr)}, not an object"
+        if not isinstance(dr.get("smoke", False), bool):
+            return f"drawing.smoke is {_json_kind(dr.get('smoke'))}, not true or false"
+        if not (isinstance(dr.get("figures"), list)
+                and all(isinstance(n, str) for n in dr["figures"])):
+            return "drawing.figures is not a list of figure names"
+    return None
+
+
+def _json_kind(v) -> str:
+    """A JSON value's kind in words, for a refusal (never the value itself: it may be huge)."""
+    for t, word in ((bool, "true or false"), (int, "a number"), (float, "a number"),
+                    (str, "a string"), (list, "a list"), (dict, "an object")):
+        if isinstance(v, t):
+            return word
+    return "missing or null"
 
 
 def record_owners(doc: dict) -> dict:
     """Figure name -> "smoke" or "full": who drew each figure a gallery record lists (its
     entries' ``smoke``; an older record's entries by its runs), with the figures a run was
-    drawing when it stopped (``drawing``); "full" wins where they disagree."""
-    runs = [r for r in doc.get("runs") or [] if isinstance(r, dict)]
-    older = "smoke" if runs and all(r.get("smoke") for r in runs) else "full"
+    drawing when it stopped (``drawing``); "full" wins where they disagree.  A record that
+    is none (``record_problem``) lists no figure."""
+    if record_problem(doc) is not None:
+        return {}
+    runs = doc.get("runs", [])
+    older = "smoke" if runs and all(r.get("smoke") is True for r in runs) else "full"
     own = {}
 
     def put(name, who):
-        if isinstance(name, str):
-            own[name] = "full" if "full" in (own.get(name), who) else who
-    for e in doc.get("figures") or []:
-        if isinstance(e, dict):
-            put(e.get("figure"), older if "smoke" not in e else ("smoke" if e["smoke"] else "full"))
+        own[name] = "full" if "full" in (own.get(name), who) else who
+    for e in doc["figures"]:
+        put(e["figure"], older if "smoke" not in e else ("smoke" if e["smoke"] else "full"))
     dr = doc.get("drawing")
-    if isinstance(dr, dict) and isinstance(dr.get("figures"), list):
+    if dr is not None:
         for name in dr["figures"]:
             put(name, "smoke" if dr.get("smoke") else "full")
     return own
 
 
-def _read_record(path: str):
+def _read_record(path: str) -> dict:
+    """The gallery record at ``path``, or ``SweepError`` naming it when it is none
+    (``record_problem``): unreadable, not JSON, nested beyond reading, or of another
+    structure.  (``outputs.check_output`` has found it a regular file of at most 64 MiB.)"""
     try:
-        with open(path, encoding="utf-8") as fh:
-            doc = json.load(fh)
-        return doc if isinstance(doc, dict) else {}
-    except (OSError, ValueError):
-        return {}
+        with open(path, "rb") as fh:
+            doc = json.loads(fh.read(64 * 2**20 + 1).decode("utf-8"))
+        why = record_problem(doc)
+    except OSError as e:
+        why = f"cannot be read ({outputs.reason(e)})"
+    except (ValueError, UnicodeDecodeError):
+        why = "it is not JSON"
+    except RecursionError:
+        why = "it is nested too deep to read"
+    if why is not None:
+        raise SweepError(f"--out {path}: exists and is not a gallery record ({why}); the gallery "
+                         "replaces only its own gallery_run.json (remove it yourself or name "
+                         "another --out folder)")
+    return doc
 
 
 # ------------------------------------------------------------------ the plan
@@ -317,17 +393,15 @@ def _may_replace(path, who, smoke, overwrite, option, what):
                        "--data folders, or pass --overwrite to replace it")
 
 
-def _same_partial(partial: str, scene: C.Scene) -> bool:
-    a = file_attrs(partial)
-    return a is not None and C.same_run(a["scene"], scene.text)
-
-
 def _judge(d: Data, smoke: bool, overwrite: bool, inputs):
-    """What to do with one data file (``Data.action``), or a ``SweepError`` naming it.  A
-    file to reuse is only read (its folder may be read-only); anything else passes
-    ``outputs.check_output`` first."""
+    """What to do with one data file (``Data.action``), or a ``SweepError`` naming it: one
+    another command is writing (its lock held) is not judged at all
+    (``outputs.check_unlocked``).  A file to reuse is only read (its folder may be
+    read-only); anything else passes ``outputs.check_output`` first."""
+    outputs.check_unlocked(d.path)
     who = made_by(d.path) if os.path.isfile(d.path) else None
     if os.path.isfile(d.path) and file_matches(d.path, d.scene) and (smoke or who != "smoke"):
+        outputs.check_side_files(d.path, inputs, "--data")   # nothing written: yet named
         d.action = "reuse"
         return
     outputs.check_output(d.path, True, inputs, kind=d.kind, option="--data")
@@ -335,19 +409,18 @@ def _judge(d: Data, smoke: bool, overwrite: bool, inputs):
         _may_replace(d.path, who, smoke, overwrite, "--data", _what_file(d.path, d))
         d.replace = True
     if os.path.lexists(d.partial):
-        if os.path.isdir(d.partial) or not os.path.isfile(d.partial):
-            raise SweepError(f"--data {d.partial}: exists and is not a regular file; remove it "
-                             "or name another --data folder")
+        if os.path.islink(d.partial) or not os.path.isfile(d.partial):
+            raise SweepError(f"--data {d.partial}: exists and is not a regular file (a link, a "
+                             "folder or a device); remove it or name another --data folder")
         if os.path.getsize(d.partial) == 0:     # left by an older version: nothing to lose
             d.discard = True
             return
         a = file_attrs(d.partial)
-        want = {"sweep": "cornerbif", "continuation": "cornerbif-continuation"}[d.kind]
-        if a is None or a["format"] != want:
+        if a is None or KIND_OF_FORMAT.get(a["format"]) != d.kind:
             raise SweepError(f"--data {d.partial}: exists and is not an interrupted "
                              f"{outputs.KIND_NAMES[d.kind]}; the gallery replaces only "
                              "cornerbif files: remove it yourself or name another --data folder")
-        if _same_partial(d.partial, d.scene):
+        if C.same_run(a["scene"], d.scene.text):
             d.action = "resume"
         else:
             _may_replace(d.partial, made_by(d.partial), smoke, overwrite, "--data",
@@ -389,19 +462,109 @@ def _remove_folders(made):
             pass
 
 
+def _lock(out, data, held: contextlib.ExitStack):
+    """Take the gallery's locks into ``held`` (``outputs.output_lock``): ``OUT/RECORD.lock``
+    and ``DATA/DATA_LOCK.lock``, so that a second gallery on the same figures folder or the
+    same data folder is refused at once (``SweepError``, exit 2), before it judges any file
+    the first is writing.  A data folder no one may write (read-only: its files can only be
+    reused) needs no lock; the figures folder must be writable
+    (``outputs.check_directory``)."""
+    for option, path in (("--data", os.path.join(data, DATA_LOCK)),
+                         ("--out", os.path.join(out, RECORD))):
+        if option == "--data" and not os.access(data, os.W_OK | os.X_OK):
+            continue
+        outputs.check_directory(path, option)
+        # a lock is an empty file: anything else at its name (a link, a folder, a user's
+        # file) is refused before the lock would take it, and remove it when released
+        outputs.check_side_files(path, (), option, suffixes=(".lock",))
+        try:
+            held.enter_context(outputs.output_lock(path, what="gallery"))
+        except SweepError as e:
+            folder = os.path.dirname(path) or "."
+            if "is writing" in str(e):
+                raise SweepError(f"{option} {folder}: another gallery is writing this folder "
+                                 f"(lock {path}.lock is held); wait for it to end") from None
+            raise type(e)(f"{option} {folder}: {e}") from None
+
+
+def _check_drawable(todo, scenes, files):
+    """Refuse (``SweepError``, exit 2), before any work, every figure whose scenes cannot
+    make it (a scene of single runs drawn as a diagram, kind 'fractions' of a plane, a flow
+    and a map of other systems, branches over a sweep of another parameter, ...): the rules
+    of ``plot.check_together``, applied to the files the scenes will write
+    (``plot.check_scenes_drawable``), each refusal naming the figure."""
+    from .plot import check_scenes_drawable
+    problems = []
+    for fig, names in todo:
+        sweeps, conts = [], []
+        for s in names:
+            sc = scenes[s]
+            over = sc.cont.get("over") if sc.cont else None
+            if over:
+                sweeps.append((files[over], scenes[over]))
+            (conts if sc.cont else sweeps).append((files[s], sc))
+        try:
+            check_scenes_drawable(sweeps, conts, plot_cfg=scenes[names[0]].plot)
+        except SweepError as e:
+            problems.append(f"figure {fig}: {e}")
+    if problems:
+        raise SweepError("\n".join(problems) + "\n(nothing was swept: correct the scenes, or "
+                         "leave these figures out with --only)")
+
+
 def plan(config_dir="configs", out=None, data=None, only=(), smoke=False,
-         overwrite=False) -> Plan:
+         overwrite=False, locks=None) -> Plan:
     """Read every scene the run needs and check every output it will write, before any work.
 
     Refused (``SweepError``, exit 2), each problem naming its file: a missing configs
-    folder or one without scenes, an ``--only`` name that is none of its figures or scenes,
-    every scene that cannot be run (its file and its problems) or that draws over a scene
-    that is not there, and every output in the way (``_judge``, ``_may_replace``): a
-    folder that cannot be made or written, a file of another kind, a file the gallery did
-    not write (without ``overwrite``), a full run's file in a smoke run.
+    folder or one without scenes, an ``--only`` name that is none of its figures or scenes
+    (``_todo``), every scene that cannot be run (its file and its problems) or that draws
+    over a scene that is not there or is no sweep (``_read_scenes``), every figure its
+    scenes cannot make (``_check_drawable``: the rules ``plot.check_together`` applies to
+    the files, from the scenes), another gallery writing the same folders (``_lock``:
+    the gallery's locks, held from before the judgements to the end of the run when
+    ``locks``, a ``contextlib.ExitStack``, is given, else released when the plan is
+    made), and every output in the way
+    (``_judge``, ``_judge_figures``, ``_may_replace``): a folder that cannot be made or
+    written, a data file another command is writing, a file of another kind, a file the
+    gallery did not write (without ``overwrite``), a full run's file in a smoke run.
     """
     out = DEFAULTS[bool(smoke)][0] if out is None else out
     data = DEFAULTS[bool(smoke)][1] if data is None else data
+    paths, files, todo = _todo(config_dir, only)
+    scenes, order = _read_scenes(config_dir, files, todo, smoke)
+    _check_drawable(todo, scenes, files)
+    created = _folders([("--out", out), ("--data", data)])
+    held = contextlib.ExitStack()
+    try:
+        _lock(out, data, held)
+        inputs = [(f"the scene file {p}", p) for p in paths]
+        items, problems = {}, []
+        for s in dict.fromkeys(order):
+            d = items[s] = Data(s, os.path.join(data, f"{s}.h5"), scenes[s], files[s])
+            try:
+                _judge(d, smoke, overwrite, inputs)
+            except SweepError as e:
+                problems.append(e)
+        record = _judge_figures(out, todo, inputs, smoke, overwrite, problems)
+        if problems:
+            _refuse(problems)
+    except BaseException:
+        held.close()
+        _remove_folders(created)
+        raise
+    if locks is not None:
+        locks.enter_context(held)
+    else:
+        held.close()
+    return Plan(config_dir, out, data, bool(smoke), tuple(only), todo, scenes, items, record,
+                created)
+
+
+def _todo(config_dir, only) -> tuple:
+    """The scene files of ``config_dir`` and the figures to draw (``--only``): (paths, name ->
+    path, [(figure, [scene names])]); ``SweepError`` for a folder that is none or holds no
+    scene, and for a name in ``only`` that is no figure or scene of it."""
     if not os.path.isdir(config_dir):
         raise SweepError(f"--configs {config_dir}: " + ("is not a folder" if os.path.exists(
             config_dir) else "the folder does not exist"))
@@ -416,6 +579,14 @@ def plan(config_dir="configs", out=None, data=None, only=(), smoke=False,
             raise SweepError(f"--only: {', '.join(unknown)} not in {config_dir} (figures: "
                              f"{', '.join(n for n, _ in todo)}; or any scene's name)")
         todo = [(n, ss) for n, ss in todo if n in only or any(s in only for s in ss)]
+    return paths, files, todo
+
+
+def _read_scenes(config_dir, files, todo, smoke) -> tuple:
+    """Every scene the figures need (``load_scene``), with the sweeps their continuations
+    are drawn over (``continue.over``): (name -> Scene, the names in the order they are
+    made, each sweep before the continuation drawn over it); ``SweepError`` listing every
+    scene that cannot be run and every ``over`` that names no scene."""
     problems, scenes = [], {}
 
     def need(name):
@@ -436,52 +607,50 @@ def plan(config_dir="configs", out=None, data=None, only=(), smoke=False,
                 if not isinstance(over, str) or over not in files:
                     problems.append(f"{files[s]}: continue.over = {over!r} is not a scene in "
                                     f"{config_dir} (the sweep its branches are drawn over)")
-                elif need(over) is not None:
+                elif need(over) is not None and scenes[over].cont:
+                    problems.append(f"{files[s]}: continue.over = {over!r} names "
+                                    f"{files[over]}, a continuation scene; it must name a "
+                                    "sweep scene (the diagram its branches are drawn over)")
+                elif scenes[over] is not None:
                     order.append(over)
             order.append(s)
     if problems:
         raise SweepError("\n".join(problems))
-    created = _folders([("--out", out), ("--data", data)])
+    return scenes, order
+
+
+def _judge_figures(out, todo, inputs, smoke, overwrite, problems) -> dict:
+    """Check the record ``OUT/gallery_run.json`` and every figure ``OUT/FIG.png`` the run
+    will write (``outputs.check_output``, ``_may_replace``: a figure is the gallery's when
+    the record lists it), each refusal appended to ``problems``; return the record as it
+    is ({} when there is none)."""
+    rec_path = os.path.join(out, RECORD)
+    record = {}
     try:
-        inputs = [(f"the scene file {p}", p) for p in paths]
-        items = {}
-        for s in dict.fromkeys(order):
-            d = items[s] = Data(s, os.path.join(data, f"{s}.h5"), scenes[s], files[s])
-            try:
-                _judge(d, smoke, overwrite, inputs)
-            except SweepError as e:
-                problems.append(e)
-        rec_path = os.path.join(out, RECORD)
-        record = {}
         try:
             outputs.check_output(rec_path, True, inputs, kind="gallery_record", option="--out")
-            if os.path.exists(rec_path):
-                record = _read_record(rec_path)
-                owners = record_owners(record)
-                runs = [r for r in record.get("runs") or [] if isinstance(r, dict)]
-                who = ("smoke" if all(w == "smoke" for w in owners.values())
-                       and all(r.get("smoke") for r in runs) else "full")
-                _may_replace(rec_path, who, smoke, overwrite, "--out", "a gallery record")
+        except RecursionError:          # JSON nested beyond reading: said as such below
+            pass
+        if os.path.exists(rec_path):
+            record = _read_record(rec_path)
+            owners = record_owners(record)
+            who = ("smoke" if all(w == "smoke" for w in owners.values())
+                   and all(r.get("smoke") is True for r in record.get("runs", [])) else "full")
+            _may_replace(rec_path, who, smoke, overwrite, "--out", "a gallery record")
+    except SweepError as e:
+        problems.append(e)
+    owners = record_owners(record)
+    for name, _ in todo:
+        png = os.path.join(out, f"{name}.png")
+        try:
+            outputs.check_output(png, True, inputs, kind="figure", option="--out")
+            if os.path.lexists(png):
+                _may_replace(png, owners.get(name), smoke, overwrite, "--out",
+                             f"a figure that {rec_path} does not list as drawn by the "
+                             "gallery" if name not in owners else "a figure")
         except SweepError as e:
             problems.append(e)
-        owners = record_owners(record)
-        for name, _ in todo:
-            png = os.path.join(out, f"{name}.png")
-            try:
-                outputs.check_output(png, True, inputs, kind="figure", option="--out")
-                if os.path.lexists(png):
-                    _may_replace(png, owners.get(name), smoke, overwrite, "--out",
-                                 f"a figure that {rec_path} does not list as drawn by the "
-                                 "gallery" if name not in owners else "a figure")
-            except SweepError as e:
-                problems.append(e)
-        if problems:
-            _refuse(problems)
-    except BaseException:
-        _remove_folders(created)
-        raise
-    return Plan(config_dir, out, data, bool(smoke), tuple(only), todo, scenes, items, record,
-                created)
+    return record
 
 
 # ------------------------------------------------------------------ the run
@@ -518,47 +687,22 @@ class _Progress:
         return "; ".join(parts)
 
 
-def _remove(path):
-    try:
-        os.remove(path)
-    except OSError:
-        pass
-
-
-def _stamp(path: str, command: str):
-    """Mark a finished continuation file as the gallery's (the root attribute ``command``, as
-    a sweep's file carries it: ``made_by``), on a copy that replaces it whole."""
-    a = file_attrs(path)
-    if a is None or a["command"] == command:
-        return
-    import h5py
-    tmp = path + ".stamp"
-    try:
-        try:
-            shutil.copyfile(path, tmp)
-        except OSError as e:
-            raise WriteFailed(f"marking {path} as the gallery's failed ({outputs.reason(e)}); "
-                              "the file is kept as it was") from None
-        try:
-            with h5py.File(tmp, "r+", locking=False) as g:
-                g.attrs["command"] = command
-        except (OSError, RuntimeError) as e:
-            raise WriteFailed(f"marking {path} as the gallery's failed ({outputs.reason(e)}); "
-                              "the file is kept as it was", broken=True) from None
-        with outputs.signals_deferred():
-            os.replace(tmp, path)
-    except BaseException:
-        _remove(tmp)
-        raise
-
-
 def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
     """Bring one data file up to date (``Data.action``); what was done: reused, swept,
     resumed or continued."""
     if d.action == "reuse":
         return "reused"
     prog.current = d
+    from . import continuation, sweep
     from .engine import announce_compiles
+    # the file's own guard first (another command may have taken it since the plan): a
+    # refused file is never announced
+    if d.kind == "sweep":
+        sweep.plan_output(d.scene, d.path, d.action == "resume", d.replace or d.discard,
+                          (d.source,))
+    else:
+        continuation.plan_output(d.scene, d.path, d.action == "resume", d.replace or d.discard,
+                                 [("the scene file", d.source)])
     announce_compiles(d.scene, echo, ("sweep",) if d.kind == "sweep" else ("continuation",))
     if d.kind == "sweep":
         from .sweep import run_sweep
@@ -567,20 +711,17 @@ def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
                   inputs=(d.source,))
         done = "resumed" if d.action == "resume" else "swept"
     else:
-        from . import continuation
-        if d.discard:
-            _remove(d.partial)          # a stale partial file of the gallery's (plan)
         said = []                       # its console, quoted when it ends without a file
         try:
-            continuation.run_to_file(d.scene, d.path, resume=True, overwrite=d.replace,
-                                     log=said.append, inputs=[("the scene file", d.source)])
+            continuation.run_to_file(d.scene, d.path, resume=d.action == "resume",
+                                     overwrite=d.replace or d.discard, log=said.append,
+                                     inputs=[("the scene file", d.source)],
+                                     command=COMMAND[p.smoke])
         except WriteFailed:
             raise
         except Fault as e:
             raise Fault(f"{d.name}: {e}" + (f" ({' | '.join(said[-3:])})" if said else "")
                         ) from None
-        prog.current = None
-        _stamp(d.path, COMMAND[p.smoke])
         done = "resumed" if d.action == "resume" else "continued"
     prog.current = None
     d.action, d.replace, d.discard = "reuse", False, False
@@ -603,87 +744,97 @@ def run(config_dir="configs", out=None, data=None, only=(), smoke=False, threads
     was swept, resumed, continued or reused, with the seconds spent; the notes' numbers
     (``facts``).  ``OUT/gallery_run.json`` holds them, rewritten whole after every figure,
     with the figures still to draw (``drawing``) until the run ends.  An interrupt raises
-    ``SweepInterrupted`` (exit 130), a full disk ``WriteFailed`` (exit 1), each saying what
-    was kept; the same call again continues where it stopped.
+    ``SweepInterrupted`` (exit 130), a full disk ``WriteFailed`` (exit 1), a refusal met
+    during the run (a data file's lock taken by another command after the plan, a seed file
+    that cannot seed) a ``Fault`` (exit 1: the run had begun), each saying what was kept;
+    the same call again continues where it stopped.
     """
-    p = plan(config_dir, out, data, only, smoke, overwrite)
-    t0 = time.perf_counter()
-    rec_path = os.path.join(p.out, RECORD)
-    figs = {e["figure"]: e for e in p.record.get("figures") or []
-            if isinstance(e, dict) and isinstance(e.get("figure"), str)}
-    runs = [r for r in p.record.get("runs") or [] if isinstance(r, dict)]
-    left = [name for name, _ in p.todo]
-    prog = _Progress(p)
-    records = []
-    echo(f"gallery{' (smoke)' if p.smoke else ''}: {plural(len(p.todo), 'figure')} into "
-         f"{p.out}, their data in {p.data}")
-    try:
-        _write_record(rec_path, figs, runs, {"smoke": p.smoke, "figures": left})
-        for fig_name, names in p.todo:
-            rec = {"figure": fig_name, "smoke": p.smoke, "scenes": {}}
-            files, conts = [], []
-            for s in names:
-                d = p.items[s]
-                t = time.perf_counter()
-                over = d.scene.cont.get("over") if d.scene.cont else None
-                if over:                # the sweep its branches are drawn over, first
-                    made = _make(p.items[over], p, threads, prog, echo)
-                    dt = time.perf_counter() - t
-                    rec["scenes"][over] = {"action": made, "seconds": round(dt, 2)}
-                    if made != "reused":
-                        prog.scenes.append((over, made))
-                        echo(f"{over}: {made} ({dt:.1f} s; drawn under {s})")
-                    t = time.perf_counter()
-                    files.append(p.items[over].path)
-                action = _make(d, p, threads, prog, echo)
-                files.append(d.path)
-                if d.kind == "continuation":
-                    conts.append(d.path)
-                dt = time.perf_counter() - t
-                rec["scenes"][s] = {"action": action, "seconds": round(dt, 2)}
-                prog.scenes.append((s, action))
-                echo(f"{s}: {action} ({dt:.1f} s)")
-            png = os.path.join(p.out, f"{fig_name}.png")
-            t = time.perf_counter()
-            head = p.scenes[names[0]]
-            prog.drawing = png
-            from .plot import figure, figure_branches
-            sweeps = [f for f in files if f not in conts]
-            if sweeps:
-                figure(sweeps, png, plot_cfg=head.plot, branches=conts,
-                       title=head.title if conts else None)
-            else:
-                figure_branches(conts, png, plot_cfg=head.plot)
-            prog.drawing = None
-            prog.figures.append(fig_name)
-            rec["png"] = png
-            rec["plot_seconds"] = round(time.perf_counter() - t, 2)
-            rec["facts"] = {s: (continuation_facts(p.items[s].path) if p.items[s].kind ==
-                                "continuation" else facts(p.items[s].path)) for s in names}
-            echo(f"  -> {png} ({rec['plot_seconds']:.1f} s)")
-            records.append(rec)
-            figs[fig_name] = rec
-            left.remove(fig_name)
+    with contextlib.ExitStack() as locks:     # the gallery's locks, for the whole run
+        p = plan(config_dir, out, data, only, smoke, overwrite, locks=locks)
+        t0 = time.perf_counter()
+        rec_path = os.path.join(p.out, RECORD)
+        figs = {e["figure"]: e for e in p.record.get("figures", [])}     # checked: record_problem
+        runs = list(p.record.get("runs", []))
+        left = [name for name, _ in p.todo]
+        prog = _Progress(p)
+        records = []
+        echo(f"gallery{' (smoke)' if p.smoke else ''}: {plural(len(p.todo), 'figure')} into "
+             f"{p.out}, their data in {p.data}")
+        try:
             _write_record(rec_path, figs, runs, {"smoke": p.smoke, "figures": left})
-        total = time.perf_counter() - t0
-        run_ = {"total_seconds": round(total, 1), "smoke": p.smoke, "threads": threads,
-                "only": list(p.only)}
-        if not p.only:                  # the whole gallery: this run's figures only
-            figs = {r["figure"]: r for r in records}
-        _write_record(rec_path, figs, ([run_] + runs)[:5] if p.only else [run_])
-    except (KeyboardInterrupt, SweepInterrupted):
-        raise SweepInterrupted(f"interrupted; {prog.kept()}; {AGAIN}") from None
-    except WriteFailed as e:
-        raise WriteFailed(f"{_cause(e)}; {prog.kept()}; free space (or raise the file-size "
-                          f"limit) and {AGAIN}", broken=e.broken) from None
-    except Fault as e:
-        raise Fault(f"{_cause(e)}; {prog.kept()}; {AGAIN}") from None
-    except SweepError as e:
-        raise SweepError(f"{e} ({prog.kept()})") from None
-    except OSError as e:
-        raise Fault(f"{getattr(e, 'filename', None) or 'input/output'}: {outputs.reason(e)}; "
-                    f"{prog.kept()}; {AGAIN}") from None
+            for fig_name, names in p.todo:
+                rec = _figure(fig_name, names, p, threads, prog, echo)
+                records.append(rec)
+                figs[fig_name] = rec
+                left.remove(fig_name)
+                _write_record(rec_path, figs, runs, {"smoke": p.smoke, "figures": left})
+            total = time.perf_counter() - t0
+            run_ = {"total_seconds": round(total, 1), "smoke": p.smoke, "threads": threads,
+                    "only": list(p.only)}
+            if not p.only:                  # the whole gallery: this run's figures only
+                figs = {r["figure"]: r for r in records}
+            _write_record(rec_path, figs, ([run_] + runs)[:5] if p.only else [run_])
+        except (KeyboardInterrupt, SweepInterrupted):
+            raise SweepInterrupted(f"interrupted; {prog.kept()}; {AGAIN}") from None
+        except WriteFailed as e:
+            raise WriteFailed(f"{_cause(e)}; {prog.kept()}; free space (or raise the file-size "
+                              f"limit) and {AGAIN}", broken=e.broken) from None
+        except Fault as e:
+            raise Fault(f"{_cause(e)}; {prog.kept()}; {AGAIN}") from None
+        except SweepError as e:             # refused once the run had begun: not before any work
+            raise Fault(f"{e}; {prog.kept()}; once that is resolved, {AGAIN}") from None
+        except OSError as e:
+            raise Fault(f"{getattr(e, 'filename', None) or 'input/output'}: {outputs.reason(e)}; "
+                        f"{prog.kept()}; {AGAIN}") from None
     return records
+
+
+def _figure(fig_name, names, p: Plan, threads, prog: _Progress, echo) -> dict:
+    """One figure of the run: its scenes brought up to date (``_make``; a continuation's
+    ``over`` sweep first), then drawn into ``OUT/FIG.png``; its record (per scene what was
+    done and the seconds spent, the png, the notes' numbers)."""
+    rec = {"figure": fig_name, "smoke": p.smoke, "scenes": {}}
+    files, conts = [], []
+    for s in names:
+        d = p.items[s]
+        t = time.perf_counter()
+        over = d.scene.cont.get("over") if d.scene.cont else None
+        if over:                # the sweep its branches are drawn over, first
+            made = _make(p.items[over], p, threads, prog, echo)
+            dt = time.perf_counter() - t
+            rec["scenes"][over] = {"action": made, "seconds": round(dt, 2)}
+            if made != "reused":
+                prog.scenes.append((over, made))
+                echo(f"{over}: {made} ({dt:.1f} s; drawn under {s})")
+            t = time.perf_counter()
+            files.append(p.items[over].path)
+        action = _make(d, p, threads, prog, echo)
+        files.append(d.path)
+        if d.kind == "continuation":
+            conts.append(d.path)
+        dt = time.perf_counter() - t
+        rec["scenes"][s] = {"action": action, "seconds": round(dt, 2)}
+        prog.scenes.append((s, action))
+        echo(f"{s}: {action} ({dt:.1f} s)")
+    png = os.path.join(p.out, f"{fig_name}.png")
+    t = time.perf_counter()
+    head = p.scenes[names[0]]
+    prog.drawing = png
+    from .plot import figure, figure_branches
+    sweeps = [f for f in files if f not in conts]
+    if sweeps:
+        figure(sweeps, png, plot_cfg=head.plot, branches=conts,
+               title=head.title if conts else None)
+    else:
+        figure_branches(conts, png, plot_cfg=head.plot)
+    prog.drawing = None
+    prog.figures.append(fig_name)
+    rec["png"] = png
+    rec["plot_seconds"] = round(time.perf_counter() - t, 2)
+    rec["facts"] = {s: (continuation_facts(p.items[s].path) if p.items[s].kind ==
+                        "continuation" else facts(p.items[s].path)) for s in names}
+    echo(f"  -> {png} ({rec['plot_seconds']:.1f} s)")
+    return rec
 
 
 def plural(n: int, word: str) -> str:

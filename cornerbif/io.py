@@ -51,6 +51,7 @@ import numpy as np
 from . import FORMAT_VERSION, __version__, attractors, chunkwrite, engine, outputs, registry
 from . import status as S
 from .errors import SweepError, WriteFailed
+from .model import cut, shown
 
 
 class FileFormatError(Exception):
@@ -197,22 +198,33 @@ WRITE_RESERVE = 256 * 1024
 CREATE_RESERVE = 32 * 1024
 
 
+def free_space(directory) -> int | None:
+    """Bytes free for this user on the filesystem of ``directory``, or None."""
+    try:
+        st = os.statvfs(directory)
+    except OSError:
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def size_limit() -> int | None:
+    """This process's file-size limit (``ulimit -f``) in bytes, or None."""
+    import resource
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    return None if soft == resource.RLIM_INFINITY else soft
+
+
 def room(path, size=None):
     """Bytes that may still be written to the file at ``path``: the space its filesystem
-    gives this user, and the file-size limit of this process (``ulimit -f``) less the
-    file's size (``size``, default its size on disk); None when neither can be read."""
-    import resource
-    left = None
-    try:
-        st = os.statvfs(os.path.dirname(os.path.abspath(path)))
-        left = st.f_bavail * st.f_frsize
-    except OSError:
-        pass
-    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-    if soft != resource.RLIM_INFINITY:
+    gives this user (``free_space``), and the file-size limit of this process
+    (``size_limit``) less the file's size (``size``, default its size on disk); None when
+    neither can be read."""
+    left = free_space(os.path.dirname(os.path.abspath(path)))
+    limit = size_limit()
+    if limit is not None:
         if size is None:
             size = os.path.getsize(path) if os.path.exists(path) else 0
-        left = soft - size if left is None else min(left, soft - size)
+        left = limit - size if left is None else min(left, limit - size)
     return left
 
 
@@ -306,15 +318,10 @@ class RoomWatch:
         size = f.id.get_filesize()
         grow = (size - self.size0) / self.points * left
         final = size + grow
-        try:
-            st = os.statvfs(os.path.dirname(os.path.abspath(f.filename)))
-            free = st.f_bavail * st.f_frsize
-        except OSError:
-            free = None
-        import resource
-        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        free = free_space(os.path.dirname(os.path.abspath(f.filename)))
+        limit = size_limit()
         short = ((free is not None and grow + final > free)
-                 or (limit != resource.RLIM_INFINITY and final > limit))
+                 or (limit is not None and final > limit))
         if short:
             self.warned = True
             self.echo(f"note: at the compression of the {self.points} points written so far, "
@@ -331,57 +338,118 @@ def watch_room(f, echo):
         f.__dict__["_cornerbif_watch"] = RoomWatch(f, echo)
 
 
-def check_readable(path):
-    """Open a file only if it is a cornerbif file this version can read.
+# what a message calls a file of each root attribute ``format`` (``open_checked``)
+FORMAT_NAMES = {outputs.SWEEP_FORMAT: "cornerbif file",
+                outputs.CONTINUATION_FORMAT: "cornerbif continuation file"}
+# the files a refusal of links and virtual datasets names, at most (then: and N more)
+NAMED_AT_MOST = 3
 
-    Raises FileFormatError with a specific message otherwise; never opens any
-    other file (external links, external storage and virtual datasets are refused).
-    """
+
+def open_checked(path, fmt: str = outputs.SWEEP_FORMAT, version: int = FORMAT_VERSION):
+    """Open ``path`` read-only, only if it is a file of root attribute ``format`` = ``fmt``
+    and a format version of at most ``version`` (the readers' one opener: ``check_readable``
+    for a sweep, ``plot.read_continuation`` for a continuation).
+
+    Refused with ``FileFormatError`` saying why, before anything is read: a missing path, a
+    directory, a FIFO or a device (never opened: reading one may block or never end), an
+    empty file, a file that is not HDF5 or does not open as HDF5, another format, a newer
+    version, a file that refers to other files (links, external storage and virtual
+    datasets are never followed), and more data than half of this machine's memory.  A
+    sweep killed while writing leaves HDF5's "open for writing" flags set; its
+    single-writer/multiple-reader layout still reads consistently, and is opened so."""
+    path = str(path)
+    name = FORMAT_NAMES.get(fmt, f"{fmt} file")
     if not os.path.exists(path):
         raise FileFormatError(f"{path}: no such file")
     kind = outputs.not_a_regular_file(path)
     if kind:
-        raise FileFormatError(f"{path}: is {kind}, not a file cornerbif wrote (never opened: "
-                              "reading it may never end)")
+        raise FileFormatError(f"{path}: is {kind}, not a {name} (never opened: reading it "
+                              "may never end)")
     if os.path.getsize(path) == 0:
         raise FileFormatError(f"{path}: the file is empty")
     if not h5py.is_hdf5(path):
         raise FileFormatError(f"{path}: not an HDF5 file")
+    f = _open_read(path)
     try:
-        f = h5py.File(path, "r", locking=False)
-    except Exception as e0:  # noqa: BLE001 - h5py raises a zoo of errors for damaged files
-        # (a truncated file is not retried in SWMR mode: its reader retries checksums
-        # without end on a file cut short)
-        if "already open for write" not in str(e0):
-            raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e0})") from None
-        try:
-            # a sweep killed while writing leaves HDF5's "open for writing" flags set;
-            # its single-writer/multiple-reader layout still reads consistently
-            f = h5py.File(path, "r", swmr=True, locking=False)
-        except Exception as e:  # noqa: BLE001
-            raise FileFormatError(f"{path}: cannot be opened as HDF5 ({e})") from None
-    try:
-        if f.attrs.get("format") != "cornerbif":
-            raise FileFormatError(f"{path}: not a cornerbif file (root attribute format is "
-                                  f"{f.attrs.get('format')!r})")
+        found = f.attrs.get("format")
+        if found != fmt:
+            raise FileFormatError(f"{path}: not a {name} (root attribute format is "
+                                  f"{shown(found)})")
         ver = int(f.attrs.get("format_version", -1))
-        if ver > FORMAT_VERSION:
+        if ver > version:
             raise FileFormatError(f"{path}: format version {ver} is newer than this cornerbif "
-                                  f"reads ({FORMAT_VERSION}); upgrade cornerbif")
-        bad = []
+                                  f"reads ({version}); upgrade cornerbif")
+        _check_self_contained(path, f)
+    except FileFormatError:
+        f.close()
+        raise
+    except Exception as e:  # noqa: BLE001 - h5py's zoo of errors for a damaged file
+        f.close()
+        raise FileFormatError(f"{path}: a damaged {name} ({error_line(e, path)})") from None
+    return f
 
-        def visit(name, link):
-            if isinstance(link, (h5py.ExternalLink, h5py.SoftLink)):
-                bad.append(f"link {name}")
-        f.visititems_links(visit)
+
+def error_line(e, path) -> str:
+    """What an error of h5py (or of a crafted file) says, in one bounded line."""
+    first = (str(e).splitlines() or [type(e).__name__])[0].removeprefix(f"{path}: ")
+    return cut(first or type(e).__name__, 200)
+
+
+def _open_read(path):
+    """``path`` opened read-only without HDF5's file locking; a file whose writer was killed
+    ("already open for write") in single-writer/multiple-reader mode.  A truncated file is
+    not retried in that mode: its reader retries checksums without end on a file cut
+    short."""
+    try:
+        return h5py.File(path, "r", locking=False)
+    except Exception as e0:  # noqa: BLE001 - h5py raises a zoo of errors for damaged files
+        if "already open for write" not in str(e0):
+            raise FileFormatError(f"{path}: cannot be opened as HDF5 ({error_line(e0, path)})") \
+                from None
+    try:
+        return h5py.File(path, "r", swmr=True, locking=False)
+    except Exception as e:  # noqa: BLE001
+        raise FileFormatError(f"{path}: cannot be opened as HDF5 ({error_line(e, path)})") from None
+
+
+def _check_self_contained(path, f):
+    """Refuse a file that refers to other files (soft and external links, virtual datasets,
+    external storage: never followed) or holds more data than half of the memory
+    available here (what the readers may read whole)."""
+    bad = []
+
+    def visit(name, link):
+        if isinstance(link, (h5py.ExternalLink, h5py.SoftLink)):
+            bad.append(f"link {name}")
+    f.visititems_links(visit)
+    total = 0
+    if not bad:                  # datasets are reached through the links: none followed
         for name in _datasets(f):
             ds = f[name]
             if ds.is_virtual:
                 bad.append(f"virtual dataset {name}")
             elif ds.external:
                 bad.append(f"external storage in {name}")
-        if bad:
-            raise FileFormatError(f"{path}: refers to other files ({', '.join(bad)}); refused")
+            total += ds.size * ds.dtype.itemsize
+    if bad:
+        more = f" and {len(bad) - NAMED_AT_MOST} more" if len(bad) > NAMED_AT_MOST else ""
+        raise FileFormatError(f"{path}: refers to other files "
+                              f"({', '.join(cut(b) for b in bad[:NAMED_AT_MOST])}{more}); refused")
+    avail = available_memory()
+    if avail is not None and total > avail // 2:
+        raise FileFormatError(f"{path}: holds {total / 2**30:.1f} GiB of data, more than half "
+                              f"of the {avail / 2**30:.1f} GiB of memory available here")
+
+
+def check_readable(path):
+    """Open a file only if it is a cornerbif sweep's file this version can read
+    (``open_checked``) holding what the readers need (``_check_contents``).
+
+    Raises FileFormatError with a specific message otherwise; never opens any
+    other file (external links, external storage and virtual datasets are refused).
+    """
+    f = open_checked(path)
+    try:
         for req in ("status", "done", "initial/u"):
             if req not in f:
                 raise FileFormatError(f"{path}: required dataset {req!r} is missing")
@@ -391,7 +459,7 @@ def check_readable(path):
         raise
     except Exception as e:  # noqa: BLE001
         f.close()
-        raise FileFormatError(f"{path}: damaged file ({e})") from None
+        raise FileFormatError(f"{path}: damaged file ({error_line(e, path)})") from None
     return f
 
 
@@ -403,7 +471,7 @@ SUMMARY_KINDS = {"status": "i", "period": "iu", "impacts_per_cycle": "iu", "done
 def _check_contents(path, f):
     """Refuse, before anything is read, a file whose contents the readers cannot take: a
     ``scene`` attribute that is not a scene's TOML, summary datasets of the wrong kind or
-    of shapes that do not match the grid, or more data than this machine's memory holds."""
+    of shapes that do not match the grid (its size: ``open_checked``)."""
     import tomllib
     try:
         scene = tomllib.loads(str(f.attrs.get("scene", "")))
@@ -423,18 +491,53 @@ def _check_contents(path, f):
         if name in f and f[name].shape[:len(G)] != G:
             raise FileFormatError(f"{path}: dataset {name!r} has shape {f[name].shape}, "
                                   f"which does not match the grid {G}")
-    total = sum(f[n].size * f[n].dtype.itemsize for n in _datasets(f))
-    avail = available_memory()
-    if avail is not None and total > avail // 2:
-        raise FileFormatError(f"{path}: holds {total / 2**30:.1f} GiB of data, more than half "
-                              f"of the {avail / 2**30:.1f} GiB of memory available here")
+
+
+def check_stored_plot(path, scene_text):
+    """Refuse, before a figure draws it, a file whose stored scene's ``[plot]`` the figures
+    cannot take (``plot.check_together``; ``info`` reads the file whatever it says), by the
+    checks ``validate`` makes (``config._read_plot``: a marker size of 1e300 had a figure run for
+    minutes before matplotlib failed), naming the file and the key.  Its other tables are
+    not judged here (the file holds what they computed), nor ``plot.style``, which names a
+    file seen from where the sweep ran and is checked when the figure applies it, nor
+    ``plot.color_by``, applied by a figure only where the file holds its datasets
+    (``plot.scene_color_by``)."""
+    from .config import SceneError, loads
+    try:
+        loads(scene_text)
+    except SceneError as e:
+        bad = [p for p in e.problems if p.startswith("plot.")
+               and not p.startswith(("plot.style", "plot.color_by"))]
+        if bad:
+            raise FileFormatError(f"{path}: its stored scene's [plot] cannot be drawn: "
+                                  + "; ".join(bad[:3])) from None
+    except Exception:  # noqa: BLE001 - the scene's other troubles are the readers' to say
+        pass
 
 
 def available_memory():
+    """Bytes this process may still take: the machine's available memory (``MemAvailable``)
+    or, where less, what an address-space limit (``ulimit -v``, RLIMIT_AS) leaves above the
+    process's present size (``VmSize``); None where neither can be read."""
+    found = [_proc_kib("/proc/meminfo", "MemAvailable:")]
+    import resource
     try:
-        with open("/proc/meminfo") as fh:
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (OSError, ValueError):
+        limit = resource.RLIM_INFINITY
+    size = _proc_kib("/proc/self/status", "VmSize:")
+    if limit != resource.RLIM_INFINITY and size is not None:
+        found.append(max(0, limit - size))
+    found = [x for x in found if x is not None]
+    return min(found) if found else None
+
+
+def _proc_kib(path, key):
+    """The value in bytes of the line ``key ... kB`` of a /proc file, or None."""
+    try:
+        with open(path) as fh:
             for line in fh:
-                if line.startswith("MemAvailable:"):
+                if line.startswith(key):
                     return int(line.split()[1]) * 1024
     except (OSError, ValueError, IndexError):
         return None
@@ -464,6 +567,7 @@ def open_partial(partial, scene, command=""):
     init = partial + ".init"
     ensure_room(init, 2 * len(scene.text), what="a new file", reserve=CREATE_RESERVE,
                 then="nothing was computed; free space and run the same command again")
+    outputs.fresh_file(init, (outputs.HDF5_SIGNATURE,))   # never written through a link
     with create(init, scene, scene.n_ic, command=command, versions=versions()):
         pass
     os.replace(init, partial)
@@ -514,25 +618,32 @@ def _scene_difference(f, scene) -> str:
     return scene_difference(str(f.attrs.get("scene", "")), scene.text)
 
 
-def partial_scene(path):
-    """The scene text of a sweep's partial file at ``path`` (a writer killed in it leaves
-    it readable in single-writer/multiple-reader mode), or None when there is none: no file,
-    not a regular file, not a cornerbif sweep's file."""
-    if not os.path.exists(path) or outputs.not_a_regular_file(path):
-        return None
+def partial_state(path):
+    """What lies at a sweep's partial file name: ("none", None) nothing; ("sweep", scene
+    text) a cornerbif sweep's partial file (a writer killed in it leaves it readable in
+    single-writer/multiple-reader mode); ("damaged", None) an HDF5 file that cannot be read
+    (a sweep's, cut short: only ``--overwrite`` may replace it); ("foreign", None) anything
+    else (not a regular file, not HDF5, another format): never touched."""
+    if not os.path.lexists(path):
+        return "none", None
+    if os.path.islink(path) or outputs.not_a_regular_file(path):
+        return "foreign", None
     try:
         if not h5py.is_hdf5(path):
-            return None
-        try:
-            f = h5py.File(path, "r", locking=False)
-        except OSError:
-            f = h5py.File(path, "r", swmr=True, locking=False)
-        with f:
-            if f.attrs.get("format") != outputs.SWEEP_FORMAT:
-                return None
-            return str(f.attrs.get("scene", ""))
-    except Exception:  # noqa: BLE001 - unreadable means: not a partial file to resume
-        return None
+            return ("damaged", None) if os.path.getsize(path) == 0 else ("foreign", None)
+        with _open_read(path) as f:
+            fmt = f.attrs.get("format")
+            if fmt != outputs.SWEEP_FORMAT:
+                return "foreign", None
+            return "sweep", str(f.attrs.get("scene", ""))
+    except Exception:  # noqa: BLE001 - HDF5 that cannot be read: cut short
+        return "damaged", None
+
+
+def partial_scene(path):
+    """The scene text of a sweep's partial file at ``path``, or None (``partial_state``)."""
+    kind, text = partial_state(path)
+    return text if kind == "sweep" else None
 
 
 def rebuild(partial, scene):
@@ -548,6 +659,7 @@ def rebuild(partial, scene):
                          "--overwrite") from None
     tmp = partial + ".rebuild"
     try:
+        outputs.fresh_file(tmp, (outputs.HDF5_SIGNATURE,))   # never written through a link
         ensure_room(tmp, os.path.getsize(partial))
         return _copy_done(src, partial, scene, tmp)
     except SweepError:

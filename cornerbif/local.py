@@ -5,19 +5,22 @@ Every unfinished block of the file in execution order goes through
 (``BlockWriter``, the file's single writer) writes the finished blocks through
 ``io.write_pending`` while the next ones compute: the kernels release the GIL, so the
 file's compression runs beside them instead of after them.  The calling (main) thread
-waits, shows the progress and answers Ctrl-C and SIGTERM at once (``run_blocks``).  A
-followed sweep carries each slab's final states to the next.  The Dask backend
+waits, shows the progress and answers Ctrl-C and SIGTERM at once (``run_blocks``); what
+was handed to the writer is written whatever signal comes meanwhile (``BlockWriter.close``).
+A followed sweep carries each slab's final states to the next.  The Dask backend
 (``cornerbif.distributed``) runs the same blocks on a cluster.
 """
 
 from __future__ import annotations
 
+import atexit
 import math
+import os
 import sys
 import threading
 import time
 
-from . import engine, io
+from . import engine, io, outputs
 from ._jit import Control, KernelStopped
 
 FOLLOW_BATCH = 256   # followed slabs written together at most
@@ -28,7 +31,7 @@ WAIT = 0.05
 # after Ctrl-C, seconds the blocks' thread gets to see the stop flag and return (its kernels
 # read the flag every few thousand loop passes: milliseconds); a thread still busy after that
 # (numba compiling a kernel on its first call, which nothing can cut short) is left behind,
-# its block unwritten, and the process ends without it
+# its block unwritten, and the process ends without it (``_left_behind``)
 STOP_GRACE = 1.0
 # items a numba thread takes at a time from a block (dynamic scheduling): the writer thread
 # takes a core from the kernels' threads now and then, and with the default static split
@@ -46,12 +49,14 @@ class Progress:
     computes), so a one-block sweep shows progress too.  The rate is that of this session's
     runs; before the first run has finished the time left is the estimate
     (``sweep.estimate_seconds``), said as such.  On a terminal the line is redrawn at most
-    every ``REDRAW`` seconds; elsewhere a line is written every ``LOG_EVERY`` seconds."""
+    every ``REDRAW`` seconds; elsewhere a line is written every ``LOG_EVERY`` seconds.
+    ``clock``: the seconds it reads (``time.monotonic``)."""
 
     REDRAW = 0.25
     LOG_EVERY = 10.0
 
-    def __init__(self, scene, total, already=0, estimate=None, stream=None):
+    def __init__(self, scene, total, already=0, estimate=None, stream=None,
+                 clock=time.monotonic):
         self.label = f"sweep {scene.name}"
         self.total = int(total)
         self.already = int(already)
@@ -59,14 +64,15 @@ class Progress:
         self.estimate = estimate
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.start = time.monotonic()
+        self.clock = clock
+        self.start = clock()
         self.shown = -math.inf
         self.width = 0
         self.update(self.done, force=True)
 
     def line(self) -> str:
-        from .sweep import duration
-        now = time.monotonic() - self.start
+        from .sweep import about, duration
+        now = self.clock() - self.start
         new = self.done - self.already
         text = f"{self.label}: {self.done}/{self.total} runs"
         if self.total:
@@ -76,7 +82,7 @@ class Progress:
             return text + f", {duration(now)}"
         if new > 0 and now > 0:
             rate = new / now
-            text += f", {_rate(rate)} runs/s, about {duration(left / rate)} left"
+            text += f", {_rate(rate)} runs/s, {about(left / rate)} left"
         elif self.estimate is not None:
             text += (f", no run finished yet ({duration(now)}); the estimate is "
                      f"{duration(self.estimate)} in all")
@@ -85,7 +91,7 @@ class Progress:
     def update(self, done, force=False):
         """Show ``done`` runs (of all, finished ones included) if it is time to."""
         self.done = max(self.done, min(int(done), self.total))
-        now = time.monotonic()
+        now = self.clock()
         if not force and now - self.shown < (self.REDRAW if self.tty else self.LOG_EVERY):
             return
         self.shown = now
@@ -144,23 +150,33 @@ class BlockWriter:
     (a full-size block thus waits until the writer has taken the one before: one block
     is written while the next computes, never more).  Thin followed slabs queue up to
     that size and are written together (``batch``, FOLLOW_BATCH, in one write at most):
-    writing each alone costs more than computing it.  A write that fails stops the writer; the
-    caller gets its exception from the next ``wait_for_room`` or from ``close``, and
-    every block marked done before it stays in the file.
+    writing each alone costs more than computing it.  A write that fails stops the writer
+    and tells ``control`` (the sweep's ``_jit.Control``) to stop, so the kernels computing
+    the next block return at once (a full disk is said within milliseconds, not when that
+    block ends); the caller gets the write's exception from the next ``wait_for_room`` or
+    from ``close``, and every block marked done before it stays in the file.
     """
 
-    def __init__(self, f, batch=1):
+    def __init__(self, f, batch=1, control=None):
         self.f = f
         self.batch = batch         # blocks written together at most (FOLLOW_BATCH: thin slabs)
+        self.control = control     # told to stop when a write fails
         self.queue = []            # (block index, block, bytes) handed over, not yet taken
         self.queued = 0            # their bytes
         self.closing = False
         self.error = None
         self.cv = threading.Condition()
+        self.finished = threading.Event()   # the thread has ended (waited for by ``close``)
         self.thread = threading.Thread(target=self._run, name="cornerbif-writer")
         self.thread.start()
 
     def _run(self):
+        try:
+            self._write_all()
+        finally:
+            self.finished.set()
+
+    def _write_all(self):
         while True:
             with self.cv:
                 while not self.queue and not self.closing:
@@ -174,6 +190,8 @@ class BlockWriter:
             try:
                 io.write_pending(self.f, [(index, block) for index, block, _ in take])
             except BaseException as e:  # noqa: BLE001 - handed to the caller's thread
+                if self.control is not None:
+                    self.control.stop()      # the block computing is dropped at once
                 with self.cv:
                     self.error = e
                     self.queue.clear()
@@ -205,13 +223,23 @@ class BlockWriter:
             self.cv.notify_all()
 
     def close(self):
-        """Write every block handed over, stop the thread, and raise a failed write's error."""
-        with self.cv:
-            self.closing = True
-            self.cv.notify_all()
-        self.thread.join()
-        with self.cv:
-            self._raise()
+        """Write every block handed over, end the thread, and raise a failed write's error.
+
+        Called by the main thread, it waits with SIGINT and SIGTERM deferred
+        (``wait_deferring_signals``): an interrupt meanwhile is remembered, the writer
+        finishes what it was handed (each block computed before the signal is written and
+        marked done), and the interrupt is raised then, or a failed write's error in its
+        place (the file then is not to be closed normally).  Python's ``Thread.join`` cut
+        short by Ctrl-C would return with the writer still writing, and the caller would
+        close the file under it."""
+        try:
+            with outputs.signals_deferred():
+                with self.cv:
+                    self.closing = True
+                    self.cv.notify_all()
+                wait_deferring_signals(self.finished)
+        finally:
+            self._raise()              # the thread has ended: no lock needed
 
 
 def run_blocks(scene, f, progress=False, block_points=None):
@@ -223,10 +251,11 @@ def run_blocks(scene, f, progress=False, block_points=None):
     of SIGINT and SIGTERM there, so an interrupt is seen at once whatever a block costs.  It
     then sets the stop flag of the sweep's ``Control``, which the kernels read every few
     thousand loop passes: the block being computed is discarded (never written, never marked
-    done), every block finished before it is written (``BlockWriter.close``), and the
-    interrupt goes on to the caller (``sweep.run_sweep`` says what was kept).  While it waits
-    the main thread shows the progress (``Progress``) from the runs the kernels count into
-    the same control."""
+    done), every block finished before it is written (``BlockWriter.close``, whatever signal
+    comes while it writes), and the interrupt goes on to the caller (``sweep.run_sweep`` says
+    what was kept).  A failed write stops the kernels the same way, and its error goes on.
+    While it waits the main thread shows the progress (``Progress``) from the runs the
+    kernels count into the same control."""
     ints = engine.int_settings(scene)
     every = engine.blocks(scene, block_points)
     todo = [every[i] for i in io.unfinished(every, f)]
@@ -238,7 +267,7 @@ def run_blocks(scene, f, progress=False, block_points=None):
         carry = carry_from_file(scene, f, every, todo[0])
     # full blocks are written one by one (each marked done as soon as it is written);
     # thin followed slabs together
-    writer = BlockWriter(f, FOLLOW_BATCH if scene.follow != "none" else 1)
+    writer = BlockWriter(f, FOLLOW_BATCH if scene.follow != "none" else 1, control)
     state = {"done": total - sum(block_runs(scene, b) for b in todo), "block": 0}
     bar = tick = None
     if progress:
@@ -293,8 +322,9 @@ def run_interruptibly(work, control, tick=None):
     (or any exception here) ``control`` is told to stop, so the kernels that ``work`` calls
     under it (``engine.with_control``) return within milliseconds and raise
     ``KernelStopped``, which ends ``work`` quietly; after at most STOP_GRACE seconds the
-    interrupt goes on.  The thread runs on this thread's numba thread count.  An exception
-    of ``work`` is raised here.
+    interrupt goes on (a thread still busy then is left behind: ``_left_behind``).  The
+    thread runs on this thread's numba thread count.  An exception of ``work`` is raised
+    here.
 
     Any command may run its long kernel calls so, e.g. ``cornerbif continue``: build the
     kernel's integer settings with ``engine.with_control(scene, ints, control)`` and keep
@@ -320,21 +350,58 @@ def run_interruptibly(work, control, tick=None):
         while not finished.wait(WAIT):
             if tick is not None:
                 tick()
-    except BaseException:
+    except BaseException as e:
         control.stop()              # the kernels return within milliseconds
-        _wait_quietly(finished, STOP_GRACE)
+        try:
+            wait_deferring_signals(finished, STOP_GRACE)
+        finally:
+            if not finished.is_set():
+                _left_behind(finished, e)
         raise
     if "error" in box:
         raise box["error"]
     return box.get("value")
 
 
-def _wait_quietly(finished, grace):
-    """Wait up to ``grace`` seconds for the event ``finished``; further interrupts meanwhile
-    are ignored (the first one is already being handled)."""
-    end = time.monotonic() + grace
-    while not finished.is_set() and time.monotonic() < end:
+def wait_deferring_signals(event, grace=None):
+    """Wait until ``event`` is set, at most ``grace`` seconds (None: as long as it takes),
+    with SIGINT and SIGTERM deferred (``outputs.signals_deferred``): a signal meanwhile does
+    not cut the wait short; it is raised once the wait is over."""
+    end = None if grace is None else time.monotonic() + grace
+    with outputs.signals_deferred():
+        while not event.is_set() and (end is None or time.monotonic() < end):
+            event.wait(WAIT)
+
+
+# the threads left behind by ``run_interruptibly`` (each its ``finished`` event) and the exit
+# status the process ends with if one is still running at its exit
+_LEFT = {"threads": [], "status": None}
+
+
+def _left_behind(finished, cause):
+    """A thread of ``run_interruptibly`` still busy after the stop grace (numba compiling a
+    kernel on its first call, which nothing can cut short): the command goes on to say what
+    was kept and exits, but the interpreter must not shut down beside it (numba and LLVM
+    would run on while the modules, numba's threading layer and LLVM's state are torn down
+    under them).  At the process's exit, if such a thread still runs, the standard streams
+    are flushed and the process ends at once (``os._exit``) with the status the command's
+    exception gives (``cli.Commands``): 130 after an interrupt, 1 after another error."""
+    from .errors import EXIT_FAULT, EXIT_INTERRUPTED
+    if not _LEFT["threads"]:
+        atexit.register(_end_beside_left_threads)
+    _LEFT["threads"].append(finished)
+    if _LEFT["status"] is None:
+        _LEFT["status"] = EXIT_INTERRUPTED if isinstance(cause, KeyboardInterrupt) else EXIT_FAULT
+
+
+def _end_beside_left_threads():
+    """At exit (``atexit``, before the interpreter shuts down): end the process at once while
+    a thread left behind by ``run_interruptibly`` still runs (``_left_behind``)."""
+    if all(f.is_set() for f in _LEFT["threads"]):
+        return
+    for stream in (sys.stdout, sys.stderr):
         try:
-            finished.wait(WAIT)
-        except KeyboardInterrupt:
+            stream.flush()
+        except (OSError, ValueError, AttributeError):
             pass
+    os._exit(_LEFT["status"])

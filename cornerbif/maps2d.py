@@ -239,7 +239,8 @@ def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_re
     ``out_region`` read as letters is the orbit's word.  Same arithmetic as
     :func:`step`, bit for bit; NaN propagates (region -1).  ``control``: the address of
     a sweep's control (0: none), whose stop flag is read every POLL_STEPS silent steps;
-    told to stop, the run returns at once and its outputs are incomplete.
+    told to stop, the run returns at once and its outputs are incomplete.  Returns whether
+    the run finished (False: stopped).
     """
     q = 0.25 * math.pi * omega1
     h = 0.5 * math.pi * omega1
@@ -270,7 +271,7 @@ def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_re
                 left = 0
                 break
         if left > 0 and stop_requested(control):
-            return
+            return False
     for j in range(record):
         out_a[j] = a
         out_b[j] = b
@@ -288,6 +289,7 @@ def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_re
             out_region[j] = -1
             a = math.nan
             b = math.nan
+    return True
 
 
 @pjit
@@ -307,13 +309,12 @@ def iterate_batch(params, x0, transient, record, out_a, out_b, out_region, contr
     control : int
         The address of a sweep's control (``_jit.Control``; 0, the default: none): each
         finished row is counted, and its stop flag cuts every row short (outputs
-        incomplete).
+        incomplete; a row cut short is not counted).
     """
     for i in prange(params.shape[0]):
-        iterate_one(params[i, P_OMEGA1], params[i, P_KAPPA1], params[i, P_R],
-                    x0[i, 0], x0[i, 1], transient, record, out_a[i], out_b[i], out_region[i],
-                    control)
-        count_done(control)
+        if iterate_one(params[i, P_OMEGA1], params[i, P_KAPPA1], params[i, P_R], x0[i, 0],
+                       x0[i, 1], transient, record, out_a[i], out_b[i], out_region[i], control):
+            count_done(control)
 
 
 @jit

@@ -295,6 +295,8 @@ class Model:
 # a value quoted in a message is cut to this many characters (a 50 MB title, a list of a
 # million entries or an integer of 4000 digits is named by its start and its size)
 SHOWN_CHARS = 80
+# a key as a message names it (a key of a megabyte is a key)
+KEY_CHARS = 60
 
 
 def _is_int(x) -> bool:
@@ -319,9 +321,7 @@ class _Shown(reprlib.Repr):
         return super().repr_int(x, level)
 
     def repr_str(self, x, level):
-        if len(x) <= self.maxstring:
-            return repr(x)
-        return repr(x[:self.maxstring]) + f"...<{len(x)} characters>"
+        return cut(x, self.maxstring, quote=True)
 
     def repr_list(self, x, level):
         s = super().repr_list(x, level)
@@ -330,6 +330,24 @@ class _Shown(reprlib.Repr):
     def repr_dict(self, x, level):
         s = super().repr_dict(x, level)
         return s[:-1] + f" <{len(x)} keys>}}" if len(x) > self.maxdict else s
+
+
+def cut(text, limit: int = SHOWN_CHARS, *, quote: bool = False, mark: str | None = None) -> str:
+    """``text`` (a str, or what ``str`` makes of anything else) for a message or a figure:
+    its first ``limit`` characters on one line, line breaks, tabs and other control
+    characters (a terminal's escapes) as spaces, or quoted as ``repr`` quotes them
+    (``quote``); a longer text ends with ``mark`` (default: "...<N characters>", its
+    length).  Reads no more of ``text`` than it shows (a key of a megabyte costs nothing)."""
+    if not isinstance(text, str):
+        try:
+            text = str(text)
+        except (ValueError, RecursionError):    # an integer past 4300 digits, a deep list
+            return f"<a {type(text).__name__} too large to show>"
+    head = text[:limit]
+    head = repr(head) if quote else "".join(c if c.isprintable() else " " for c in head)
+    if len(text) <= limit:
+        return head
+    return head + (f"...<{len(text)} characters>" if mark is None else mark)
 
 
 def shown(x, limit: int = SHOWN_CHARS) -> str:

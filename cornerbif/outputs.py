@@ -25,6 +25,7 @@ import errno
 import json
 import os
 import signal
+import stat
 import threading
 
 from .errors import SweepError, WriteFailed
@@ -116,7 +117,7 @@ def is_kind(path: str, kind: str) -> bool:
                     return False
                 doc = json.loads(fh.read().decode("utf-8"))
             return isinstance(doc, dict) and "figures" in doc
-        except (OSError, ValueError, UnicodeDecodeError):
+        except (OSError, ValueError, UnicodeDecodeError, RecursionError):
             return False
     raise ValueError(kind)
 
@@ -174,6 +175,8 @@ def check_output(out_path: str, overwrite: bool, inputs=(), kind: str = "sweep",
     command writes (``KIND_NAMES``); an existing file is replaced only with ``overwrite``
     (figures always may be redrawn) and only when it is a file of that kind.
     """
+    if not out_path:
+        raise SweepError(f"{option} '': an empty name; name the file to write")
     d = check_directory(out_path, option)
     check_name_length(out_path, d, option, suffixes)
     for what, path in _named(inputs):
@@ -194,6 +197,39 @@ def check_output(out_path: str, overwrite: bool, inputs=(), kind: str = "sweep",
             raise SweepError(f"{option} {out_path}: exists and is not {KIND_NAMES[kind]}; "
                              f"this command replaces only {KIND_REPLACES[kind]} (remove it "
                              "yourself or name another output)")
+    check_side_files(out_path, inputs, option, suffixes,
+                     judge_partial=kind in ("figure", "gallery_record"))
+
+
+def check_side_files(out_path: str, inputs=(), option: str = "-o", suffixes=SIDE_SUFFIXES,
+                     judge_partial: bool = False):
+    """Refuse, before any work, an output whose side files (``OUT.lock``, ``OUT.partial``,
+    ...: written and removed beside it) would be one of the command's ``inputs`` (``sweep
+    x.h5.lock -o x.h5`` would remove the scene file with its lock), or are held by anything
+    but what a command of ours leaves there: a link, a directory, a device, a user's file
+    (a lock is an empty file; the others HDF5 files or empty).  ``OUT.partial`` is judged
+    here only with ``judge_partial`` (a figure's or a record's temporary: ``leftover``); a
+    sweep's or a continuation's partial file is judged by its command, which knows its
+    scene (``sweep.plan_output``)."""
+    for suffix in suffixes:
+        side = out_path + suffix
+        for what, path in _named(inputs):
+            if same_file(side, path):
+                raise SweepError(f"{option} {out_path}: {side}, which this command writes "
+                                 f"beside it, is {what}; name another output")
+        if (suffix == ".partial" and not judge_partial) or not os.path.lexists(side):
+            continue
+        ours = (not os.path.islink(side) and os.path.isfile(side)
+                and (os.path.getsize(side) == 0 if suffix == ".lock"
+                     else leftover(side) if suffix == ".partial"
+                     else leftover(side, (HDF5_SIGNATURE,))))
+        if not ours:
+            what = ("is a symbolic link" if os.path.islink(side)
+                    else f"is {not_a_regular_file(side)}" if not_a_regular_file(side)
+                    else "is a file that no command of ours left there")
+            raise SweepError(f"{option} {out_path}: {side} {what}, in the way of a file this "
+                             "command writes and removes there; remove it, or name another "
+                             "output")
 
 
 def _named(inputs):
@@ -207,6 +243,12 @@ def _named(inputs):
 
 
 # ------------------------------------------------------------------ whole or not at all
+# the errors of a write that say the room ran out (a full disk or quota, a file-size limit), or
+# that the device failed: a fault met while working (exit 1); any other error creating a file
+# (no such folder, no permission, a directory in the way) is the input's (exit 2)
+SPACE_ERRNOS = frozenset((errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO))
+
+
 def reason(e: BaseException) -> str:
     """An OSError in a few words (HDF5's messages carry a whole error stack)."""
     if getattr(e, "errno", None):
@@ -224,14 +266,38 @@ def temporary_name(path: str) -> str:
     return path + ".partial"
 
 
-def fresh_file(path: str):
-    """Create ``path`` empty for a writer that opens it by name: a leftover regular file of
-    an earlier write cut short is replaced; a link, a directory or a device at that name is
-    refused, never written through."""
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+# what a temporary file left by a write cut short begins with, by the output's extension
+# (``fresh_file``): a figure's own signature, HDF5's, the gallery record's first bytes
+LEFTOVER_SIGNATURES = {".png": FIGURE_SIGNATURES[".png"], ".pdf": FIGURE_SIGNATURES[".pdf"],
+                       ".svg": FIGURE_SIGNATURES[".svg"], ".h5": (HDF5_SIGNATURE,),
+                       ".json": (b'{\n "figures"',)}
+
+
+def leftover(path: str, signatures=None) -> bool:
+    """Whether the regular file at ``path`` is what a write of ours cut short leaves: empty,
+    or beginning as such a file does (``signatures``, default by the extension of the name
+    without its last suffix: 'fig.png.partial' -> a PNG)."""
+    if signatures is None:
+        signatures = LEFTOVER_SIGNATURES.get(
+            os.path.splitext(os.path.splitext(path)[0])[1].lower(), ())
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return False
+    return not head or any(head.startswith(s[:16]) for s in signatures)
+
+
+def fresh_file(path: str, signatures=None):
+    """Create ``path`` empty for a writer that opens it by name.  A leftover of an earlier
+    write cut short (``leftover``) is replaced; anything else at that name (a link, a
+    directory, a device, a file of another kind: a user's) is refused, never written
+    through nor removed."""
     if os.path.lexists(path):
-        if os.path.islink(path) or not os.path.isfile(path):
-            raise SweepError(f"{path}: is in the way of a temporary file (a link, a directory "
-                             "or a device); remove it")
+        if os.path.islink(path) or not os.path.isfile(path) or not leftover(path, signatures):
+            raise SweepError(f"{path}: is in the way of a file this command writes and removes "
+                             "there (it is not one it left); remove it, or name another output")
         os.remove(path)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
     os.close(fd)
@@ -251,8 +317,8 @@ def replacing(path: str, kept: str = "the previous file, if any, is unchanged"):
     limit, an I/O error) raises ``WriteFailed`` naming ``path``, the reason and what was
     ``kept``; an interrupt or any other error removes the temporary file and propagates."""
     tmp = temporary_name(path)
+    fresh_file(tmp)             # refused (SweepError) before anything is created or removed
     try:
-        fresh_file(tmp)
         yield tmp
         with signals_deferred():
             os.replace(tmp, path)
@@ -381,13 +447,23 @@ def output_lock(out_path: str, what: str = "cornerbif command"):
     lock_path = out_path + ".lock"
     for _ in range(8):
         try:
-            fd = os.open(lock_path, os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+            fd = os.open(lock_path, os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
+                         | os.O_NONBLOCK, 0o644)      # (a FIFO there: ENXIO, never a wait)
         except OSError as e:
             if e.errno == errno.ELOOP:
                 raise SweepError(f"{lock_path}: is a symbolic link; a cornerbif lock is a plain "
                                  "file (remove the link)") from None
-            raise WriteFailed(f"creating the lock {lock_path} failed ({reason(e)}); nothing "
-                              "was computed; free space and run the same command again") from None
+            if e.errno in SPACE_ERRNOS:
+                raise WriteFailed(f"creating the lock {lock_path} failed ({reason(e)}); nothing "
+                                  "was computed; free space and run the same command again"
+                                  ) from None
+            raise SweepError(f"{lock_path}: cannot be created ({reason(e)}); nothing was "
+                             "computed") from None
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode) or st.st_size:
+            os.close(fd)                # a user's file at the lock's name: never removed
+            raise SweepError(f"{lock_path}: is in the way and is not a cornerbif lock (an empty "
+                             "file); remove it, or name another output")
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

@@ -18,6 +18,7 @@ import math
 import os
 import tomllib
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,6 +26,7 @@ from . import plot_attractors, plot_normal_form, registry, theory
 from . import status as S
 from .errors import SweepError
 from .io import check_readable
+from .model import cut
 from .plot_style import bounded, legend, plain, title_lines
 
 
@@ -217,6 +219,7 @@ class PlotData:
             self.axes = [k for k, _ in sweep_items(self.scene.get("sweep", {}))]
             self.done = f["done"][...].astype(bool)
             G = self.done.shape
+            self.unplaceable = None      # why no figure can place its values (``_check_axes``)
             self._check_axes(f, G)
             self.values = {a: f[a][...] for a in self.axes}
             self.n_done, self.n_points = int(np.count_nonzero(self.done)), int(self.done.size)
@@ -292,12 +295,15 @@ class PlotData:
                   and f[a].dtype.kind in "fiu")
             if not ok:
                 raise FileFormatError(f"{self.path}: the values of its swept parameter "
-                                      f"{bounded(a)!r} are missing or do not match the grid")
+                                      f"{cut(a)!r} are missing or do not match the grid")
             v = f[a][...]
-            if not (np.isfinite(v).all() and np.abs(v).max(initial=0.0) <= DRAW_LIMIT):
-                raise FileFormatError(f"{self.path}: its swept parameter {bounded(a)!r} has "
-                                      f"values that are not finite or beyond {DRAW_LIMIT:g} in "
-                                      "size, which no figure can place")
+            if not np.isfinite(v).all():
+                raise FileFormatError(f"{self.path}: its swept parameter {cut(a)!r} has "
+                                      "values that are not finite")
+            if np.abs(v).max(initial=0.0) > DRAW_LIMIT and self.unplaceable is None:
+                # summarised by info; refused by a figure (``check_together``)
+                self.unplaceable = (f"{self.path}: its swept parameter {cut(a)!r} has values "
+                                    f"beyond {DRAW_LIMIT:g} in size, which no figure can place")
 
     def partial_note(self) -> str:
         """What a figure or ``info`` says of a file that is not complete ("" when it is)."""
@@ -568,60 +574,22 @@ BRANCH_ARRAYS = ("impact_u", "impact_v_in", "section_u", "section_v", "stable",
 
 
 def read_continuation(path) -> dict:
-    """A continuation file for a figure or ``info``: ``continuation.read``, with "path", after
-    the checks ``io.check_readable`` makes of a sweep: an HDF5 file of format
+    """A continuation file for a figure or ``info``: ``continuation.read``, with "path", once
+    ``io.open_checked`` has found it a regular HDF5 file of format
     ``cornerbif-continuation`` this version reads, referring to no other file (links,
-    external storage, virtual datasets), within memory, each branch's datasets one row per
-    point of its parameter values (finite), the events' and curves' likewise.  Else
-    ``FileFormatError`` naming the file."""
-    import h5py
-
+    external storage, virtual datasets), within memory; then each branch's datasets one row
+    per point of its parameter values (finite), the events' and curves' likewise
+    (``_check_continuation``).  Else ``FileFormatError`` naming the file."""
     from .continuation import FORMAT, FORMAT_VERSION, read
-    from .io import FileFormatError, available_memory
+    from .io import FileFormatError, error_line, open_checked
     path = str(path)
-    if not os.path.exists(path):
-        raise FileFormatError(f"{path}: no such file")
-    if os.path.getsize(path) == 0:
-        raise FileFormatError(f"{path}: the file is empty")
-    if not h5py.is_hdf5(path):
-        raise FileFormatError(f"{path}: not an HDF5 file")
+    with open_checked(path, FORMAT, FORMAT_VERSION):
+        pass
     try:
-        with h5py.File(path, "r", locking=False) as f:
-            if f.attrs.get("format") != FORMAT:
-                raise FileFormatError(f"{path}: not a cornerbif continuation file")
-            ver = int(f.attrs.get("format_version", -1))
-            if ver > FORMAT_VERSION:
-                raise FileFormatError(f"{path}: continuation format version {ver} is newer "
-                                      f"than this cornerbif reads ({FORMAT_VERSION}); upgrade "
-                                      "cornerbif")
-            bad, total = [], 0
-
-            def visit(name, link):
-                if isinstance(link, (h5py.ExternalLink, h5py.SoftLink)):
-                    bad.append(f"link {name}")
-            f.visititems_links(visit)
-            if not bad:
-                sets = []
-                f.visititems(lambda n, o: sets.append(o) if isinstance(o, h5py.Dataset)
-                             else None)
-                for ds in sets:
-                    if ds.is_virtual or ds.external:
-                        bad.append(f"dataset {ds.name}")
-                    total += ds.size * ds.dtype.itemsize
-            if bad:
-                raise FileFormatError(f"{path}: refers to other files ({', '.join(bad[:3])}); "
-                                      "refused")
-            avail = available_memory()
-            if avail is not None and total > avail // 2:
-                raise FileFormatError(f"{path}: holds {total / 2**30:.1f} GiB of data, more than "
-                                      f"half of the {avail / 2**30:.1f} GiB of memory available")
         cont = read(path)
         _check_continuation(cont)
-    except FileFormatError:
-        raise
     except Exception as e:  # noqa: BLE001 - h5py's and a crafted file's zoo of errors
-        why = (str(e).splitlines() or [type(e).__name__])[0].removeprefix(f"{path}: ")
-        raise FileFormatError(f"{path}: a damaged continuation file ({bounded(why, 200)})") \
+        raise FileFormatError(f"{path}: a damaged continuation file ({error_line(e, path)})") \
             from None
     cont["path"] = path
     return cont
@@ -1212,9 +1180,9 @@ ONE_FILE_KINDS = {"timeseries": "time series of one grid point",
 
 def _described(d: PlotData) -> str:
     """A file as a refusal names it: its path, what it sweeps, its model."""
-    what = ("sweeps " + " and ".join(bounded(a) for a in d.axes) if d.axes
+    what = ("sweeps " + " and ".join(cut(a) for a in d.axes) if d.axes
             else "sweeps no parameter")
-    return f"{d.path} {what} (model {bounded(d.model)})"
+    return f"{d.path} {what} (model {cut(d.model)})"
 
 
 def _held_y(d: PlotData) -> list:
@@ -1248,72 +1216,148 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
     stability datasets.  A chart (two swept parameters), a basin and the one-file kinds
     draw one file.
     """
+    from .io import check_stored_plot
+    for c in conts:
+        check_stored_plot(c["path"], c["scene"])
     if not datas:
         return _check_branches_alone(conts, y, color_by)
+    for d in datas:
+        if getattr(d, "scene_text", None):
+            check_stored_plot(d.path, d.scene_text)
+        if d.unplaceable:
+            raise Undrawable(d.unplaceable)
     cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
     kind = cfg.get("kind", "diagram")
-    names = "; ".join(_described(d) for d in datas)
-    pair = len(datas) == 2 and sorted(str(d.role) for d in datas) == ["flow", "map"]
     if kind in plot_normal_form.KINDS:
-        for d in datas:
-            if d.axes:
-                raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws single runs (a "
-                                 "scene without sweep axes: sections 4-5)")
-            if d.role not in ("flow", "map"):
-                raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws a flow or "
-                                 "map2d file")
-        if len(datas) > 1 and not pair:
-            raise Undrawable(f"[plot] kind {kind!r} draws one file, or a flow against its map "
-                             f"(one file of model flow, one of map2d); got {names}")
-        if pair:
-            other = datas[1].scene.get("plot", {}).get("kind", "diagram")
-            if plot_cfg is None and other != kind:
-                raise Undrawable(f"{datas[0].path} is drawn as [plot] kind {kind!r}, "
-                                 f"{datas[1].path} as {bounded(other)!r}: a flow is drawn "
-                                 "against its map in one kind")
-            _check_one_system(*datas)
-            if kind == "regions":
-                _check_same_starts(*datas)
-        _no_options(kind, y, color_by, conts, datas)
-        return
-    if kind in ONE_FILE_KINDS:
+        _check_single_runs(datas, conts, kind, y, color_by, plot_cfg)
+    elif kind in ONE_FILE_KINDS:
         if len(datas) > 1:
             raise Undrawable(f"[plot] kind {kind!r} ({ONE_FILE_KINDS[kind]}) draws one file; "
-                             f"got {names}")
+                             f"got {_all_described(datas)}")
         if kind == "fractions" and len(datas[0].axes) != 1:
             raise Undrawable(f"{_described(datas[0])}: [plot] kind 'fractions' draws a file "
                              "swept over one parameter")
         _no_options(kind, y, color_by, conts, datas)
-        return
-    if kind != "diagram":
-        raise Undrawable(f"{datas[0].path}: [plot] kind {bounded(kind)!r} is not a figure this "
+    elif kind != "diagram":
+        raise Undrawable(f"{datas[0].path}: [plot] kind {cut(kind)!r} is not a figure this "
                          "cornerbif draws")
+    else:
+        for d in datas:
+            if not d.axes:
+                raise Undrawable(f"{_described(d)}: nothing to draw as a diagram (a scene of "
+                                 "single runs is drawn by [plot] kind timeseries, regions, "
+                                 "return_map or orbit)")
+            if len(d.axes) > 2:
+                raise Undrawable(f"{_described(d)}: a figure draws one or two swept "
+                                 "parameters")
+        if any(len(d.axes) == 2 for d in datas):
+            _check_chart(datas, conts, y, color_by)
+        else:
+            _check_diagrams(datas, conts, cfg, y, color_by)
+
+
+def _all_described(datas) -> str:
+    """The files of a refusal, each ``_described``."""
+    return "; ".join(_described(d) for d in datas)
+
+
+def check_scenes_drawable(sweeps, conts=(), plot_cfg=None):
+    """``check_together`` for a figure not yet swept (``cornerbif gallery``'s plan): the
+    same rules, on what each file will hold, known from its scene alone.  ``sweeps`` and
+    ``conts``: (name for messages, ``config.Scene``) of the sweep and continuation files
+    the figure draws.  A sweep's stand-in holds its scene, swept values, model, the
+    datasets its ``output.keep`` writes (``spec.fields``) and its starts as their
+    ``[initial]`` count, seed and box (one draw each: the same three, the same starts); a
+    continuation's holds its parameter, model, obstacle and scene, its branches unknown
+    (what they store is checked when drawn).  What only a file can say (a flag a newer
+    ``PlotData`` sets) reads as None here.  ``Undrawable`` as ``check_together``."""
+    class _Will:
+        def __init__(self, name, sc):
+            self.path, self.scene = str(name), tomllib.loads(sc.text)
+            self.axes = [a.name for a in sc.axes]
+            self.values = {a.name: a.array for a in sc.axes}
+            far = [a for a in self.axes if np.abs(self.values[a]).max(initial=0.0) > DRAW_LIMIT]
+            self.unplaceable = (f"{self.path}: its swept parameter {cut(far[0])!r} has values "
+                                f"beyond {DRAW_LIMIT:g} in size, which no figure can place"
+                                if far else None)
+            self.model, self.spec = sc.model, registry.models().get(sc.model)
+            self.role = self.spec.normal_form_role if self.spec else None
+            self.data = {f.name: None for f in sc.spec.fields(sc.keep)} if self.spec else {}
+            self.stability = {}
+            self.initial = {k: np.array([sc.n_ic, sc.seed, *sc.initial.get(k, (np.nan,) * 2)],
+                                        dtype=float) for k in ("u", "v")}
+        default_y = PlotData.default_y
+
+        def __getattr__(self, name):
+            return None
+    wills = [_Will(n, sc) for n, sc in sweeps]
+    cs = [{"path": str(n), "parameter": sc.cont["parameter"], "scene": sc.text, "branches": [],
+           "attrs": {"model": sc.model, "obstacle": sc.obstacle}} for n, sc in conts]
+    check_together(wills, cs, plot_cfg=plot_cfg)
+
+
+def _flow_and_map(datas) -> bool:
+    """Whether ``datas`` are a flow and its map (two files, of the roles flow and map)."""
+    return len(datas) == 2 and sorted(str(d.role) for d in datas) == ["flow", "map"]
+
+
+def _check_single_runs(datas, conts, kind, y, color_by, plot_cfg):
+    """The normal-form kinds (regions, return maps, orbits: sections 4-5) draw single runs
+    of a flow or map2d file, or a flow against its map: at the same system values, in one
+    kind, the regions of the same starts."""
+    pair = _flow_and_map(datas)
     for d in datas:
-        if not d.axes:
-            raise Undrawable(f"{_described(d)}: nothing to draw as a diagram (a scene of "
-                             "single runs is drawn by [plot] kind timeseries, regions, "
-                             "return_map or orbit)")
-        if len(d.axes) > 2:
-            raise Undrawable(f"{_described(d)}: a figure draws one or two swept parameters")
+        if d.axes:
+            raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws single runs (a "
+                             "scene without sweep axes: sections 4-5)")
+        if d.role not in ("flow", "map"):
+            raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws a flow or "
+                             "map2d file")
+    if len(datas) > 1 and not pair:
+        raise Undrawable(f"[plot] kind {kind!r} draws one file, or a flow against its map "
+                         f"(one file of model flow, one of map2d); got {_all_described(datas)}")
+    if pair:
+        other = datas[1].scene.get("plot", {}).get("kind", "diagram")
+        if plot_cfg is None and other != kind:
+            raise Undrawable(f"{datas[0].path} is drawn as [plot] kind {kind!r}, "
+                             f"{datas[1].path} as {cut(other)!r}: a flow is drawn "
+                             "against its map in one kind")
+        _check_one_system(*datas)
+        if kind == "regions":
+            _check_same_starts(*datas)
+    _no_options(kind, y, color_by, conts, datas)
+
+
+def _check_chart(datas, conts, y, color_by):
+    """A chart (two swept parameters) or a basin image (two swept starts) draws one file,
+    coloured by its periods or attractors (``color_by``: by its stability datasets, a chart
+    only); no branches, no --y."""
     d0 = datas[0]
-    if any(len(d.axes) == 2 for d in datas):
-        basin = all(a.startswith("initial.") for a in d0.axes)
-        what = "a basin image (two swept starts)" if basin else "a chart (two swept parameters)"
-        if len(datas) > 1:
-            raise Undrawable(f"{what} draws one file; got {names}")
-        if conts:
-            raise Undrawable(f"{conts[0]['path']}: continuation branches are drawn over a "
-                             f"diagram of one swept parameter; {_described(d0)}")
-        if y:
-            raise Undrawable(f"--y {y}: {d0.path} is drawn as {what}, which colours each point "
-                             "(by its period or attractor); --y chooses what a diagram of one "
-                             "swept parameter draws")
-        if color_by and basin:
-            raise Undrawable(f"--color-by {color_by}: {d0.path} is drawn as {what}, coloured "
-                             "by each start's attractor")
-        if color_by:
-            _check_stability(d0, color_by)
-        return
+    basin = all(a.startswith("initial.") for a in d0.axes)
+    what = "a basin image (two swept starts)" if basin else "a chart (two swept parameters)"
+    if len(datas) > 1:
+        raise Undrawable(f"{what} draws one file; got {_all_described(datas)}")
+    if conts:
+        raise Undrawable(f"{conts[0]['path']}: continuation branches are drawn over a "
+                         f"diagram of one swept parameter; {_described(d0)}")
+    if y:
+        raise Undrawable(f"--y {y}: {d0.path} is drawn as {what}, which colours each point "
+                         "(by its period or attractor); --y chooses what a diagram of one "
+                         "swept parameter draws")
+    if color_by and basin:
+        raise Undrawable(f"--color-by {color_by}: {d0.path} is drawn as {what}, coloured "
+                         "by each start's attractor")
+    if color_by:
+        _check_stability(d0, color_by)
+
+
+def _check_diagrams(datas, conts, cfg, y, color_by):
+    """Diagrams of one swept parameter overlaid: the same parameter, one model (or a flow
+    against its map over the same values), ``color_by`` of one file, the y drawn held by
+    every file, and the branches over them of that parameter and system."""
+    d0 = datas[0]
+    names = _all_described(datas)
+    pair = _flow_and_map(datas)
     if len({d.axes[0] for d in datas}) > 1:
         raise Undrawable(f"files drawn on one axis sweep the same parameter; got {names}")
     if len({d.model for d in datas}) > 1 and not pair:
@@ -1324,7 +1368,7 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
         a = d0.axes[0]
         va, vb = datas[0].values[a], datas[1].values[a]
         if va.shape != vb.shape or not np.allclose(va, vb, rtol=1e-12, atol=0.0):
-            raise Undrawable(f"{datas[0].path} and {datas[1].path} sweep {bounded(a)} over "
+            raise Undrawable(f"{datas[0].path} and {datas[1].path} sweep {cut(a)} over "
                              "different values: a flow is compared with its map value by value "
                              "(sweep both over the same values)")
         if conts:
@@ -1351,14 +1395,14 @@ def _check_branches_over(cont, d0: PlotData, ykind):
     p = d0.axes[0]
     if cont["parameter"] != p:
         raise Undrawable(f"{cont['path']}: its branches are continued in "
-                         f"{bounded(cont['parameter'])!r}; {_described(d0)}: branches are drawn "
+                         f"{cut(cont['parameter'])!r}; {_described(d0)}: branches are drawn "
                          "over a diagram of the parameter they are continued in")
     model, obstacle = _cont_model(cont)
     own = str(d0.scene.get("system", {}).get("obstacle", "") or "")
     if model != d0.model or (obstacle and own and obstacle != own):
-        raise Undrawable(f"{cont['path']} continues orbits of model {bounded(model)}"
-                         + (f", obstacle {bounded(obstacle)}" if obstacle else "")
-                         + f"; {_described(d0)}" + (f", obstacle {bounded(own)}" if own else "")
+        raise Undrawable(f"{cont['path']} continues orbits of model {cut(model)}"
+                         + (f", obstacle {cut(obstacle)}" if obstacle else "")
+                         + f"; {_described(d0)}" + (f", obstacle {cut(own)}" if own else "")
                          + ": branches are drawn over a diagram of their own system")
     _same_system(cont["path"], tomllib.loads(cont["scene"]), d0.path, d0.scene, {p},
                  "branches are drawn over the diagram of their own system")
@@ -1375,8 +1419,8 @@ def _check_branches_alone(conts, y, color_by):
         raise Undrawable(f"--color-by {color_by}: continuation files are drawn stable solid, "
                          "unstable dashed (from each point's multipliers); --color-by colours "
                          "the runs of a sweep kept with \"stability\"")
-    described = "; ".join(f"{c['path']} continues in {bounded(c['parameter'])} (model "
-                          f"{bounded(_cont_model(c)[0])})" for c in conts)
+    described = "; ".join(f"{c['path']} continues in {cut(c['parameter'])} (model "
+                          f"{cut(_cont_model(c)[0])})" for c in conts)
     if len({c["parameter"] for c in conts}) > 1 or len({_cont_model(c)[0] for c in conts}) > 1:
         raise Undrawable("continuation files drawn together are continued in one parameter of "
                          f"one model; got {described}")
@@ -1405,7 +1449,7 @@ def _no_options(kind, y, color_by, conts, datas):
 def _check_stability(d: PlotData, what):
     """``--color-by what`` needs the file's stability datasets."""
     if what not in COLOR_BY:
-        raise Undrawable(f"color_by: {bounded(what)!r} is not allowed; allowed: "
+        raise Undrawable(f"color_by: {cut(what)!r} is not allowed; allowed: "
                          + ", ".join(COLOR_BY))
     if what not in d.stability:
         raise Undrawable(f"--color-by {what}: {d.path} has no stability/ datasets to colour by; "
@@ -1442,8 +1486,8 @@ def _same_system(pa, scene_a, pb, scene_b, swept, why):
         same = (math.isclose(va, vb, rel_tol=1e-12, abs_tol=0.0)
                 if all(isinstance(v, (int, float)) for v in (va, vb)) else va == vb)
         if not same:
-            raise Undrawable(f"{pa} and {pb} are not one system: {bounded(key)} = "
-                             f"{bounded(va)} and {bounded(vb)}; {why}")
+            raise Undrawable(f"{pa} and {pb} are not one system: {cut(key)} = "
+                             f"{cut(va)} and {cut(vb)}; {why}")
 
 
 def _check_same_starts(a: PlotData, b: PlotData):
@@ -1487,7 +1531,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
     kind_ = plot_cfg.get("kind", "diagram")
     if color_by is not None and color_by not in COLOR_BY:
-        raise Undrawable(f"color_by: {bounded(color_by)!r} is not allowed; allowed: "
+        raise Undrawable(f"color_by: {cut(color_by)!r} is not allowed; allowed: "
                          + ", ".join(COLOR_BY))
     if kind_ in plot_normal_form.KINDS:
         return plot_normal_form.figure(datas, out, plot_cfg, title)
@@ -1500,18 +1544,42 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             fig = figure_corner_curves(plt, d0, plot_cfg, title)
         _partial_notes(fig, datas)
         return save(fig, out)
-    roles = {d.role for d in datas}
-    if len(datas) == 2 and roles == {"flow", "map"} and len(d0.axes) == 1:
-        datas.sort(key=lambda d: d.role != "flow")
-        kind = y or "section_v"
-        fig = plt.figure(figsize=(7, 7), dpi=150)
-        draw_comparison(fig, datas, kind, plot_cfg)
-        sc = datas[1].scene.get("scene", {})
-        fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 80),
-                     fontsize=9)
-        _partial_notes(fig, datas)
-        fig.tight_layout()
-        return save(fig, out)
+    if len(datas) == 2 and {d.role for d in datas} == {"flow", "map"} and len(d0.axes) == 1:
+        return _figure_flow_and_map(plt, datas, out, y, title, plot_cfg)
+    fig, ax = _panels(plt, d0, kind_, color_by)
+    diagram = len(d0.axes) == 1 and kind_ != "fractions"
+    if diagram:
+        _draw_diagram(fig, ax, datas, y, plot_cfg, color_by, list(branches))
+    if "xlim" in plot_cfg:
+        ax.set_xlim(*plot_cfg["xlim"])
+    if "ylim" in plot_cfg:
+        ax.set_ylim(*plot_cfg["ylim"])
+    sc = d0.scene.get("scene", {})
+    ax.set_title(title_lines(title or plot_cfg.get("title")
+                             or sc.get("title", sc.get("name", "")), 80), fontsize=9)
+    _partial_notes(fig, datas, list(branches) if diagram else ())
+    fig.tight_layout()
+    return save(fig, out)
+
+
+def _figure_flow_and_map(plt, datas, out, y, title, plot_cfg):
+    """A flow's diagram against its map's, value by value (Fig. 16: ``draw_comparison``)."""
+    datas.sort(key=lambda d: d.role != "flow")
+    fig = plt.figure(figsize=(7, 7), dpi=150)
+    draw_comparison(fig, datas, y or "section_v", plot_cfg)
+    sc = datas[1].scene.get("scene", {})
+    fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", ""), 80),
+                 fontsize=9)
+    _partial_notes(fig, datas)
+    fig.tight_layout()
+    return save(fig, out)
+
+
+def _panels(plt, d0: PlotData, kind_, color_by):
+    """The figure and its main axes: a file's basin fractions against its one swept
+    parameter, its basin image (two swept starts) or its chart (two swept parameters: the
+    period or ``color_by``, and the count of distinct words), drawn whole; for a diagram,
+    its axes, empty."""
     basin = len(d0.axes) == 2 and all(a.startswith("initial.") for a in d0.axes)
     if kind_ == "fractions":
         _need_table(d0)
@@ -1540,142 +1608,174 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
                      ticks=range(int(im2.norm.vmax + 0.5)))
     else:
         fig, ax = plt.subplots(figsize=(8.2, 4.5), dpi=150)
-    if len(d0.axes) == 1 and kind_ != "fractions":
-        kind = y or plot_cfg.get("y") or d0.default_y()
-        # the drawn values a slab at a time (plot_style.Rows): counted, windowed and, past
-        # RASTER_POINTS, rastered without holding them whole
-        ys = [d.y_rows(kind) for d in datas] if kind else [None]
-        if ys[0] is None:
-            plt.close(fig)
-            raise Undrawable(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
-                             "(output.keep of its scene; impact values need \"impacts\", "
-                             "section values \"section\")")
-        colors = ["k", "tab:orange", "tab:green", "tab:purple"]
-        from . import plot_style
-        n_drawn = sum(plot_style.count_finite(v) for v in ys if v is not None)
-        n_inf = (sum(plot_style.count_infinite(v) for v in ys if v is not None)
-                 if kind not in ("winding", "period") else 0)
-        ms = plot_cfg.get("marker_size") or plot_style.marker_size(n_drawn)
-        by_label = (len(datas) == 1 and not color_by and kind not in ("winding", "period")
-                    and ys[0].ndim == 3 and d0.has_table)
-        raster = by_label and n_drawn > plot_style.RASTER_POINTS and not branches
-        # the y-window: the scene's, or one that a few outlying points do not set
-        # (plot_style.robust_range); what it leaves out is said on the figure
-        yall = (ys[0] if len(datas) == 1 else
-                np.concatenate([d.y(kind).ravel() for d in datas if d.y(kind) is not None]))
-        n_fin = n_drawn
-        if "ylim" in plot_cfg:
-            lo, hi = plot_cfg["ylim"]
-            n_out = plot_style.count_outside(yall, lo, hi)
-            window = (lo, hi)
-        elif any(c["branches"] for c in branches):
-            # continued branches may reach past the sweep's values: the axes take them all
-            lo, hi, n_out, window = None, None, 0, None
-        else:
-            win = plot_style.robust_range(yall)
-            lo, hi, n_out = win if win else (None, None, 0)
-            window = (lo, hi) if win else None
-        del yall
-        if color_by:
-            sc = draw_bifurcation_colored(ax, d0, kind, color_by, ms=ms)
-            fig.colorbar(sc, ax=ax, label=COLOR_BY[color_by][0], extend="both")
-            legend(ax, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
-                   frameon=False, markerscale=3)
-        conts = list(branches)
-        # a branch takes the colour its orbit has in the diagram (its family's, with
-        # families): one colour map for both
-        families = plot_cfg.get("orbits") == "families"
-        words = [str(br["word"]) for c in conts for br in c["branches"]]
-        label_of = {w: plot_attractors.family(w) if families else w for w in words}
-        colors_b = branch_colors(conts)
-        orbit_handles = []
-        if by_label:
-            shared = {}
-            orbit_handles = plot_attractors.draw_diagram_by_label(
-                ax, d0.path, d0.values[d0.axes[0]], ys[0] if raster else d0.y(kind), ms,
-                families=families, window=window if raster else None,
-                xlim=plot_cfg.get("xlim"), also=list(label_of.values()), colors_out=shared)
-            colors_b = {w: shared[lab] for w, lab in label_of.items()}
-        if kind == "winding" and len(datas) == 1 and not color_by:
-            draw_winding_by_alpha(ax, d0, ms)
-            datas_drawn = []
-        else:
-            datas_drawn = datas
-        # followed sweeps: the way each went in its label, the downward one underneath and
-        # larger, so that the upward one's jumps stay in sight over it
-        drawn = sorted(enumerate(datas), key=lambda item: item[1].follow != "down")
-        drawn = [item for item in drawn if item[1] in datas_drawn]
-        for i, d in (drawn if not (color_by or by_label) else []):
-            lab = None
-            if len(datas) > 1:
-                lab = (follow_label(d) if d.follow != "none"
-                       else plain(d.scene["scene"].get("name", f"file {i + 1}")))
-            down = len(datas) > 1 and d.follow == "down"
-            draw_bifurcation(ax, d, kind, ms=ms * (1.8 if down else 1.0),
-                             color=colors[i % len(colors)], label=lab,
-                             by_attractor=len(datas) == 1 and kind not in ("winding", "period"))
-        branch_arts = []
-        for cont in conts:
-            branch_arts += draw_branches(ax, cont, kind, colors_b)
-        if kind in ("impact_u", "impact_height", "winding", "section_v", "period"):
-            draw_corner_points(ax, d0, corner_line=kind == "impact_u")
-        draw_marks(ax, plot_cfg)
-        if by_label:
-            lines, names = ax.get_legend_handles_labels()
-            legend_title = "orbit (family of words)" if families else "orbit (word)"
-            if any("x" in h.get_label() for h in orbit_handles):
-                # a corner's cluster of impacts that is none of alpha, beta, gamma (or any
-                # cluster, on an obstacle without corners): analysis.detect_cycle
-                legend_title += "\n" + r"x: impacts other than $\alpha$, $\beta$, $\gamma$"
-            ax.legend(handles=orbit_handles + lines, labels=[h.get_label() for h in
-                                                              orbit_handles] + names,
-                      loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
-                      title=legend_title, title_fontsize=7, fontsize=7)
-        a = d0.axes[0]
-        ax.set_xlabel(LABELS.get(a, a))
-        ax.set_ylabel(y_label(kind, d0.model if all(d.model == d0.model for d in datas)
-                              else None))
-        from matplotlib.ticker import MaxNLocator
-        ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
-        ax.ticklabel_format(axis="x", useOffset=False)
-        if window and "ylim" not in plot_cfg:
-            ax.set_ylim(*window)
-        # what the figure holds beside its points, right of the axes below the legend
-        # (inside the axes it lay on the data: Fig. 19(a)'s summary over its lowest points)
-        notes = [attractor_summary(d0)] if len(datas) == 1 else []
-        notes += [f"{os.path.basename(c['path'])}: no branch (the continuation found no orbit "
-                  "to follow)" for c in conts if not c["branches"]]
-        if n_out:
-            notes.append(f"{n_out} of {n_fin} values outside the y window")
-        if n_inf:
-            notes.append(f"{n_inf} values not finite or beyond {DRAW_LIMIT:g} in size "
-                         "(escapes) are not drawn")
-        notes = [n for n in notes if n]
-        if notes:
-            ax.text(1.02, 0.0, "\n\n".join(title_lines(n, 44) for n in notes),
-                    transform=ax.transAxes, ha="left", va="bottom", fontsize=6, color="0.3")
-        if ax.get_legend_handles_labels()[0] and not color_by and not by_label:
-            hs, ls = ax.get_legend_handles_labels()
-            keep = [(h, lab) for h, lab in zip(hs, ls) if h not in branch_arts]
-            # outside the axes: a legend never covers the data (Fig. 1(a) had one over it)
-            leg = ax.legend(*zip(*keep), loc="upper left", bbox_to_anchor=(1.01, 1.0),
-                            fontsize=7, markerscale=4, frameon=False) if keep else None
-            extra = [(h, lab) for h, lab in zip(hs, ls) if h in branch_arts]
-            if extra:
-                # the branches' own legend, markers at their size
-                if leg is not None:
-                    ax.add_artist(leg)
-                ax.legend(*zip(*extra), loc="lower right", fontsize=7, framealpha=0.9)
-    if "xlim" in plot_cfg:
-        ax.set_xlim(*plot_cfg["xlim"])
+    return fig, ax
+
+
+@dataclass
+class _DiagramValues:
+    """What a diagram draws of its files (``_diagram_values``): the y drawn (``kind``), each
+    file's values a slab at a time, how many are finite and how many not (escapes), the
+    marker size, whether the points are coloured by their orbit's label and rastered, the
+    y-window and how many values fall outside it."""
+    kind: str
+    ys: list
+    n_drawn: int
+    n_inf: int
+    ms: float
+    by_label: bool
+    raster: bool
+    window: tuple | None
+    n_out: int
+
+
+def _diagram_values(fig, datas, y, plot_cfg, color_by, conts) -> _DiagramValues:
+    """The values a diagram of one swept parameter draws (``_DiagramValues``), counted and
+    windowed a slab at a time (plot_style.Rows) and, past RASTER_POINTS, rastered without
+    holding them whole; refused (``Undrawable``, the figure closed) when the files hold
+    none of ``y``."""
+    from . import plot_style
+    d0 = datas[0]
+    kind = y or plot_cfg.get("y") or d0.default_y()
+    ys = [d.y_rows(kind) for d in datas] if kind else [None]
+    if ys[0] is None:
+        import matplotlib.pyplot as plt
+        plt.close(fig)
+        raise Undrawable(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
+                         "(output.keep of its scene; impact values need \"impacts\", "
+                         "section values \"section\")")
+    n_drawn = sum(plot_style.count_finite(v) for v in ys if v is not None)
+    n_inf = (sum(plot_style.count_infinite(v) for v in ys if v is not None)
+             if kind not in ("winding", "period") else 0)
+    ms = plot_cfg.get("marker_size") or plot_style.marker_size(n_drawn)
+    by_label = (len(datas) == 1 and not color_by and kind not in ("winding", "period")
+                and ys[0].ndim == 3 and d0.has_table)
+    raster = by_label and n_drawn > plot_style.RASTER_POINTS and not conts
+    # the y-window: the scene's, or one that a few outlying points do not set
+    # (plot_style.robust_range); what it leaves out is said on the figure
+    yall = (ys[0] if len(datas) == 1 else
+            np.concatenate([d.y(kind).ravel() for d in datas if d.y(kind) is not None]))
     if "ylim" in plot_cfg:
-        ax.set_ylim(*plot_cfg["ylim"])
-    sc = d0.scene.get("scene", {})
-    ax.set_title(title_lines(title or plot_cfg.get("title")
-                             or sc.get("title", sc.get("name", "")), 80), fontsize=9)
-    _partial_notes(fig, datas, conts if len(d0.axes) == 1 and kind_ != "fractions" else ())
-    fig.tight_layout()
-    return save(fig, out)
+        lo, hi = plot_cfg["ylim"]
+        n_out = plot_style.count_outside(yall, lo, hi)
+        window = (lo, hi)
+    elif any(c["branches"] for c in conts):
+        # continued branches may reach past the sweep's values: the axes take them all
+        n_out, window = 0, None
+    else:
+        win = plot_style.robust_range(yall)
+        lo, hi, n_out = win if win else (None, None, 0)
+        window = (lo, hi) if win else None
+    return _DiagramValues(kind, ys, n_drawn, n_inf, ms, by_label, raster, window, n_out)
+
+
+def _draw_diagram(fig, ax, datas, y, plot_cfg, color_by, conts):
+    """A diagram of one swept parameter: each file's values (coloured by stability, by
+    orbit, or one colour per file, followed sweeps each way), the continuation files'
+    branches ``conts`` over them, the corner points and the marks; then its labels, its
+    notes and its legends (``_label_diagram``)."""
+    v = _diagram_values(fig, datas, y, plot_cfg, color_by, conts)
+    d0, kind, ms = datas[0], v.kind, v.ms
+    if color_by:
+        sc = draw_bifurcation_colored(ax, d0, kind, color_by, ms=ms)
+        fig.colorbar(sc, ax=ax, label=COLOR_BY[color_by][0], extend="both")
+        legend(ax, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=7,
+               frameon=False, markerscale=3)
+    # a branch takes the colour its orbit has in the diagram (its family's, with
+    # families): one colour map for both
+    families = plot_cfg.get("orbits") == "families"
+    words = [str(br["word"]) for c in conts for br in c["branches"]]
+    label_of = {w: plot_attractors.family(w) if families else w for w in words}
+    colors_b = branch_colors(conts)
+    orbit_handles = []
+    if v.by_label:
+        shared = {}
+        orbit_handles = plot_attractors.draw_diagram_by_label(
+            ax, d0.path, d0.values[d0.axes[0]], v.ys[0] if v.raster else d0.y(kind), ms,
+            families=families, window=v.window if v.raster else None,
+            xlim=plot_cfg.get("xlim"), also=list(label_of.values()), colors_out=shared)
+        colors_b = {w: shared[lab] for w, lab in label_of.items()}
+    if kind == "winding" and len(datas) == 1 and not color_by:
+        draw_winding_by_alpha(ax, d0, ms)
+    elif not (color_by or v.by_label):
+        _draw_files(ax, datas, kind, ms)
+    branch_arts = []
+    for cont in conts:
+        branch_arts += draw_branches(ax, cont, kind, colors_b)
+    if kind in ("impact_u", "impact_height", "winding", "section_v", "period"):
+        draw_corner_points(ax, d0, corner_line=kind == "impact_u")
+    draw_marks(ax, plot_cfg)
+    _label_diagram(ax, datas, v, plot_cfg, color_by, conts, orbit_handles, branch_arts,
+                   families)
+
+
+def _draw_files(ax, datas, kind, ms):
+    """Each file's values in a colour of its own, named in the legend when there are
+    several; followed sweeps with the way each went in its label, the downward one
+    underneath and larger, so that the upward one's jumps stay in sight over it."""
+    colors = ["k", "tab:orange", "tab:green", "tab:purple"]
+    for i, d in sorted(enumerate(datas), key=lambda item: item[1].follow != "down"):
+        lab = None
+        if len(datas) > 1:
+            lab = (follow_label(d) if d.follow != "none"
+                   else plain(d.scene["scene"].get("name", f"file {i + 1}")))
+        down = len(datas) > 1 and d.follow == "down"
+        draw_bifurcation(ax, d, kind, ms=ms * (1.8 if down else 1.0),
+                         color=colors[i % len(colors)], label=lab,
+                         by_attractor=len(datas) == 1 and kind not in ("winding", "period"))
+
+
+def _label_diagram(ax, datas, v: _DiagramValues, plot_cfg, color_by, conts, orbit_handles,
+                   branch_arts, families):
+    """A diagram's orbit legend (coloured by label), axis labels, ticks and y-window, the
+    notes beside it (its attractors, branchless continuations, values outside the window or
+    not finite) and the legends of its files and branches."""
+    d0 = datas[0]
+    if v.by_label:
+        lines, names = ax.get_legend_handles_labels()
+        legend_title = "orbit (family of words)" if families else "orbit (word)"
+        if any("x" in h.get_label() for h in orbit_handles):
+            # a corner's cluster of impacts that is none of alpha, beta, gamma (or any
+            # cluster, on an obstacle without corners): analysis.detect_cycle
+            legend_title += "\n" + r"x: impacts other than $\alpha$, $\beta$, $\gamma$"
+        ax.legend(handles=orbit_handles + lines, labels=[h.get_label() for h in
+                                                          orbit_handles] + names,
+                  loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
+                  title=legend_title, title_fontsize=7, fontsize=7)
+    a = d0.axes[0]
+    ax.set_xlabel(LABELS.get(a, a))
+    ax.set_ylabel(y_label(v.kind, d0.model if all(d.model == d0.model for d in datas)
+                          else None))
+    from matplotlib.ticker import MaxNLocator
+    ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
+    ax.ticklabel_format(axis="x", useOffset=False)
+    if v.window and "ylim" not in plot_cfg:
+        ax.set_ylim(*v.window)
+    # what the figure holds beside its points, right of the axes below the legend
+    # (inside the axes it lay on the data: Fig. 19(a)'s summary over its lowest points)
+    notes = [attractor_summary(d0)] if len(datas) == 1 else []
+    notes += [f"{os.path.basename(c['path'])}: no branch (the continuation found no orbit "
+              "to follow)" for c in conts if not c["branches"]]
+    if v.n_out:
+        notes.append(f"{v.n_out} of {v.n_drawn} values outside the y window")
+    if v.n_inf:
+        notes.append(f"{v.n_inf} values not finite or beyond {DRAW_LIMIT:g} in size "
+                     "(escapes) are not drawn")
+    notes = [n for n in notes if n]
+    if notes:
+        ax.text(1.02, 0.0, "\n\n".join(title_lines(n, 44) for n in notes),
+                transform=ax.transAxes, ha="left", va="bottom", fontsize=6, color="0.3")
+    if ax.get_legend_handles_labels()[0] and not color_by and not v.by_label:
+        hs, ls = ax.get_legend_handles_labels()
+        keep = [(h, lab) for h, lab in zip(hs, ls) if h not in branch_arts]
+        # outside the axes: a legend never covers the data (Fig. 1(a) had one over it)
+        leg = ax.legend(*zip(*keep), loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                        fontsize=7, markerscale=4, frameon=False) if keep else None
+        extra = [(h, lab) for h, lab in zip(hs, ls) if h in branch_arts]
+        if extra:
+            # the branches' own legend, markers at their size
+            if leg is not None:
+                ax.add_artist(leg)
+            ax.legend(*zip(*extra), loc="lower right", fontsize=7, framealpha=0.9)
 
 
 def _partial_notes(fig, datas, conts=()):
@@ -1706,7 +1806,7 @@ def timeseries_choice(data: PlotData, plot_cfg: dict):
     shape = data.done.shape
     if len(point) != len(shape) or not all(isinstance(i, int) and 0 <= i < n
                                            for i, n in zip(point, shape)):
-        raise Undrawable(f"{data.path}: plot.point {bounded(list(point))} is not a point of its "
+        raise Undrawable(f"{data.path}: plot.point {cut(list(point))} is not a point of its "
                          f"grid (of shape {shape}: one index per swept parameter, from 0)")
     if not data.done[point]:
         raise Undrawable(f"{data.path}: plot.point {list(point)} is not finished "

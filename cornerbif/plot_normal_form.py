@@ -215,11 +215,13 @@ def draw_orbit_frame(ax, datas):
 
 
 def figure(datas, out, plot_cfg, title=None):
-    """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d)."""
+    """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d):
+    the regions of the starts (Fig. 9, ``_figure_regions``), the return maps (Fig. 10,
+    ``_figure_return_maps``) or the orbits (Fig. 11, ``_figure_orbits``)."""
     import matplotlib.pyplot as plt
 
     from .plot import save
-    from .plot_style import legend, title_lines
+    from .plot_style import title_lines
 
     kind = plot_cfg["kind"]
     for d in datas:
@@ -228,88 +230,109 @@ def figure(datas, out, plot_cfg, title=None):
                              f"(this one sweeps {', '.join(d.axes)})")
     datas = sorted(datas, key=lambda d: d.role != "flow")
     ms = plot_cfg.get("marker_size")
-    if kind == "regions":
-        fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.6), dpi=150,
-                                squeeze=False, sharex=True, sharey=True)
-        labs = [draw_regions(ax, d, ms=ms or 1.5) for ax, d in zip(axs[0], datas)]
-        if len(datas) == 2:
-            agree = float(np.mean(labs[0] == labs[1]))
-            axs[0][1].text(0.01, 0.01, f"same letter as the flow: {100 * agree:.2f} % of starts",
-                           transform=axs[0][1].transAxes, fontsize=7)
-        for ax in axs[0]:
-            legend(ax, loc="upper right", fontsize=6, markerscale=5)
-    elif kind == "return_map":
-        fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.4), dpi=150,
-                                squeeze=False, sharey=True)
-        for ax, d in zip(axs[0], datas):
-            draw_return_map(ax, d, ms=ms or 1.5)
-            omega, omega1, kappa1, r = _system(d)
-            b1 = float(np.nanmean(d.initial["v"]))
-            lo, hi = ax.get_xlim()
-            s1 = (kappa1 - b1) / (0.25 * math.pi * omega1) if omega1 else math.nan
-            for x, lab in ((s1, r"$\Sigma_1$"), (2.0 + 4.0 / r, r"$\Sigma_2$")):
-                if math.isfinite(x) and lo <= x <= hi:
-                    ax.axvline(x, color="0.5", lw=0.7, ls=":")
-                    ax.text(x, 1.0, lab, transform=ax.get_xaxis_transform(), ha="center",
-                            va="bottom", fontsize=7)
-            name = "(a) the impacting system (flow)" if d.role == "flow" else \
-                "(b) the linear maps (56)"
-            ax.set_title(name, fontsize=8, loc="left", pad=12)
-        if datas[0].role == "flow" and len(datas) == 2:
-            a0, A0 = return_values(datas[0])
-            a0m, A0m = return_values(datas[1])
-            ax = axs[0][0]
-            ax.plot(a0m, A0m, "-", color="tab:red", lw=0.6, alpha=0.7, label="linear maps")
-            legend(ax, loc="upper center", fontsize=7)
-            # inset: the grazing transition Sigma_2, where the flow has a square-root form
-            omega, omega1, kappa1, r = _system(datas[0])
-            e = 2.0 + 4.0 / r
-            # in the corner with the fewest points of either curve: it hides no data
-            from .plot_style import emptiest_corner
-            ax.autoscale_view()
-            ins = ax.inset_axes(emptiest_corner(ax, np.concatenate([a0, a0m]),
-                                                np.concatenate([A0, A0m]), avoid=()))
-            m = np.abs(a0 - e) < 0.25
-            ins.plot(a0[m], A0[m], "k.", ms=1.5, mew=0)
-            mm = np.abs(a0m - e) < 0.25
-            ins.plot(a0m[mm], A0m[mm], "-", color="tab:red", lw=0.6)
-            ins.axvline(e, color="0.5", lw=0.6, ls=":")
-            ins.tick_params(labelsize=5)
-            ins.set_title(r"near $\Sigma_2$ (grazing)", fontsize=6)
-    elif kind == "orbit":
-        fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 4.8), dpi=150,
-                                       gridspec_kw={"width_ratios": [3, 2]})
-        draw_orbit_frame(ax, datas)
-        for d in sorted(datas, key=lambda d: d.role == "flow"):
-            draw_orbit(ax, d, ms=ms or 4.0)
-        legend(ax, loc="lower center", fontsize=6)
-        # right: the approach to x_beta* along (0, 1) and the switching iterate there
-        omega, omega1, kappa1, r = _system(datas[0])
-        xs = theory.fixed_point("beta", omega1, kappa1, r)
-        a_all = np.concatenate([d.data["section/u"].ravel() for d in datas])
-        b_all = np.concatenate([d.data["section/v"].ravel() for d in datas])
-        near = np.isfinite(a_all) & (np.abs(a_all - xs[0]) < 0.02 * abs(xs[0]))
-        for d in sorted(datas, key=lambda d: d.role == "flow"):
-            draw_orbit(zoom, d, ms=ms or 4.0)
-        zoom.plot([xs[0]], [xs[1]], "k*", ms=9)
-        if near.sum() > 3:
-            bl = np.quantile(b_all[near], [0.0, 0.6])
-            pad = 0.15 * (bl[1] - bl[0] + 1e-12)
-            zoom.set_ylim(bl[0] - pad, bl[1] + pad)
-            al = (a_all[near].min(), a_all[near].max())
-            apad = 0.1 * (al[1] - al[0] + 1e-9)
-            zoom.set_xlim(al[0] - apad, al[1] + apad)
-        aa = np.linspace(*zoom.get_xlim(), 50)
-        zoom.plot(aa, kappa1 - 0.25 * math.pi * omega1 * aa, "k-", lw=0.8)
-        zoom.set_title(r"near $x_\beta^*$: the approach along $(0, 1)^T$ (section 5.1)", fontsize=8,
-                       loc="left")
-        zoom.set_xlabel(r"$a_n$")
-        axs = [[ax, zoom]]
-    else:
+    draw = {"regions": _figure_regions, "return_map": _figure_return_maps,
+            "orbit": _figure_orbits}.get(kind)
+    if draw is None:
         raise ValueError(f"plot.kind: {kind!r} is not a normal-form kind; allowed: "
                          f"{', '.join(KINDS)}")
+    fig = draw(plt, datas, ms)
     sc = datas[-1].scene.get("scene", {})
     fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", sc.get("name", "")),
                              90), fontsize=9)
     fig.tight_layout()
     return save(fig, out)
+
+
+def _figure_regions(plt, datas, ms):
+    """The regions of the starts, flow and map side by side, with the share of starts whose
+    letter the map gives as the flow does (Fig. 9)."""
+    from .plot_style import legend
+    fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.6), dpi=150,
+                            squeeze=False, sharex=True, sharey=True)
+    labs = [draw_regions(ax, d, ms=ms or 1.5) for ax, d in zip(axs[0], datas)]
+    if len(datas) == 2:
+        agree = float(np.mean(labs[0] == labs[1]))
+        axs[0][1].text(0.01, 0.01, f"same letter as the flow: {100 * agree:.2f} % of starts",
+                       transform=axs[0][1].transAxes, fontsize=7)
+    for ax in axs[0]:
+        legend(ax, loc="upper right", fontsize=6, markerscale=5)
+    return fig
+
+
+def _figure_return_maps(plt, datas, ms):
+    """The return maps A0 of a flow and of the linear maps (56), the transitions Sigma_1 and
+    Sigma_2 marked, the maps' curve over the flow's with an inset at the grazing Sigma_2,
+    where the flow has a square-root form (Fig. 10)."""
+    from .plot_style import emptiest_corner, legend
+    fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.4), dpi=150,
+                            squeeze=False, sharey=True)
+    for ax, d in zip(axs[0], datas):
+        draw_return_map(ax, d, ms=ms or 1.5)
+        omega, omega1, kappa1, r = _system(d)
+        b1 = float(np.nanmean(d.initial["v"]))
+        lo, hi = ax.get_xlim()
+        s1 = (kappa1 - b1) / (0.25 * math.pi * omega1) if omega1 else math.nan
+        for x, lab in ((s1, r"$\Sigma_1$"), (2.0 + 4.0 / r, r"$\Sigma_2$")):
+            if math.isfinite(x) and lo <= x <= hi:
+                ax.axvline(x, color="0.5", lw=0.7, ls=":")
+                ax.text(x, 1.0, lab, transform=ax.get_xaxis_transform(), ha="center",
+                        va="bottom", fontsize=7)
+        name = "(a) the impacting system (flow)" if d.role == "flow" else \
+            "(b) the linear maps (56)"
+        ax.set_title(name, fontsize=8, loc="left", pad=12)
+    if datas[0].role == "flow" and len(datas) == 2:
+        a0, A0 = return_values(datas[0])
+        a0m, A0m = return_values(datas[1])
+        ax = axs[0][0]
+        ax.plot(a0m, A0m, "-", color="tab:red", lw=0.6, alpha=0.7, label="linear maps")
+        legend(ax, loc="upper center", fontsize=7)
+        # inset: the grazing transition Sigma_2, where the flow has a square-root form
+        omega, omega1, kappa1, r = _system(datas[0])
+        e = 2.0 + 4.0 / r
+        # in the corner with the fewest points of either curve: it hides no data
+        ax.autoscale_view()
+        ins = ax.inset_axes(emptiest_corner(ax, np.concatenate([a0, a0m]),
+                                            np.concatenate([A0, A0m]), avoid=()))
+        m = np.abs(a0 - e) < 0.25
+        ins.plot(a0[m], A0[m], "k.", ms=1.5, mew=0)
+        mm = np.abs(a0m - e) < 0.25
+        ins.plot(a0m[mm], A0m[mm], "-", color="tab:red", lw=0.6)
+        ins.axvline(e, color="0.5", lw=0.6, ls=":")
+        ins.tick_params(labelsize=5)
+        ins.set_title(r"near $\Sigma_2$ (grazing)", fontsize=6)
+    return fig
+
+
+def _figure_orbits(plt, datas, ms):
+    """The orbits of a flow and its map on the section (left), and their approach to the
+    fixed point x_beta* along (0, 1) with the switching iterate there (right; section
+    5.1, Fig. 11)."""
+    from .plot_style import legend
+    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 4.8), dpi=150,
+                                   gridspec_kw={"width_ratios": [3, 2]})
+    draw_orbit_frame(ax, datas)
+    for d in sorted(datas, key=lambda d: d.role == "flow"):
+        draw_orbit(ax, d, ms=ms or 4.0)
+    legend(ax, loc="lower center", fontsize=6)
+    # right: the approach to x_beta* along (0, 1) and the switching iterate there
+    omega, omega1, kappa1, r = _system(datas[0])
+    xs = theory.fixed_point("beta", omega1, kappa1, r)
+    a_all = np.concatenate([d.data["section/u"].ravel() for d in datas])
+    b_all = np.concatenate([d.data["section/v"].ravel() for d in datas])
+    near = np.isfinite(a_all) & (np.abs(a_all - xs[0]) < 0.02 * abs(xs[0]))
+    for d in sorted(datas, key=lambda d: d.role == "flow"):
+        draw_orbit(zoom, d, ms=ms or 4.0)
+    zoom.plot([xs[0]], [xs[1]], "k*", ms=9)
+    if near.sum() > 3:
+        bl = np.quantile(b_all[near], [0.0, 0.6])
+        pad = 0.15 * (bl[1] - bl[0] + 1e-12)
+        zoom.set_ylim(bl[0] - pad, bl[1] + pad)
+        al = (a_all[near].min(), a_all[near].max())
+        apad = 0.1 * (al[1] - al[0] + 1e-9)
+        zoom.set_xlim(al[0] - apad, al[1] + apad)
+    aa = np.linspace(*zoom.get_xlim(), 50)
+    zoom.plot(aa, kappa1 - 0.25 * math.pi * omega1 * aa, "k-", lw=0.8)
+    zoom.set_title(r"near $x_\beta^*$: the approach along $(0, 1)^T$ (section 5.1)", fontsize=8,
+                   loc="left")
+    zoom.set_xlabel(r"$a_n$")
+    return fig

@@ -14,6 +14,7 @@ import re
 import numpy as np
 
 from .errors import SweepError
+from .model import cut
 
 # one style for every figure: serif text in the paper's sizes, thin frames, vector fonts
 # embedded as text (Type 42) so that a journal's PDF checks accept them, rasterised point
@@ -116,7 +117,18 @@ def _style_file_problem(path: str, key: str) -> str | None:
             probe[key] = val
         except Exception as e:  # noqa: BLE001 - each validator raises its own kind
             return f"{where}: not a value of {key} ({bounded(str(e), 120)})"
+        if key == "text.usetex" and probe[key] and not latex_available():
+            return (f"{where}: text.usetex draws every text with LaTeX, which is not "
+                    "installed here (no latex, dvipng or dvips on PATH); remove the line "
+                    "(cornerbif's mathtext needs no LaTeX)")
     return None
+
+
+def latex_available() -> bool:
+    """Whether matplotlib's ``text.usetex`` can work here: latex and a DVI converter on PATH
+    (matplotlib runs them for every text drawn, and fails mid-drawing without them)."""
+    import shutil
+    return bool(shutil.which("latex")) and bool(shutil.which("dvipng") or shutil.which("dvips"))
 
 
 def robust_range(values, tail=TAIL, squeeze=SQUEEZE, pad=0.04):
@@ -364,10 +376,10 @@ def title_lines(text: str, width: int) -> str:
     formula, a |...|, an 'a = b' or an equation's reference '(eq 11)'.  At most TITLE_MAX
     characters of ``text`` (``bounded``: a file's title may be of any length); a text whose
     formulas matplotlib cannot draw (a crafted file's) is drawn as it is, its $ signs
-    literal (``drawable``).  A word of plain text longer than a line is cut into lines."""
+    literal (``mathtext_problem``).  A word of plain text longer than a line is cut into lines."""
     text = bounded(text or "", TITLE_MAX)
     tex = title_tex(text)
-    if not drawable(tex):
+    if mathtext_problem(tex):
         tex = text.replace("\\$", "$").replace("$", "\\$")
     words = []
     for w in _UNBROKEN.sub(lambda m: m.group(0).replace(" ", "\0"), tex).split():
@@ -402,19 +414,17 @@ ELLIPSIS = "..."
 
 
 def bounded(text, limit: int = LABEL_MAX) -> str:
-    """``text`` as one printable line of at most ``limit`` characters: line breaks, tabs and
-    other control characters (a terminal's escapes) become spaces; a longer text is cut and
-    ends with an ellipsis, never inside a $...$ formula (which would then not parse).  Reads
-    no more of ``text`` than it shows (a title of 50 MB costs nothing)."""
-    s = text if isinstance(text, str) else str(text)
-    cut = len(s) > limit
-    s = "".join(c if c.isprintable() else " " for c in s[: limit - len(ELLIPSIS) if cut
-                                                          else limit])
-    if cut:
-        if (s.count("$") - s.count("\\$")) % 2:
-            s = s[: s.rfind("$")]
-        s = s.rstrip() + ELLIPSIS
-    return s
+    """``text`` for a figure: one printable line of at most ``limit`` characters
+    (``model.cut``: line breaks, tabs and other control characters become spaces); a longer
+    text is cut and ends with an ellipsis, never inside a $...$ formula (which would then
+    not parse).  Reads no more of ``text`` than it shows (a title of 50 MB costs nothing)."""
+    s = cut(text, limit + 1, mark="")         # one more than is shown: tells a longer text
+    if len(s) <= limit:
+        return s
+    s = s[:limit - len(ELLIPSIS)]
+    if (s.count("$") - s.count("\\$")) % 2:
+        s = s[: s.rfind("$")]
+    return s.rstrip() + ELLIPSIS
 
 
 def plain(text, limit: int = LABEL_MAX) -> str:
@@ -426,12 +436,15 @@ def plain(text, limit: int = LABEL_MAX) -> str:
 _PARSER = []
 
 
-def drawable(text: str) -> bool:
-    """Whether matplotlib can draw ``text``: no line of it is mathtext (an even number of
-    unescaped $), or each such line parses (``config.undrawable``'s test)."""
+def mathtext_problem(text: str) -> tuple | None:
+    """(line, why) for the first line of ``text`` that matplotlib cannot draw: a line of
+    mathtext (an even number of unescaped $, at least two) that its parser refuses, or
+    nests past what it can recurse; None when every line can be drawn.  matplotlib is
+    imported only when some line is mathtext (``config.undrawable`` checks every title and
+    label of a scene with it; ``title_lines`` a file's title)."""
     lines = [x for x in text.split("\n") if x.count("$") - x.count("\\$") >= 2]
     if not lines:
-        return True
+        return None
     from matplotlib import cbook
     from matplotlib.mathtext import MathTextParser
     if not _PARSER:
@@ -441,9 +454,11 @@ def drawable(text: str) -> bool:
             continue
         try:
             _PARSER[0].parse(line, dpi=72)
-        except Exception:  # noqa: BLE001 - pyparsing's and matplotlib's own errors, and
-            return False   # RecursionError from a formula nested too deeply
-    return True
+        except RecursionError:
+            return line, "its formula nests too deeply for matplotlib's parser"
+        except Exception as e:  # noqa: BLE001 - pyparsing's and matplotlib's own errors
+            return line, cut((str(e).strip().splitlines() or [type(e).__name__])[-1], 120)
+    return None
 
 
 def legend(ax, *args, **kw):

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import prange
 
-from ._jit import jit, pjit
+from ._jit import jit, pjit, raise_if_stopped, stop_requested
 from .kernels import two_particle as TK
 from .models import params as P
 from .models import two_particle as TP
@@ -361,9 +361,16 @@ def store(i, mult, lyap, o_re, o_im, o_dur, o_status, o_lam, o_win, o_lstatus):
 
 @pjit
 def batch_stability(params, t, u, v_in, v_out, offset, ipc, o_re, o_im, o_dur, o_status,
-                    o_lam, o_win, o_lstatus):
-    """``run_cycle_multipliers`` and ``run_lyapunov`` for every item (row) in parallel."""
+                    o_lam, o_win, o_lstatus, control=0):
+    """``run_cycle_multipliers`` and ``run_lyapunov`` for every item (row) in parallel.
+
+    ``control``: the address of a sweep's control (``_jit.Control``; 0, the default: none),
+    whose stop flag is read before each row (a row costs at most its record, run.record <=
+    100000 impacts: tens of milliseconds); told to stop, the rows not begun are skipped and
+    the outputs are incomplete (the caller raises ``KernelStopped``: ``raise_if_stopped``)."""
     for i in prange(params.shape[0]):
+        if stop_requested(control):
+            continue
         store(i, run_cycle_multipliers(params[i], t[i], u[i], v_in[i], v_out[i], offset[i],
                                        ipc[i]),
               run_lyapunov(params[i], t[i], u[i], v_in[i], v_out[i], offset[i], ipc[i],
@@ -444,10 +451,12 @@ def map_lyapunov(r, regions):
 
 @pjit
 def batch_map_stability(params, regions, period, o_re, o_im, o_dur, o_status, o_lam, o_win,
-                        o_lstatus):
+                        o_lstatus, control=0):
     """``map_cycle_multipliers`` and ``map_lyapunov`` for every item (row of ``params`` =
-    [omega1, kappa1, r])."""
+    [omega1, kappa1, r]); ``control`` as for ``batch_stability``."""
     for i in prange(params.shape[0]):
+        if stop_requested(control):
+            continue
         store(i, map_cycle_multipliers(params[i, 0], params[i, 2], regions[i], period[i]),
               map_lyapunov(params[i, 2], regions[i]),
               o_re, o_im, o_dur, o_status, o_lam, o_win, o_lstatus)
@@ -695,10 +704,13 @@ def two_particle_lyapunov(p, zu, wz, ipc, warmup_share, out):
 
 @pjit
 def batch_two_particle_stability(params, zu, wz, ipc, o_J, o_dur, o_status, o_lam, o_win,
-                                 o_lstatus):
+                                 o_lstatus, control=0):
     """Monodromies and Lyapunov spectra of every run (row) in parallel; the multipliers are
-    the monodromies' eigenvalues (``two_particle_multipliers``)."""
+    the monodromies' eigenvalues (``two_particle_multipliers``); ``control`` as for
+    ``batch_stability``."""
     for i in prange(params.shape[0]):
+        if stop_requested(control):
+            continue
         o_dur[i], o_status[i] = two_particle_monodromy(params[i], zu[i], wz[i], ipc[i], o_J[i])
         o_win[i], o_lstatus[i] = two_particle_lyapunov(params[i], zu[i], wz[i], ipc[i],
                                                        WARMUP_SHARE, o_lam[i])
@@ -717,10 +729,11 @@ def sorted_eigenvalues(J):
     return out
 
 
-def two_particle_outputs(params, zu, wz, ipc):
+def two_particle_outputs(params, zu, wz, ipc, control=0):
     """The ``stability`` observable of the two-particle model for n runs: the Floquet
     multipliers (4, sorted by modulus) of each run's last cycle and its Lyapunov spectrum
-    (4) over the recorded window, keyed as ``new_outputs``."""
+    (4) over the recorded window, keyed as ``new_outputs``.  Under a sweep's ``control``
+    (its address; 0: none) told to stop: ``KernelStopped``."""
     n = params.shape[0]
     J = np.empty((n, 4, 4))
     res = {"cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8),
@@ -728,6 +741,7 @@ def two_particle_outputs(params, zu, wz, ipc):
            "lyapunov_status": np.empty(n, np.int8)}
     batch_two_particle_stability(params, zu, wz, ipc, J, res["cycle_duration"],
                                  res["stability_status"], res["lyapunov"],
-                                 res["lyapunov_window"], res["lyapunov_status"])
+                                 res["lyapunov_window"], res["lyapunov_status"], control)
+    raise_if_stopped(control)
     mu = sorted_eigenvalues(J)
     return {"mu_re": mu.real.copy(), "mu_im": mu.imag.copy(), **res, "monodromy": J}

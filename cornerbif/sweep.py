@@ -177,16 +177,29 @@ def sample_points(shape, most):
 def estimate_words(est: Estimate) -> str:
     """An estimate in words: 'about 3.5 min', or with its range and reasons when it is
     uncertain: 'about 3.5 min, uncertain: 1.2 min to 10.5 min (runs escape ...)'."""
-    text = f"about {duration(est.seconds)}"
+    text = about(est.seconds)
     if est.reasons and est.high > 1.5 * est.low:
         text += (f", uncertain: {duration(est.low)} to {duration(est.high)} "
                  f"({'; '.join(est.reasons)})")
     return text
 
 
+YEAR = 365.25 * 86400
+
+
+def about(seconds: float) -> str:
+    """An estimated duration in words: 'about 3.5 min', or 'more than a thousand years'."""
+    words = duration(seconds)
+    return words if words.startswith("more than") else f"about {words}"
+
+
 def duration(seconds: float) -> str:
-    """A duration in words: '0.4 s', '12 min', '3.2 h', '41 days'."""
-    for unit, size in (("days", 86400), ("h", 3600), ("min", 60)):
+    """A duration in words: '0.4 s', '12 min', '3.2 h', '41 days', '3.1 years'; past a
+    thousand years (or not finite: an estimate of a sweep that cannot end) 'more than a
+    thousand years'."""
+    if not seconds < 1000 * YEAR:
+        return "more than a thousand years"
+    for unit, size in (("years", YEAR), ("days", 86400), ("h", 3600), ("min", 60)):
         if seconds >= 2 * size:
             return f"{seconds / size:.1f} {unit}"
     return f"{seconds:.1f} s"
@@ -216,20 +229,10 @@ def check_output(out_path: str, overwrite: bool, inputs=()):
                          kind="sweep")
 
 
-def _free_bytes(d):
-    """Bytes free on the disk of directory ``d`` for this user, or None."""
-    try:
-        st = os.statvfs(d)
-        return st.f_bavail * st.f_frsize
-    except OSError:
-        return None
-
-
-def _size_limit():
-    """This process's file-size limit (``ulimit -f``) in bytes, or None."""
-    import resource
-    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
-    return None if soft == resource.RLIM_INFINITY else soft
+# the room on the output's disk and under ``ulimit -f`` (io's, the one place; names of their
+# own here, which tests replace)
+_free_bytes = io.free_space
+_size_limit = io.size_limit
 
 
 # what a file takes on disk against ``estimate_bytes`` (its size before compression): on the
@@ -280,8 +283,11 @@ def check_budget(scene: Scene, out_path: str, written=None) -> list:
             raise SweepError(f"the output needs at least {_mib(sure)}"
                              + (" on its disk (and as much again for its copy when it is "
                                 "finished)" if where.startswith("free") else "")
-                             + f" but only {_mib(room)} are {where}; shrink the grid or keep "
-                             "less (output.keep)")
+                             + f" but only {_mib(room)} are {where}; "
+                             + ("free space (or raise the limit) and run the same command "
+                                "again: the finished points are kept in the partial file"
+                                if written is not None else
+                                "shrink the grid or keep less (output.keep)"))
         if likely > room and not notes:
             how = (f"about {_mib(typical)}, at the compression of the points written so far"
                    if written else f"{_mib(low)} to {_mib(high)}, typically {_mib(typical)} (the "
@@ -296,7 +302,8 @@ def check_budget(scene: Scene, out_path: str, written=None) -> list:
     mem = estimate_memory(scene)
     if avail is not None and mem > avail:
         raise SweepError(f"the sweep needs about {mem / 2**30:.2f} GiB of memory but only "
-                         f"{avail / 2**30:.2f} GiB are available; shrink the grid")
+                         f"{avail / 2**30:.2f} GiB are available (free memory, or what the "
+                         "address-space limit, ulimit -v, leaves); shrink the grid")
     return notes
 
 
@@ -342,6 +349,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     partial = out_path + ".partial"
     d = check_directory(out_path)
     outputs.check_name_length(out_path, d)
+    outputs.check_side_files(out_path, [("the scene file", p) for p in inputs])
     # the lock first: a sweep still finishing this output is "another sweep", not a
     # finished file
     with outputs.output_lock(out_path, "sweep"):
@@ -371,10 +379,16 @@ def plan_output(scene: Scene, out_path: str, resume: bool, overwrite: bool, inpu
         outputs.check_unlocked(out_path, "sweep")
     partial = out_path + ".partial"
     named = [("the scene file", p) for p in inputs]
-    theirs = io.partial_scene(partial) if os.path.lexists(partial) else None
-    if os.path.lexists(partial) and theirs is None:
+    outputs.check_side_files(out_path, named)
+    state, theirs = io.partial_state(partial)
+    if state == "foreign":
         raise SweepError(f"{partial}: is in the way and is not a cornerbif sweep's partial file "
                          "(remove it yourself, or name another output)")
+    if state == "damaged":
+        if resume or not overwrite:
+            raise SweepError(f"{partial}: holds a sweep that cannot be read (cut short); pass "
+                             "--overwrite (without --resume) to start again")
+        return "start"
     mine = theirs is not None and same_run(theirs, scene.text)
     if resume and not overwrite and os.path.lexists(out_path):
         outputs.check_output(out_path, True, named, kind="sweep")
@@ -415,6 +429,7 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
                   block_points, scheduler, stats, echo=None):
     f = None
     notes = []
+    created = False                    # the partial file is this run's (nothing in it yet)
     if os.path.exists(partial):
         if resume:
             f = io.reopen(partial, scene)
@@ -435,9 +450,13 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
         try:
             f = io.open_partial(partial, scene, command)
         except OSError as e:
+            if e.errno is not None and e.errno not in outputs.SPACE_ERRNOS:
+                raise SweepError(f"{partial}: cannot be created ({io.reason(e)}); nothing "
+                                 "was computed") from None
             raise WriteFailed(f"creating {partial} failed ({io.reason(e)}); nothing was "
                               "computed; free space and run the same command again",
                               broken=True) from None
+        created = True
     for note in notes:
         if echo is not None:
             echo(f"note: {note}")
@@ -453,7 +472,11 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
     except SweepError as e:
         if getattr(e, "broken", False):
             raise                      # HDF5 failed inside a write: the file is left as it is
+        nothing = created and not np.any(f["done"][...])
         f.close()
+        if nothing:
+            _remove_quietly(partial)   # refused before a point was done (an unreachable
+            raise                      # --scheduler): no partial file of this run is left
         if getattr(e, "failures", None):
             io.record_failures(partial, e.failures)
         raise
@@ -481,6 +504,13 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
     except OSError as e:
         raise WriteFailed(f"finishing {partial} failed ({io.reason(e)}); every point is kept; "
                           "free space and run the same command with --resume") from None
+
+
+def _remove_quietly(path):
+    try:
+        os.remove(path)
+    except OSError:
+        pass
 
 
 def simulate(*starts, **kw):

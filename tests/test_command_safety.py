@@ -1,5 +1,5 @@
-"""The sweep's file against the disk and against signals (issue 28): the room a sweep needs is
-what it will write (compressed), not its size in memory; a finished output is never redone
+"""The sweep's file against the disk and against signals: the room a sweep needs is what it
+will write (compressed), not its size in memory; a finished output is never redone
 nor refused by --resume; [plot] never blocks a resume; a signal or a full disk while the
 finished file is stamped ends with a documented exit code (never a crash), and SIGTERM
 keeps what is finished as Ctrl-C does."""
@@ -9,13 +9,13 @@ import shutil
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 
 import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import FILL_DISK_SOURCE
 
 from cornerbif import config
 from cornerbif import sweep as sweep_mod
@@ -44,16 +44,6 @@ def no_traceback(r):
     assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr[-3000:]
 
 
-def _tmpfs(path, size):
-    if os.geteuid() != 0 or not shutil.which("mount"):
-        pytest.skip("mounting a tmpfs needs root and mount(8)")
-    path.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        pytest.skip(f"this machine does not let us mount a tmpfs ({r.stderr.strip()})")
-
-
 # ------------------------------------------------------------------ the room a sweep needs
 def test_the_estimate_bounds_every_shipped_scene_it_is_tried_on(tmp_path):
     """``estimate_bytes`` is an upper bound of the file (it was not: the attractor table and
@@ -73,23 +63,19 @@ def test_the_estimate_bounds_every_shipped_scene_it_is_tried_on(tmp_path):
         assert size > sweep_mod.RATIO_DEFLATE_LIMIT * bound, name
 
 
-def test_a_result_that_fits_a_small_disk_is_not_refused(tmp_path):
+def test_a_result_that_fits_a_small_disk_is_not_refused(tmp_path, tmpfs):
     """Fig. 6(a) in full: at most 95 MB before compression, a 7.6 MB file. On a 24 MB disk
     the file and its finishing copy fit, so the sweep runs and completes (it was refused:
     "needs up to 0.09 GiB", the size before compression), and the result equals the same
     sweep on the roomy disk."""
-    mnt = tmp_path / "mnt"
-    _tmpfs(mnt, "24M")
-    try:
-        sets = ["--set", "sweep.kappa.num=2001", "--no-progress"]
-        r = cli("sweep", FIG06A, "-o", mnt / "a.h5", *sets)
-        assert r.returncode == 0, r.stderr[-2000:]
-        no_traceback(r)
-        ref = tmp_path / "ref.h5"
-        assert cli("sweep", FIG06A, "-o", ref, *sets).returncode == 0
-        assert datasets(ref) == datasets(mnt / "a.h5")
-    finally:
-        subprocess.run(["umount", str(mnt)])
+    mnt = tmpfs("24M")
+    sets = ["--set", "sweep.kappa.num=2001", "--no-progress"]
+    r = cli("sweep", FIG06A, "-o", mnt / "a.h5", *sets)
+    assert r.returncode == 0, r.stderr[-2000:]
+    no_traceback(r)
+    ref = tmp_path / "ref.h5"
+    assert cli("sweep", FIG06A, "-o", ref, *sets).returncode == 0
+    assert datasets(ref) == datasets(mnt / "a.h5")
 
 
 def test_blocks_are_checked_at_their_compressed_size_under_a_file_size_limit(tmp_path):
@@ -145,6 +131,43 @@ def test_a_disk_that_may_not_hold_the_file_gets_a_note_and_the_sweep_runs(tmp_pa
     assert "note: the output may not fit" in r.output
 
 
+def sweep_interrupted_at_the_second_block(monkeypatch, out):
+    """``sweep FIG06A TINY --block-points 2 -o out`` with Ctrl-C raised as its second block is
+    written (the first is kept in OUT.partial); the CLI's result.  The write is restored."""
+    real = sweep_mod.io.write_block
+    n = {"k": 0}
+
+    def interrupting(f, index, block):
+        n["k"] += 1
+        if n["k"] == 2:
+            raise KeyboardInterrupt
+        real(f, index, block)
+
+    with monkeypatch.context() as m:
+        m.setattr(sweep_mod.io, "write_block", interrupting)
+        return CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY,
+                                         "--block-points", "2"])
+
+
+def test_a_resume_refused_for_room_says_to_free_space_not_to_change_the_scene(tmp_path,
+                                                                            monkeypatch):
+    """A --resume whose partial file cannot grow to its end on the disk left is refused (exit
+    2) with advice a resume can follow: free space and run the same command again (before:
+    "shrink the grid or keep less", which a resume cannot do: it needs the same scene).  The
+    partial file is kept as it was."""
+    out = tmp_path / "x.h5"
+    partial = tmp_path / "x.h5.partial"
+    r = sweep_interrupted_at_the_second_block(monkeypatch, out)
+    assert r.exit_code == 130 and partial.exists(), r.output
+    before = partial.read_bytes()
+    monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 10)
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--block-points", "2",
+                                  "--resume"])
+    assert r.exit_code == 2 and "needs at least" in r.output, r.output
+    assert "free space" in r.output and "shrink the grid" not in r.output, r.output
+    assert partial.read_bytes() == before and not out.exists()
+
+
 # ------------------------------------------------------------------ --resume and [plot]
 def test_resume_of_a_finished_output_exits_0_and_leaves_it_alone(tmp_path):
     """A script may always pass --resume: on an output finished from the same scene it says
@@ -174,19 +197,8 @@ def test_a_plot_setting_does_not_block_a_resume(tmp_path, monkeypatch):
     ref = tmp_path / "ref.h5"
     assert CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(ref), *TINY]).exit_code == 0
     out = tmp_path / "a.h5"
-    real = sweep_mod.io.write_block
-    n = {"k": 0}
-
-    def interrupting(f, index, block):
-        n["k"] += 1
-        if n["k"] == 2:
-            raise KeyboardInterrupt
-        real(f, index, block)
-
-    monkeypatch.setattr(sweep_mod.io, "write_block", interrupting)
-    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--block-points", "2"])
+    r = sweep_interrupted_at_the_second_block(monkeypatch, out)
     assert r.exit_code == 130 and "--resume" in r.output
-    monkeypatch.setattr(sweep_mod.io, "write_block", real)
     r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--block-points", "2",
                                   "--resume", "--set", "system.r=0.7"])
     assert r.exit_code == 2 and "system.r: 0.8 there, 0.7 here" in r.output, r.output
@@ -218,8 +230,8 @@ main()
 """
 
 
-def _stamp_run(tmp_path, out, action):
-    code = STAMP.format(action=action)
+def _stamp_run(tmp_path, out, action, prelude=""):
+    code = prelude + STAMP.format(action=action)
     return subprocess.run([sys.executable, "-c", code, "sweep", FIG06A, "-o", str(out), *TINY],
                           capture_output=True, text=True, timeout=600)
 
@@ -265,38 +277,25 @@ def test_a_signal_between_the_rename_and_the_removal_lands_after_both(tmp_path):
         assert f.attrs["completed"] and "attractors" in f
 
 
-def test_a_disk_filling_while_the_file_is_stamped_ends_with_exit_1(tmp_path):
+def test_a_disk_filling_while_the_file_is_stamped_ends_with_exit_1(tmp_path, tmpfs):
     """The disk fills while the table is written into the finished file's copy (another
     process takes the rest of it): one message, exit 1 (an h5py traceback and a segmentation
     fault, exit 139, were seen), the partial file kept; once there is room, --resume finishes
     it to the same bytes as an uninterrupted run."""
-    mnt = tmp_path / "mnt"
-    _tmpfs(mnt, "4M")
-    try:
-        out = mnt / "a.h5"
-        filler = mnt / "filler"
-        fill = textwrap.dedent(f"""
-            with open({str(filler)!r}, "wb") as fh:
-                try:
-                    while True:
-                        fh.write(b"x" * 4096)
-                        fh.flush()
-                except OSError:
-                    pass
-        """).strip().replace("\n", "\n    ")
-        r = _stamp_run(tmp_path, out, fill)
-        assert r.returncode == 1, (r.returncode, r.stderr[-3000:])
-        errors = [x for x in r.stderr.splitlines() if x.startswith("error:")]
-        assert len(errors) == 1 and "--resume" in errors[0], r.stderr[-3000:]
-        assert not out.exists() and os.path.exists(str(out) + ".partial")
-        os.remove(filler)
-        r = cli("sweep", FIG06A, "-o", out, *TINY, "--resume")
-        assert r.returncode == 0, r.stderr[-2000:]
-        ref = tmp_path / "ref.h5"
-        assert cli("sweep", FIG06A, "-o", ref, *TINY).returncode == 0
-        assert datasets(ref) == datasets(out)
-    finally:
-        subprocess.run(["umount", str(mnt)])
+    mnt = tmpfs("4M")
+    out = mnt / "a.h5"
+    filler = mnt / "filler"
+    r = _stamp_run(tmp_path, out, f"fill_disk({str(filler)!r}, 4096)", FILL_DISK_SOURCE)
+    assert r.returncode == 1, (r.returncode, r.stderr[-3000:])
+    errors = [x for x in r.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and "--resume" in errors[0], r.stderr[-3000:]
+    assert not out.exists() and os.path.exists(str(out) + ".partial")
+    os.remove(filler)
+    r = cli("sweep", FIG06A, "-o", out, *TINY, "--resume")
+    assert r.returncode == 0, r.stderr[-2000:]
+    ref = tmp_path / "ref.h5"
+    assert cli("sweep", FIG06A, "-o", ref, *TINY).returncode == 0
+    assert datasets(ref) == datasets(out)
 
 
 def test_sigterm_keeps_what_is_finished_as_ctrl_c_does(tmp_path):
@@ -347,3 +346,167 @@ def test_nested_deferred_sections_are_one_section():
             time.sleep(0.05)
             done.append("again")
     assert done[-1] == "again"
+
+
+@pytest.mark.parametrize("suffix", [".lock", ".partial", ".partial.amend"])
+def test_a_scene_at_a_side_files_name_is_never_touched(tmp_path, suffix):
+    """``sweep x.h5.lock -o x.h5`` took the lock on the scene file and removed it with the
+    lock: the files a sweep writes and removes beside its output are checked against its
+    inputs before any work (exit 2, the scene untouched)."""
+    scene = tmp_path / ("x.h5" + suffix)
+    shutil.copy(FIG06A, scene)
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(tmp_path / "x.h5"), *TINY])
+    assert r.exit_code == 2 and "writes beside it, is the scene file" in r.output, r.output
+    assert scene.read_bytes() == open(FIG06A, "rb").read()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [scene.name]
+
+
+def test_a_partial_file_cut_short_is_replaced_only_by_overwrite(tmp_path):
+    """An HDF5 file at the partial file's name that cannot be read (a sweep's, cut short) is
+    never resumed and never removed without --overwrite; a file there that is not HDF5 is
+    never touched at all."""
+    out = tmp_path / "x.h5"
+    assert CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY]).exit_code == 0
+    data = out.read_bytes()
+    out.unlink()
+    partial = tmp_path / "x.h5.partial"
+    partial.write_bytes(data[: len(data) // 3])          # HDF5's signature, then cut short
+    for extra in ([], ["--resume"], ["--resume", "--overwrite"]):
+        r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, *extra])
+        assert r.exit_code == 2 and "cannot be read" in r.output, (extra, r.output)
+        assert partial.read_bytes() == data[: len(data) // 3]
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--overwrite"])
+    assert r.exit_code == 0, r.output
+    assert out.exists() and not partial.exists()
+    partial.write_text("my notes")
+    for extra in ([], ["--resume"], ["--overwrite"]):
+        r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(tmp_path / "y.h5"), *TINY,
+                                      *extra])
+        assert r.exit_code in (0, 2)
+    (tmp_path / "y.h5.partial").write_text("my notes")
+    for extra in ([], ["--resume"], ["--overwrite"], ["--resume", "--overwrite"]):
+        r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(tmp_path / "y.h5"), *TINY,
+                                      *extra])
+        assert r.exit_code == 2 and "not a cornerbif sweep's partial file" in r.output, r.output
+        assert (tmp_path / "y.h5.partial").read_text() == "my notes"
+
+
+# ------------------------------------------------------------------ refusals said truly
+def test_an_error_creating_the_lock_or_the_file_is_said_as_what_it_is(tmp_path, monkeypatch):
+    """The lock or the partial file that cannot be created for another reason than room (no
+    permission, a folder removed meanwhile): exit 2 naming the reason, nothing computed
+    (before: "free space and run the same command again", exit 1, for any error).  Room
+    errors (ENOSPC, EDQUOT, EFBIG, EIO) keep exit 1 and the advice to free space
+    (tests/test_disk_full.py: the process ends at once there, which a test in this process
+    cannot watch)."""
+    import errno
+
+    from cornerbif import io as io_mod
+    from cornerbif import outputs
+    real_open = os.open
+
+    def refusing(path, *a, **k):
+        if str(path).endswith(".lock"):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, *a, **k)
+
+    out = tmp_path / "x.h5"
+    monkeypatch.setattr(outputs.os, "open", refusing)
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY])
+    assert r.exit_code == 2 and "x.h5.lock: cannot be created (EACCES" in r.output, r.output
+    assert "free space" not in r.output
+    monkeypatch.setattr(outputs.os, "open", real_open)
+
+    def failing(partial, scene, command=""):
+        raise FileNotFoundError(errno.ENOENT, "No such file or directory", partial)
+
+    monkeypatch.setattr(io_mod, "open_partial", failing)
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY])
+    assert r.exit_code == 2 and "cannot be created (ENOENT" in r.output, r.output
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_run_refused_before_its_first_point_leaves_no_partial_file(tmp_path, monkeypatch):
+    """A --scheduler that cannot be reached is found only once the partial file exists (the
+    connection is made to run the blocks): exit 2 and no partial file of this run left behind
+    (before: an empty OUT.partial that a later run called an interrupted sweep).  A partial
+    file that holds finished points is kept."""
+    from cornerbif import distributed
+    from cornerbif.errors import SweepError
+
+    def unreachable(*a, **k):
+        raise SweepError("--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler there")
+
+    monkeypatch.setattr(distributed, "run_blocks_dask", unreachable)
+    out = tmp_path / "x.h5"
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--scheduler",
+                                  "tcp://127.0.0.1:1"])
+    assert r.exit_code == 2 and "cannot reach" in r.output, r.output
+    assert not list(tmp_path.iterdir())
+
+
+def test_local_n_is_at_most_the_cores(tmp_path):
+    """``--scheduler local:N`` starts N worker processes: N above this machine's cores
+    (os.sched_getaffinity) is refused before any work, naming the cores (before: local:64
+    started 64 processes on 2 cores)."""
+    cores = len(os.sched_getaffinity(0))
+    out = tmp_path / "x.h5"
+    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), *TINY, "--scheduler",
+                                  f"local:{cores + 1}"])
+    assert r.exit_code == 2 and f"has {cores} cores" in r.output, r.output
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", ["sweep", "continue", "plot"])
+def test_an_empty_output_name_is_refused(tmp_path, monkeypatch, command):
+    """``-o ''`` is refused, exit 2, nothing written (before: sweep and continue took it as
+    no -o and wrote their default output)."""
+    monkeypatch.chdir(tmp_path)
+    scene = os.path.join(ROOT, "configs", "cont_beta.toml" if command == "continue"
+                         else "fig06a.toml")
+    args = [command, scene, "-o", ""] + (TINY if command == "sweep" else [])
+    if command == "plot":
+        f = tmp_path / "f.h5"
+        assert CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(f), *TINY]).exit_code == 0
+        args = ["plot", str(f), "-o", ""]
+    before = sorted(os.listdir(tmp_path))
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and ("-o '': an empty name" in r.output
+                                 or "-o : the figure must be" in r.output), r.output
+    assert sorted(os.listdir(tmp_path)) == before
+
+
+def test_a_reader_that_leaves_ends_the_command_quietly(tmp_path):
+    """``cornerbif info FILE | true``: the reader closes the pipe before info writes; the
+    command ends quietly (click's exit 1 for a closed pipe, as for --help), with no "error:
+    input/output: EPIPE" (before)."""
+    f = tmp_path / "f.h5"
+    assert CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(f), *TINY]).exit_code == 0
+    exe = os.path.join(os.path.dirname(sys.executable), "cornerbif")
+    for _ in range(3):
+        r = subprocess.run(f"'{exe}' info '{f}' | true; echo \"rc=${{PIPESTATUS[0]}}\"",
+                           shell=True, executable="/bin/bash", capture_output=True, text=True,
+                           timeout=120)
+        assert r.stderr == "" and r.stdout.strip() in ("rc=0", "rc=1"), (r.stdout, r.stderr)
+
+
+def test_the_lock_never_removes_what_is_not_a_lock(tmp_path):
+    """``outputs.output_lock`` itself (whatever its caller checked before): a user's file at
+    OUT.lock is refused and kept (before: locked, then removed on release), a FIFO there is
+    refused at once (before: the open waited for a reader for ever)."""
+    from cornerbif import outputs
+    from cornerbif.errors import SweepError
+    mine = tmp_path / "a.h5.lock"
+    mine.write_text("my notes\n")
+    with pytest.raises(SweepError, match="not a cornerbif lock"):
+        with outputs.output_lock(str(tmp_path / "a.h5")):
+            pass
+    assert mine.read_text() == "my notes\n"
+    os.mkfifo(tmp_path / "b.h5.lock")
+    with pytest.raises(SweepError, match="cannot be created"):
+        with outputs.output_lock(str(tmp_path / "b.h5")):
+            pass
+    assert (tmp_path / "b.h5.lock").is_fifo()
+    with outputs.output_lock(str(tmp_path / "c.h5")):
+        assert (tmp_path / "c.h5.lock").stat().st_size == 0
+    assert not (tmp_path / "c.h5.lock").exists()

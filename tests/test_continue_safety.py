@@ -1,8 +1,10 @@
-"""`cornerbif continue` as safe as `cornerbif sweep` (issue 28): the output guard, the lock,
-incremental writing (each branch and curve in the partial file as soon as it is finished),
---resume bitwise equal to an uninterrupted run after SIGKILL, SIGINT, SIGTERM, a real full
-disk and a file-size limit, admissibility always checked, why every branch stopped, and
-every hostile [continue] value refused before any work (docs/continuation.md).
+"""`cornerbif continue` as safe as `cornerbif sweep`: the output guard, the lock, what is
+done with an existing output and partial file (as `sweep.plan_output` decides), incremental
+writing (each branch and curve in the partial file as soon as it is finished), --resume
+bitwise equal to an uninterrupted run after SIGKILL, SIGINT, SIGTERM, a real full disk and a
+file-size limit, an interrupt during the seed search, admissibility always checked, why every
+branch stopped, and every hostile [continue] value refused before any work
+(docs/continuation.md).
 
 The faults run a shipped scene with several branches and curves, shrunk in its steps so
 that a run takes a few seconds: configs/cont_hysteresis.toml (three attractors at
@@ -26,6 +28,7 @@ import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import FILL_DISK_SOURCE
 
 from cornerbif import config, theory
 from cornerbif import continuation as C
@@ -51,10 +54,13 @@ def cont(out, *extra, scene=HYST, sets=SETS, **kw):
                           timeout=600, **kw)
 
 
-def popen(out, *extra):
-    return subprocess.Popen([sys.executable, "-m", "cornerbif.cli", "continue", HYST, "-o",
-                             str(out), *SETS, *extra], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+def popen(out, *extra, scene=HYST, sets=SETS):
+    """`cornerbif continue` running in a process of its own, SIGINT as a terminal's (a child
+    of a shell without job control starts with SIGINT ignored)."""
+    return subprocess.Popen([sys.executable, "-m", "cornerbif.cli", "continue", scene, "-o",
+                             str(out), *sets, *extra], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 @pytest.fixture(scope="module")
@@ -73,8 +79,12 @@ def datasets(f):
     return sorted(out)
 
 
+UNCOMPARED = ("created", "completed", "command")
+
+
 def assert_same(a, b):
-    """Every dataset byte for byte, and every attribute but the times."""
+    """Every dataset byte for byte, and every attribute but the times and the command line
+    (which names the output)."""
     with h5py.File(a) as f, h5py.File(b) as g:
         assert datasets(f) == datasets(g)
         for n in datasets(f):
@@ -85,8 +95,8 @@ def assert_same(a, b):
             else:
                 assert x.tobytes() == y.tobytes(), n
         for obj in ["/"] + [f"branches/{k}" for k in f["branches"]]:
-            ka = {k: str(v) for k, v in f[obj].attrs.items() if k not in ("created", "completed")}
-            kb = {k: str(v) for k, v in g[obj].attrs.items() if k not in ("created", "completed")}
+            ka = {k: str(v) for k, v in f[obj].attrs.items() if k not in UNCOMPARED}
+            kb = {k: str(v) for k, v in g[obj].attrs.items() if k not in UNCOMPARED}
             assert ka == kb, obj
 
 
@@ -109,14 +119,15 @@ def kept_branches(partial):
 
 
 def wait_for(path, proc, timeout=120):
+    """Wait until ``path`` exists while ``proc`` runs (``timeout``: a hang guard)."""
     deadline = time.time() + timeout
     while not os.path.exists(path):
-        assert proc.poll() is None, "the run ended before its first branch was written"
+        assert proc.poll() is None, f"the run ended before {path} was written"
         assert time.time() < deadline
-        time.sleep(0.02)
+        time.sleep(0.005)
 
 
-# ------------------------------------------------------------------ bullet 1: the guard
+# ------------------------------------------------------------------ the output guard and the lock
 @pytest.fixture(scope="module")
 def sweep_file(tmp_path_factory):
     """A small finished sweep of Fig. 6(a) (kappa at omega = 1.999: cont_beta's system)."""
@@ -127,19 +138,23 @@ def sweep_file(tmp_path_factory):
 
 
 def test_the_output_is_never_an_input_nor_a_foreign_file(tmp_path, sweep_file):
-    """Seen (issue 28): `-o my.toml --overwrite` overwrote the scene file, a plain text file
-    was overwritten, and `seed_file = fig06a.h5 -o fig06a.h5 --overwrite` replaced its own
-    input sweep.  Each is refused before any work (exit 2, the input named) and every file
-    is left byte for byte as it was."""
+    """`-o my.toml --overwrite` (the scene file), `-o notes.txt --overwrite` (a text file),
+    `seed_file = s.h5 -o s.h5 --overwrite` (its own input sweep), a sweep file with
+    --overwrite or --resume, and a scene file named as the output's lock: each is refused
+    before any work (exit 2, the input named) and every file is left byte for byte as it
+    was (the lock is never taken on an input, so never removed)."""
     scene = tmp_path / "my.toml"
     shutil.copy(BETA, scene)
     text = tmp_path / "notes.txt"
     text.write_text("my notes\n")
     seeds = tmp_path / "seeds.h5"
     shutil.copy(sweep_file, seeds)
-    before = {p: p.read_bytes() for p in (scene, text, seeds)}
+    lock_scene = tmp_path / "o.h5.lock"
+    shutil.copy(BETA, lock_scene)
+    before = {p: p.read_bytes() for p in (scene, text, seeds, lock_scene)}
     run = CliRunner()
     cases = [([str(scene), "-o", str(scene), "--overwrite"], "the scene file itself"),
+             ([str(lock_scene), "-o", str(tmp_path / "o.h5")], "is the scene file"),
              ([str(scene), "-o", str(text), "--overwrite"], "not a cornerbif HDF5 file"),
              ([str(scene), "-o", str(seeds), "--overwrite", "--set",
                f'continue.seed_file="{seeds}"'], "continue.seed_file itself"),
@@ -151,49 +166,135 @@ def test_the_output_is_never_an_input_nor_a_foreign_file(tmp_path, sweep_file):
         assert "Traceback" not in r.output
     for p, data in before.items():
         assert p.read_bytes() == data, p
-    assert not list(tmp_path.glob("*.partial")) and not list(tmp_path.glob("*.lock"))
+    assert not list(tmp_path.glob("*.partial"))
+    assert [p.name for p in tmp_path.glob("*.lock")] == ["o.h5.lock"]
 
 
-def test_a_second_writer_is_refused_at_once(tmp_path):
+def test_a_second_writer_is_refused_at_once(tmp_path, reference, monkeypatch):
     """Two commands never write one output: the lock OUT.lock is held (as by a running
-    `continue` or `sweep`), so a second `continue` is refused at once, exit 2."""
+    `continue` or `sweep`), so a second `continue` is refused at once, exit 2, before
+    anything is said (no compile announced) and before any file is judged: --resume on a
+    finished output of the same scene is refused too, not called complete (the holder may
+    be replacing it)."""
+    from cornerbif import engine
+    announced = []
+    monkeypatch.setattr(engine, "announce_compiles", lambda *a, **k: announced.append(a))
     out = tmp_path / "c.h5"
-    with open(str(out) + ".lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out)])
-    assert r.exit_code == 2 and "another cornerbif command is writing this output" in r.output
+    done = tmp_path / "done.h5"
+    shutil.copy(reference[0], done)
+    for target, extra in ((out, []), (done, [*SETS, "--resume"])):
+        with open(str(target) + ".lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            r = CliRunner().invoke(main, ["continue", HYST, "-o", str(target), *extra])
+        assert r.exit_code == 2, r.output
+        assert "another cornerbif command is writing this output" in r.output
+        assert "complete" not in r.output and not announced
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+    assert done.read_bytes() == open(reference[0], "rb").read()
+
+
+def test_a_link_at_the_lock_is_refused_and_never_written_through(tmp_path):
+    """OUT.lock is a symbolic link to a user's file: refused (exit 2, the link named), the
+    file it points to unchanged and still there (the lock is opened without following a
+    link, without truncating, and only a lock file of our own is ever removed)."""
+    out = tmp_path / "c.h5"
+    mine = tmp_path / "mine.txt"
+    mine.write_text("my notes\n")
+    os.symlink(mine, str(out) + ".lock")
+    r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), "--set", "run.transient=300"])
+    assert r.exit_code == 2 and "is a symbolic link" in r.output, r.output
+    assert mine.read_text() == "my notes\n" and os.path.islink(str(out) + ".lock")
     assert not out.exists() and not os.path.exists(str(out) + ".partial")
 
 
-# ------------------------------------------------------------------ bullets 2, 3, 7: faults
-def test_sigkill_at_random_moments_then_resume_is_bitwise_equal(tmp_path, reference):
-    """SIGKILL (by process id) at moments spread over the run (seeded), and once right after
-    the first branch was written: the partial file, when there is one, always opens whole
-    with complete branches (it is rewritten under a temporary name and renamed), and
-    --resume completes the output to the same bytes as the uninterrupted run."""
-    ref, duration = reference
-    rng = random.Random(28)
-    kinds = set()
-    moments = [rng.uniform(0.4, 1.0) * duration for _ in range(4)] + [None]
-    for trial, moment in enumerate(moments):
-        out = tmp_path / f"k{trial}.h5"
-        partial = str(out) + ".partial"
-        p = popen(out)
-        if moment is None:
-            wait_for(partial, p)
-        else:
-            time.sleep(moment)
+def test_nothing_is_announced_before_the_output_guard(tmp_path, monkeypatch):
+    """A refused output is refused before anything is said: no compile is announced for a
+    run that will not start (here a text file in the output's place, and a partial file
+    waiting without --resume); a run that starts announces them (the guard passed)."""
+    from cornerbif import engine
+    announced = []
+    monkeypatch.setattr(engine, "announce_compiles", lambda *a, **k: announced.append(a))
+    text = tmp_path / "t.h5"
+    text.write_text("mine\n")
+    r = CliRunner().invoke(main, ["continue", BETA, "-o", str(text), "--overwrite"])
+    assert r.exit_code == 2 and "not a cornerbif HDF5 file" in r.output and not announced
+    out = tmp_path / "c.h5"
+    args = ["continue", BETA, "-o", str(out), "--set", "run.transient=300"]
+    shutil.copy(text, str(out) + ".partial")
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "is in the way" in r.output and not announced
+    os.remove(str(out) + ".partial")
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0 and len(announced) == 1, r.output
+
+
+# ------------------------------------------------------------------ faults: kills, signals, full disks
+def _commits(partial):
+    """What tells one rewrite of the partial file from the next (each is a new file renamed
+    into place)."""
+    try:
+        st = os.stat(partial)
+    except FileNotFoundError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+@pytest.mark.parametrize("commits", [1, 4])
+def test_sigkill_mid_run_then_resume_is_bitwise_equal(tmp_path, reference, commits):
+    """SIGKILL (by process id) once the partial file has been rewritten ``commits`` times (of
+    the 7 of this run: 3 branches, 3 curves, the finished file), after a seeded random
+    delay within the next unit (0-0.3 s: in its computation or its write): the kill lands
+    mid-run (asserted: no output yet, a partial file there); that file opens whole with
+    complete branches (each rewrite goes to a temporary name, renamed), and --resume
+    completes the output to the same bytes as the uninterrupted run."""
+    ref, _ = reference
+    out = tmp_path / "k.h5"
+    partial = str(out) + ".partial"
+    p = popen(out)
+    try:
+        seen, last = 0, None
+        deadline = time.time() + 120            # a hang guard only
+        while seen < commits:
+            now = _commits(partial)
+            if now is not None and now != last:
+                seen, last = seen + 1, now
+            assert p.poll() is None and time.time() < deadline, (seen, p.poll())
+            time.sleep(0.002)
+        time.sleep(random.Random(28 + commits).uniform(0.0, 0.3))
         os.kill(p.pid, signal.SIGKILL)
+    finally:
+        p.kill()
         p.communicate()
-        if os.path.exists(partial):
-            kinds.add(("partial", kept_branches(partial)))
-        else:
-            kinds.add("finished" if out.exists() else "nothing")
-        r = cont(out, "--resume")
-        assert r.returncode == 0, (trial, r.stderr)
-        assert not os.path.exists(partial) and not os.path.exists(partial + ".partial")
-        assert_same(ref, out)
-    assert any(isinstance(k, tuple) for k in kinds), kinds
+    assert not out.exists() and os.path.exists(partial)
+    assert kept_branches(partial)[0] >= 1
+    r = cont(out, "--resume")
+    assert r.returncode == 0, r.stderr
+    assert not os.path.exists(partial) and not os.path.exists(partial + ".partial")
+    assert_same(ref, out)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupt_during_the_seed_search_exits_130_at_once(tmp_path, sig):
+    """At omega = 1e9 the starts' runs that find the seeds take minutes (139 s were measured
+    before their kernel ran under a stop flag, the interrupt waiting for it).  SIGINT or
+    SIGTERM sent while they run (the output's lock taken, then 1 s) ends the command with
+    exit 130 and one line saying the seeds were being found and nothing was kept, no
+    traceback, no file left (the 60 s timeout is a hang guard only)."""
+    out = tmp_path / "s.h5"
+    p = popen(out, scene=BETA, sets=["--set", "system.omega=1e9"])
+    try:
+        wait_for(str(out) + ".lock", p)
+        time.sleep(1.0)
+        assert p.poll() is None
+        p.send_signal(sig)
+        stdout, stderr = p.communicate(timeout=60)
+    finally:
+        p.kill()
+        p.communicate()
+    r = subprocess.CompletedProcess(p.args, p.returncode, stdout, stderr)
+    msg = one_clear_message(r, 130)
+    assert "interrupted while the seeds were found; nothing was kept" in msg, msg
+    assert sorted(os.listdir(tmp_path)) == []
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
@@ -221,16 +322,7 @@ def test_an_interrupt_keeps_every_finished_branch_and_resume_completes(tmp_path,
     assert_same(reference[0], out)
 
 
-def _small_tmpfs(path, size):
-    if os.geteuid() != 0 or not shutil.which("mount"):
-        pytest.skip("mounting a tmpfs needs root and mount(8)")
-    path.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        pytest.skip(f"this machine does not let us mount a tmpfs ({r.stderr.strip()})")
-
-
+# run with conftest.fill_disk defined before it (FILL_DISK_SOURCE)
 FILL_AFTER = """
 import sys
 from cornerbif import continuation as C
@@ -239,13 +331,7 @@ n = [0]
 def fill_then_write(path, image, kept):
     n[0] += 1
     if n[0] == {at}:            # another process takes the rest of the disk
-        with open({filler!r}, "wb", buffering=0) as fh:
-            try:
-                while True:
-                    fh.write(b"x" * 65536)
-                    fh.flush()
-            except OSError:
-                pass
+        fill_disk({filler!r})
     real(path, image, kept)
 C._write_bytes = fill_then_write
 from cornerbif.cli import main
@@ -254,36 +340,32 @@ main()
 """
 
 
-def test_a_real_full_disk_keeps_the_finished_branches_and_resumes_bitwise(tmp_path, reference):
+def test_a_real_full_disk_keeps_the_finished_branches_and_resumes_bitwise(tmpfs, reference):
     """A real small filesystem, filled by another file while the run goes on: the write of
     the third unit fails (ENOSPC); the command says so in one line (exit 1) naming the two
     branches kept, the partial file is whole (never the 0-byte file seen before), and
     --resume, once there is room, completes it bitwise.  Filled before the first write:
     nothing is kept and no file is left at all."""
-    mnt = tmp_path / "mnt"
-    _small_tmpfs(mnt, "4M")
-    try:
-        for at, kept in ((3, 2), (1, 0)):
-            out, filler = mnt / f"d{at}.h5", mnt / "filler"
-            code = FILL_AFTER.format(at=at, filler=str(filler), scene=HYST, out=str(out),
-                                     sets=SETS)
-            r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                               timeout=600)
-            msg = one_clear_message(r, 1)
-            assert "ENOSPC" in msg, msg
-            assert not out.exists() and not os.path.exists(str(out) + ".partial.partial")
-            if kept:
-                assert kept_branches(str(out) + ".partial") == (kept, 0)
-                assert f"the {kept} finished branches are kept" in msg and "--resume" in msg
-            else:
-                assert not os.path.exists(str(out) + ".partial")
-                assert "nothing was kept" in msg
-            os.remove(filler)
-            r = cont(out, "--resume")
-            assert r.returncode == 0, r.stderr
-            assert_same(reference[0], out)
-    finally:
-        subprocess.run(["umount", str(mnt)])
+    mnt = tmpfs("4M")
+    for at, kept in ((3, 2), (1, 0)):
+        out, filler = mnt / f"d{at}.h5", mnt / "filler"
+        code = FILL_DISK_SOURCE + FILL_AFTER.format(at=at, filler=str(filler), scene=HYST,
+                                                    out=str(out), sets=SETS)
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           timeout=600)
+        msg = one_clear_message(r, 1)
+        assert "ENOSPC" in msg, msg
+        assert not out.exists() and not os.path.exists(str(out) + ".partial.partial")
+        if kept:
+            assert kept_branches(str(out) + ".partial") == (kept, 0)
+            assert f"the {kept} finished branches are kept" in msg and "--resume" in msg
+        else:
+            assert not os.path.exists(str(out) + ".partial")
+            assert "nothing was kept" in msg
+        os.remove(filler)
+        r = cont(out, "--resume")
+        assert r.returncode == 0, r.stderr
+        assert_same(reference[0], out)
 
 
 def test_a_file_size_limit_keeps_the_finished_branches_and_resumes_bitwise(tmp_path, reference):
@@ -308,8 +390,8 @@ def test_a_file_size_limit_keeps_the_finished_branches_and_resumes_bitwise(tmp_p
     assert_same(reference[0], out)
 
 
-# ------------------------------------------------------------------ bullet 2: resume
-def _interrupted(tmp_path, name="p.h5", sets=SETS, at="branch 1:"):
+# ------------------------------------------------------------------ resume, and an existing output
+def _interrupted(tmp_path, name="p.h5", sets=SETS, at="branch 1:", command=""):
     """A partial file as an interrupt leaves it: the run stopped (KeyboardInterrupt from
     its console) once the unit whose line starts with ``at`` was written (a unit is said
     once it is on disk)."""
@@ -320,7 +402,7 @@ def _interrupted(tmp_path, name="p.h5", sets=SETS, at="branch 1:"):
         if msg.startswith(at):
             raise KeyboardInterrupt
     with pytest.raises(SweepInterrupted, match="--resume"):
-        C.run_to_file(scene, str(out), log=log)
+        C.run_to_file(scene, str(out), log=log, command=command)
     return out
 
 
@@ -353,13 +435,18 @@ def test_resume_refuses_another_scene_naming_what_differs(tmp_path, reference):
 
 def test_resume_of_a_finished_output_says_it_is_complete(tmp_path, reference):
     """`--resume` on a finished output of the same scene: exit 0, "already complete", the
-    file untouched; so a script may always pass --resume.  Of another scene: refused,
-    naming what differs."""
-    out = tmp_path / "done.h5"
+    file untouched; so a script may always pass --resume (an interrupted run of the same
+    scene beside it is removed, and said: the output holds all of it).  Of another scene:
+    refused, naming what differs."""
+    out = _interrupted(tmp_path, name="done.h5")
     shutil.copy(reference[0], out)
     before = out.read_bytes()
     r = CliRunner().invoke(main, ["continue", HYST, "-o", str(out), *SETS, "--resume"])
     assert r.exit_code == 0 and "already complete" in r.output, r.output
+    assert f"removed {out}.partial, an interrupted run of the same scene" in r.output
+    assert out.read_bytes() == before and not os.path.exists(f"{out}.partial")
+    r = CliRunner().invoke(main, ["continue", HYST, "-o", str(out), *SETS, "--resume"])
+    assert r.exit_code == 0 and "already complete" in r.output and "removed" not in r.output
     assert out.read_bytes() == before
     r = CliRunner().invoke(main, ["continue", HYST, "-o", str(out), "--resume"])
     assert r.exit_code == 2 and "finished continuation of another scene" in r.output
@@ -367,25 +454,134 @@ def test_resume_of_a_finished_output_says_it_is_complete(tmp_path, reference):
 
 
 def test_run_to_file_as_the_gallery_calls_it(tmp_path, reference):
-    """`continuation.run_to_file(scene, out, resume=True, overwrite=True)`: an interrupted
-    run is resumed (bitwise), a finished one is left as it is (None), one of another scene
-    is replaced."""
+    """`continuation.run_to_file` with the gallery's flags: an interrupted run of its scene
+    resumed (``resume``; bitwise), the file keeping the command it was started with; a
+    finished one of the same scene left as it is (``resume``: None); one of another scene
+    replaced (``overwrite``), with the command given."""
     scene = config.load(HYST, [s for s in SETS if s != "--set"])
-    out = _interrupted(tmp_path, at="corner curve of branch 1")
+    out = _interrupted(tmp_path, at="corner curve of branch 1", command="cornerbif continue mine")
     assert kept_branches(str(out) + ".partial") == (3, 2)
     quiet = []
-    assert C.run_to_file(scene, str(out), resume=True, overwrite=True, log=quiet.append,
-                         inputs=[("the scene file", HYST)]) == str(out)
+    assert C.run_to_file(scene, str(out), resume=True, log=quiet.append,
+                         inputs=[("the scene file", HYST)], command="the gallery") == str(out)
     assert_same(reference[0], out)
-    assert C.run_to_file(scene, str(out), resume=True, overwrite=True,
-                         log=quiet.append) is None
+    assert C.read(out)["attrs"]["command"] == "cornerbif continue mine"
+    before = out.read_bytes()
+    assert C.run_to_file(scene, str(out), resume=True, log=quiet.append) is None
+    assert out.read_bytes() == before and "already complete" in quiet[-1]
     other = config.load(BETA, ["run.transient=300"])
-    assert C.run_to_file(other, str(out), resume=True, overwrite=True,
-                         log=quiet.append) == str(out)
-    assert C.read(out)["scene"] == other.text
+    assert C.run_to_file(other, str(out), overwrite=True, log=quiet.append,
+                         command="the gallery") == str(out)
+    assert C.read(out)["scene"] == other.text and C.read(out)["attrs"]["command"] == "the gallery"
 
 
-# ------------------------------------------------------------------ bullet 4: admissibility
+def test_the_command_line_is_kept_in_the_file(tmp_path):
+    """The file says which command made it (root attribute ``command``, as a sweep's file):
+    the command line as run, its --set overrides quoted for a shell."""
+    out = tmp_path / "c.h5"
+    r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), "--set", "run.transient=300"])
+    assert r.exit_code == 0, r.output
+    assert C.read(out)["attrs"]["command"] == (f"cornerbif continue {BETA} -o {out} --set "
+                                               "run.transient=300")
+
+
+def _finished_other(path):
+    """A finished continuation of another scene than HYST's (cont_beta, shortened) put at
+    ``path``."""
+    other = path.parent / "other.h5"
+    r = CliRunner().invoke(main, ["continue", BETA, "-o", str(other), "--set",
+                                  "run.transient=300"])
+    assert r.exit_code == 0, r.output
+    os.replace(other, path)
+
+
+def test_a_partial_file_behind_another_scenes_finished_output(tmp_path, reference):
+    """OUT is a finished continuation of scene A and OUT.partial an interrupted run of scene
+    B.  `--resume` with B is refused (exit 2) advising `--resume --overwrite`, and nothing
+    is touched (the partial file byte for byte: it was once refused with advice that then
+    deleted it); `--resume --overwrite` resumes it (never starts again) and the output
+    becomes bitwise the uninterrupted run of B, replacing A's."""
+    out = _interrupted(tmp_path)
+    partial = str(out) + ".partial"
+    _finished_other(out)
+    kept, finished = open(partial, "rb").read(), out.read_bytes()
+    base = ["continue", HYST, "-o", str(out), *SETS]
+    r = CliRunner().invoke(main, base + ["--resume"])
+    assert r.exit_code == 2, r.output
+    assert "finished continuation of another scene" in r.output
+    assert "pass --resume --overwrite to complete it" in r.output
+    assert open(partial, "rb").read() == kept and out.read_bytes() == finished
+    r = CliRunner().invoke(main, base + ["--resume", "--overwrite"])
+    assert r.exit_code == 0, r.output
+    assert f"resuming {partial}: 2 finished branches before" in r.output
+    assert_same(reference[0], out)
+
+
+def test_another_scenes_partial_file_is_removed_only_by_overwrite(tmp_path):
+    """An interrupted run of scene B in OUT.partial and a run of scene A: refused without
+    a flag, with --resume and with --resume --overwrite (a resume completes only its own
+    scene's partial file and never removes another's), each saying what differs, the file
+    byte for byte as it was; only --overwrite (start again) replaces it."""
+    out = _interrupted(tmp_path)
+    partial = str(out) + ".partial"
+    kept = open(partial, "rb").read()
+    base = ["continue", BETA, "-o", str(out), "--set", "run.transient=300"]
+    for flags in ([], ["--resume"], ["--resume", "--overwrite"]):
+        r = CliRunner().invoke(main, base + flags)
+        assert r.exit_code == 2, (flags, r.output)
+        assert "interrupted continuation of another scene" in r.output, (flags, r.output)
+        assert " there, " in r.output and " here" in r.output, r.output
+        assert open(partial, "rb").read() == kept and not out.exists()
+    r = CliRunner().invoke(main, base + ["--overwrite"])
+    assert r.exit_code == 0, r.output
+    assert not os.path.exists(partial) and C.read(out)["parameter"] == "kappa"
+
+
+def _sweep_copy(path, sweep_file):
+    shutil.copy(sweep_file, path)
+
+
+def _link_to_notes(path, _):
+    notes = path.parent / "notes.txt"
+    notes.write_text("my notes\n")
+    os.symlink(notes, path)
+
+
+IN_THE_PARTIALS_PLACE = {
+    "a text file": lambda path, _: path.write_text("my notes\n"),
+    "a sweep file": _sweep_copy,
+    "a link to a text file": _link_to_notes,
+    "a FIFO": lambda path, _: os.mkfifo(path),
+    "a directory": lambda path, _: path.mkdir(),
+}
+
+
+@pytest.mark.parametrize("case", sorted(IN_THE_PARTIALS_PLACE))
+def test_a_file_in_the_partial_files_place_that_is_not_a_continuations_is_never_removed(
+        tmp_path, sweep_file, case):
+    """Whatever the flags (none, --resume, --overwrite, both), a file at OUT.partial that is
+    not a continuation's partial file (a text file, a sweep, a link, a FIFO, a directory)
+    is refused (exit 2, named, "remove it yourself"), never removed, opened or written: its
+    bytes, or what it is, unchanged."""
+    out = tmp_path / "c.h5"
+    partial = tmp_path / "c.h5.partial"
+    IN_THE_PARTIALS_PLACE[case](partial, sweep_file)
+
+    def state():
+        if partial.is_symlink():
+            return "link", os.readlink(partial), (tmp_path / "notes.txt").read_bytes()
+        if partial.is_dir() or not partial.is_file():
+            return partial.is_dir(), partial.exists()
+        return partial.read_bytes()
+    before = state()
+    for flags in ([], ["--resume"], ["--overwrite"], ["--resume", "--overwrite"]):
+        r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), *flags])
+        assert r.exit_code == 2, (flags, r.output)
+        assert f"{partial}: is in the way" in r.output and "remove it yourself" in r.output
+        assert state() == before and not out.exists()
+
+
+# ------------------------------------------------------------------ admissibility
 def test_no_events_still_ends_the_beta_orbit_at_its_corner_collision(tmp_path):
     """Seen: with `events = []` the beta orbit ran on past its corner collision to the
     range's end (kappa = 0.002), every point stored as stable with its impact before the
@@ -431,7 +627,7 @@ def test_a_missed_sign_change_still_stops_at_the_last_admissible_point(monkeypat
         assert pt.admissible and C.admissible(pt.problem, pt.X, pt.lam)[0]
 
 
-# ------------------------------------------------------------------ bullet 5: why it stopped
+# ------------------------------------------------------------------ why a branch stopped
 def test_every_branch_end_says_why_it_stopped(tmp_path, monkeypatch):
     """Seen: "end at -0.02199" where the step budget had run out.  The console and the file
     (branch attribute ``stops``) say why each end stopped: the range's end, a corner
@@ -475,12 +671,16 @@ def test_every_branch_end_says_why_it_stopped(tmp_path, monkeypatch):
             "converge)") in evs[-1].detail
 
 
-# ------------------------------------------------------------------ bullet 6: hostile values
+# ------------------------------------------------------------------ hostile values
 HOSTILE = [
     ('continue.curve=["omega"]', "continue.curve: ['omega']"),
     ("continue.curve=3", "continue.curve: 3"),
     ('continue.curve="kappa"', "continue.curve: 'kappa'"),
-    ('continue.curve="omega"', "continue.curve_range: None"),
+    ('continue.curve="omega"', "continue.curve_range is missing: continue.curve = 'omega'"),
+    ('continue.curve="omega"|continue.curve_range=[1.9, 2.1]|continue.events=["grazing"]',
+     "lists neither, so no curve would be made"),
+    ('continue.curve="omega"|continue.curve_range=[1.9, 2.1]|continue.events=[]',
+     "lists neither, so no curve would be made"),
     ('continue.curve="omega"|continue.curve_range=[-inf, inf]', "continue.curve_range: [-inf, inf]"),
     ('continue.curve="omega"|continue.curve_range=[nan, 2.0]', "continue.curve_range: [nan, 2.0]"),
     ('continue.curve="omega"|continue.curve_range=[-1e308, 1e308]', "continue.curve_range"),
@@ -548,21 +748,25 @@ def test_hostile_continue_values_are_refused_by_validate_and_continue(tmp_path, 
 def test_a_seed_word_is_bounded_without_being_expanded():
     """`parse_word` counts a word's letters from its repeat counts and refuses one past
     MAX_WORD_LETTERS (1000) before expanding it: counts of 1e9, 1e20 and a 5000-digit count
-    are refused in well under a second with under 1 MB allocated (validate took 2 GB for
-    1e9); 1000 letters pass; a text past MAX_WORD_TEXT is refused by its length."""
+    are refused with under 1 MB allocated (validate took 2 GB for 1e9: the word expanded);
+    1000 letters pass; a text past MAX_WORD_TEXT is refused by its length; `validate` says
+    so (exit 2) allocating as little."""
     assert parse_word("b^999 g") == "b" * 999 + "g"
     for word in ("b^1000000000", "b^100000000000000000000", "b^" + "9" * 5000, "b^1000 g",
                  "b" * (MAX_WORD_LETTERS + 1), "b^0 " * (MAX_WORD_TEXT // 4 + 1)):
         tracemalloc.start()
-        t = time.perf_counter()
         with pytest.raises(ValueError, match="letters|characters"):
             parse_word(word)
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
-        assert time.perf_counter() - t < 0.5 and peak < 2**20, (word[:20], peak)
-    t = time.perf_counter()
+        assert peak < 2**20, (word[:20], peak)
+    config.load(BETA)                  # the scene's own imports, before the count starts
+    tracemalloc.start()
     r = CliRunner().invoke(main, ["validate", BETA, "--set", 'continue.seed="b^1000000000"'])
-    assert r.exit_code == 2 and time.perf_counter() - t < 10
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert r.exit_code == 2 and "more than 1000 letters" in r.output, r.output
+    assert peak < 64 * 2**20, peak
 
 
 def test_the_x_word_only_where_every_cluster_is_x():
@@ -647,34 +851,29 @@ def test_seed_files_that_cannot_seed_are_refused_before_any_work(tmp_path, sweep
         assert not os.path.exists(str(out) + ".partial")
 
 
-def test_incremental_writing_costs_little(tmp_path):
-    """The partial file is rewritten whole after each finished unit (an HDF5 image in
-    memory, written under a temporary name, flushed and renamed).  Measured here on the
-    shrunk hysteresis scene: 7 rewrites of 50-137 kB, 0.15-0.24 s of 3.1-4.4 s (5 %,
-    docs/continuation.md); the test holds them under 25 % of the run (room for a loaded
-    disk)."""
+def test_the_partial_file_is_rewritten_once_per_finished_unit(tmp_path):
+    """The partial file is rewritten whole once per finished unit and once when finished,
+    never more (an HDF5 image made in memory, written under a temporary name, renamed):
+    on the shrunk hysteresis scene 3 branches and 3 curves, so 7 writes, each holding one
+    unit more than the one before (branches first, then curves), the last the finished
+    file (no resume state, a completion time)."""
     scene = config.load(HYST, [s for s in SETS if s != "--set"])
-    spent = []
+    written = []
     real = C._write_bytes
-    image = C._image
 
-    def timed(f):
-        def g(*a, **k):
-            t = time.perf_counter()
-            try:
-                return f(*a, **k)
-            finally:
-                spent.append(time.perf_counter() - t)
-        return g
-    C._write_bytes, C._image = timed(real), timed(image)
+    def counted(path, image, kept):
+        real(path, image, kept)
+        written.append(C._load(path))
+    C._write_bytes = counted
     try:
-        t = time.perf_counter()
         C.run_to_file(scene, str(tmp_path / "t.h5"), log=lambda m: None)
-        total = time.perf_counter() - t
     finally:
-        C._write_bytes, C._image = real, image
-    assert len(spent) == 2 * 7
-    assert sum(spent) < 0.25 * total, (sum(spent), total)
+        C._write_bytes = real
+    units = [(len(b), len(c)) for _, b, c, _ in written]
+    assert units == [(1, 0), (2, 0), (3, 0), (3, 1), (3, 2), (3, 3), (3, 3)]
+    assert all(state is not None for *_, state in written[:-1])
+    attrs, *_, state = written[-1]
+    assert state is None and attrs["completed"]
 
 
 def test_write_failure_is_reported_by_errno(tmp_path, monkeypatch):
@@ -695,3 +894,17 @@ def test_write_failure_is_reported_by_errno(tmp_path, monkeypatch):
     with pytest.raises(WriteFailed, match="ENOSPC.*the 1 finished branch is kept in .*--resume"):
         C.run_to_file(scene, str(tmp_path / "w.h5"), log=lambda m: None)
     assert kept_branches(str(tmp_path / "w.h5.partial")) == (1, 0)
+
+
+def test_a_link_at_the_partial_files_temporary_name_is_refused_before_any_work(tmp_path):
+    """OUT.partial.partial (where each rewrite of the partial file is made) is a link to a
+    user's file: refused before any work (exit 2, named), the file it points to unchanged
+    (never written through), nothing else written."""
+    out = tmp_path / "c.h5"
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes\n")
+    os.symlink(notes, str(out) + ".partial.partial")
+    r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), "--set", "run.transient=300"])
+    assert r.exit_code == 2 and f"{out}.partial.partial: is in the way" in r.output, r.output
+    assert notes.read_text() == "my notes\n" and sorted(os.listdir(tmp_path)) == [
+        "c.h5.partial.partial", "notes.txt"]

@@ -9,7 +9,6 @@ simulated in a child process, since the command then ends at once without HDF5's
 """
 
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -18,6 +17,7 @@ import textwrap
 import h5py
 import pytest
 from click.testing import CliRunner
+from conftest import FILL_DISK_SOURCE
 
 from cornerbif import io
 from cornerbif.cli import main
@@ -83,58 +83,38 @@ def test_room_refuses_a_block_the_disk_cannot_take(tmp_path, monkeypatch, refere
     assert_same(reference, out)
 
 
-def _small_tmpfs(path, size):
-    if os.geteuid() != 0 or not shutil.which("mount"):
-        pytest.skip("mounting a tmpfs needs root and mount(8)")
-    path.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        pytest.skip(f"this machine does not let us mount a tmpfs ({r.stderr.strip()})")
-
-
-def test_a_real_full_disk_stops_at_once_and_resumes_bitwise(tmp_path, reference):
+def test_a_real_full_disk_stops_at_once_and_resumes_bitwise(tmpfs, reference):
     """A real small filesystem, filled by another file while the sweep runs (the sweep's own
     budget check at the start sees room, as on a shared disk that others fill)."""
-    mnt = tmp_path / "mnt"
-    _small_tmpfs(mnt, "8M")
-    try:
-        out = mnt / "d.h5"
-        filler = mnt / "filler"
-        # the sweep writes 2 grid points a block; after its file exists, the disk is filled
-        code = textwrap.dedent(f"""
-            import os, sys
-            from cornerbif import io
-            real = io.write_block
-            n = [0]
-            def fill_then_write(f, index, block):
-                n[0] += 1
-                if n[0] == 3:      # another process takes the rest of the disk
-                    with open({str(filler)!r}, "wb") as fh:
-                        try:
-                            while True:
-                                fh.write(b"x" * 65536)
-                                fh.flush()
-                        except OSError:
-                            pass
-                real(f, index, block)
-            io.write_block = fill_then_write
-            from cornerbif.cli import main
-            sys.argv = ["cornerbif", "sweep", {FIG06A!r}, "-o", {str(out)!r}] + {SETS!r}
-            main()
-        """)
-        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                           timeout=600)
-        assert r.returncode == 1, r.stderr[-3000:]
-        msg = one_clear_message(r)
-        assert "no room" in msg
-        assert not out.exists() and (mnt / "d.h5.partial").exists()
-        os.remove(filler)
-        r = sweep(out, "--resume")
-        assert r.returncode == 0, r.stderr
-        assert_same(reference, out)
-    finally:
-        subprocess.run(["umount", str(mnt)])
+    mnt = tmpfs("8M")
+    out = mnt / "d.h5"
+    filler = mnt / "filler"
+    # the sweep writes 2 grid points a block; after its file exists, the disk is filled
+    code = FILL_DISK_SOURCE + textwrap.dedent(f"""
+        import os, sys
+        from cornerbif import io
+        real = io.write_block
+        n = [0]
+        def fill_then_write(f, index, block):
+            n[0] += 1
+            if n[0] == 3:      # another process takes the rest of the disk
+                fill_disk({str(filler)!r})
+            real(f, index, block)
+        io.write_block = fill_then_write
+        from cornerbif.cli import main
+        sys.argv = ["cornerbif", "sweep", {FIG06A!r}, "-o", {str(out)!r}] + {SETS!r}
+        main()
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 1, r.stderr[-3000:]
+    msg = one_clear_message(r)
+    assert "no room" in msg
+    assert not out.exists() and (mnt / "d.h5.partial").exists()
+    os.remove(filler)
+    r = sweep(out, "--resume")
+    assert r.returncode == 0, r.stderr
+    assert_same(reference, out)
 
 
 def test_a_file_size_limit_stops_at_once_and_resumes_bitwise(tmp_path, reference):

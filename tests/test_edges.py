@@ -199,3 +199,36 @@ def test_a_huge_dataset_is_refused_before_it_is_read(good):
         del f["impacts/u"]
         f.create_dataset("impacts/u", shape=(10**10,), dtype="f8", chunks=(2**20,))
     crafted_refused(good, "of memory available here")
+
+
+# ------------------------------------------------------------------ the room on the disk
+def test_the_room_on_the_disk_is_read_in_one_place(tmp_path, monkeypatch):
+    """The free space and this process's file-size limit are read by ``io.free_space`` and
+    ``io.size_limit`` alone: the room a block has (``io.room``: the free space, or the limit
+    less the file's size, whichever is less), the note of a file that will not fit
+    (``io.RoomWatch``) and the sweep's budget (``sweep._free_bytes``, ``_size_limit``) all
+    follow them.  Before, each read statvfs and RLIMIT_FSIZE itself: RoomWatch ignored a
+    disk that ``free_space`` said was full."""
+    from cornerbif import io
+    assert sweep._free_bytes is io.free_space and sweep._size_limit is io.size_limit
+    grown = tmp_path / "grown.bin"
+    grown.write_bytes(b"x" * 100)
+    monkeypatch.setattr(io, "free_space", lambda d: 12345)
+    monkeypatch.setattr(io, "size_limit", lambda: None)
+    assert io.room(str(grown)) == 12345
+    monkeypatch.setattr(io, "size_limit", lambda: 1000)
+    assert io.room(str(grown)) == 900 and io.room(str(grown), size=500) == 500
+    monkeypatch.setattr(io, "free_space", lambda d: None)
+    monkeypatch.setattr(io, "size_limit", lambda: None)
+    assert io.room(str(grown)) is None
+    said = []
+    with h5py.File(tmp_path / "w.h5", "w") as f:
+        f.create_dataset("done", shape=(100,), dtype="u1")
+        watch = io.RoomWatch(f, said.append)
+        f.create_dataset("data", data=np.arange(10000.0))
+        f.flush()
+        watch.wrote(f, 10)                     # 10 of 100 points, a roomy disk: no note
+        assert said == []
+        monkeypatch.setattr(io, "free_space", lambda d: 1000)
+        watch.wrote(f, 10)
+    assert len(said) == 1 and "more than its disk or the file-size limit leaves" in said[0]

@@ -185,6 +185,48 @@ def test_every_command_interrupted_exits_130(tmp_path, sweep_file, gallery_confi
     assert not (tmp_path / "x.h5").exists() and not (tmp_path / "x.png").exists()
 
 
+# a child that runs the command's entry point (``cornerbif._entry.main``, the installed
+# ``cornerbif`` script) and sends itself SIG while the command line is being imported (the
+# first import of click) or while click reads the arguments (its first Context)
+EARLY_SIGNAL = """
+import builtins, os, signal, sys
+import click.core
+from cornerbif import _entry
+sig, when = getattr(signal, sys.argv[1]), sys.argv[2]
+if when == "import":
+    real = builtins.__import__
+    def imp(name, *a, **k):
+        if name == "cli" and len(a) == 4 and a[3] == 1:    # from .cli import main
+            builtins.__import__ = real
+            os.kill(os.getpid(), sig)
+        return real(name, *a, **k)
+    builtins.__import__ = imp
+else:
+    init = click.core.Context.__init__
+    def ctx(self, *a, **k):
+        click.core.Context.__init__ = init
+        os.kill(os.getpid(), sig)
+        init(self, *a, **k)
+    click.core.Context.__init__ = ctx
+sys.argv = ["cornerbif", "validate", sys.argv[3]]
+_entry.main()
+"""
+
+
+@pytest.mark.parametrize("when", ["import", "arguments"])
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_before_the_command_runs_exits_130(when, sig):
+    """Ctrl-C or SIGTERM while the command line is imported or its arguments are read (the
+    few tenths of a second before a command installs its handlers): "error: interrupted",
+    exit 130.  Before: Python's KeyboardInterrupt traceback (exit 1) during the import, and
+    click's "Aborted!" (exit 1) while the arguments were read; SIGTERM ended the process with
+    no word (-15)."""
+    r = subprocess.run([sys.executable, "-c", EARLY_SIGNAL, sig, when, FIG06A],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == EXIT_INTERRUPTED, (r.returncode, r.stderr[-2000:])
+    assert r.stderr.strip() == "error: interrupted", r.stderr[-2000:]
+
+
 def test_the_codes_are_the_documented_ones():
     """One table: errors.py's constants are the codes the docs list, and the group's help
     says them."""

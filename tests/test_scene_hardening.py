@@ -1,5 +1,4 @@
-"""Scenes and ``validate`` refuse every bad input before any work, with key and value
-(issue 28, "Tracebacks and hangs" and "Misleading output": the scene's share).
+"""Scenes and ``validate`` refuse every bad input before any work, with key and value.
 
 Each refusal is checked through the command line: ``cornerbif validate`` and ``cornerbif
 sweep`` exit 2, print no traceback, name the key (and the --set it came from) and the value
@@ -18,9 +17,9 @@ import os
 import resource
 import subprocess
 import sys
-import time
 import tomllib
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
@@ -100,40 +99,78 @@ def test_lists_nested_thousands_deep_are_refused(tmp_path, depth):
     assert "--set" in out
 
 
-def test_a_device_a_fifo_and_a_huge_file_are_refused_unread(tmp_path):
+class _Counted:
+    """A file opened by ``config.read_text``, counting the bytes read from it."""
+
+    def __init__(self, fh, log):
+        self.fh, self.log = fh, log
+
+    def read(self, n=-1):
+        data = self.fh.read(n)
+        self.log[-1][1] += len(data)
+        return data
+
+    def fileno(self):
+        return self.fh.fileno()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.fh.close()
+
+
+def test_a_device_a_fifo_and_a_huge_file_are_refused_unread(tmp_path, monkeypatch):
     """/dev/zero (endless), a FIFO (which would block) and a sparse file past
-    MAX_SCENE_BYTES are refused by their kind or size, read no further, within seconds."""
+    MAX_SCENE_BYTES are refused by their kind or size: the first two never opened, the
+    third read no further than MAX_SCENE_BYTES + 1 bytes (counted at config's ``open``).
+    Through the command line too (the subprocess's timeout only guards against a hang)."""
     fifo = tmp_path / "pipe.toml"
     os.mkfifo(fifo)
     big = tmp_path / "big.toml"
     with open(big, "wb") as fh:
         fh.truncate(config.MAX_SCENE_BYTES + 1)
-    for path, needle in (("/dev/zero", "is a character device"), (fifo, "is a FIFO"),
-                         (big, f"larger than {config.MAX_SCENE_BYTES} bytes")):
+    cases = (("/dev/zero", "is a character device"), (fifo, "is a FIFO"),
+             (big, f"larger than {config.MAX_SCENE_BYTES} bytes"))
+    opened = []          # [path, bytes read] of each file config opens
+
+    def counted(path, *args, **kw):
+        opened.append([str(path), 0])
+        return _Counted(open(path, *args, **kw), opened)
+    monkeypatch.setattr(config, "open", counted, raising=False)
+    for path, needle in cases:
+        with pytest.raises(config.SceneError, match=needle):
+            config.load(path)
+    assert opened == [[str(big), config.MAX_SCENE_BYTES + 1]]
+    monkeypatch.undo()
+    for path, needle in cases:
         for cmd in (["validate"], ["sweep", "-o", str(tmp_path / "o.h5")]):
-            t = time.monotonic()
             p = subprocess.run([sys.executable, "-m", "cornerbif.cli", *cmd[:1], str(path),
                                 *cmd[1:]], capture_output=True, text=True, timeout=120)
             assert p.returncode == 2, p.stderr
             assert needle in p.stderr and str(path) in p.stderr, p.stderr
             assert "Traceback" not in p.stderr
-            assert time.monotonic() - t < 60
     with pytest.raises(config.SceneError, match="is a directory"):
         config.load(tmp_path)
     assert not os.path.exists(tmp_path / "o.h5")
 
 
 @pytest.mark.parametrize("table", ["system", "sweep", "plot", "nosuch"])
-def test_a_table_of_a_hundred_thousand_keys_is_refused_at_once(tmp_path, table):
+def test_a_table_of_a_hundred_thousand_keys_is_refused_at_once(tmp_path, table, monkeypatch):
     """Past MAX_TABLE_KEYS keys a table is refused in one problem, before a problem (and a
     did-you-mean search) is said of each key: 100,000 keys took 19 s and printed 100,000
-    lines; the refusal comes within the reading of the file (seconds)."""
+    lines.  No table is walked (``config._Walk``, which says a problem of each unknown key,
+    is never made) and no did-you-mean search is run (``config._suggest``)."""
     scene = tmp_path / "wide.toml"
     scene.write_text(f"[{table}]\n" + "\n".join(f"k{i} = 1" for i in range(100_000)) + "\n")
-    t = time.process_time()
+    calls = []
+    for name in ("_Walk", "_suggest"):
+        real = getattr(config, name)
+        monkeypatch.setattr(config, name, lambda *a, _real=real, _name=name, **kw:
+                            calls.append(_name) or _real(*a, **kw))
     out = refused(tmp_path, scene, needles=[f"{table}: 100000 keys; a table of a scene has at "
                                             f"most {config.MAX_TABLE_KEYS}"], sweep=False)
-    assert time.process_time() - t < 10.0
+    assert calls == []
     assert len(out.splitlines()) == 2, out[:2000]
 
 
@@ -250,7 +287,92 @@ def test_profiles_at_the_edge_of_the_ranges_validate_and_sweep(tmp_path):
     assert r.exit_code == 0, r.output
 
 
+@pytest.mark.parametrize("omega,beta,k,sigma", [(2.0, 1.0, 1.0, 0.1), (1.0, 1.0, 1e-200, 0.0),
+                                                (1.0, 1.0, 1e160, 0.0), (1e40, 1.0, 1.0, 1e250)])
+def test_the_profile_scale_check_is_the_kernels_arithmetic(omega, beta, k, sigma):
+    """``profile.scale_problem`` takes the bounds of the contact force's N'' and the Sturm
+    floors from the kernels' own code: the row ``params.pack`` gives the kernels (Sturm
+    bounds and floors included) and ``obstacle.npp_bound``, which the kernels'
+    ``profile_npp`` calls (it re-derived both).  Run as Python on that row, the N'' bound is
+    the compiled one to the bit; where the check refuses sigma or k for it, the kernels'
+    bound is not finite, and where it refuses a Sturm floor, the row's floor is not."""
+    from cornerbif.models import obstacle as O
+    from cornerbif.models import params as P
+    prof = PR.read(tomllib.loads(open(CAM).read())["system"]["profile"])
+    with np.errstate(all="ignore"):
+        row = P.pack({"omega": omega, "beta": beta, "k": k, "kappa": 0.0, "sigma": sigma},
+                     "profile", 0.0, 0.0, 0.0, None, profile=prof)
+        compiled = O.profile_npp(row, 0.0)
+        python = O.npp_bound.py_func(row[P.BETA], row[P.OMEGA], row[P.SIGMA], row[P.K],
+                                     O.profile_g2_abs.py_func(row),
+                                     O._profile_max.py_func(row, P.PC_G3),
+                                     O._profile_max.py_func(row, P.PC_G4))
+    assert np.float64(compiled).tobytes() == np.float64(python).tobytes()
+    found = PR.scale_problem(prof, omega, beta, k, 0.0, sigma)
+    floors = [row[P.PROFILE0 + m * P.PIECE_STRIDE + P.PC_FLOOR] for m in range(len(prof.pieces))]
+    if found is None:
+        assert math.isfinite(compiled) and all(math.isfinite(x) for x in floors)
+    elif "contact force" in found[1]:
+        assert not math.isfinite(compiled)
+    else:
+        assert "Sturm" in found[1] and not all(math.isfinite(x) for x in floors)
+
+
 # ------------------------------------------------------------------ 3. free text
+def test_every_message_cuts_a_text_alike(tmp_path):
+    """One helper (``model.cut``) bounds every text a message quotes: a key of a cam
+    profile or of a piece, a --set as given, a word: its start on one line, control
+    characters (a terminal's escapes) as spaces, and its length ("...<N characters>").
+    Before, a profile's key was cut at 60 characters silently, its escapes kept; a --set
+    was quoted with its escapes; a word ended in "..." without its length."""
+    from cornerbif import analysis
+    key = "\x1b[2J" + "k" * 1000
+    toml_key = '"' + key.replace("\x1b", "\\u001b") + '"'
+    s = _profile_set(["{span = 6.283185307179586, poly = [0.0], " + toml_key + " = 1}"],
+                     2 * PI, ", " + toml_key + " = 1")
+    out = refused(tmp_path, CAM, [s], needles=["system.profile.", "pieces[0].",
+                                               "...<1004 characters>: unknown key"], sweep=False)
+    assert "\x1b" not in out
+    r = run("validate", FIG06A, "--set", "system.omega=\x1b[31mred")
+    assert r.exit_code == 2 and "(from --set system.omega= [31mred)" in r.output, r.output
+    assert "\x1b" not in r.output
+    with pytest.raises(ValueError, match=r"word 'qqqq.*'...<20000 characters> is 20000"):
+        analysis.parse_word("q" * 20000)
+
+
+def test_a_cut_text_is_one_bounded_line_of_any_value():
+    """``model.cut``: at most ``limit`` characters of the text on one line (control
+    characters as spaces, or escaped by repr with ``quote``), its length said when it is
+    longer (or ``mark``); anything else by its str, a value that has none by its type;
+    ``model.shown`` quotes a string by it, ``plot_style.bounded`` cuts a figure's text by it
+    and never inside a formula."""
+    from cornerbif import plot_style
+    from cornerbif.model import cut, shown
+    assert cut("abc") == "abc" and cut(12.5) == "12.5"
+    assert cut("a\nb\x1b[2J", 10) == "a b [2J"
+    assert cut("x" * 100, 10) == "x" * 10 + "...<100 characters>"
+    assert cut("x\n" * 50, 4, quote=True) == repr("x\nx\n") + "...<100 characters>"
+    assert cut("x" * 100, 10, mark="") == "x" * 10
+    assert cut(10 ** 5000) == "<a int too large to show>"
+    assert shown("y" * 100, 30) == repr("y" * 30) + "...<100 characters>"
+    label = plot_style.bounded("$a$ " * 30, 21)
+    assert len(label) <= 21 and label.endswith("...") and label.count("$") % 2 == 0
+
+
+def test_scenes_and_figures_judge_a_formula_by_one_check(monkeypatch):
+    """What matplotlib cannot draw is judged in one place (``plot_style.mathtext_problem``):
+    a scene's title or label is refused by it (``config.undrawable``), and a file's title
+    drawn with its dollars literal by it (``plot_style.title_lines``).  Checked by making
+    that one function refuse a formula matplotlib draws."""
+    from cornerbif import plot_style
+    text = "$\\omega$ = 2"
+    assert config.undrawable(text, "plot.title") is None
+    assert "$" in plot_style.title_lines(text, 80).replace("\\$", "")
+    monkeypatch.setattr(plot_style, "mathtext_problem", lambda t: (t, "refused here"))
+    assert "refused here" in config.undrawable(text, "plot.title")
+    assert "$" not in plot_style.title_lines(text, 80).replace("\\$", "")
+
+
 @pytest.mark.parametrize("key,limit", [("scene.name", config.MAX_NAME),
                                        ("scene.title", config.MAX_TITLE),
                                        ("plot.title", config.MAX_TITLE)])
@@ -535,19 +657,17 @@ VALID_EXTREMES = [
 
 
 @pytest.mark.parametrize("sets", VALID_EXTREMES)
-def test_validate_of_extreme_valid_scenes_is_quick_and_small(sets):
+def test_validate_of_extreme_valid_scenes_is_small(sets):
     """A valid scene at the limits validates (exit 0) in a child limited to 2 GiB of address
-    space within 10 s of CPU time (Python's and numba's start included)."""
+    space (its grid of up to 10^8 points, its 2^62 events per run are never laid out; the
+    child's CPU limit and the timeout only guard against a hang)."""
     def limit():
         resource.setrlimit(resource.RLIMIT_AS, (2 * 2**30, 2 * 2**30))
+        resource.setrlimit(resource.RLIMIT_CPU, (120, 120))
     args = [sys.executable, "-m", "cornerbif.cli", "validate", FIG06A]
     args += [x for s in sets for x in ("--set", s)]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    p = subprocess.run(args, capture_output=True, text=True, timeout=120, preexec_fn=limit)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    p = subprocess.run(args, capture_output=True, text=True, timeout=300, preexec_fn=limit)
     assert p.returncode == 0, p.stdout + p.stderr
-    assert cpu < 10.0, cpu
 
 
 def test_the_limits_are_what_the_docs_say():

@@ -425,6 +425,20 @@ def check_scene(raw: dict, threads=None, sets=()):
 @example(raw={"scene": {"model": "two_particle"}, "system": {"omega0": 5e-324},
               "initial": {"count": 1}, "run": {"transient": 1, "record": 1}},
          threads=None, sets=[])
+# a swept value of 1.8e308 (valid): the sweep ended, then `info` refused the file it had just
+# written ("beyond 1e+100 in size, which no figure can place": a figure's limit, not info's),
+# and the time estimate said "about inf days"
+@example(raw={"scene": {"model": "two_particle"},
+              "sweep": {"omega0": {"values": [1.7976931348623157e+308]}},
+              "output": {"keep": []}}, threads=None, sets=[])
+# 400 004 two-particle runs keeping everything: 9.2 GiB estimated, within the machine's free
+# memory but not within the child's address-space limit (CHILD_MEMORY): the sweep started and
+# ended in "out of memory" (exit 1); the budget now counts RLIMIT_AS (io.available_memory)
+@example(raw={"scene": {"model": "two_particle"},
+              "sweep": {"F1": {"values": [1.1, 0.9764568894583722, 0.8861662126613835, 1.0]}},
+              "initial": {"count": 4},
+              "output": {"keep": ["section", "wall_impacts", "impacts", "stability"]}},
+         threads=None, sets=["initial.count=100001"])
 # the sizes at the limits the format states: each must validate (or be refused) at once
 @example(raw={"sweep": {"kappa": {"start": -0.02, "stop": 0.0, "num": 10**4},
                         "omega": {"start": 1.9, "stop": 2.1, "num": 10**4}}},

@@ -857,7 +857,8 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
 
     Each item writes only its own rows; results do not depend on the thread count.  Under
     a sweep's control (``ints[I_CONTROL]``, ``_jit.Control``) each finished item is counted,
-    and a run told to stop returns ``STOPPED`` within POLL_EVERY passes of its loop.
+    and a run told to stop returns ``STOPPED`` within POLL_EVERY passes of its loop (not
+    counted: it did not finish).
     """
     n = params.shape[0]
     # prange hands each thread a contiguous range; neighbouring items (neighbouring
@@ -869,11 +870,12 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
         i = (k * stride) % n
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
         # values, not arrays: no reference counting in the kernel's calls
-        o_status[i] = run_one(P.as_tuple(params[i]), derived_tuple(derive(params[i])),
-                              ints, ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i],
-                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i],
-                              o_final[i], o_rec0[i:i + 1])
-        count_done(ints[P.I_CONTROL])
+        st = run_one(P.as_tuple(params[i]), derived_tuple(derive(params[i])), ints, ics[i, 0],
+                     ics[i, 1], t0, o_t[i], o_u[i], o_vin[i], o_vout[i], o_off[i], o_corner[i],
+                     o_su[i], o_sv[i], o_final[i], o_rec0[i:i + 1])
+        o_status[i] = st
+        if st != STOPPED:
+            count_done(ints[P.I_CONTROL])
 
 
 @pjit
@@ -892,11 +894,12 @@ def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corne
         i = (k * stride) % n
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
         row = params[i]
-        o_status[i] = run_one(P.as_tuple_profile(row), derived_tuple_profile(derive(row), row),
-                              ints, ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i],
-                              o_vout[i], o_off[i], o_corner[i], o_su[i], o_sv[i], o_final[i],
-                              o_rec0[i:i + 1])
-        count_done(ints[P.I_CONTROL])
+        st = run_one(P.as_tuple_profile(row), derived_tuple_profile(derive(row), row), ints,
+                     ics[i, 0], ics[i, 1], t0, o_t[i], o_u[i], o_vin[i], o_vout[i], o_off[i],
+                     o_corner[i], o_su[i], o_sv[i], o_final[i], o_rec0[i:i + 1])
+        o_status[i] = st
+        if st != STOPPED:
+            count_done(ints[P.I_CONTROL])
 
 
 @pjit

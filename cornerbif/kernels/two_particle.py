@@ -885,7 +885,7 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     See the module docstring for the output layout, the event policy and the
     sticking rules.  Returns the status code; ``STOPPED`` (outputs incomplete) when the
     sweep's control (``ints[I_CONTROL]``, ``_jit.Control``) asks it to stop, which it reads
-    every POLL_EVERY section periods crossed and every POLL_EVERY events.
+    every POLL_EVERY passes of its loop (each pass crosses a section or meets an event).
     """
     # the parameters and per-point constants as tuples: values, so the many calls below
     # pass them without atomic reference counting
@@ -911,9 +911,9 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     record = ints[P.I_RECORD]
     max_events = ints[P.I_MAX_EVENTS]
     max_periods = budget_sections(p, ints[P.I_MAX_PERIODS])
-    # the sweep's control (0: none): its stop flag is read every POLL_EVERY section periods
-    # crossed and every POLL_EVERY events (each pass of the loop ends in one or the other)
+    # the sweep's control (0: none): its stop flag is read every POLL_EVERY passes of the loop
     control = ints[P.I_CONTROL]
+    passes = 0
     stack_forever = stack_floor(c) > 0.0
     need = transient + record
     cap_wz = o_wz.shape[0]
@@ -960,6 +960,9 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     win_end = 0.0
 
     while True:
+        passes += 1
+        if passes & (POLL_EVERY - 1) == 0 and stop_requested(control):
+            return STOPPED
         rest = Sper - tau_ref
         if mode == ALL and stack_forever and not done:
             # ---- the stack stuck for good (``stack_floor``): z = u = w, y = v = w' ----------
@@ -1068,8 +1071,6 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             z, y, u, v = state_at(mode, smooth, p, c, Q, D, ph, tau_ref, za, ya, ua, va, rest)
             n += 1
             periods += 1
-            if periods & (POLL_EVERY - 1) == 0 and stop_requested(control):
-                return STOPPED
             tau_ref = 0.0
             ph = section_phase(c, n)
             if not smooth:
@@ -1107,10 +1108,6 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         if events > max_events:
             _close(o_zu, o_corner, pend_lo, pend_hi)
             return S.OK if done else S.MAX_EVENTS
-        # (a triple impact below counts a second event: this point sees every other count
-        # at worst, and 0 or 1 past each multiple of POLL_EVERY)
-        if events & (POLL_EVERY - 1) <= 1 and stop_requested(control):
-            return STOPPED
 
         # ---- releases -----------------------------------------------------------------------
         if ev >= EV_REL_Z:
@@ -1286,13 +1283,16 @@ def run_batch(params, ints, ics, o_zu, o_corner, o_wz, o_sec, o_status, o_final)
     """Run every item i = (parameter row params[i], initial state ics[i] = (z, y, u, v)).
 
     Each item writes only its own rows; results do not depend on the thread count.  Under
-    a sweep's control (``ints[I_CONTROL]``) each finished item is counted.
+    a sweep's control (``ints[I_CONTROL]``) each finished item is counted (a run told to stop
+    returns ``STOPPED`` and is not).
     """
     n = params.shape[0]
     for i in prange(n):
-        o_status[i] = run_one(params[i], ints, ics[i, 0], ics[i, 1], ics[i, 2], ics[i, 3],
-                              o_zu[i], o_corner[i], o_wz[i], o_sec[i], o_final[i])
-        count_done(ints[P.I_CONTROL])
+        st = run_one(params[i], ints, ics[i, 0], ics[i, 1], ics[i, 2], ics[i, 3], o_zu[i],
+                     o_corner[i], o_wz[i], o_sec[i], o_final[i])
+        o_status[i] = st
+        if st != STOPPED:
+            count_done(ints[P.I_CONTROL])
 
 
 # --------------------------------------------------------------------- Python layer

@@ -124,18 +124,14 @@ def obstacle_top(ctx):
 # crossed, by the kernel's path: "free" (sigma = 0, F = 0, k > 0: flights rotate in closed form
 # and a piece without impact is crossed by the Sturm test alone), "searched" (damped or forced:
 # every piece needs a certified search) and "profile" (a cam).  Measured by
-# benchmarks/estimate_time.py --calibrate on this machine (2026-11-27, one thread, process CPU
-# time, runs of 300 impacts from t = 0 at omega = 2, 200 and 2e4: fig06a, fig06a with sigma =
-# 0.01; cam_cycloidal at omega = 1, 100, 1e4): free 200 ns an impact and 12.5 ns a piece,
-# searched 400 and 51 ns, profile 113 ns a piece.  A cam's impact costs 1.5 us an impact
-# asked for (transient + record), measured on the whole cam_cycloidal sweep (omega 0.5 .. 3,
-# 0.31 s of CPU a thread for 1004 runs of 400 impacts on two): its follower chatters and
-# sticks, and some runs spend their event budget (run.max_events) on a few impacts and
-# thousands of releases (4 us an impact asked for at omega = 1, 1 us at omega = 100).
+# ``python benchmarks/estimate_time.py --calibrate``, but a cam's impact: its follower chatters
+# and sticks, and some runs spend their event budget on a few impacts and many releases, so
+# it is priced per impact asked for (transient + record) from the CPU time of the whole
+# shipped sweep, ``python benchmarks/estimate_time.py --only cam_cycloidal``.
 COST_IMPACT = {"free": 2.0e-7, "searched": 4.0e-7, "profile": 1.5e-6}
 COST_PIECE = {"free": 1.25e-8, "searched": 5.1e-8, "profile": 1.13e-7}
-# a run's flights last about half the oscillator's period (pi / k between impacts: 0.89 pi
-# measured at omega = 2 .. 2e4, k = 1, and 0.86 pi for the cam)
+# a run's flights last about half the oscillator's period (pi / k between impacts: the span
+# per impact that ``benchmarks/estimate_time.py --calibrate`` prints)
 FLIGHT_SHARE = 0.5
 # where the estimate rests on the guessed flight time (the pieces' cost at least half of it),
 # or runs escape after a number of impacts found from the mean impact only, it may be off by
@@ -162,9 +158,8 @@ def escape_impacts(speed, r, k, escape):
 
 
 # --- what a first run compiles (``engine.announce_compiles``) ------------------------------
-# cold compile seconds on this machine (benchmarks/compile_time.py, 2026-11-27, load about 2:
-# a fresh numba cache, cold run less warm run, each with what it shares with others already
-# compiled; under a heavier load of the shared machine they were up to four times longer)
+# cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
+# as the time they took there: ``engine.compile_words``)
 COMPILE_SECONDS = {"analysis": 2.3, "flow": 25.1, "profile": 28.8, "t0": 1.4, "stability": 4.0,
                    "continuation": 1.5}
 # the cycle analysis and the file's chunk writer: every sweep of the flow and two-particle
@@ -281,7 +276,7 @@ class FlowModel(Model):
         if "stability" in what or ("sweep" in what and "stability" in scene.keep):
             out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
                         [batch_stability]))
-        if "continuation" in what and CONTINUATION_KERNELS:
+        if "continuation" in what:
             out.append(("the flow continuation's functions", COMPILE_SECONDS["continuation"],
                         dispatchers(*CONTINUATION_KERNELS)))
         return out
@@ -370,7 +365,7 @@ class FlowModel(Model):
             for whole, part in zip(res[1:], again[1:]):
                 whole[redo] = part
         if "stability" in scene.keep:
-            out.update(_stability(params, out, ipc))
+            out.update(_stability(params, out, ipc, ints[P.I_CONTROL]))
         # the kernel's corner ids are read here only (unset where a run has no impact)
         ids = out.pop("corner_id")
         if "corners" in scene.keep:
@@ -412,12 +407,14 @@ def corner_places(params, ids, t, cornered):
     return np.where(has, place, -1).astype(np.int8)
 
 
-def _stability(params, out, ipc):
+def _stability(params, out, ipc, control=0):
     """The Floquet multipliers of each run's cycle and its Lyapunov spectrum over the
-    recorded window (cornerbif.stability)."""
+    recorded window (cornerbif.stability), under a sweep's ``control`` (its address; 0:
+    none): told to stop, ``KernelStopped``."""
     res = new_outputs(params.shape[0])
     batch_stability(params, out["t"], out["u"], out["v_in"], out["v_out"],
-                      out["corner_offset"], ipc, *res.values())
+                    out["corner_offset"], ipc, *res.values(), control)
+    raise_if_stopped(control)
     return res
 
 

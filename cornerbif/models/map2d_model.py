@@ -39,12 +39,10 @@ NO_OBSTACLE = -np.inf   # any (a0, b1) is a start
 I_CONTROL = 2           # int_settings: the address of the sweep's control (``_jit.Control``)
 
 
-# cold compile seconds on this machine (benchmarks/compile_time.py, 2026-11-27;
-# ``engine.announce_compiles``)
-COMPILE_SECONDS = {"map2d": 1.5, "stability": 1.0, "continuation": 0.0}
-# what ``cornerbif continue`` compiles for this model beyond the sweep's kernels: nothing (the
-# maps' orbits are solved in numpy, cornerbif.theory)
-CONTINUATION_KERNELS = ()
+# cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
+# as the time they took there: ``engine.compile_words``); ``cornerbif continue`` compiles
+# nothing more for this model (the maps' orbits are solved in numpy, cornerbif.theory)
+COMPILE_SECONDS = {"map2d": 1.5, "stability": 1.0}
 
 
 class Map2dModel(Model):
@@ -78,9 +76,6 @@ class Map2dModel(Model):
         if "stability" in what or ("sweep" in what and "stability" in scene.keep):
             out.append(("the map2d stability kernel", COMPILE_SECONDS["stability"],
                         [batch_map_stability]))
-        if "continuation" in what and CONTINUATION_KERNELS:
-            out.append(("the map2d continuation's functions", COMPILE_SECONDS["continuation"],
-                        dispatchers(*CONTINUATION_KERNELS)))
         return out
 
     def run_seconds(self, scene, values):
@@ -127,7 +122,9 @@ class Map2dModel(Model):
         sym_full[:, :sym.shape[1]] = sym
         if "stability" in scene.keep:
             stab = new_outputs(n)
-            batch_map_stability(np.ascontiguousarray(params), reg, period, *stab.values())
+            batch_map_stability(np.ascontiguousarray(params), reg, period, *stab.values(),
+                                control)
+            raise_if_stopped(control)
             out.update(stab)
         return out, st, final, period, ipc, sym_full
 

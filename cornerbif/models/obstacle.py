@@ -520,12 +520,18 @@ def _profile_zpp_range(p, j):
 
 
 @jit
+def npp_bound(beta, w, sigma, k, g2, g3, g4):
+    """The bound of |z'''' + 2 sigma z''' + k^2 z''| on z = kappa + beta g(omega t) where
+    |g''|, |g'''|, |g''''| are at most g2, g3, g4: beta omega^2 (omega^2 g4 + 2 sigma omega
+    g3 + k^2 g2), the contact force's |N''| less the forcing's share (``profile_npp``).
+    Arithmetic alone: ``profile.scale_problem`` runs it as Python (``py_func``)."""
+    return beta * w * w * (w * w * g4 + 2.0 * sigma * w * g3 + k * k * g2)
+
+
+@jit
 def _profile_npp(p, f2):
-    w = p[P.OMEGA]
-    k = p[P.K]
-    return p[P.BETA] * w * w * (w * w * _profile_max(p, P.PC_G4)
-                                + 2.0 * p[P.SIGMA] * w * _profile_max(p, P.PC_G3)
-                                + k * k * profile_g2_abs(p)) + f2
+    return npp_bound(p[P.BETA], p[P.OMEGA], p[P.SIGMA], p[P.K], profile_g2_abs(p),
+                     _profile_max(p, P.PC_G3), _profile_max(p, P.PC_G4)) + f2
 
 
 def profile_state(p, j, tau):

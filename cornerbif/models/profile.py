@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import is_number, shown
+from ..model import KEY_CHARS, cut, is_number, shown
 
 MAX_PIECES = 8        # pieces per period (the packed vector's room; docs/cams.md)
 MAX_DEGREE = 7
@@ -184,13 +184,15 @@ def read(table, key="system.profile") -> Profile:
     lists every problem, each naming its key (``system.profile.pieces[2].poly``), its value
     and what is allowed: every number finite and within the ranges in which the certified
     bounds and the kernels stay finite and meaningful (MIN_PERIOD..MAX_PERIOD,
-    MIN_SPAN_SHARE, MAX_LIFT, MAX_TURN, MAX_PIECES, MAX_DEGREE)."""
+    MIN_SPAN_SHARE, MAX_LIFT, MAX_TURN, MAX_PIECES, MAX_DEGREE).  Each piece is read by
+    ``_read_piece``; the pieces must cover the period, and meet without a jump
+    (``_joints``, which finds the corners)."""
     problems = []
     if not isinstance(table, dict):
         raise ProfileError([f"{key}: {shown(table)} must be a table with period and pieces"])
     unknown = [k for k in table if k not in ("period", "pieces", "corners")]
     for k in unknown:
-        problems.append(f"{key}.{str(k)[:60]}: unknown key; allowed: period, pieces, corners")
+        problems.append(f"{key}.{cut(k, KEY_CHARS)}: unknown key; allowed: period, pieces, corners")
     period = table.get("period", 2 * math.pi)
     if not (_num(period) and MIN_PERIOD <= period <= MAX_PERIOD):
         problems.append(f"{key}.period: {shown(period)} must be a number in [{MIN_PERIOD:g}, "
@@ -211,80 +213,8 @@ def read(table, key="system.profile") -> Profile:
     pieces = []
     height = 0.0
     for i, pc in enumerate(raw):
-        k = f"{key}.pieces[{i}]"
-        if not isinstance(pc, dict):
-            problems.append(f"{k}: {shown(pc)} must be a table")
-            continue
-        for x in pc:
-            if x not in KEYS:
-                problems.append(f"{k}.{str(x)[:60]}: unknown key; allowed: {', '.join(KEYS)}")
-        span = pc.get("span")
-        if not _num(span) or span <= 0:
-            problems.append(f"{k}.span: {shown(span)} must be a positive number (an angle)")
-            continue
-        span = float(span)
-        if period is not None and not MIN_SPAN_SHARE * period <= span <= period:
-            problems.append(f"{k}.span: {span!r} must be within [{MIN_SPAN_SHARE:g}, 1] times "
-                            f"the period {period!r}: a shorter piece is a step rather than a "
-                            "shape (a law's coefficients grow as rise / span^5)")
-            continue
-        if period is None and not MIN_SPAN_SHARE * MIN_PERIOD <= span <= MAX_PERIOD:
-            continue                    # no period to compare with: its problem stands
-        if "law" in pc:
-            law = pc["law"]
-            if law not in LAWS:
-                problems.append(f"{k}.law: {shown(law)} is not a motion law; allowed: "
-                                + ", ".join(LAWS))
-                continue
-            if "poly" in pc or "sine" in pc:
-                problems.append(f"{k}: give a law or poly/sine, not both")
-                continue
-            rise = pc.get("rise", 0.0)
-            if not (_num(rise) and abs(rise) <= MAX_LIFT):
-                problems.append(f"{k}.rise: {shown(rise)} must be a number within "
-                                f"+-{MAX_LIFT:g} (the lift, in units of beta: scale beta for a "
-                                "larger one)")
-                continue
-            if law == "dwell" and rise != 0.0:
-                problems.append(f"{k}.rise: {rise!r} but a dwell does not rise")
-                continue
-            new = _law(law, span, rise, height)
-        else:
-            if "rise" in pc:
-                problems.append(f"{k}.rise: only a law takes a rise")
-            poly = pc.get("poly", [0.0])
-            if isinstance(poly, list) and len(poly) > MAX_DEGREE + 1:
-                problems.append(f"{k}.poly: degree {len(poly) - 1} is past the limit "
-                                f"{MAX_DEGREE}")
-                continue
-            if (not isinstance(poly, list) or not poly or not all(_num(c) for c in poly)):
-                problems.append(f"{k}.poly: {shown(poly)} must be a list of finite coefficients "
-                                "c0, c1, ... (in the local angle)")
-                continue
-            a = b = n = 0.0
-            if "sine" in pc:
-                sn = pc["sine"]
-                if not (isinstance(sn, list) and len(sn) == 3 and all(_num(x) for x in sn)):
-                    problems.append(f"{k}.sine: {shown(sn)} must be [a, b, n]: a sin(n phi) + "
-                                    "b cos(n phi), finite")
-                    continue
-                a, b, n = (float(x) for x in sn)
-                if max(abs(a), abs(b)) > MAX_LIFT:
-                    problems.append(f"{k}.sine: {shown(sn)}: a and b must be within "
-                                    f"+-{MAX_LIFT:g} (the lift, in units of beta: scale beta "
-                                    "for a larger one)")
-                    continue
-                if abs(n) * span > MAX_TURN:
-                    problems.append(f"{k}.sine: n = {n!r} over the span {span!r} turns "
-                                    f"{abs(n) * span:.3g} radians; at most {MAX_TURN:g} (sin(n "
-                                    "phi) is evaluated to 1e-16 of its argument, and its "
-                                    "bounds grow as n^4)")
-                    continue
-            c = [float(x) for x in poly] + [0.0] * (MAX_DEGREE + 1 - len(poly))
-            new = [Piece(span, tuple(c), a, b, n)]
-        lifts = [_lift_problem(p) for p in new]
-        if any(lifts):
-            problems.append(f"{k}: {next(x for x in lifts if x)}")
+        new = _read_piece(f"{key}.pieces[{i}]", pc, period, height, problems)
+        if new is None:
             continue
         for p in new:
             pieces.append((i, p))
@@ -299,20 +229,133 @@ def read(table, key="system.profile") -> Profile:
     if abs(total - period) > 1e-12 * period:
         raise ProfileError([f"{key}.pieces: the spans add up to {total!r}, not the period "
                             f"{period!r}: the pieces must cover one period exactly"])
-    # continuity and corners at every joint, the period's end included
+    corners = _joints(key, pieces, _chosen_corners(table, key, raw, pieces), problems)
+    if problems:
+        raise ProfileError(problems)
+    return Profile(period, tuple(p for _, p in pieces), tuple(corners))
+
+
+def _read_piece(k, pc, period, height, problems):
+    """The smooth pieces (one, two for a parabolic law) of the table ``pc`` at key ``k``,
+    starting at ``height`` (a law's start), or None after adding its problems: a span
+    within [MIN_SPAN_SHARE, 1] times the ``period`` (None: the period's own problem stands),
+    then a law of LAWS and its rise (``_law``), or poly and sine coefficients, each within
+    its limits, and certified bounds that stay finite and within MAX_ENCLOSURE
+    (``_lift_problem``)."""
+    if not isinstance(pc, dict):
+        problems.append(f"{k}: {shown(pc)} must be a table")
+        return None
+    for x in pc:
+        if x not in KEYS:
+            problems.append(f"{k}.{cut(x, KEY_CHARS)}: unknown key; allowed: {', '.join(KEYS)}")
+    span = pc.get("span")
+    if not _num(span) or span <= 0:
+        problems.append(f"{k}.span: {shown(span)} must be a positive number (an angle)")
+        return None
+    span = float(span)
+    if period is not None and not MIN_SPAN_SHARE * period <= span <= period:
+        problems.append(f"{k}.span: {span!r} must be within [{MIN_SPAN_SHARE:g}, 1] times "
+                        f"the period {period!r}: a shorter piece is a step rather than a "
+                        "shape (a law's coefficients grow as rise / span^5)")
+        return None
+    if period is None and not MIN_SPAN_SHARE * MIN_PERIOD <= span <= MAX_PERIOD:
+        return None                     # no period to compare with: its problem stands
+    new = (_law_pieces(k, pc, span, height, problems) if "law" in pc
+           else _poly_piece(k, pc, span, problems))
+    if new is None:
+        return None
+    lifts = [_lift_problem(p) for p in new]
+    if any(lifts):
+        problems.append(f"{k}: {next(x for x in lifts if x)}")
+        return None
+    return new
+
+
+def _law_pieces(k, pc, span, height, problems):
+    """The pieces of a motion law (``law``, ``rise``) over ``span`` from ``height``, or None
+    after adding its problem."""
+    law = pc["law"]
+    if law not in LAWS:
+        problems.append(f"{k}.law: {shown(law)} is not a motion law; allowed: "
+                        + ", ".join(LAWS))
+        return None
+    if "poly" in pc or "sine" in pc:
+        problems.append(f"{k}: give a law or poly/sine, not both")
+        return None
+    rise = pc.get("rise", 0.0)
+    if not (_num(rise) and abs(rise) <= MAX_LIFT):
+        problems.append(f"{k}.rise: {shown(rise)} must be a number within "
+                        f"+-{MAX_LIFT:g} (the lift, in units of beta: scale beta for a "
+                        "larger one)")
+        return None
+    if law == "dwell" and rise != 0.0:
+        problems.append(f"{k}.rise: {rise!r} but a dwell does not rise")
+        return None
+    return _law(law, span, rise, height)
+
+
+def _poly_piece(k, pc, span, problems):
+    """The one piece of a polynomial (``poly``, degree at most MAX_DEGREE) and a sinusoid
+    (``sine`` = [a, b, n]: a and b within MAX_LIFT, n times the span within MAX_TURN), or
+    None after adding its problem."""
+    if "rise" in pc:
+        problems.append(f"{k}.rise: only a law takes a rise")
+    poly = pc.get("poly", [0.0])
+    if isinstance(poly, list) and len(poly) > MAX_DEGREE + 1:
+        problems.append(f"{k}.poly: degree {len(poly) - 1} is past the limit "
+                        f"{MAX_DEGREE}")
+        return None
+    if (not isinstance(poly, list) or not poly or not all(_num(c) for c in poly)):
+        problems.append(f"{k}.poly: {shown(poly)} must be a list of finite coefficients "
+                        "c0, c1, ... (in the local angle)")
+        return None
+    a = b = n = 0.0
+    if "sine" in pc:
+        sn = pc["sine"]
+        if not (isinstance(sn, list) and len(sn) == 3 and all(_num(x) for x in sn)):
+            problems.append(f"{k}.sine: {shown(sn)} must be [a, b, n]: a sin(n phi) + "
+                            "b cos(n phi), finite")
+            return None
+        a, b, n = (float(x) for x in sn)
+        if max(abs(a), abs(b)) > MAX_LIFT:
+            problems.append(f"{k}.sine: {shown(sn)}: a and b must be within "
+                            f"+-{MAX_LIFT:g} (the lift, in units of beta: scale beta "
+                            "for a larger one)")
+            return None
+        if abs(n) * span > MAX_TURN:
+            problems.append(f"{k}.sine: n = {n!r} over the span {span!r} turns "
+                            f"{abs(n) * span:.3g} radians; at most {MAX_TURN:g} (sin(n "
+                            "phi) is evaluated to 1e-16 of its argument, and its "
+                            "bounds grow as n^4)")
+            return None
+    c = [float(x) for x in poly] + [0.0] * (MAX_DEGREE + 1 - len(poly))
+    return [Piece(span, tuple(c), a, b, n)]
+
+
+def _chosen_corners(table, key, raw, pieces):
+    """``corners = [i, ...]``: the pieces (indices of the table's list) whose start counts as
+    a corner, as positions in ``pieces`` (a law's first piece); None when not given (the
+    joints where the slope jumps are the corners)."""
+    chosen = table.get("corners")
+    if chosen is None:
+        return None
+    if not (isinstance(chosen, list) and len(chosen) <= len(raw)
+            and all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c < len(raw)
+                    for c in chosen)
+            and len(set(chosen)) == len(chosen)):
+        raise ProfileError([f"{key}.corners: {shown(chosen)} must be a list of piece "
+                            f"indices 0..{len(raw) - 1}, each at most once (the pieces "
+                            "whose start is a corner)"])
     first = {}
     for m, (i, _) in enumerate(pieces):
         first.setdefault(i, m)
-    chosen = table.get("corners")
-    if chosen is not None:
-        if not (isinstance(chosen, list) and len(chosen) <= len(raw)
-                and all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c < len(raw)
-                        for c in chosen)
-                and len(set(chosen)) == len(chosen)):
-            raise ProfileError([f"{key}.corners: {shown(chosen)} must be a list of piece "
-                                f"indices 0..{len(raw) - 1}, each at most once (the pieces "
-                                "whose start is a corner)"])
-        chosen = {first[c] for c in chosen}
+    return {first[c] for c in chosen}
+
+
+def _joints(key, pieces, chosen, problems):
+    """Whether each piece's start is a corner (``chosen``, else where the slope jumps by more
+    than JOINT_TOL), at every joint, the period's end included; a jump in height there is a
+    problem (an obstacle must be continuous)."""
     corners = []
     for m, (i, pc) in enumerate(pieces):
         prev_i, prev = pieces[m - 1]
@@ -332,9 +375,7 @@ def read(table, key="system.profile") -> Profile:
                                                                           abs(s_start))))
         else:
             corners.append(m in chosen)
-    if problems:
-        raise ProfileError(problems)
-    return Profile(period, tuple(p for _, p in pieces), tuple(corners))
+    return corners
 
 
 def _lift_problem(piece) -> str | None:
@@ -356,39 +397,39 @@ def _lift_problem(piece) -> str | None:
 def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: float,
                   sigma: float = 0.0):
     """What of the kernels' numbers a profile at (omega, beta, k, kappa, sigma) would make
-    non-finite, as (parameter, why) or None, each computed as the kernels compute it
-    (``models.obstacle``): the period in time (period / omega), the certified bounds in
-    time of the second to fourth derivatives of z (beta omega^j, then times the largest
-    bound of the j-th derivative of g over the pieces, ``bounds``), the bound of the
-    contact force's N'' (``profile_npp``) and the Sturm floors (``sturm_bound``).  Each
-    grows with |omega|, beta, sigma and k (a floor also as 1 / k^2), so a scene checks its
+    non-finite, as (parameter, why) or None: the period in time (period / omega), the
+    certified bounds in time of the second to fourth derivatives of z (beta omega^j times
+    the largest bound of the j-th derivative of g over the pieces), the bound of the
+    contact force's N'' and the Sturm floors.  Each is read from the row the kernels are
+    given (``params.pack``: the pieces' bounds, Sturm bounds and floors) or computed by the
+    obstacle's own functions (``obstacle.profile_g2_abs``, ``_profile_max``,
+    ``npp_bound``, run as Python: checking a scene compiles nothing).  Each grows with
+    |omega|, beta, sigma and k (a floor also as 1 / k^2), so a scene checks its
     extremes."""
-    f = np.float64
+    from . import obstacle as O
+    from . import params as P
     with np.errstate(all="ignore"):
-        w, b, kk, sg = f(abs(omega)), f(beta), f(k), f(sigma)
-        if not math.isfinite(f(profile.period) / w):
+        w = np.float64(abs(omega))
+        if not math.isfinite(np.float64(profile.period) / w):
             return "omega", f"the period in time, {profile.period!r} / omega, overflows float64"
-        per_piece = [bounds(pc) for pc in profile.pieces]
-        G = [max(max(abs(x[2]), abs(x[3])) for x in per_piece),      # g'', g''', g''''
-             max(x[4] for x in per_piece), max(x[5] for x in per_piece)]
+        row = P.pack({"omega": w, "beta": beta, "k": k, "kappa": kappa, "sigma": sigma},
+                     "profile", 0.0, 0.0, 0.0, None, profile=profile)
+        b = row[P.BETA]
+        G = (O.profile_g2_abs.py_func(row), O._profile_max.py_func(row, P.PC_G3),
+             O._profile_max.py_func(row, P.PC_G4))          # g'', g''', g''''
         for j, g in zip((2, 3, 4), G):
             if not (math.isfinite(b * w ** j) and math.isfinite(b * w ** j * g)):
                 top = (FLOAT_MAX / 1e3 / (b * max(g, 1.0))) ** (1.0 / j) if b > 0 else 0.0
                 return "omega", (f"the certified bound of z's derivative {j}, beta omega^{j} "
                                  f"max|g^({j})| (beta {beta!r}, max|g^({j})| {g:.6g}), overflows "
                                  f"float64; omega at most about {top:.3g} with this beta")
-        npp = b * w * w * (w * w * G[2] + 2.0 * sg * w * G[1] + kk * kk * G[0])
-        if not math.isfinite(npp):
-            name = "sigma" if not math.isfinite(2.0 * sg * w * G[1]) else "k"
+        if not math.isfinite(O.npp_bound.py_func(b, w, row[P.SIGMA], row[P.K], *G)):
+            name = "sigma" if not math.isfinite(2.0 * row[P.SIGMA] * w * G[1]) else "k"
             return name, ("the bound of the contact force's second derivative, beta omega^2 "
                           "(omega^2 G4 + 2 sigma omega G3 + k^2 G2), overflows float64")
-        for pc in profile.pieces:
-            try:
-                st = f(sturm_bound(pc, k, omega))
-            except OverflowError:
-                st = f(math.inf)
-            floor = -f(kappa) - b * st / (kk * kk) if k > 0.0 else f(0.0)
-            if not (math.isfinite(st) and math.isfinite(floor)):
+        for m in range(len(profile.pieces)):
+            o = P.PROFILE0 + m * P.PIECE_STRIDE
+            if not (math.isfinite(row[o + P.PC_STURM]) and math.isfinite(row[o + P.PC_FLOOR])):
                 return "k", (f"the Sturm comparison's floor of a piece, -kappa - beta (k^2 g + "
                              f"omega^2 g'')_max / k^2 (k {k!r}, omega {omega!r}), overflows "
                              "float64")

@@ -157,7 +157,8 @@ def resonance_problem(p: np.ndarray) -> str | None:
     of u, or of the stuck pair, whose frequency and damping are mass-weighted)."""
     mu = p[MU]
     mui = 0.0 if mu == math.inf else 1.0 / (1.0 + mu)
-    om_pair = math.sqrt(p[OMEGA1] ** 2 + (p[OMEGA2] ** 2 - p[OMEGA1] ** 2) * mui)
+    with np.errstate(over="ignore", invalid="ignore"):   # frequencies near 1e308: inf, nan
+        om_pair = math.sqrt(p[OMEGA1] ** 2 + (p[OMEGA2] ** 2 - p[OMEGA1] ** 2) * mui)
     sig_pair = p[SIGMA1] + (p[SIGMA2] - p[SIGMA1]) * mui
     muf = 1.0 if mu == math.inf else mu / (1.0 + mu)
     for amp, wk, sig, k, who in (

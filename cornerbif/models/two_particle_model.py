@@ -51,17 +51,16 @@ STABILITY = tuple(Field(f.name, f.source, f.long_name, f.units, axis=(f.axis[0],
 
 # the time model of a run (``sweep.estimate_time``): seconds of one core per z-u impact (with
 # the w-z impacts between and the cycle analysis) and per section period crossed, measured by
-# benchmarks/estimate_time.py --calibrate (2026-11-27, one thread, process CPU time, Fig. 19(a)
-# runs of 300 z-u impacts from t = 0 at omega0 = 2, 200, 2e4: 880 ns and 81 ns); an estimate
-# resting on the sections' cost may be off by UNCERTAIN_FACTOR either way
+# ``python benchmarks/estimate_time.py --calibrate``; an estimate resting on the sections' cost
+# may be off by UNCERTAIN_FACTOR either way
 COST_IMPACT = 8.8e-7
 COST_SECTION = 8.1e-8
 UNCERTAIN_FACTOR = 3.0
 CLOSE_FACTOR = 1.5       # otherwise (benchmarks/estimate_time.py)
 
 
-# cold compile seconds on this machine (benchmarks/compile_time.py, 2026-11-27;
-# ``engine.announce_compiles``)
+# cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
+# as the time they took there: ``engine.compile_words``)
 COMPILE_SECONDS = {"two_particle": 21.3, "stability": 14.6, "continuation": 5.4}
 # what ``cornerbif continue`` compiles for this model beyond the sweep's kernels
 CONTINUATION_KERNELS = ("stability.two_particle_steps", "stability.flight_matrix",
@@ -140,7 +139,7 @@ class TwoParticleModel(Model):
         if "stability" in what or ("sweep" in what and "stability" in scene.keep):
             out.append(("the two-particle stability kernel", COMPILE_SECONDS["stability"],
                         [batch_two_particle_stability]))
-        if "continuation" in what and CONTINUATION_KERNELS:
+        if "continuation" in what:
             out.append(("the two-particle continuation's functions",
                         COMPILE_SECONDS["continuation"], dispatchers(*CONTINUATION_KERNELS)))
         return out
@@ -209,7 +208,8 @@ class TwoParticleModel(Model):
         detect_cycles(t, out["v_in"], out["corner_offset"], corner, np.ones(n, np.bool_),
                       scene.period_tol, period, ipc, sym)
         if "stability" in scene.keep:
-            stab = two_particle_outputs(np.ascontiguousarray(params), o_zu, o_wz, ipc)
+            stab = two_particle_outputs(np.ascontiguousarray(params), o_zu, o_wz, ipc,
+                                        ints[TP.I_CONTROL])
             stab.pop("monodromy")
             out.update(stab)
         return out, st, final, period, ipc, sym
