@@ -1,4 +1,4 @@
-"""The one jit policy of the package (STYLE example 1).
+"""The one jit policy of the package.
 
 Every kernel imports its decorators from here: ``cache=True`` so a second
 process starts without compiling, ``error_model="numpy"`` so a division by

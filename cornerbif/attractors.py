@@ -46,7 +46,7 @@ import numpy as np
 
 from . import registry
 from . import status as S
-from .analysis import SIGNATURE
+from .cycles import SIGNATURE
 
 NO_CYCLE = -1        # the run ended well but no cycle repeated twice in its recorded window
 STICKS = -2          # sticking or chattering without end (STUCK, MAX_EVENTS)

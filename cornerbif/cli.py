@@ -221,6 +221,26 @@ def _check_threads(threads):
     return cores
 
 
+def _numba_threads() -> int:
+    """``numba.config.NUMBA_NUM_THREADS`` (the cores numba may use here), read as numba reads
+    it, without importing numba where that reading is plain: ``validate`` describes a scene
+    without loading numba (start-up time).  NUMBA_NUM_THREADS when it is a positive integer,
+    else the cores this process may run on; numba itself answers once it is loaded, and
+    where its own reading may differ (a .numba_config.yaml in the working directory, another
+    value of NUMBA_NUM_THREADS, which numba warns of or refuses)."""
+    if "numba" not in sys.modules and not os.path.exists(".numba_config.yaml"):
+        given = os.environ.get("NUMBA_NUM_THREADS")
+        if given is None:
+            try:
+                return max(1, len(os.sched_getaffinity(0)))
+            except AttributeError:  # pragma: no cover - not Linux
+                return max(1, os.cpu_count() or 1)
+        if given.strip().isdecimal() and int(given) > 0:
+            return int(given)
+    import numba
+    return numba.config.NUMBA_NUM_THREADS
+
+
 def _describe(scene, out, threads):
     """What a scene will do, in lines: grid, runs, output size, memory and time."""
     from .sweep import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
@@ -696,8 +716,7 @@ def validate(scene_path, sets, toml):
     click.echo(f"ok: {scene_path} is a valid scene")
     click.echo(f"# run.preset {scene.preset!r} -> transient {scene.transient}, tol {scene.tol!r}, "
                f"chatter {scene.chatter!r} (explicit [run] keys override the preset)")
-    import numba
-    for line in _describe(scene, default_output(scene), numba.config.NUMBA_NUM_THREADS):
+    for line in _describe(scene, default_output(scene), _numba_threads()):
         click.echo(line)
     if toml:
         click.echo(scene.text)

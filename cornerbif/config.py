@@ -1,7 +1,7 @@
 """Scenes: TOML text -> frozen, validated ``Scene`` objects.
 
 Every problem of a scene is collected and reported at once, each with its
-dotted key, the offending value and what is allowed (STYLE example 7)::
+dotted key, the offending value and what is allowed::
 
     sweep.omgea: unknown parameter of model 'flow' (did you mean 'omega'?)
 
@@ -16,6 +16,7 @@ in README.md.
 from __future__ import annotations
 
 import difflib
+import functools
 import hashlib
 import math
 import os
@@ -26,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import registry
+from .cycles import parse_word
 from .model import KEY_CHARS, cut, shown
 from .model import is_number as _is_number
 
@@ -141,7 +143,7 @@ PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "obstacle", "regions", "
 NORMAL_FORM_KINDS = ("regions", "return_map", "orbit")
 
 
-# [sweep] initial.<coordinate>: an axis over a coordinate of the start (issue 19)
+# [sweep] initial.<coordinate>: an axis over a coordinate of the start (docs/basins.md)
 IC_PREFIX = "initial."
 
 
@@ -168,27 +170,55 @@ def _union(seqs):
     return tuple(out)
 
 
+# --- the tables derived from the model registry, computed on first use (``_registered``), so
+# that importing this module imports no model; read as config.MODELS, config.KEEP, ...
+# (module ``__getattr__``).
+#   MODELS        the registered models' names
+#   KEEP          every observable any model has, in the file's order
+#   KEEP_DEFAULT  what a scene without [output] keep keeps: every observable but the opt-in ones
+#   OBSTACLES     the default model's obstacles
+#   TABLES        each table's keys (None: [sweep], parameter names + 'follow')
+REGISTERED = ("MODELS", "KEEP", "KEEP_DEFAULT", "OBSTACLES", "TABLES")
+
+
 def _all_models():
     return registry.models().values()
 
 
-MODELS = registry.names()
-# every observable any model has, in the file's order
-KEEP = _union(m.observables for m in _all_models())
-# what a scene without [output] keep keeps: every observable but the opt-in ones
-KEEP_DEFAULT = tuple(k for k in KEEP if not any(k in m.opt_in for m in _all_models()))
-OBSTACLES = tuple(registry.get(registry.DEFAULT_MODEL).obstacles)
-TABLES = {
-    "scene": ("name", "title", "model"),
-    "system": _union(tuple(m.params) + tuple(m.system_extra) for m in _all_models()),
-    "sweep": None,  # parameter names + 'follow'
-    "initial": tuple(INITIAL_DEFAULTS) + _union(m.start_names for m in _all_models()),
-    "run": ("preset",) + tuple(RUN_DEFAULTS),
-    "output": ("keep",),
-    "plot": PLOT_KEYS,
-    "continue": ("parameter", "range", "start", "seed", "seed_file", "ds", "ds_min", "ds_max",
-                 "events", "switch", "curve", "curve_range", "over"),
-}
+def _registered() -> dict:
+    """The tables derived from the registry as it is (``REGISTERED``)."""
+    return _derive(registry.names())
+
+
+@functools.cache
+def _derive(names: tuple) -> dict:
+    models = [registry.get(n) for n in names]
+    keep = _union(m.observables for m in models)
+    return {
+        "MODELS": names,
+        "KEEP": keep,
+        "KEEP_DEFAULT": tuple(k for k in keep if not any(k in m.opt_in for m in models)),
+        "OBSTACLES": tuple(registry.get(registry.DEFAULT_MODEL).obstacles),
+        "TABLES": {
+            "scene": ("name", "title", "model"),
+            "system": _union(tuple(m.params) + tuple(m.system_extra) for m in models),
+            "sweep": None,  # parameter names + 'follow'
+            "initial": tuple(INITIAL_DEFAULTS) + _union(m.start_names for m in models),
+            "run": ("preset",) + tuple(RUN_DEFAULTS),
+            "output": ("keep",),
+            "plot": PLOT_KEYS,
+            "continue": ("parameter", "range", "start", "seed", "seed_file", "ds", "ds_min",
+                         "ds_max", "events", "switch", "curve", "curve_range", "over"),
+        },
+    }
+
+
+def __getattr__(name):
+    if name in REGISTERED:
+        return _registered()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 # [continue] events: what cornerbif continue watches on a branch (cornerbif.continuation)
 CONTINUE_EVENTS = ("corner", "grazing", "zero_velocity", "fold", "period_doubling", "torus")
 
@@ -623,7 +653,8 @@ class _Walk:
     def unknown(self, name, allowed):
         for k in self.table(name):
             if k not in allowed:
-                where = [t for t, keys in TABLES.items() if keys and k in keys and t != name]
+                where = [t for t, keys in _registered()["TABLES"].items()
+                         if keys and k in keys and t != name]
                 hint = f" (it belongs in [{where[0]}])" if where else _suggest(str(k), allowed)
                 self.problems.append(f"{name}.{cut(k, KEY_CHARS)}: unknown key{hint}; allowed: "
                                      f"{', '.join(allowed)}")
@@ -683,7 +714,7 @@ def _text(w, key, text, limit, what):
 
 def _read_scene(w):
     sc = w.table("scene")
-    w.unknown("scene", TABLES["scene"])
+    w.unknown("scene", _registered()["TABLES"]["scene"])
     name = sc.get("name", "scene")
     if not isinstance(name, str) or not name:
         w.problems.append(f"scene.name: {shown(name)} must be a non-empty string")
@@ -703,9 +734,10 @@ def _read_scene(w):
         if p:
             w.problems.append(p)
     model = sc.get("model", registry.DEFAULT_MODEL)
-    if model not in MODELS:
+    models = _registered()["MODELS"]
+    if model not in models:
         w.problems.append(f"scene.model: {shown(model)} is not a model"
-                          f"{_suggest(str(model), MODELS)}; allowed: " + ", ".join(MODELS))
+                          f"{_suggest(str(model), models)}; allowed: " + ", ".join(models))
         model = registry.DEFAULT_MODEL   # validate the rest as such; the error above stands
     w.name, w.title, w.model = name, title, model
     w.spec = registry.get(model)
@@ -987,7 +1019,8 @@ def _fixed(rng) -> bool:
 
 def _read_initial(w):
     ini = w.table("initial")
-    w.unknown("initial", TABLES["initial"])
+    initial_keys = _registered()["TABLES"]["initial"]
+    w.unknown("initial", initial_keys)
     n_ic = ini.get("count", INITIAL_DEFAULTS["count"])
     if not _is_int(n_ic) or not 1 <= n_ic <= MAX_STARTS:
         w.problems.append(f"initial.count: {shown(n_ic)} must be an integer in 1..{MAX_STARTS} "
@@ -998,7 +1031,7 @@ def _read_initial(w):
         w.problems.append(f"initial.seed: {shown(seed)} must be an integer in 0..2^62 - 1")
         seed = 0
     coords = w.spec.start_names
-    for c in TABLES["initial"][len(INITIAL_DEFAULTS):]:
+    for c in initial_keys[len(INITIAL_DEFAULTS):]:
         if c in ini and c not in coords:
             w.problems.append(f"initial.{c}: not an initial coordinate of model {w.model!r}; "
                               f"allowed: {', '.join(coords)}")
@@ -1042,7 +1075,7 @@ def _read_initial(w):
 
 def _read_run(w):
     rn = w.table("run")
-    w.unknown("run", TABLES["run"])
+    w.unknown("run", _registered()["TABLES"]["run"])
     preset = rn.get("preset", DEFAULT_PRESET)
     if not isinstance(preset, str) or preset not in PRESETS:
         w.problems.append(f"run.preset: {shown(preset)} is not a preset"
@@ -1093,24 +1126,25 @@ def _read_run(w):
 
 def _read_output(w):
     outp = w.table("output")
-    w.unknown("output", TABLES["output"])
-    keep = outp.get("keep", list(KEEP_DEFAULT))
-    if isinstance(keep, list) and len(keep) > len(KEEP):
+    w.unknown("output", _registered()["TABLES"]["output"])
+    known = _registered()["KEEP"]
+    keep = outp.get("keep", list(_registered()["KEEP_DEFAULT"]))
+    if isinstance(keep, list) and len(keep) > len(known):
         w.problems.append(f"output.keep: {shown(keep)}: {len(keep)} entries; it lists each "
                           f"observable at most once: {', '.join(w.spec.observables)}")
         keep = list(w.spec.observables)
     if not isinstance(keep, list) or not all(isinstance(x, str) for x in keep):
-        hint = f' (a list: keep = ["{keep}"])' if isinstance(keep, str) and keep in KEEP else ""
+        hint = f' (a list: keep = ["{keep}"])' if isinstance(keep, str) and keep in known else ""
         w.problems.append(f"output.keep: {shown(keep)} must be a list drawn from "
                           f"{', '.join(w.spec.observables)}{hint}")
         # one problem: nothing more is said of it (every observable, so that no check that
         # needs one, such as plot.kind's, adds a second)
         keep = list(w.spec.observables)
     for x in keep:
-        if x not in KEEP:
-            w.problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, KEEP)}; "
-                              f"allowed: {', '.join(KEEP)}")
-    keep = tuple(x for x in KEEP if x in keep)
+        if x not in known:
+            w.problems.append(f"output.keep: {x!r} is not an observable{_suggest(x, known)}; "
+                              f"allowed: {', '.join(known)}")
+    keep = tuple(x for x in known if x in keep)
     allowed_keep = tuple(w.spec.observables)
     for x in keep:
         if x not in allowed_keep and "keep" in outp:
@@ -1182,7 +1216,7 @@ def _read_plot(w):
     within its (MAX_TITLE, MAX_MARKS, MAX_MARK_LABEL) and drawable, the style sheet a
     name matplotlib knows or a file of at most MAX_STYLE_BYTES."""
     pl = w.table("plot")
-    w.unknown("plot", TABLES["plot"])
+    w.unknown("plot", _registered()["TABLES"]["plot"])
     plot = dict(pl)
     problems = w.problems
     for k, v in plot.items():
@@ -1388,7 +1422,7 @@ def _read_continue(w):
     if "continue" not in w.raw:
         return
     c = w.table("continue")
-    w.unknown("continue", TABLES["continue"])
+    w.unknown("continue", _registered()["TABLES"]["continue"])
     pr = w.problems
     if not w.spec.continuation:
         which = " or ".join(repr(m.name) for m in _all_models() if m.continuation)
@@ -1577,7 +1611,6 @@ def _check_seed_word(w, s):
     a word of x only; elsewhere letters a, b, g (x names a smooth obstacle's cluster and
     has no orbit to solve there); at most ``analysis.MAX_WORD_LETTERS`` letters, counted
     without expanding the word."""
-    from .analysis import parse_word
     obstacle = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
     smooth = obstacle is not None and not obstacle.corners
     try:
@@ -1627,10 +1660,11 @@ def from_dict(raw, drawn_starts: bool = True) -> Scene:
     if wide:                 # before a problem is said of each key (unknown, misspelt)
         raise SceneError(wide)
     w = _Walk(raw, drawn_starts)
+    tables = _registered()["TABLES"]
     for t, body in raw.items():
-        if t not in TABLES:
-            w.problems.append(f"{cut(t, KEY_CHARS)}: unknown table{_suggest(str(t), TABLES)}; allowed: "
-                              + ", ".join(f"[{x}]" for x in TABLES))
+        if t not in tables:
+            w.problems.append(f"{cut(t, KEY_CHARS)}: unknown table{_suggest(str(t), tables)}; allowed: "
+                              + ", ".join(f"[{x}]" for x in tables))
         elif not isinstance(body, dict):
             w.problems.append(f"{t}: {shown(body)} must be a table [{t}]")
     for _, read in READERS:

@@ -1,4 +1,4 @@
-"""Sweeps on Dask distributed (issue 7): the same blocks, computed on a cluster.
+"""Sweeps on Dask distributed: the same blocks, computed on a cluster.
 
 ``cornerbif sweep SCENE.toml --scheduler ADDRESS`` (or ``local:N`` for a local
 cluster of N worker processes) runs the sweep's blocks ("chunks") on Dask

@@ -1,4 +1,4 @@
-"""The HDF5 file: schema, incremental writing, reading, resume (DESIGN 5).
+"""The HDF5 file: schema, incremental writing, reading, resume (docs/architecture.md, "Data flow").
 
 Layout (public, keep these names; format version 1; the per-model datasets come from
 the model's declaration in ``cornerbif.registry``)::
@@ -48,7 +48,7 @@ import sys
 import h5py
 import numpy as np
 
-from . import FORMAT_VERSION, __version__, attractors, chunkwrite, engine, outputs, registry
+from . import FORMAT_VERSION, __version__, attractors, engine, outputs, registry
 from . import status as S
 from .errors import SweepError, WriteFailed
 from .model import cut, shown
@@ -70,6 +70,7 @@ def create(path, scene, n_ic, command="", versions=None):
     and the per-run summary every model shares (status, period, impacts_per_cycle,
     symbols) with the grid's ``done`` mask.
     """
+    from . import chunkwrite  # jitted: loaded by the commands that write (numba-free validation)
     spec = registry.get(scene.model)
     G = scene.shape
     rec = scene.record
@@ -256,6 +257,7 @@ def write_block(f, index, block):
     which holds the block's compressed copy as well, only then.  A full disk or a
     file-size limit stops the sweep with the file as it was after the last block, which
     --resume completes."""
+    from . import chunkwrite  # jitted: loaded by the commands that write (numba-free validation)
     # each dataset's chunkwrite.Layout (None: a block's array the file does not keep), read
     # from HDF5 at the first block written through this File object and kept on it
     layouts = f.__dict__.setdefault("_cornerbif_layouts", {})

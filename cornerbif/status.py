@@ -1,7 +1,7 @@
 """Status codes: the one table through which kernels report how a run ended.
 
 Kernels never raise; every run ends with exactly one of these codes and the
-Python layer decides what is an error (STYLE example 2).
+Python layer decides what is an error.
 """
 
 OK = 0              # the requested impacts were recorded

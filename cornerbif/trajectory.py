@@ -1,8 +1,8 @@
 """Time series u(t), z(t) of a recorded attractor, rebuilt from its stored impacts.
 
-The kernels keep impacts, not trajectories (DESIGN 1: "no trajectories unless a
-time series is asked for").  Between two impacts the particle is in free flight,
-and free flight is exact in closed form, so the trajectory is rebuilt from the
+The kernels keep impacts, not trajectories (a time series is asked for by
+``output.keep = ["impacts"]`` and drawn from them).  Between two impacts the particle
+is in free flight, and free flight is exact in closed form, so the trajectory is rebuilt from the
 state just after each impact, (t_i, u_i, v_i^+), with the very functions the
 kernel uses: ``models.oscillator.homogeneous`` and ``particular`` (eq 4) for u,
 ``models.obstacle.z_state`` (eq 8, section 2.2, eq 7) for z.  No formula is

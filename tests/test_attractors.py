@@ -66,6 +66,7 @@ def shares(table):
     return dict(zip(table["word"], table["fraction"]))
 
 
+@pytest.mark.slow
 def test_table_agrees_with_a_census_from_random_starts(hysteresis):
     """The 81 x 81 grid of the hysteresis wedge (omega = 2.001, kappa = 0.008) and 2000
     random starts on the same rectangle find the same three attractors (words a, b, abg),

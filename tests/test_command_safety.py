@@ -63,6 +63,7 @@ def test_the_estimate_bounds_every_shipped_scene_it_is_tried_on(tmp_path):
         assert size > sweep_mod.RATIO_DEFLATE_LIMIT * bound, name
 
 
+@pytest.mark.slow
 def test_a_result_that_fits_a_small_disk_is_not_refused(tmp_path, tmpfs):
     """Fig. 6(a) in full: at most 95 MB before compression, a 7.6 MB file. On a 24 MB disk
     the file and its finishing copy fit, so the sweep runs and completes (it was refused:
@@ -78,6 +79,7 @@ def test_a_result_that_fits_a_small_disk_is_not_refused(tmp_path, tmpfs):
     assert datasets(ref) == datasets(mnt / "a.h5")
 
 
+@pytest.mark.slow
 def test_blocks_are_checked_at_their_compressed_size_under_a_file_size_limit(tmp_path):
     """``ulimit -f`` of 12 MiB, a 7.6 MB file written in blocks of 24 MiB in memory: every
     block asked for 19.6 MiB and the sweep never started; now each block asks for what it
@@ -236,6 +238,7 @@ def _stamp_run(tmp_path, out, action, prelude=""):
                           capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
 def test_a_signal_while_the_file_is_stamped_keeps_the_partial_file(tmp_path, sig):
     """SIGINT or SIGTERM while the attractor table is written into the finished file's
@@ -277,6 +280,7 @@ def test_a_signal_between_the_rename_and_the_removal_lands_after_both(tmp_path):
         assert f.attrs["completed"] and "attractors" in f
 
 
+@pytest.mark.slow
 def test_a_disk_filling_while_the_file_is_stamped_ends_with_exit_1(tmp_path, tmpfs):
     """The disk fills while the table is written into the finished file's copy (another
     process takes the rest of it): one message, exit 1 (an h5py traceback and a segmentation
@@ -298,6 +302,7 @@ def test_a_disk_filling_while_the_file_is_stamped_ends_with_exit_1(tmp_path, tmp
     assert datasets(ref) == datasets(out)
 
 
+@pytest.mark.slow
 def test_sigterm_keeps_what_is_finished_as_ctrl_c_does(tmp_path):
     """SIGTERM to a running sweep: exit 130, one message naming the partial file and
     --resume (it was killed by the signal with nothing said); --resume completes it to the
@@ -476,6 +481,7 @@ def test_an_empty_output_name_is_refused(tmp_path, monkeypatch, command):
     assert sorted(os.listdir(tmp_path)) == before
 
 
+@pytest.mark.slow
 def test_a_reader_that_leaves_ends_the_command_quietly(tmp_path):
     """``cornerbif info FILE | true``: the reader closes the pipe before info writes; the
     command ends quietly (click's exit 1 for a closed pipe, as for --help), with no "error:

@@ -170,6 +170,7 @@ def test_the_output_is_never_an_input_nor_a_foreign_file(tmp_path, sweep_file):
     assert [p.name for p in tmp_path.glob("*.lock")] == ["o.h5.lock"]
 
 
+@pytest.mark.slow
 def test_a_second_writer_is_refused_at_once(tmp_path, reference, monkeypatch):
     """Two commands never write one output: the lock OUT.lock is held (as by a running
     `continue` or `sweep`), so a second `continue` is refused at once, exit 2, before
@@ -239,6 +240,7 @@ def _commits(partial):
     return st.st_ino, st.st_mtime_ns, st.st_size
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("commits", [1, 4])
 def test_sigkill_mid_run_then_resume_is_bitwise_equal(tmp_path, reference, commits):
     """SIGKILL (by process id) once the partial file has been rewritten ``commits`` times (of
@@ -273,6 +275,7 @@ def test_sigkill_mid_run_then_resume_is_bitwise_equal(tmp_path, reference, commi
     assert_same(ref, out)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupt_during_the_seed_search_exits_130_at_once(tmp_path, sig):
     """At omega = 1e9 the starts' runs that find the seeds take minutes (139 s were measured
@@ -297,6 +300,7 @@ def test_an_interrupt_during_the_seed_search_exits_130_at_once(tmp_path, sig):
     assert sorted(os.listdir(tmp_path)) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupt_keeps_every_finished_branch_and_resume_completes(tmp_path, reference,
                                                                      sig):
@@ -340,6 +344,7 @@ main()
 """
 
 
+@pytest.mark.slow
 def test_a_real_full_disk_keeps_the_finished_branches_and_resumes_bitwise(tmpfs, reference):
     """A real small filesystem, filled by another file while the run goes on: the write of
     the third unit fails (ENOSPC); the command says so in one line (exit 1) naming the two
@@ -368,6 +373,7 @@ def test_a_real_full_disk_keeps_the_finished_branches_and_resumes_bitwise(tmpfs,
         assert_same(reference[0], out)
 
 
+@pytest.mark.slow
 def test_a_file_size_limit_keeps_the_finished_branches_and_resumes_bitwise(tmp_path, reference):
     """`ulimit -f` (RLIMIT_FSIZE) at 3/4 of the finished file: the partial file grows
     branch by branch (50, 84, 129 kB here) until a write passes the limit (EFBIG; SIGXFSZ is
@@ -406,6 +412,7 @@ def _interrupted(tmp_path, name="p.h5", sets=SETS, at="branch 1:", command=""):
     return out
 
 
+@pytest.mark.slow
 def test_resume_refuses_another_scene_naming_what_differs(tmp_path, reference):
     """--resume goes on only from the partial file of the same scene ([plot] aside, as
     `config.same_run`): a changed step is refused (exit 2) naming the key and both values;
@@ -453,6 +460,7 @@ def test_resume_of_a_finished_output_says_it_is_complete(tmp_path, reference):
     assert "continue.ds" in r.output and out.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_run_to_file_as_the_gallery_calls_it(tmp_path, reference):
     """`continuation.run_to_file` with the gallery's flags: an interrupted run of its scene
     resumed (``resume``; bitwise), the file keeping the command it was started with; a
@@ -495,6 +503,7 @@ def _finished_other(path):
     os.replace(other, path)
 
 
+@pytest.mark.slow
 def test_a_partial_file_behind_another_scenes_finished_output(tmp_path, reference):
     """OUT is a finished continuation of scene A and OUT.partial an interrupted run of scene
     B.  `--resume` with B is refused (exit 2) advising `--resume --overwrite`, and nothing

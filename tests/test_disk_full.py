@@ -83,6 +83,7 @@ def test_room_refuses_a_block_the_disk_cannot_take(tmp_path, monkeypatch, refere
     assert_same(reference, out)
 
 
+@pytest.mark.slow
 def test_a_real_full_disk_stops_at_once_and_resumes_bitwise(tmpfs, reference):
     """A real small filesystem, filled by another file while the sweep runs (the sweep's own
     budget check at the start sees room, as on a shared disk that others fill)."""
@@ -117,6 +118,7 @@ def test_a_real_full_disk_stops_at_once_and_resumes_bitwise(tmpfs, reference):
     assert_same(reference, out)
 
 
+@pytest.mark.slow
 def test_a_file_size_limit_stops_at_once_and_resumes_bitwise(tmp_path, reference):
     """``ulimit -f``: the room check reads RLIMIT_FSIZE, so the block that would pass the limit
     is refused before HDF5 writes it (the kernel would send SIGXFSZ)."""
@@ -138,6 +140,7 @@ def test_a_file_size_limit_stops_at_once_and_resumes_bitwise(tmp_path, reference
     assert_same(reference, out)
 
 
+@pytest.mark.slow
 def test_a_write_failing_inside_hdf5_ends_at_once_without_a_flood(tmp_path, reference):
     """A disk filled between the room check and the write: HDF5 itself fails. The command
     says so in one line and ends at once (exit 1, no traceback, no segfault); the blocks

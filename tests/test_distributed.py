@@ -140,6 +140,7 @@ def _clear(ctrl):
         os.remove(os.path.join(ctrl, name))
 
 
+@pytest.mark.slow
 @needs_dask
 def test_local_cluster_gives_the_local_backends_bytes(tmp_path):
     """`--scheduler local:2` (its own cluster) against the local backend, same scene."""
@@ -155,6 +156,7 @@ def test_local_cluster_gives_the_local_backends_bytes(tmp_path):
     assert "--scheduler local:2" in attrs["command"]
 
 
+@pytest.mark.slow
 @needs_dask
 def test_followed_scene_runs_as_a_chain_with_the_same_bytes(tmp_path, cluster):
     """Fig. 7(b) followed up: each slab starts from the previous one's final states."""
@@ -189,6 +191,7 @@ def test_a_worker_killed_once_mid_chunk_has_its_chunk_rerun(tmp_path, cluster):
     _same_bytes(ref, out)
 
 
+@pytest.mark.slow
 @needs_dask
 def test_a_poison_chunk_is_marked_failed_and_the_rest_completes(tmp_path, cluster):
     address, ctrl = cluster
@@ -221,6 +224,7 @@ def test_a_poison_chunk_is_marked_failed_and_the_rest_completes(tmp_path, cluste
     assert "failed_chunks" not in attrs
 
 
+@pytest.mark.slow
 @needs_dask
 def test_driver_killed_mid_run_then_resume_submits_only_the_missing_chunks(tmp_path, cluster):
     """The driver (a separate process) is SIGKILLed after chunks 0-4 of 12 are written

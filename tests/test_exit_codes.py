@@ -110,6 +110,7 @@ def _limit(n):
     return limited
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["sweep", "continue", "plot", "gallery"])
 def test_every_writing_command_ends_a_fault_with_exit_1_and_one_message(tmp_path, sweep_file,
                                                                          gallery_configs,

@@ -48,6 +48,7 @@ def test_omega_and_kappa_a_hair_from_the_corner_event(d):
     assert np.abs(off).max() < 1e-6
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(w=st.floats(0.6, 4.0), kap=st.floats(-0.5, 0.5), r=st.floats(0.05, 1.0),
        u0=st.floats(0.0, 15.0), v0=st.floats(-15.0, 15.0),

@@ -52,6 +52,7 @@ def _is_single_impact(kappa, w=1.999):
     return bool(((res["period"] == 1) & (res["symbols"] == "b")).all())
 
 
+@pytest.mark.slow
 def test_kappa_C_located_by_bisection_on_the_flow():
     """omega = 1.999, r = 0.8: the single-impact orbit stops at kappa_C = -0.014137 (eq 11,
     section 3.3.3).  Bisection on kappa with the full flow as judge, not the formula."""

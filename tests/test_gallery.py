@@ -132,6 +132,7 @@ SMOKE_SET = ("fig05", "fig07a", "fig07b_up", "fig07b_down", "fig16a", "fig16b", 
              "chart_map2d")
 
 
+@pytest.mark.slow
 def test_gallery_smoke_and_reuse(tmp_path):
     """Smoke run of a subset: every figure drawn; a second run reuses every sweep; a
     changed [plot] table still reuses, a changed [run] sweeps that scene again."""

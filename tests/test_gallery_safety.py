@@ -152,6 +152,7 @@ def test_smoke_run_has_places_of_its_own_and_never_replaces_a_full_run(tmp_path,
     assert r.exit_code == 2 and "gallery_smoke/fig06a.png" in r.output, r.output
 
 
+@pytest.mark.slow
 def test_full_run_never_reuses_a_smoke_file(tmp_path):
     """A smoke file's own scene says it is one (its title ends with gallery.SMOKE_MARK), so a
     full run into the same folders sweeps again instead of reusing it and replaces it (the
@@ -216,6 +217,7 @@ IN_THE_WAY = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", sorted(IN_THE_WAY))
 @pytest.mark.parametrize("smoke", [True, False])
 def test_a_file_the_gallery_did_not_write_is_refused_before_any_work(tmp_path, case, smoke):
@@ -272,6 +274,7 @@ def test_every_file_in_the_way_is_named_at_once_and_a_users_same_sweep_is_reused
     assert (data / "fig06a.h5").read_bytes() == mine
 
 
+@pytest.mark.slow
 def test_continuation_files_carry_who_made_them(tmp_path):
     """A continuation file keeps the command that started it (root attribute ``command``,
     written by ``continuation.run_to_file``: the gallery's for its own), so a user's
@@ -300,6 +303,7 @@ def test_continuation_files_carry_who_made_them(tmp_path):
     assert r.exit_code == 0 and "cont_beta: reused" in r.output, r.output
 
 
+@pytest.mark.slow
 def test_a_users_continuation_resumed_by_the_gallery_stays_the_users(tmp_path):
     """A user's interrupted continuation of exactly the gallery's scene, at the gallery's
     name: the gallery resumes it (and never starts it again), and the finished file keeps
@@ -368,6 +372,7 @@ def run_with_fig07a_locked_after_the_plan(monkeypatch, cfg, out, data):
                 h.close()
 
 
+@pytest.mark.slow
 def test_a_refusal_met_once_the_run_has_begun_is_a_fault_saying_what_was_kept(tmp_path,
                                                                               monkeypatch):
     """A data file locked by another command after the plan (here when the plan is made)
@@ -506,6 +511,7 @@ def rerun(cfg, out, data):
     return r.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig,cut", [(signal.SIGINT, "fig06a"), (signal.SIGTERM, "cont_beta")],
                          ids=["SIGINT-in-a-sweep", "SIGTERM-in-a-continuation"])
 def test_an_interrupt_says_what_was_kept_and_a_rerun_completes_it(tmp_path, reference, sig, cut):
@@ -544,6 +550,7 @@ KILL_AFTER = {"in a sweep": ("d/fig06a.h5.partial", 0.3),
               "in the figures": ("g/cont_beta.png", 1.0)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("moment", sorted(KILL_AFTER))
 def test_sigkill_mid_run_then_a_rerun_is_bitwise_equal(tmp_path, reference, moment):
     """SIGKILL (by process id) at a seeded random moment after a given file appears (a
@@ -591,6 +598,7 @@ main()
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("step", ["figure", "sweep"])
 def test_a_full_disk_stops_with_one_message_and_a_rerun_completes(tmpfs, reference, step):
     """A full disk (once chained OSErrors and a 0-byte PNG in the figure step), on a real
@@ -639,6 +647,7 @@ main()
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("step", ["sweep", "figure"])
 def test_a_file_size_limit_stops_with_one_message_and_a_rerun_completes(tmp_path, reference,
                                                                         step):
@@ -686,6 +695,7 @@ main()
 """
 
 
+@pytest.mark.slow
 def test_the_record_is_whole_or_not_written(tmp_path, reference):
     """gallery_run.json is rewritten whole after every figure (outputs.write_text): a failed
     write ends the run (exit 1, one message) with the last whole record in place, listing
@@ -895,6 +905,7 @@ main()
 """
 
 
+@pytest.mark.slow
 def test_a_second_gallery_on_the_same_folders_is_refused_at_once(tmp_path):
     """Two galleries on the same folders: the second once failed with "data/fig01b.h5
     exists; pass --overwrite" (exit 1), the first having written it. A gallery holds

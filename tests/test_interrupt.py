@@ -83,6 +83,7 @@ def _wait_for_a_done_block(p, partial):
     pytest.fail("no block was marked done")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupt_ends_a_long_kernel_call(tmp_path, sig):
     """SIGINT (Ctrl-C) and SIGTERM while a block's kernel runs a run of many seconds (omega =
@@ -103,6 +104,7 @@ def test_an_interrupt_ends_a_long_kernel_call(tmp_path, sig):
         assert f["done"][...].tolist() == [[True, False]]
 
 
+@pytest.mark.slow
 def test_interrupted_sweep_resumes_bitwise(tmp_path):
     """A sweep interrupted while its blocks compute (SIGINT once its quick first block is
     marked done; the next blocks' runs, at omega = 1e7, take a fraction of a second each),
@@ -414,6 +416,7 @@ cli.main()
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_a_block_still_busy_after_the_stop_grace_does_not_hold_the_exit(tmp_path, sig):
     """A block that does not stop (numba compiling a kernel cannot be cut short) is left
@@ -433,6 +436,7 @@ def test_a_block_still_busy_after_the_stop_grace_does_not_hold_the_exit(tmp_path
     assert "Traceback" not in err and "shut down beside" not in err, err
 
 
+@pytest.mark.slow
 def test_dask_driver_answers_an_interrupt_at_once(tmp_path):
     """With ``--scheduler local:2`` the driver answers SIGINT with exit 130 and the partial
     file kept, without waiting for the chunk its workers compute (8 runs at omega = 1e9, many

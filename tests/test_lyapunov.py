@@ -165,6 +165,7 @@ def test_map_exponents_are_the_mean_log_of_s_and_agree_with_a_generic_qr():
 
 
 # ------------------------------------------------------------------ the plots
+@pytest.mark.slow
 def test_plot_colours_by_stability_and_refuses_without_it(tmp_path):
     """`cornerbif plot --color-by lyapunov|multiplier` draws a diagram and a chart from
     files kept with "stability"; a file without it is refused with the way to get it, and

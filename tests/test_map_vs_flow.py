@@ -71,6 +71,7 @@ def _flow_word(k, w=1.999, r=0.8, record=240):
     return s.pop() if len(s) == 1 else ""
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("N", [5, 12, 24, 36])
 def test_beta_N_gamma_plateau_ends_agree_map_and_flow(N):
     """omega = 1.999, r = 0.8: the kappa interval of the (beta^N gamma) orbit of the maps

@@ -224,6 +224,7 @@ def _followed_up(ks, x=None):
     return np.array(Ws), words
 
 
+@pytest.mark.slow
 def test_winding_number_non_decreasing_on_the_whole_beta_gamma_range_when_followed():
     # Fig. 14 / section 5.4: the staircase is the attractor continued in kappa.  Followed
     # upwards from kappa_beta (eq 68), W is non-decreasing on the whole beta/gamma range,

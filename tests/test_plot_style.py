@@ -63,6 +63,7 @@ def kappa_sweep(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_diagram_colours_runs_by_their_orbit(tmp_path, kappa_sweep):
     """A kappa sweep at omega = 1.999 drawn by attractor: every run's points take its
     word's colour (attractor_colors of the labels shown), the legend names the words in
@@ -294,6 +295,7 @@ def test_label_counts_by_slab_are_the_whole_counts(monkeypatch):
     assert none == np.count_nonzero(ids < 0)
 
 
+@pytest.mark.slow
 def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypatch,
                                                              kappa_sweep):
     """A diagram drawn as one image (RASTER_POINTS made small) is the same PNG, pixel for

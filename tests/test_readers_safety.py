@@ -439,6 +439,7 @@ WARNING_CASES = [
 ]
 
 
+@pytest.mark.slow
 def test_no_warning_reaches_the_user(tmp_path, work):
     """plot and info over a representative set of files (each kind of figure; files of
     escapes, of NaN only, a chart of one value, a continuation with no branch) in a process

@@ -1,4 +1,4 @@
-"""The contract every registered model passes (STYLE: one shared test for every system),
+"""The contract every registered model passes (one shared test for every system),
 and a model from outside the package registered with one line (docs/architecture.md)."""
 
 import math

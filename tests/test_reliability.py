@@ -44,6 +44,7 @@ VALUES = st.recursive(SCALARS, lambda c: st.lists(c, max_size=4) | st.dictionari
                       max_leaves=20)
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.dictionaries(KEYS, VALUES, max_size=7))
 @example({"run": {"transient": None}})     # once raised TypeError: None passed as automatic
@@ -136,6 +137,7 @@ def _sweep_args(out, extra=()):
             *extra]
 
 
+@pytest.mark.slow
 def test_sigkill_at_random_moments_then_resume_is_bitwise_equal(tmp_path):
     """20 runs killed with SIGKILL (by process id) at random moments: the partial file always
     opens, every point marked done holds data, and --resume completes to the same bytes."""
@@ -190,6 +192,7 @@ main()
 """
 
 
+@pytest.mark.slow
 def test_sigkill_while_finishing_keeps_a_resumable_partial_file(tmp_path):
     """A kill while the finished file is stamped (its attractor table written outside
     single-writer/multiple-reader mode) once left a partial file HDF5 could not open; the
@@ -217,6 +220,7 @@ def test_sigkill_while_finishing_keeps_a_resumable_partial_file(tmp_path):
             assert np.array_equal(a[k][...], b[k][...], equal_nan=True), k
 
 
+@pytest.mark.slow
 def test_second_writer_fails_fast(tmp_path):
     out = tmp_path / "c.h5"
     p = subprocess.Popen(_sweep_args(out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -403,6 +403,7 @@ def check_scene(raw: dict, threads=None, sets=()):
 
 
 # ------------------------------------------------------------------ the property
+@pytest.mark.slow
 @settings(max_examples=EXAMPLES, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                  HealthCheck.filter_too_much])

@@ -31,6 +31,7 @@ def _kernel(p, x0, record=60):
     return {k: v[0] for k, v in res.items()}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_multipliers_match_the_fd_reference(name):
     """The four multipliers equal the eigenvalues of the reference's central-difference

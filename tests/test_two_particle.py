@@ -282,7 +282,7 @@ def test_constructed_midflight_triple_impact():
 
 # ------------------------------------------------------------------ (f) threads
 def test_results_do_not_depend_on_the_thread_count():
-    """The same batch with 1 and 2 threads gives bitwise-equal arrays (STYLE)."""
+    """The same batch with 1 and 2 threads gives bitwise-equal arrays."""
     prm, z0, y0, u0, v0 = _random_points(48, 23)
     old = numba.get_num_threads()
     try:

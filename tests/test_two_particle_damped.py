@@ -253,7 +253,7 @@ def test_forced_pair_is_released_where_the_contact_force_changes_sign():
 
 
 def test_thread_count_does_not_change_damped_runs():
-    """1 and 2 threads give bitwise-equal arrays with damping and forcing (STYLE)."""
+    """1 and 2 threads give bitwise-equal arrays with damping and forcing."""
     rng = np.random.default_rng(3)
     n = 16
     prm = dict(BASE, omega0=rng.uniform(1.5, 2.5, n), sigma1=rng.uniform(0, 0.3, n),

@@ -1,1 +1,1 @@
-"""Numba kernels: pure functions of arrays and scalars, no I/O (DESIGN 4)."""
+"""Numba kernels: pure functions of arrays and scalars, no I/O (docs/architecture.md)."""

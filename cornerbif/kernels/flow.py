@@ -542,7 +542,7 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
     underdamped = d[D_REGIME] == 0.0
     # the obstacle at the start of each piece (it depends on the parity of j only) and,
     # for the Sturm test, the free rotation over a whole piece: no trigonometry for a
-    # flight from corner to corner (DESIGN 2b)
+    # flight from corner to corner (time as piece and local time: docs/kernels.md)
     # (a profile of more than two pieces goes round its own cycle: cycle2 False)
     cycle2 = cycle_np(d) == 2
     zs0, zps0, _, _ = z_state(p, 0, 0.0)

@@ -1,4 +1,4 @@
-"""Certified first-root search (DESIGN 2: never miss an impact, grazing ones included).
+"""Certified first-root search (never miss an impact, grazing ones included: docs/guarantees.md).
 
 A function f (the gap g = u - z, or the contact force N) is smooth on a piece,
 and bounds lo2 <= f'' <= hi2 hold on the whole rest of the piece.  From a point

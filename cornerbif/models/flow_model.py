@@ -2,7 +2,7 @@
 
 u'' + 2 sigma u' + k^2 u = f(t), f = 0 or F cos(Omega t + phi) (eq 4), for u >= z(t),
 with Newton's impact law v+ = (1 + r) z'(t) - r v- (eq 5).  Its parameters and obstacles
-are declared in ``models/params.py`` (with the packed vector the kernels index), the
+are declared in ``models/flow_params.py`` (with the packed vector the kernels index), the
 obstacles' jitted pieces in ``models/obstacle.py``; the kernel is ``kernels/flow.py``.
 """
 
@@ -12,14 +12,12 @@ import math
 
 import numpy as np
 
-from .._jit import raise_if_stopped
-from ..analysis import detect_cycles
-from ..kernels.fill import full
-from ..kernels.flow import obstacle_heights, run_batch, run_batch_profile
 from ..model import Coord, CycleSeries, Field, Model
-from ..stability import batch_stability, new_outputs
-from . import params as P
-from .params import OBSTACLES
+from . import flow_params as P
+from .flow_params import OBSTACLES
+
+# The kernels (kernels/flow.py, the cycle analysis, the stability pass) are imported by the
+# methods that run them: importing this module, as checking a scene does, loads no numba.
 
 # run.stop = "period": the kernel stops once the state at the corners repeats to this share of
 # run.period_tol (relative), tighter than the analysis so that the orbit has converged well
@@ -215,11 +213,15 @@ class FlowModel(Model):
 
     def wall_at_start(self, params):
         if params.shape[1] > P.NPARAM:          # a profile: z(0) = kappa + beta g(0)
+            # the kernels load with numba here, on first use (numba-free validation)
+            from ..kernels.flow import obstacle_heights
             return obstacle_heights(np.ascontiguousarray(params),
                                     np.zeros((params.shape[0], 1)))[:, 0]
         return params[:, P.KAPPA]
 
     def wall_at(self, params, t0):
+        # the kernels load with numba here, on first use (numba-free validation)
+        from ..kernels.flow import obstacle_heights
         return obstacle_heights(np.ascontiguousarray(params),
                                 np.ascontiguousarray(t0, dtype=float))
 
@@ -253,13 +255,18 @@ class FlowModel(Model):
         return ints
 
     def kernel(self):
+        # the kernels load with numba here, on first use (numba-free validation)
+        from ..kernels.flow import run_batch
         return run_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles, for ``what`` ("sweep", "stability",
         "continuation"; ``engine.cold_compiles``): (name, seconds, jitted functions) per
         kernel, the seconds from COMPILE_SECONDS."""
+        # the kernels load with numba here, on first use (numba-free validation)
         from .._jit import dispatchers
+        from ..kernels.flow import obstacle_heights, run_batch, run_batch_profile
+        from ..stability import batch_stability
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", COMPILE_SECONDS["analysis"],
@@ -411,6 +418,9 @@ def _stability(params, out, ipc, control=0):
     """The Floquet multipliers of each run's cycle and its Lyapunov spectrum over the
     recorded window (cornerbif.stability), under a sweep's ``control`` (its address; 0:
     none): told to stop, ``KernelStopped``."""
+    # the kernels load with numba here, on first use (numba-free validation)
+    from .._jit import raise_if_stopped
+    from ..stability import new_outputs
     res = new_outputs(params.shape[0])
     batch_stability(params, out["t"], out["u"], out["v_in"], out["v_out"],
                     out["corner_offset"], ipc, *res.values(), control)
@@ -418,10 +428,23 @@ def _stability(params, out, ipc, control=0):
     return res
 
 
+def batch_stability(*args):
+    """``stability.batch_stability``, imported at its first call (numba-free validation):
+    the stability pass of a block (``_stability``), a name of this module that a test may
+    replace."""
+    from ..stability import batch_stability as kernel
+    return kernel(*args)
+
+
 def _run_flow(params, ics, ints, scene, fill, cornered):
     """The flow kernel and the cycle analysis on n items; outputs not in ``fill`` start
     unfilled.  Returns (out, status, final, period, impacts per cycle, symbols, first
     recorded impact)."""
+    # the kernels load with numba here, on first use (numba-free validation)
+    from .._jit import raise_if_stopped
+    from ..analysis import detect_cycles
+    from ..kernels.fill import full
+    from ..kernels.flow import run_batch, run_batch_profile
     n = params.shape[0]
     rec = scene.record
     out = {k: full((n, rec), np.nan) if k in fill else np.empty((n, rec))

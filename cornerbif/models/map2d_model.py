@@ -12,11 +12,11 @@ from __future__ import annotations
 import numpy as np
 
 from .. import status as S
-from .._jit import raise_if_stopped
-from ..maps2d import detect_map_cycles, iterate_batch
 from ..model import Coord, CycleSeries, Field, Model, Param, anything, positive
-from ..stability import batch_map_stability, new_outputs
 from .flow_model import SECTION_FIELDS, STABILITY_FIELDS, U
+
+# The kernels (maps2d.py, the stability pass) are imported by the methods that run them:
+# importing this module, as checking a scene does, loads no numba.
 
 PARAMS = {p.name: p for p in (
     Param("omega", 1.999, "> 0 (the map uses omega1 = omega - 2)", positive,
@@ -63,11 +63,16 @@ class Map2dModel(Model):
         return np.array([scene.transient, scene.record, 0], np.int64)
 
     def kernel(self):
+        # the kernels load with numba here, on first use (numba-free validation)
+        from ..maps2d import iterate_batch
         return iterate_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
+        # the kernels load with numba here, on first use (numba-free validation)
         from .._jit import dispatchers
+        from ..maps2d import detect_map_cycles, iterate_batch
+        from ..stability import batch_map_stability
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the map2d kernels", COMPILE_SECONDS["map2d"],
@@ -99,6 +104,10 @@ class Map2dModel(Model):
         The iterates x_n = (a_n, b_n) go to the section slots (su, sv), as the flow's
         section values (u, v)(nT); a run is OK unless an iterate is not finite.
         """
+        # the kernels load with numba here, on first use (numba-free validation)
+        from .._jit import raise_if_stopped
+        from ..maps2d import detect_map_cycles, iterate_batch
+        from ..stability import new_outputs
         n = params.shape[0]
         rec = scene.record
         a = np.empty((n, rec))
@@ -127,6 +136,14 @@ class Map2dModel(Model):
             raise_if_stopped(control)
             out.update(stab)
         return out, st, final, period, ipc, sym_full
+
+
+def batch_map_stability(*args):
+    """``stability.batch_map_stability``, imported at its first call (numba-free
+    validation): the stability pass of a block (``run_items``), a name of this module that
+    a test may replace."""
+    from ..stability import batch_map_stability as kernel
+    return kernel(*args)
 
 
 MODEL = Map2dModel(

@@ -10,7 +10,7 @@ branch to each of them, and its Python declaration (name, code, period, pieces p
 period) in ``models/params.py``; docs/kernels.md says what each must return.
 
 Time is kept as a piece index ``j`` and a local time ``tau`` in [0, L_j]
-(DESIGN 2b): precision stays at rounding level over long runs, and a corner is
+(docs/kernels.md, "Obstacles"): precision stays at rounding level over long runs, and a corner is
 always exactly at a piece boundary.
 
 * ``rectified_sine`` (eq 8): pieces of length pi/omega, each a corner
@@ -524,7 +524,8 @@ def npp_bound(beta, w, sigma, k, g2, g3, g4):
     """The bound of |z'''' + 2 sigma z''' + k^2 z''| on z = kappa + beta g(omega t) where
     |g''|, |g'''|, |g''''| are at most g2, g3, g4: beta omega^2 (omega^2 g4 + 2 sigma omega
     g3 + k^2 g2), the contact force's |N''| less the forcing's share (``profile_npp``).
-    Arithmetic alone: ``profile.scale_problem`` runs it as Python (``py_func``)."""
+    Arithmetic alone: ``profile.scale_problem`` checks a scene with the same in Python
+    (``flow_params.npp_bound``)."""
     return beta * w * w * (w * w * g4 + 2.0 * sigma * w * g3 + k * k * g2)
 
 

@@ -1,7 +1,7 @@
 """The oscillator u'' + 2 sigma u' + k^2 u = f(t), f = F cos(Omega t + phi) (eq 4).
 
 Free flight is exact (closed form) in every regime, so all numerical error of
-the engine lives in event location (DESIGN 2).  The state is split as
+the engine lives in event location (docs/guarantees.md).  The state is split as
 u = u_h + u_p: u_p is the particular solution of the harmonic forcing, u_h the
 homogeneous part carried from the flight's reference point.
 """
@@ -152,7 +152,7 @@ def small_sincos(x):
     For |x| <= 1e-3 (most steps of a search near its root) the series stop at x^5 and
     x^6 (remainders below x^7/7! < 2e-25 and x^8/8! < 3e-29); otherwise at x^13 and x^14
     (below x^15/15! < 7.2e-22 and x^16/16! < 1.2e-23 at SMALL_ANGLE): far below the
-    rounding of the result, in a few multiply-adds instead of a libm call (DESIGN 2b).
+    rounding of the result, in a few multiply-adds instead of a libm call.
     """
     t = x * x
     if t <= 1e-6:

@@ -401,13 +401,12 @@ def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: 
     certified bounds in time of the second to fourth derivatives of z (beta omega^j times
     the largest bound of the j-th derivative of g over the pieces), the bound of the
     contact force's N'' and the Sturm floors.  Each is read from the row the kernels are
-    given (``params.pack``: the pieces' bounds, Sturm bounds and floors) or computed by the
-    obstacle's own functions (``obstacle.profile_g2_abs``, ``_profile_max``,
-    ``npp_bound``, run as Python: checking a scene compiles nothing).  Each grows with
-    |omega|, beta, sigma and k (a floor also as 1 / k^2), so a scene checks its
-    extremes."""
-    from . import obstacle as O
-    from . import params as P
+    given (``params.pack``: the pieces' bounds, Sturm bounds and floors) or computed as the
+    obstacle's own functions compute them (``obstacle.profile_g2_abs``, ``_profile_max``,
+    ``npp_bound``; in Python, ``flow_params.row_bound`` and ``npp_bound``: checking a scene
+    loads no numba and compiles nothing).  Each grows with |omega|, beta, sigma and k (a
+    floor also as 1 / k^2), so a scene checks its extremes."""
+    from . import flow_params as P
     with np.errstate(all="ignore"):
         w = np.float64(abs(omega))
         if not math.isfinite(np.float64(profile.period) / w):
@@ -415,15 +414,15 @@ def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: 
         row = P.pack({"omega": w, "beta": beta, "k": k, "kappa": kappa, "sigma": sigma},
                      "profile", 0.0, 0.0, 0.0, None, profile=profile)
         b = row[P.BETA]
-        G = (O.profile_g2_abs.py_func(row), O._profile_max.py_func(row, P.PC_G3),
-             O._profile_max.py_func(row, P.PC_G4))          # g'', g''', g''''
+        G = (P.row_bound(row, P.PC_G2_LO, P.PC_G2_HI), P.row_bound(row, P.PC_G3),
+             P.row_bound(row, P.PC_G4))                     # g'', g''', g''''
         for j, g in zip((2, 3, 4), G):
             if not (math.isfinite(b * w ** j) and math.isfinite(b * w ** j * g)):
                 top = (FLOAT_MAX / 1e3 / (b * max(g, 1.0))) ** (1.0 / j) if b > 0 else 0.0
                 return "omega", (f"the certified bound of z's derivative {j}, beta omega^{j} "
                                  f"max|g^({j})| (beta {beta!r}, max|g^({j})| {g:.6g}), overflows "
                                  f"float64; omega at most about {top:.3g} with this beta")
-        if not math.isfinite(O.npp_bound.py_func(b, w, row[P.SIGMA], row[P.K], *G)):
+        if not math.isfinite(P.npp_bound(b, w, row[P.SIGMA], row[P.K], *G)):
             name = "sigma" if not math.isfinite(2.0 * row[P.SIGMA] * w * G[1]) else "k"
             return name, ("the bound of the contact force's second derivative, beta omega^2 "
                           "(omega^2 G4 + 2 sigma omega G3 + k^2 G2), overflows float64")

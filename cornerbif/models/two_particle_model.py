@@ -3,8 +3,8 @@
 w = kappa + beta sin(omega0 t) (eq 72); z and u harmonic in flight with omega1, omega2
 (eq 73), optionally damped and forced as the flow's oscillator (eq 4); w-z impacts by
 law (5) with r1, z-u impacts by the mass-ratio law (74) with r2 and mu = M/m.  The
-parameters' declarations, the packed layout and the impact law are
-``models/two_particle.py``; the kernel is ``kernels/two_particle.py``.
+parameters' declarations and the packed layout are ``models/two_particle_params.py``,
+the impact law ``models/two_particle.py``; the kernel is ``kernels/two_particle.py``.
 """
 
 from __future__ import annotations
@@ -14,14 +14,12 @@ import math
 
 import numpy as np
 
-from .._jit import raise_if_stopped
-from ..analysis import detect_cycles
-from ..kernels import two_particle as K
-from ..kernels.fill import full
 from ..model import Coord, Field, Model
-from ..stability import two_particle_outputs
-from . import two_particle as TP
+from . import two_particle_params as TP
 from .flow_model import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
+
+# The kernels (kernels/two_particle.py, the cycle analysis, the stability pass) are imported
+# by the methods that run them: importing this module, as checking a scene does, loads no numba.
 
 # the parameters that decide an undamped resonance (models.two_particle.resonance_problems)
 RESONANCE_PARAMS = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
@@ -123,11 +121,15 @@ class TwoParticleModel(Model):
         return ints
 
     def kernel(self):
+        # the kernels load with numba here, on first use (numba-free validation)
+        from ..kernels import two_particle as K
         return K.run_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
+        # the kernels load with numba here, on first use (numba-free validation)
         from .._jit import dispatchers
+        from ..kernels import two_particle as K
         from ..stability import batch_two_particle_stability
         from .flow_model import ANALYSIS_KERNELS
         from .flow_model import COMPILE_SECONDS as FLOW
@@ -180,6 +182,12 @@ class TwoParticleModel(Model):
         w-z impact, this system's corner); ``su, sv, sz, sy`` the sections; ``wz_*``
         the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
         """
+        # the kernels load with numba here, on first use (numba-free validation)
+        from .._jit import raise_if_stopped
+        from ..analysis import detect_cycles
+        from ..kernels import two_particle as K
+        from ..kernels.fill import full
+        from ..stability import two_particle_outputs
         n = params.shape[0]
         rec = scene.record
         cap = wall_capacity(rec)
