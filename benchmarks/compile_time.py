@@ -53,7 +53,7 @@ ANALYSIS = ["python", """
 import numpy as np
 from cornerbif.analysis import cycle_signatures, detect_cycles
 from cornerbif.chunkwrite import _shuffle_bytes
-from cornerbif.kernels.fill import full
+from cornerbif.numerics.fill import full
 n, rec = 2, 8
 t = full((n, rec), 1.0)
 p, ipc, sym = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros((n, rec), np.uint8)

@@ -13,8 +13,8 @@ impact asked for (transient + record, every run): a cam's ``COST_IMPACT`` is tha
 shipped cam_cycloidal sweep (``--only cam_cycloidal``).
 
 ``--calibrate`` measures the coefficients of the time model (``COST_IMPACT``,
-``COST_PIECE`` in ``models/flow_model.py``, ``COST_IMPACT``, ``COST_SECTION`` in
-``models/two_particle_model.py``): runs of 300 impacts from t = 0 (transient 0, so the last
+``COST_PIECE`` in ``models/flow/model.py``, ``COST_IMPACT``, ``COST_SECTION`` in
+``models/two_particle/model.py``): runs of 300 impacts from t = 0 (transient 0, so the last
 impact's time is the run's span), one numba thread, process CPU time, best of 2, at three
 speeds of the obstacle per scene; pieces crossed = span / piece length (section periods for
 two_particle).  The per-piece cost is read at the fastest obstacle (pieces dominate), the

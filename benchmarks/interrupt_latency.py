@@ -137,11 +137,11 @@ def cost(scene_name, rounds):
 # kernel its run_items calls)
 STABILITY_SCENES = [
     ("flow", "fig04c", "omega", 'output.keep=["impacts", "stability"]',
-     "cornerbif.models.flow_model", "batch_stability"),
+     "cornerbif.models.flow.model", "batch_stability"),
     ("two_particle", "fig19a", "omega0", 'output.keep=["impacts", "stability"]',
      "cornerbif.stability", "batch_two_particle_stability"),
     ("map2d", "fig15b", "kappa", 'output.keep=["section", "stability"]',
-     "cornerbif.models.map2d_model", "batch_map_stability")]
+     "cornerbif.models.map2d.model", "batch_map_stability")]
 
 
 def _run_items_to_end(spec, prm, ics, ints, scene, box):

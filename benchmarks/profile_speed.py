@@ -16,7 +16,7 @@ Each round times ``run_items`` (kernel and cycle analysis, as a sweep runs them)
 thread for each obstacle in turn, by process CPU time; the report gives the impacts per
 second of each and the median over rounds of the per-round ratios to the rectified sine.
 The built-in obstacles share one compiled kernel, the profiles another
-(``kernels.flow.run_batch_profile``); both are loaded or compiled before the rounds.
+(``models.flow.kernel.run_batch_profile``); both are loaded or compiled before the rounds.
 
     python benchmarks/profile_speed.py [--rounds 7] [--num 200]
     python benchmarks/profile_speed.py --smoke

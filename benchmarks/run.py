@@ -65,8 +65,8 @@ def _items(scene):
         assert os.path.dirname(registry.__file__) == os.path.dirname(sweep.__file__)
         wall = registry.get(scene.model).wall_at_start(params)
     except (ImportError, AssertionError):  # a tree from before the registry (benchmarks/ab.py compares trees)
-        from cornerbif.models import params as P
-        from cornerbif.models import two_particle as TP
+        from cornerbif.models.flow import packed as P
+        from cornerbif.models.two_particle import packed as TP
         wall = params[:, TP.KAPPA if scene.model == "two_particle" else P.KAPPA]
     ics = sweep.draw_initial(scene, flat, wall)
     prm = np.repeat(params, scene.n_ic, axis=0)
@@ -108,7 +108,7 @@ def bench_map2d(n_items, steps, threads):
     """Steps per second of the map2d kernel (eqs 56-60) at omega = 1.999, kappa in the corner range."""
     import numba
 
-    from cornerbif import maps2d
+    from cornerbif.models.map2d import maps as maps2d
     params = maps2d.map_params(1.999, np.linspace(-0.0141, -0.004, n_items), 0.8)
     x0 = maps2d.default_x0(params)
     old = numba.get_num_threads()

@@ -49,7 +49,7 @@ def _run_scene(scene, ics=None, tile=1):
     except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
         from cornerbif import sweep
     from cornerbif.analysis import words
-    from cornerbif.models import params as P
+    from cornerbif.models.flow import packed as P
     n_pts = scene.shape[0]
     idx = [(i,) for i in range(n_pts)]
     params = sweep.pack_points(scene, idx)
@@ -90,9 +90,9 @@ def _seconds_per_item(prm, ics, ints, scene, tile=1, repeat=2):
 
 
 def _time_kernel(params, ics, record, transient=0, repeat=3):
-    """Best-of-``repeat`` seconds of ``kernels.flow.run_batch`` alone on these items."""
-    from cornerbif.kernels.flow import run_batch
-    from cornerbif.models import params as P
+    """Best-of-``repeat`` seconds of ``models.flow.kernel.run_batch`` alone on these items."""
+    from cornerbif.models.flow import packed as P
+    from cornerbif.models.flow.kernel import run_batch
     n = params.shape[0]
     ints = np.zeros(P.NINT, np.int64)
     ints[P.I_TRANSIENT] = transient
@@ -393,13 +393,13 @@ def bench_chatter(smoke=False):
     every chattering sequence ends in sticking), start on the obstacle at t = 0 with relative
     velocity w0.  The engine's accumulation time at threshold c is the kernel's jump from the
     first impact with relative velocity <= c: t_k + 2 w_k / (N_k (1 - r)) (the chattering
-    branch of ``cornerbif/kernels/flow.py``; N_k from its ``contact_force``), read from the
+    branch of ``cornerbif/models/flow/kernel.py``; N_k from its ``contact_force``), read from the
     recorded impacts.  Reference: ``chatter_reference`` (mpmath).
     """
-    from cornerbif.kernels.flow import contact_force
-    from cornerbif.models import params as P
-    from cornerbif.models.obstacle import z_state
-    from cornerbif.models.oscillator import derive
+    from cornerbif.models.flow import packed as P
+    from cornerbif.models.flow.kernel import contact_force
+    from cornerbif.numerics.oscillator import derive
+    from cornerbif.obstacles.dispatch import z_state
     from cornerbif.sweep import simulate
     cases = [(0.5, 0.8, 0.05), (0.8, 0.5, 0.1)] if smoke else \
         [(w, r, w0) for w in (0.5, 0.8) for r in (0.5, 0.8) for w0 in (0.01, 0.1)]
@@ -483,8 +483,8 @@ try:
     from cornerbif import engine as sweep
 except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
     from cornerbif import sweep
-import cornerbif.kernels.flow as F
-from cornerbif.kernels.roots import FOUND, NONE
+import cornerbif.models.flow.kernel as F
+from cornerbif.numerics.roots import FOUND, NONE
 
 KEYS = ("eval_gap", "eval_gap_free", "rotations", "steps", "eval_force", "steps_force",
         "calls_found", "calls_none", "evals_found", "evals_none", "steps_found",
@@ -577,11 +577,11 @@ def _unit_costs(n=200000):
     """
     import numba
 
-    from cornerbif.kernels.flow import GAP, evaluate, free_state, grid_start, phase_grid, sturm_clear
-    from cornerbif.kernels.roots import bracket
-    from cornerbif.models import params as P
-    from cornerbif.models.obstacle import derived_tuple
-    from cornerbif.models.oscillator import derive
+    from cornerbif.models.flow import packed as P
+    from cornerbif.models.flow.kernel import GAP, evaluate, free_state, grid_start, phase_grid, sturm_clear
+    from cornerbif.numerics.oscillator import derive
+    from cornerbif.numerics.roots import bracket
+    from cornerbif.obstacles.dispatch import derived_tuple
 
     @numba.njit
     def timed_loop(call, p, d, aux, n, dep):
@@ -645,7 +645,7 @@ def bench_profile(smoke=False):
     """Where the time of a Fig. 4(c) sweep goes, on one thread.
 
     Stages (timed directly): set-up (pack parameters, draw starts), kernel
-    (``kernels.flow.run_batch``), analysis (``analysis.detect_cycles``: clusters, period,
+    (``models.flow.kernel.run_batch``), analysis (``analysis.detect_cycles``: clusters, period,
     word), HDF5 write and file bookkeeping (the whole ``sweep.run_sweep`` minus the rest).
 
     Inside the kernel (counted, not timed: a timer per event would cost more than the
@@ -675,7 +675,7 @@ def bench_profile(smoke=False):
     except ImportError:  # a tree from before the engine split (benchmarks/ab.py compares trees)
         from cornerbif import sweep
     from cornerbif.analysis import detect_cycles
-    from cornerbif.models import params as P
+    from cornerbif.models.flow import packed as P
     n_om = 20 if smoke else 1000
     sets = [f"sweep.omega.num={n_om}"]
     scene = config.load(os.path.join(ROOT, "configs", "fig04c.toml"), sets)

@@ -47,7 +47,7 @@ def cache_is_cold(dispatcher) -> bool:
 
 def dispatchers(*names):
     """The jitted functions named ``module.function`` under the package (e.g.
-    ``"kernels.flow.run_batch"``), for ``cache_is_cold``: imported when asked for."""
+    ``"models.flow.kernel.run_batch"``), for ``cache_is_cold``: imported when asked for."""
     import importlib
     out = []
     for name in names:
@@ -61,7 +61,7 @@ def load_f64(typingctx, address, i):
     """The float64 at ``address + 8 i`` (a read through a row's ``ctypes.data``).
 
     Lets a parameter tuple carry a reference to its packed row (a cam profile's table,
-    models/obstacle.py) without the reference counting of an array argument; the caller
+    obstacles/dispatch.py) without the reference counting of an array argument; the caller
     keeps the row alive while the tuple is in use."""
     sig = types.float64(types.uintp, types.intp)
 

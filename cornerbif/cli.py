@@ -202,13 +202,47 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
 
 
 def _quiet_failed_hdf5(unraisable):
-    """After a write failed inside HDF5, h5py's objects fail again as they are freed
-    ("Can't decrement id ref count"), each printing a traceback; the sweep reports the
-    failure itself, in one message."""
+    """What Python cannot raise where it happens (an exception in a finalizer or a weakref
+    callback), while a command runs:
+
+    * an interrupt (Ctrl-C, or SIGTERM: ``outputs.Terminated``) whose handler ran inside a
+      finalizer would be printed and lost, and the command would run on to exit 0: the
+      signal is sent again, so its handler runs once the finalizer has returned, where the
+      command answers it (exit 130);
+    * after a write failed inside HDF5, h5py's objects fail again as they are freed
+      ("Can't decrement id ref count"), each printing a traceback; the sweep reports the
+      failure itself, in one message."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        _raise_again_soon(unraisable.exc_value)
+        return
     text = str(unraisable.exc_value)
     if isinstance(unraisable.exc_value, RuntimeError) and "id ref count" in text:
         return
     sys.__unraisablehook__(unraisable)
+
+
+def _raise_again_soon(interrupt):
+    """Raise ``interrupt`` (a KeyboardInterrupt) in the main thread a millisecond from now, by
+    a one-shot timer signal (SIGALRM), so that it is raised after the finalizer and the
+    hook that lost it have returned (``signal.raise_signal`` would run its handler inside
+    the hook, where it is lost again; a thread started here would wait on a lock the
+    handler interrupts).  Landing in another finalizer, it comes back here and is tried
+    again."""
+    import signal
+    if threading_main() is False or not hasattr(signal, "setitimer"):
+        return
+
+    def again(signum, frame):
+        signal.signal(signal.SIGALRM, previous)
+        raise interrupt
+    previous = signal.signal(signal.SIGALRM, again)
+    signal.setitimer(signal.ITIMER_REAL, 0.001)
+
+
+def threading_main() -> bool:
+    """Whether this is the main thread (where signal handlers run and may be set)."""
+    import threading
+    return threading.current_thread() is threading.main_thread()
 
 
 def _check_threads(threads):

@@ -269,7 +269,7 @@ class Scene:
     preset : the ``run.preset`` the run settings were resolved from.
     stop : ``run.stop`` resolved: "period" (early stop) or "none".
     cont : the ``[continue]`` table resolved (``cornerbif continue``), empty without one.
-    profile : the checked cam profile of ``obstacle = "profile"`` (``models.profile.Profile``),
+    profile : the checked cam profile of ``obstacle = "profile"`` (``obstacles.profile.Profile``),
         else None.
     """
 
@@ -775,7 +775,7 @@ def _read_system(w):
     if "profile" in spec.system_extra:
         table = sy.get("profile")
         if obstacle == "profile":
-            from .models.profile import ProfileError, read
+            from .obstacles.profile import ProfileError, read
             if table is None:
                 w.problems.append("system.profile: obstacle = \"profile\" needs a "
                                   "[system.profile] table (period, pieces; docs/cams.md)")
@@ -989,7 +989,7 @@ def _profile_scales(w, axes):
     """A cam profile at the scene's extreme omega, beta, k and kappa (swept or fixed): a
     problem, naming the parameter's key and value, where the kernels' numbers would not be
     finite (``profile.scale_problem``: lengths in time, certified bounds, Sturm floors)."""
-    from .models.profile import scale_problem
+    from .obstacles.profile import scale_problem
     swept = {a.name: a.values for a in axes}
 
     def values(name):

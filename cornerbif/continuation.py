@@ -42,10 +42,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .models import params as P
-from .models.obstacle import corner_of, piece_start, z_state
-from .models.oscillator import acceleration, derive, particular
-from .models.params import OBSTACLES
+from .models.flow import packed as P
+from .models.flow.params import OBSTACLES
+from .numerics.oscillator import acceleration, derive, particular
+from .obstacles.dispatch import corner_of, piece_start, z_state
 from .outputs import CONTINUATION_FORMAT
 from .stability import flight_matrix, impact_saltation, multipliers
 
@@ -487,7 +487,7 @@ class TwoParticleOrbit:
     events: event k is a w-z impact ("W": law 5 with r1 on the wall, eq 72) or a z-u
     impact ("U": law 74); the unknowns per event are its time t_k and the state
     x_k+ = (z, y, u, v) just after it; both particles fly in closed form between events
-    (``stability.flight_matrix`` and the oscillator rows of ``kernels.two_particle``).
+    (``stability.flight_matrix`` and the oscillator rows of ``models.two_particle.kernel``).
     Per event five equations: its gap vanishes at t_k for the state the flight brings,
     and the state after it is the impact law of that state.  The cycle closes after m wall
     periods.  The Jacobian is by central differences (the chain is short: 5 unknowns per
@@ -507,8 +507,8 @@ class TwoParticleOrbit:
         return len(self.kinds)
 
     def packed(self, lam):
-        from .kernels import two_particle as TK
-        from .models import two_particle as TPM
+        from .models.two_particle import kernel as TK
+        from .models.two_particle import packed as TPM
         def build():
             vals = dict(self.values)
             vals[self.param] = float(lam)
@@ -517,14 +517,14 @@ class TwoParticleOrbit:
         return cached(self._cache, float(lam), build)
 
     def duration(self, lam) -> float:
-        from .models import two_particle as TPM
+        from .models.two_particle import packed as TPM
         p, _, _ = self.packed(lam)
         return self.m * 2.0 * math.pi / p[TPM.OMEGA0]
 
     def _fly(self, lam, t0, x, t1):
         """Both particles' free flights from state x at t0 to t1."""
-        from .kernels import two_particle as TK
-        from .models import two_particle as TPM
+        from .models.two_particle import kernel as TK
+        from .models.two_particle import packed as TPM
         p, Q, D = self.packed(lam)
         out = np.empty(4)
         for off, row, s, k in ((0, TK.RZ, p[TPM.SIGMA1], p[TPM.OMEGA1]),
@@ -546,8 +546,8 @@ class TwoParticleOrbit:
 
     def _law(self, lam, kind, t, xm):
         """(gap, the state just after the event) for an event of ``kind`` at t."""
-        from .kernels import two_particle as TK
-        from .models import two_particle as TPM
+        from .models.two_particle import kernel as TK
+        from .models.two_particle import packed as TPM
         p, _, _ = self.packed(lam)
         z, y, u, v = xm
         if kind == "W":
@@ -598,7 +598,7 @@ class TwoParticleOrbit:
         for k in range(self.n):
             t, xm = self._arrival(X, lam, k)
             if self.kinds[k] == "W":
-                from .kernels import two_particle as TK
+                from .models.two_particle import kernel as TK
                 p, _, _ = self.packed(lam)
                 w[k] = xm[1] - TK.wall(p, t, 0.0)[1]
             else:
@@ -637,7 +637,7 @@ class TwoParticleOrbit:
 
     def smallest_gap(self, X, lam):
         """The smallest of both gaps z - w and u - z over the interior of every flight."""
-        from .kernels import two_particle as TK
+        from .models.two_particle import kernel as TK
         p, _, _ = self.packed(lam)
         N = self.n
         D = self.duration(lam)
@@ -700,8 +700,8 @@ def two_particle_seed(values, param, x_section, ipc):
     """A TwoParticleOrbit and its solved unknowns from a state at a section time (the
     system has the wall's period, so it is a state at t = 0): one cycle of ``ipc`` z-u
     impacts run by the kernel from it, with the w-z impacts between."""
-    from .kernels.two_particle import simulate_two_particle
-    from .models import two_particle as TPM
+    from .models.two_particle import packed as TPM
+    from .models.two_particle.kernel import simulate_two_particle
     kw = {k: v for k, v in values.items() if k in TPM.NAMES}
     for F, W in (("F1", "Omega1"), ("F2", "Omega2")):
         if kw.get(F, 0.0) != 0.0:
@@ -2495,7 +2495,7 @@ def _rename(partial, out_path, done):
         with outputs.signals_deferred():
             os.replace(partial, out_path)
     except KeyboardInterrupt:
-        pass                        # the rename was done: nothing is left to keep
+        outputs.note_late_interrupt()   # the rename was done: nothing is left to keep
     except OSError as e:
         raise WriteFailed(f"renaming {partial} to {out_path} failed ({outputs.reason(e)}); "
                           f"{_kept(partial, done)}; run the same command with --resume to "

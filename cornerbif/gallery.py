@@ -751,6 +751,7 @@ def run(config_dir="configs", out=None, data=None, only=(), smoke=False, threads
     """
     with contextlib.ExitStack() as locks:     # the gallery's locks, for the whole run
         p = plan(config_dir, out, data, only, smoke, overwrite, locks=locks)
+        outputs.take_late_interrupt()   # (one noted by an earlier command of this process)
         t0 = time.perf_counter()
         rec_path = os.path.join(p.out, RECORD)
         figs = {e["figure"]: e for e in p.record.get("figures", [])}     # checked: record_problem
@@ -789,6 +790,14 @@ def run(config_dir="configs", out=None, data=None, only=(), smoke=False, threads
     return records
 
 
+def _stop_if_interrupted():
+    """An interrupt that came as a data file was finished (its final rename: the file is
+    whole, and ``sweep`` or ``continue`` alone would end as done) stops the gallery here,
+    the finished file kept (``outputs.take_late_interrupt``)."""
+    if outputs.take_late_interrupt():
+        raise KeyboardInterrupt
+
+
 def _figure(fig_name, names, p: Plan, threads, prog: _Progress, echo) -> dict:
     """One figure of the run: its scenes brought up to date (``_make``; a continuation's
     ``over`` sweep first), then drawn into ``OUT/FIG.png``; its record (per scene what was
@@ -806,6 +815,7 @@ def _figure(fig_name, names, p: Plan, threads, prog: _Progress, echo) -> dict:
             if made != "reused":
                 prog.scenes.append((over, made))
                 echo(f"{over}: {made} ({dt:.1f} s; drawn under {s})")
+            _stop_if_interrupted()
             t = time.perf_counter()
             files.append(p.items[over].path)
         action = _make(d, p, threads, prog, echo)
@@ -816,6 +826,7 @@ def _figure(fig_name, names, p: Plan, threads, prog: _Progress, echo) -> dict:
         rec["scenes"][s] = {"action": action, "seconds": round(dt, 2)}
         prog.scenes.append((s, action))
         echo(f"{s}: {action} ({dt:.1f} s)")
+        _stop_if_interrupted()
     png = os.path.join(p.out, f"{fig_name}.png")
     t = time.perf_counter()
     head = p.scenes[names[0]]

@@ -115,7 +115,7 @@ class Obstacle:
     """A periodic obstacle z(t) of the ``flow`` model: its declaration.
 
     ``code``: the value of the packed parameter ``OBSTACLE`` the kernels read (their
-    jitted pieces are in ``models/obstacle.py``); ``period_pi``: the period in units
+    jitted pieces are in ``obstacles/dispatch.py``); ``period_pi``: the period in units
     of pi/omega; ``pieces``: smooth pieces per period (the certified search works
     piece by piece); ``corners``: whether the slope jumps between pieces (corner
     offsets and cluster symbols exist); ``normal_form``: the corner normal form of

@@ -418,6 +418,23 @@ def signals_deferred():
         raise KeyboardInterrupt()
 
 
+_LATE = threading.local()
+
+
+def note_late_interrupt():
+    """An interrupt that came once an output was whole (during its final rename): the
+    command that wrote it ends as done, and a command that runs several (``gallery``) asks
+    ``take_late_interrupt`` after each and stops there."""
+    _LATE.pending = True
+
+
+def take_late_interrupt() -> bool:
+    """Whether an interrupt came once an output was whole since the last call (and forget it)."""
+    pending = getattr(_LATE, "pending", False)
+    _LATE.pending = False
+    return pending
+
+
 # ------------------------------------------------------------------ one writer per output
 def check_unlocked(out_path: str, what: str = "cornerbif command"):
     """Refuse (``SweepError``) when another process holds ``out_path``'s lock: its files

@@ -960,11 +960,11 @@ def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
 def draw_jump_speed(ax, data: PlotData):
     """A cam profile swept in omega with a constant force (Omega = 0: a follower's spring
     preload): the jump speed above which a follower riding the cam leaves it
-    (``models.profile.jump_speed``), a vertical line."""
+    (``obstacles.profile.jump_speed``), a vertical line."""
     sys_ = data.scene.get("system", {})
     if not data.axes or data.axes[0] != "omega" or sys_.get("Omega", 1.0) != 0.0:
         return []
-    from .models.profile import jump_speed, read
+    from .obstacles.profile import jump_speed, read
     prof = read(sys_["profile"])
     force = sys_.get("F", 0.0) * math.cos(sys_.get("phi", 0.0))
     w = jump_speed(prof, sys_.get("kappa", 0.0), sys_.get("beta", 1.0), sys_.get("k", 1.0),
@@ -1833,12 +1833,12 @@ def timeseries_choice(data: PlotData, plot_cfg: dict):
 def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
     """u(t) and z(t) over ``cycles`` cycles of the attractor reached by start ``ic``.
 
-    Rebuilt from the stored impacts by exact free flight (``cornerbif.trajectory``);
+    Rebuilt from the stored impacts by exact free flight (``cornerbif.models.flow.timeseries``);
     impacts are marked.  Time is counted from the section t0 = nT (T = 2 pi/omega)
     before the first recorded impact.  Returns a dict of what was drawn and measured.
     """
     from . import config as C
-    from . import trajectory as TR
+    from .models.flow import timeseries as TR
     with check_readable(path) as f:
         scene = C.loads(f.attrs["scene"])
         if not scene.spec.timeseries:
@@ -1982,12 +1982,12 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
 
 
 def obstacle_curve(data: PlotData):
-    """z(t) of a flow scene's obstacle at its system values (``kernels.flow``
+    """z(t) of a flow scene's obstacle at its system values (``models.flow.kernel``
     ``obstacle_heights``, the kernels' own obstacle) as a function of t, its period and
     the scene."""
     from .config import loads
-    from .kernels.flow import obstacle_heights
-    from .models import params as P
+    from .models.flow import packed as P
+    from .models.flow.kernel import obstacle_heights
     scene = loads(data.scene_text)
     row = np.ascontiguousarray(registry.get("flow").pack_values(scene.system, scene)[None, :])
 

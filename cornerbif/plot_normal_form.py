@@ -5,7 +5,7 @@ Three plot kinds, chosen by ``[plot] kind`` in the scene of the first file:
 ``regions`` (Fig. 9)
     The starts x0 = (a0, b1) of a scene without sweep axes, coloured by the map
     that acts on them.  A ``map2d`` file is coloured by the rule (56) itself
-    (:func:`cornerbif.maps2d.region`); a ``flow`` file by what the flow did in
+    (:func:`cornerbif.models.map2d.maps.region`); a ``flow`` file by what the flow did in
     its first period: the impacts of the cluster at the corner t0 = pi/omega
     read as in section 4 (one just after t0: beta; one just before: gamma;
     one on each side: alpha; anything else: x).  The lines Sigma_1 (C x =
@@ -23,7 +23,7 @@ Three plot kinds, chosen by ``[plot] kind`` in the scene of the first file:
     orbits approximate the homoclinic orbits (beta^inf gamma) / (beta^inf alpha).
 
 With epsilon = 1 the flow's section values at the paper's section are the
-map's x = (a0, b1) (see :mod:`cornerbif.maps2d`), so a flow file and a map2d
+map's x = (a0, b1) (see :mod:`cornerbif.models.map2d.maps`), so a flow file and a map2d
 file of the same scene draw on the same axes.
 """
 
@@ -33,8 +33,9 @@ import math
 
 import numpy as np
 
-from . import maps2d, theory
+from . import theory
 from .analysis import run_length
+from .models.map2d import maps as maps2d
 
 KINDS = ("regions", "return_map", "orbit")
 REGION_COLORS = {"a": "tab:blue", "b": "tab:orange", "g": "tab:green", "x": "0.6"}

@@ -11,9 +11,9 @@ import importlib
 
 # each module defines MODEL, a cornerbif.model.Model instance
 MODEL_MODULES = (
-    "cornerbif.models.flow_model",
-    "cornerbif.models.map2d_model",
-    "cornerbif.models.two_particle_model",
+    "cornerbif.models.flow.model",
+    "cornerbif.models.map2d.model",
+    "cornerbif.models.two_particle.model",
 )
 
 _MODELS = {}

@@ -27,11 +27,11 @@ import numpy as np
 from numba import prange
 
 from ._jit import jit, pjit, raise_if_stopped, stop_requested
-from .kernels import two_particle as TK
-from .models import params as P
-from .models import two_particle as TP
-from .models.obstacle import piece_at, piece_length, piece_lengths, z_state
-from .models.oscillator import acceleration, derive, particular
+from .models.flow import packed as P
+from .models.two_particle import kernel as TK
+from .models.two_particle import packed as TP
+from .numerics.oscillator import acceleration, derive, particular
+from .obstacles.dispatch import piece_at, piece_length, piece_lengths, z_state
 
 # how a cycle's multipliers were found (``stability/status`` in the file)
 OK = 0
@@ -149,7 +149,7 @@ def flight_misses(p, d, m11, m12, m21, m22, t0, u0, v0, t1, u1, v1):
     """Whether the free flight of the oscillator ``p`` (a ``flow`` row; ``d`` its
     ``derive``d constants) from (u0, v0) at t0 misses the recorded (u1, v1) at t1 by more
     than FLIGHT_TOL relative: x(t1) = x_p(t1) + M (x(t0) - x_p(t0)), M the flight matrix
-    (models.oscillator's split into particular and homogeneous parts)."""
+    (numerics.oscillator's split into particular and homogeneous parts)."""
     up0, vp0 = particular(p, d, t0)
     up1, vp1 = particular(p, d, t1)
     uf = up1 + m11 * (u0 - up0) + m12 * (v0 - vp0)

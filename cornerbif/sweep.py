@@ -497,7 +497,8 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
         io.finish(partial, out_path, scene)
     except KeyboardInterrupt:
         if os.path.exists(out_path) and not os.path.exists(partial):
-            return                 # the interrupt came once the file was whole: it is done
+            outputs.note_late_interrupt()   # the file was whole: it is done
+            return
         raise SweepInterrupted(f"interrupted while the finished file was stamped; every point "
                                f"is kept in {partial}; run again with --resume to finish it"
                                ) from None

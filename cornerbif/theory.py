@@ -74,7 +74,7 @@ def resonant_amplitude(r: float, beta: float = 1.0) -> float:
 # ---------------------------------------------------------------------------
 # Sections 4-5: the local maps alpha, beta, gamma and their fixed points
 # ---------------------------------------------------------------------------
-# Conventions as in cornerbif.maps2d: epsilon = 1, omega1 = omega - 2,
+# Conventions as in cornerbif.models.map2d.maps: epsilon = 1, omega1 = omega - 2,
 # kappa1 = kappa, x = (a0, b1) = (u, u') at t = nT; h = pi omega1/2.
 
 
@@ -111,7 +111,7 @@ def map_matrices(name: str, omega1: float, kappa1: float, r: float,
         P_alpha = (2 (1+r)^2, (pi omega1/2)(1+r)^2 + kappa1 (r^2 - 1)).
         'printed': P_alpha exactly as printed in eq (58),
         (2 (1+r^2), r (pi omega1/2)(1+r^2) + kappa1 (r^2 - 1)), which does not
-        follow from (52)-(53) (see "Discrepancies" in :mod:`cornerbif.maps2d`).
+        follow from (52)-(53) (see "Discrepancies" in :mod:`cornerbif.models.map2d.maps`).
         beta and gamma are the same in both.
 
     Returns
@@ -345,7 +345,7 @@ def _letter_matrices(omega1, kappa1, r, variant):
 
 def _admissible_point(ch, a, b, omega1, kappa1, r, margin):
     """Strict check that x = (a, b) lies in the region named by ch (see word_orbit)."""
-    from .maps2d import LETTERS, region
+    from .models.map2d.maps import LETTERS, region
 
     k = region(float(a), float(b), float(omega1), float(kappa1), float(r))
     if k < 0 or LETTERS[k] != ch:
@@ -378,7 +378,7 @@ def word_orbit(word: str, omega1: float, kappa1: float, r: float, margin: float 
         Admissibility margin (>= 0): iterate i must satisfy, strictly,
         'b': C x - kappa1 > margin; 'a': C x - kappa1 < -margin and a < E - margin;
         'g': C x - kappa1 < -margin and a > E + margin, besides
-        :func:`cornerbif.maps2d.region` naming its letter.  With margin = 0 these
+        :func:`cornerbif.models.map2d.maps.region` naming its letter.  With margin = 0 these
         are the strict inequalities of (56): an orbit with a point on a switching
         line is not admissible (it sits at a bifurcation).
     variant : {'derived', 'printed'}

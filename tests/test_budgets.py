@@ -14,8 +14,8 @@ from scipy.optimize import brentq
 
 import cornerbif
 from cornerbif import status as S
-from cornerbif.models import params as P
-from cornerbif.models.oscillator import budget_pieces, derive
+from cornerbif.models.flow import packed as P
+from cornerbif.numerics.oscillator import budget_pieces, derive
 
 HUGE = 10 ** 15   # a budget no run may spend: the run must end by itself
 

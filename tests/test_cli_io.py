@@ -308,7 +308,7 @@ def test_initial_conditions_are_above_the_obstacle():
 
 def test_kernels_compile_one_signature(tiny, tmp_path):
     from cornerbif.analysis import detect_cycles
-    from cornerbif.kernels.flow import run_batch
+    from cornerbif.models.flow.kernel import run_batch
     assert run(["sweep", tiny, "-o", tmp_path / "s.h5"]).exit_code == 0
     assert len(run_batch.signatures) == 1
     assert len(detect_cycles.signatures) == 1

@@ -283,8 +283,8 @@ def test_two_particle_period_one_branch_ends_at_omega0_C():
     four multipliers equal tests/fd_reference_two_particle.py's to 1e-6."""
     import fd_reference_two_particle as FR
 
-    from cornerbif.kernels.two_particle import simulate_two_particle
-    from cornerbif.models import two_particle as TPM
+    from cornerbif.models.two_particle import packed as TPM
+    from cornerbif.models.two_particle.kernel import simulate_two_particle
     vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
     x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
     prob, X = C.two_particle_seed(vals, "omega0", x0, 1)
@@ -460,7 +460,7 @@ def test_two_particle_limits_are_said():
     """What the two-particle continuation does not do is said, not crashed into: a corner
     curve of its corner collision (curves are continued for the flow), and a forcing whose
     frequency is not a whole multiple of omega0 (no periodic orbit to seed)."""
-    from cornerbif.models import two_particle as TPM
+    from cornerbif.models.two_particle import packed as TPM
     vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
     x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
     prob, X = C.two_particle_seed(vals, "omega0", x0, 1)

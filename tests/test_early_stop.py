@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from cornerbif import config, engine, sweep, theory
-from cornerbif.kernels.flow import run_batch
-from cornerbif.models import params as P
-from cornerbif.models.flow_model import STOP_TOL_FACTOR
+from cornerbif.models.flow import packed as P
+from cornerbif.models.flow.kernel import run_batch
+from cornerbif.models.flow.model import STOP_TOL_FACTOR
 
 ROOT = os.path.dirname(os.path.dirname(__file__))
 CHART = os.path.join(ROOT, "configs", "chart_flow.toml")

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cornerbif import analysis, config, gallery, registry, run_sweep, simulate, theory, trajectory
+from cornerbif import analysis, config, gallery, registry, run_sweep, simulate, theory
 from cornerbif.cli import main
+from cornerbif.models.flow import timeseries as trajectory
 from cornerbif.plot import PlotData
 
 ROOT = os.path.dirname(os.path.dirname(__file__))

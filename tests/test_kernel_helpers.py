@@ -1,4 +1,4 @@
-"""The kernels' shared helpers: the per-obstacle quantities of models/obstacle.py, the one
+"""The kernels' shared helpers: the per-obstacle quantities of obstacles/dispatch.py, the one
 smallest-rotation routine and the one winding number (issue 14)."""
 
 import math
@@ -8,10 +8,11 @@ import re
 import numpy as np
 import pytest
 
-from cornerbif import analysis, maps2d
-from cornerbif.models import obstacle as OB
-from cornerbif.models import params as P
-from cornerbif.models.oscillator import derive
+from cornerbif import analysis
+from cornerbif.models.flow import packed as P
+from cornerbif.models.map2d import maps as maps2d
+from cornerbif.numerics.oscillator import derive
+from cornerbif.obstacles import dispatch as OB
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 NAMES = ("sine", "rectified_sine", "triangle")
@@ -28,7 +29,7 @@ def test_obstacle_pieces_match_the_declaration(name):
     p = _row(name)
     L0, L1, per = OB.piece_lengths(p)
     assert L0 > 0.0 and L1 > 0.0 and per == pytest.approx(L0 + L1, rel=1e-15)
-    # the early stop's lag is the obstacle's pieces per period (models/params.py)
+    # the early stop's lag is the obstacle's pieces per period (models/flow/packed.py)
     assert OB.cycle_lag(p) == P.pieces_per_period(name)
     # the pieces of one forcing period add up to it
     n = P.pieces_per_period(name)
@@ -69,10 +70,10 @@ def test_obstacle_bounds_hold_on_a_fine_grid(name, k, sigma, F):
 
 
 def test_kernels_read_no_obstacle_code():
-    """A new obstacle touches models/obstacle.py (and its declaration) only: no kernel
+    """A new obstacle touches obstacles/dispatch.py (and its declaration) only: no kernel
     compares obstacle codes."""
-    for f in ("kernels/flow.py", "kernels/two_particle.py", "kernels/roots.py",
-              "models/oscillator.py"):
+    for f in ("models/flow/kernel.py", "models/two_particle/kernel.py", "numerics/roots.py",
+              "numerics/oscillator.py"):
         src = (ROOT / "cornerbif" / f).read_text()
         for line in src.splitlines():
             if re.search(r"\b(SINE|RECTIFIED_SINE|TRIANGLE)\b", line) and "==" in line:

@@ -61,7 +61,7 @@ def test_complex_pair_exponents_within_the_conditioning_bound(omega, record):
     n = int(np.isfinite(res["t"]).sum())
     first = n - 1 - int(round(win / res["cycle_duration"])) * int(res["impacts_per_cycle"])
     assert math.isclose(res["t"][n - 1] - res["t"][first], win, rel_tol=1e-12)
-    prm = cornerbif.models.params.pack(dict(omega=omega, kappa=0.0), "rectified_sine",
+    prm = cornerbif.models.flow.packed.pack(dict(omega=omega, kappa=0.0), "rectified_sine",
                                        1e-12, 1e-6, 1e6, None)
     J = S.cycle_multipliers(prm, res["t"], res["u"], res["v_in"], res["v_out"],
                             res["corner_offset"], first, int(res["impacts_per_cycle"]))

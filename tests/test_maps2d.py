@@ -1,4 +1,4 @@
-"""Tests of cornerbif.maps2d: the piecewise-linear maps (56)-(60) and their kernels.
+"""Tests of cornerbif.models.map2d.maps: the piecewise-linear maps (56)-(60) and their kernels.
 
 Expected numbers come from the paper (Budd & Piiroinen, section 5) or from the
 closed forms in cornerbif.theory, each named where it is used.  Parameters of
@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cornerbif import maps2d as m
 from cornerbif import theory as th
+from cornerbif.models.map2d import maps as m
 
 W1, R = -0.001, 0.8
 KAPPA_C = th.kappa_C(1.999, R)    # -0.014137 (section 3.3.3)

@@ -16,7 +16,7 @@ from click.testing import CliRunner
 
 import cornerbif
 from cornerbif.cli import main
-from cornerbif.models import profile as PR
+from cornerbif.obstacles import profile as PR
 
 PI = math.pi
 RECTIFIED = {"period": PI, "pieces": [{"span": PI, "sine": [1.0, 0.0, 1.0]}]}
@@ -163,9 +163,9 @@ def test_certified_bounds_hold_on_every_piece():
 def test_the_kernels_obstacle_is_the_profile():
     """obstacle.z_state on the packed profile (Horner in the kernel) against
     Profile.lift (numpy) and its time derivatives, at 400 times over two periods."""
-    from cornerbif.models import params as P
-    from cornerbif.models.obstacle import derived_tuple_profile, piece_at, z_state
-    from cornerbif.models.oscillator import derive
+    from cornerbif.models.flow import packed as P
+    from cornerbif.numerics.oscillator import derive
+    from cornerbif.obstacles.dispatch import derived_tuple_profile, piece_at, z_state
     prof = PR.read(cam())
     w, kap, beta = 1.3, 0.2, 0.7
     p = P.pack({"omega": w, "kappa": kap, "beta": beta}, "profile", 1e-12, 1e-6, 1e6, None,
@@ -238,7 +238,7 @@ def test_a_profile_scene_refuses_continuation():
 
 
 def test_the_jump_speed_is_where_the_follower_leaves():
-    """models.profile.jump_speed (the least contact force of a follower riding the cam
+    """obstacles.profile.jump_speed (the least contact force of a follower riding the cam
     turns negative) against the full simulation of a follower started on the cam at rest:
     1 % below it the follower rides the whole revolution (no impact after the start);
     1 % above it, it leaves and lands again (impacts).  A constant-velocity cam (corners

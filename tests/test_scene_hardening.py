@@ -3,7 +3,7 @@
 Each refusal is checked through the command line: ``cornerbif validate`` and ``cornerbif
 sweep`` exit 2, print no traceback, name the key (and the --set it came from) and the value
 (shortened when huge), and the sweep leaves no output, .partial or .lock behind.  The
-limits quoted are the ones config.py and models/profile.py declare (each says why there).
+limits quoted are the ones config.py and obstacles/profile.py declare (each says why there).
 The last tests throw extreme values at every key of every table of every model
 (``from_dict`` gives a Scene or a SceneError, never another exception, and never quotes a
 huge value whole) and time ``validate`` on extreme valid scenes in a memory-limited child.
@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 
 from cornerbif import config, registry
 from cornerbif.cli import main
-from cornerbif.models import profile as PR
+from cornerbif.obstacles import profile as PR
 
 ROOT = os.path.dirname(os.path.dirname(__file__))
 CONFIGS = os.path.join(ROOT, "configs")
@@ -234,7 +234,7 @@ def _profile_set(pieces, period=None, extra=""):
 ])
 def test_profile_numbers_outside_their_ranges_are_refused(tmp_path, pieces, period, needles):
     """Every profile number is checked for the ranges in which the certified bounds and the
-    kernels stay finite and meaningful (models/profile.py: MIN_PERIOD..MAX_PERIOD,
+    kernels stay finite and meaningful (obstacles/profile.py: MIN_PERIOD..MAX_PERIOD,
     MIN_SPAN_SHARE, MAX_LIFT, MAX_TURN, MAX_PIECES, MAX_DEGREE): validate and sweep refuse
     with the key, the value and the range."""
     refused(tmp_path, CAM, [_profile_set(pieces, period)], needles=needles + ["--set"])
@@ -296,8 +296,8 @@ def test_the_profile_scale_check_is_the_kernels_arithmetic(omega, beta, k, sigma
     ``profile_npp`` calls (it re-derived both).  Run as Python on that row, the N'' bound is
     the compiled one to the bit; where the check refuses sigma or k for it, the kernels'
     bound is not finite, and where it refuses a Sturm floor, the row's floor is not."""
-    from cornerbif.models import obstacle as O
-    from cornerbif.models import params as P
+    from cornerbif.models.flow import packed as P
+    from cornerbif.obstacles import dispatch as O
     prof = PR.read(tomllib.loads(open(CAM).read())["system"]["profile"])
     with np.errstate(all="ignore"):
         row = P.pack({"omega": omega, "beta": beta, "k": k, "kappa": 0.0, "sigma": sigma},

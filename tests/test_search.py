@@ -13,11 +13,11 @@ import math
 import numpy as np
 import pytest
 
-from cornerbif.kernels import flow as F
-from cornerbif.kernels.roots import FOUND, NONE, quad_first_root, quad_positive
-from cornerbif.models import params as P
-from cornerbif.models.obstacle import derived_tuple, zpp_range, zppp_max
-from cornerbif.models.oscillator import SMALL_ANGLE, derive, small_sincos, upp_bound
+from cornerbif.models.flow import kernel as F
+from cornerbif.models.flow import packed as P
+from cornerbif.numerics.oscillator import SMALL_ANGLE, derive, small_sincos, upp_bound
+from cornerbif.numerics.roots import FOUND, NONE, quad_first_root, quad_positive
+from cornerbif.obstacles.dispatch import derived_tuple, zpp_range, zppp_max
 
 
 def _point(omega, kappa, r=0.8, obstacle="rectified_sine", beta=1.0, k=1.0):
@@ -191,7 +191,7 @@ def test_grid_start_lies_before_the_sturm_root(omega, kappa):
 def test_polish_brackets_the_root_of_the_gap():
     """roots.polish, on gaps near a transversal root, returns [a, b] no wider than tol with
     g(a) > 0 >= g(b) and g > 0 on [0, a] (dense sampling of the closed forms), or declines."""
-    from cornerbif.kernels.roots import polish
+    from cornerbif.numerics.roots import polish
     p, d = _point(2.1, 0.0)
     rng = np.random.default_rng(9)
     k2, w2, tol = 1.0, 2.1 ** 2, 1e-12

@@ -16,8 +16,8 @@ from scipy.linalg import expm
 
 import cornerbif
 from cornerbif import stability as S
-from cornerbif.models import params as P
-from cornerbif.models.oscillator import derive
+from cornerbif.models.flow import packed as P
+from cornerbif.numerics.oscillator import derive
 
 
 @pytest.mark.parametrize("sigma,k", [(0.0, 1.0), (0.1, 1.0), (1.0, 1.0), (1.7, 1.0),

@@ -61,8 +61,8 @@ def test_monodromy_determinant_is_the_closed_form(name):
     p, _, P, x0, kinds = ATTRACTORS[name]
     res = cornerbif.simulate(*x0, model="two_particle", transient=4, record=60,
                              keep=["impacts", "wall_impacts", "stability"], **p)
-    from cornerbif.kernels import two_particle as K
-    from cornerbif.models import two_particle as TP
+    from cornerbif.models.two_particle import kernel as K
+    from cornerbif.models.two_particle import packed as TP
     r = K.simulate_two_particle(*x0, transient=4, record=60, **p)
     zu = np.stack([r[k].reshape(-1) for k in ("t", "u", "v_in", "v_out", "y_in", "y_out",
                                               "corner_offset")], -1)[None]
@@ -142,7 +142,7 @@ def test_a_two_particle_sweep_stores_four_multipliers_and_exponents(tmp_path):
 
 
 def _tables(p, x0, record=12):
-    from cornerbif.kernels import two_particle as K
+    from cornerbif.models.two_particle import kernel as K
     r = K.simulate_two_particle(*x0, transient=0, record=record, **p)
     zu = np.stack([r[k].reshape(-1) for k in ("t", "u", "v_in", "v_out", "y_in", "y_out",
                                               "corner_offset")], -1)
@@ -167,7 +167,7 @@ def test_steps_between_mid_flight_times_match_the_fd_reference(case):
     reference's central-difference Jacobian of the time map t_a -> t_b to 1e-7."""
     from test_fd_reference_two_particle import FORCED
 
-    from cornerbif.models import two_particle as TP
+    from cornerbif.models.two_particle import packed as TP
     if case == "forced":
         p, x0 = dict(FORCED), [1.0, 0.5, 3.0, -1.0]
     else:
@@ -195,7 +195,7 @@ def test_a_full_wall_table_is_said_not_read_as_sticking():
     """When the w-z table filled before the cycle's end (its last row is recorded and
     earlier than the last z-u impact), impacts may be missing: status TABLE_FULL, not a
     particle that sticks."""
-    from cornerbif.models import two_particle as TP
+    from cornerbif.models.two_particle import packed as TP
     p, _, _, x0, _ = ATTRACTORS["fig19_w1.999_P3"]
     full = {k: v.default for k, v in TP.PARAMS.items()} | p
     zu, wz = _tables(full, x0, record=40)

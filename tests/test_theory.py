@@ -2,7 +2,7 @@
 
 Each test names the equation its expected value comes from.  Where the printed
 equation is wrong (see "Discrepancies with the printed equations" in
-cornerbif.maps2d), the corrected form is tested and the printed one is shown
+cornerbif.models.map2d.maps), the corrected form is tested and the printed one is shown
 to disagree with the independent check.
 """
 

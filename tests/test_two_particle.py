@@ -13,11 +13,11 @@ from hypothesis import strategies as st
 
 from cornerbif import simulate
 from cornerbif import status as S
-from cornerbif.kernels import two_particle as K
-from cornerbif.kernels.two_particle import simulate_two_particle
-from cornerbif.models import two_particle as P
-from cornerbif.models.impact import restitution
-from cornerbif.models.two_particle import mass_ratio_impact
+from cornerbif.models.two_particle import kernel as K
+from cornerbif.models.two_particle import packed as P
+from cornerbif.models.two_particle.kernel import simulate_two_particle
+from cornerbif.models.two_particle.packed import mass_ratio_impact
+from cornerbif.numerics.impact import restitution
 
 FIG19 = dict(omega1=1.001, omega2=1.0, mu=1000.0, r1=0.8, r2=0.8, kappa=0.0, beta=1.0)
 
@@ -50,7 +50,7 @@ def test_law74_conserves_momentum_and_reverses_relative_velocity(y, v, mu, r):
     """(74) by construction: mu y + v is conserved and v+ - y+ = -r (v- - y-), to rounding.
 
     Rounding is relative to every quantity the law computes, including its increment
-    d = (1 + r)(v- - y-) (models.two_particle.mass_ratio_impact): v+ = (v- - d) + d/(1 + mu)
+    d = (1 + r)(v- - y-) (models.two_particle.packed.mass_ratio_impact): v+ = (v- - d) + d/(1 + mu)
     carries ~1 ulp of |d| even where v-, v+ are small (found: y = -2, v = 0.01, mu = r = 0.01
     gives 4.4e-16 against a scale of 0.04 without |d|)."""
     yo, vo = mass_ratio_impact(y, v, mu, r)

@@ -17,8 +17,8 @@ from scipy.integrate import solve_ivp
 
 from cornerbif import config, simulate
 from cornerbif import status as S
-from cornerbif.kernels.two_particle import simulate_two_particle
-from cornerbif.models import two_particle as P
+from cornerbif.models.two_particle import packed as P
+from cornerbif.models.two_particle.kernel import simulate_two_particle
 
 DAMP = dict(sigma1=0.1, sigma2=0.05, F1=0.4, Omega1=1.7, phi1=0.3, F2=0.6, Omega2=2.3, phi2=-1.0)
 BASE = dict(omega0=2.0, omega1=1.3, omega2=0.9, mu=5.0, r1=0.7, r2=0.6, kappa=-0.5, beta=0.8)

@@ -6,7 +6,7 @@ from click.testing import CliRunner
 
 from cornerbif import config
 from cornerbif.cli import main
-from cornerbif.kernels.two_particle import simulate_two_particle
+from cornerbif.models.two_particle.kernel import simulate_two_particle
 
 SCENE = """
 [scene]

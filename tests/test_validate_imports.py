@@ -104,9 +104,9 @@ def jitted_modules():
 
 def test_the_scan_finds_the_kernels():
     heavy = jitted_modules()
-    for mod in ("cornerbif._jit", "cornerbif.kernels.flow", "cornerbif.kernels.two_particle",
-                "cornerbif.stability", "cornerbif.maps2d", "cornerbif.analysis",
-                "cornerbif.models.obstacle"):
+    for mod in ("cornerbif._jit", "cornerbif.models.flow.kernel", "cornerbif.models.two_particle.kernel",
+                "cornerbif.stability", "cornerbif.models.map2d.maps", "cornerbif.analysis",
+                "cornerbif.obstacles.dispatch"):
         assert mod in heavy
 
 
@@ -137,10 +137,10 @@ def test_profile_checks_equal_the_kernels_bounds(table):
     """A cam's scale check reads its bounds in Python (``flow_params.row_bound``,
     ``npp_bound``): the same numbers as the obstacle's jitted functions run as Python, also
     where they overflow (a scene's check meets its extremes)."""
-    from cornerbif.models import flow_params as FP
-    from cornerbif.models import obstacle as O
-    from cornerbif.models import params as P
-    from cornerbif.models import profile as PR
+    from cornerbif.models.flow import packed as P
+    from cornerbif.models.flow import params as FP
+    from cornerbif.obstacles import dispatch as O
+    from cornerbif.obstacles import profile as PR
     prof = PR.read(table)
     for omega, beta, k, sigma in ((2.0, 1.0, 1.0, 0.0), (1e100, 3.0, 1e60, 0.5), (0.7, 0.0, 0.0, 2.0)):
         with np.errstate(all="ignore"):

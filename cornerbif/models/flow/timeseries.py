@@ -4,8 +4,8 @@ The kernels keep impacts, not trajectories (a time series is asked for by
 ``output.keep = ["impacts"]`` and drawn from them).  Between two impacts the particle
 is in free flight, and free flight is exact in closed form, so the trajectory is rebuilt from the
 state just after each impact, (t_i, u_i, v_i^+), with the very functions the
-kernel uses: ``models.oscillator.homogeneous`` and ``particular`` (eq 4) for u,
-``models.obstacle.z_state`` (eq 8, section 2.2, eq 7) for z.  No formula is
+kernel uses: ``numerics.oscillator.homogeneous`` and ``particular`` (eq 4) for u,
+``obstacles.dispatch.z_state`` (eq 8, section 2.2, eq 7) for z.  No formula is
 repeated here.
 
 The rebuilt flight must meet the obstacle at the next stored impact
@@ -20,9 +20,9 @@ import math
 
 import numpy as np
 
-from .models import params as P
-from .models.obstacle import piece_at, z_state
-from .models.oscillator import derive, homogeneous, particular
+from ...numerics.oscillator import derive, homogeneous, particular
+from ...obstacles.dispatch import piece_at, z_state
+from . import packed as P
 
 
 def pack(values: dict, obstacle: str, section_period=None,

@@ -1,13 +1,13 @@
 """The ``flow`` model's packed parameter vector as the kernels see it.
 
 The declarations (``PARAMS``, ``OBSTACLES``), the slots of the packed vector and ``pack``
-are in ``models/flow_params.py``, pure Python, so that checking a scene loads no numba;
+are in ``models/flow/params.py``, pure Python, so that checking a scene loads no numba;
 they are re-exported here, where the kernels read them as ``P.KAPPA``, ``P.pack``, ...
 beside the jitted views of a packed row below.
 """
 
-from .._jit import jit
-from .flow_params import *  # noqa: F403 (the declarations and slots, read by the kernels as P.*)
+from ..._jit import jit
+from .params import *  # noqa: F403 (the declarations and slots, read by the kernels as P.*)
 
 
 @jit

@@ -11,8 +11,8 @@ import math
 import numpy as np
 
 from .._jit import jit, jit_inline
-from . import params as P
-from .obstacle import (
+from ..models.flow import packed as P
+from ..obstacles.dispatch import (
     D_HALF,
     D_IK,
     D_IWD,
@@ -41,7 +41,7 @@ from .obstacle import (
 @jit
 def derive(p):
     """Per-point constants: piece lengths, damping regime, particular solution, bounds
-    (the obstacle's own quantities come from ``models.obstacle``)."""
+    (the obstacle's own quantities come from ``obstacles.dispatch``)."""
     d = np.zeros(NDERIVED)
     d[D_L0], d[D_L1], d[D_PERIOD] = piece_lengths(p)
     profile_cycle(p, d)

@@ -2,11 +2,11 @@
 
 ``PARAMS`` declares each parameter (default, allowed range, doc, equation) and
 ``OBSTACLES`` each obstacle; config reads them through the registry
-(``models/flow_model.py``).  Inside the kernels the parameters live in one float64
+(``models/flow/model.py``).  Inside the kernels the parameters live in one float64
 vector indexed by the constants below, so every kernel compiles exactly once.
 
 Pure Python (no numba): checking a scene reads these declarations without loading a
-kernel.  ``models/params.py`` adds the jitted views of a packed row the kernels call
+kernel.  ``models/flow/packed.py`` adds the jitted views of a packed row the kernels call
 (``as_tuple``, ``as_tuple_profile``) and re-exports everything here, as ``P``.
 """
 
@@ -14,16 +14,7 @@ import math
 
 import numpy as np
 
-from ..model import (
-    FREQUENCY,
-    Obstacle,
-    Param,
-    anything,
-    frequency,
-    nonnegative,
-    positive,
-    unit_interval,
-)
+from ...model import FREQUENCY, Obstacle, Param, anything, frequency, nonnegative, positive, unit_interval
 
 # --- indices into the packed vector --------------------------------------------------
 OMEGA = 0      # obstacle frequency omega (eq 8)
@@ -45,7 +36,7 @@ SECTION_PIECES = 15  # smooth pieces per Poincare section period
 SECTION_AUTO = 16    # 1: put the section corners between the impact clusters (see flow kernel)
 STOP_TOL = 17        # > 0: stop once the attractor's period is established (run.stop = "period"),
                      # with this relative tolerance on the state at the corners; 0: never
-# obstacle = "profile" (models/profile.py): z = kappa + beta g(omega t), g piecewise in the
+# obstacle = "profile" (obstacles/profile.py): z = kappa + beta g(omega t), g piecewise in the
 # cam angle; per piece m the slots PROFILE0 + m * PIECE_STRIDE + (the PC_* offsets)
 PROFILE_NP = 18      # pieces per period
 PROFILE_PERIOD = 19  # the period of g, an angle
@@ -75,7 +66,7 @@ PROFILE_MAX = 8      # pieces per period at most (profile.MAX_PIECES)
 # the built-in obstacles' rows hold the first NPARAM slots; a profile's rows NPARAM_PROFILE.
 # The kernels run on two tuple types: a built-in obstacle's NPARAM floats (as_tuple), and a
 # profile's first PROFILE0 floats with its row's address (as_tuple_profile), so that no
-# call carries the profile's table (models/obstacle.py, "the two tuple types")
+# call carries the profile's table (obstacles/dispatch.py, "the two tuple types")
 NPARAM = 18
 NPARAM_PROFILE = PROFILE0 + PROFILE_MAX * PIECE_STRIDE
 # the named parameters of PARAMS (below) and their slots (theta1, theta2: pack)
@@ -90,7 +81,7 @@ def steady_or_frequency(v):
 
 # --- the declarations (read by config through the registry) ------------------------------
 # every obstacle of the flow model: a new one is a line here and its jitted pieces in
-# models/obstacle.py (docs/architecture.md)
+# obstacles/dispatch.py (docs/architecture.md)
 OBSTACLES = {
     "sine": Obstacle("sine", 0, "kappa + beta sin(omega t) (section 2.2, no corners)",
                      period_pi=2, pieces=2, corners=False),
@@ -100,12 +91,12 @@ OBSTACLES = {
     "triangle": Obstacle("triangle", 2, "eq (7) made periodic, period pi / omega: slope "
                          "+theta2 after each corner, -theta1 before it", period_pi=1, pieces=2,
                          corners=True),
-    # period, pieces and corners are the scene's profile's (models/profile.py, docs/cams.md)
+    # period, pieces and corners are the scene's profile's (obstacles/profile.py, docs/cams.md)
     "profile": Obstacle("profile", 3, "kappa + beta g(omega t), g a cam profile of "
                         "polynomial and sinusoidal pieces ([system.profile])", period_pi=2,
                         pieces=1, corners=True),
 }
-# the section corners are put between the impact clusters (kernels.flow) for obstacles whose
+# the section corners are put between the impact clusters (models.flow.kernel) for obstacles whose
 # attractors near omega = 2 have one cluster every second corner (sections 3-4)
 AUTO_SECTION = ("rectified_sine",)
 
@@ -129,11 +120,11 @@ PARAMS = {p.name: p for p in (
           "triangle: slope after each corner", "eq 7", obstacles=("triangle",)),
 )}
 
-# the obstacle codes the kernels compare (models/obstacle.py)
+# the obstacle codes the kernels compare (obstacles/dispatch.py)
 SINE = OBSTACLES["sine"].code                      # section 2.2 (smooth, no corners)
 RECTIFIED_SINE = OBSTACLES["rectified_sine"].code  # eq (8), corners at k pi / omega
 TRIANGLE = OBSTACLES["triangle"].code              # eq (7) made periodic with period pi / omega
-PROFILE = OBSTACLES["profile"].code                # a cam profile (models/profile.py)
+PROFILE = OBSTACLES["profile"].code                # a cam profile (obstacles/profile.py)
 
 # --- integer run settings (a small int64 vector) --------------------------------------
 I_TRANSIENT = 0
@@ -182,7 +173,7 @@ def pack_many(values: dict, n: int, obstacle: str, tol: float, chatter: float,
     Missing values take their declared defaults (``PARAMS``); theta1 and theta2 default
     to beta * omega (None or NaN).  ``stop_tol`` > 0 turns the kernel's early stop on
     (``run.stop = "period"``).  ``profile``: the checked ``Profile`` of ``obstacle =
-    "profile"`` (models/profile.py), written to the PROFILE_* slots of each row.
+    "profile"`` (obstacles/profile.py), written to the PROFILE_* slots of each row.
     """
     p = np.zeros((n, NPARAM_PROFILE if obstacle == "profile" else NPARAM))
 
@@ -222,8 +213,8 @@ def section_pieces(obstacle: str, omega: float, section_period: float | None,
 
 
 def pack_profile(p, profile):
-    """Write a checked ``Profile`` (models/profile.py) into the PROFILE_* slots of ``p``."""
-    from .profile import bounds, sturm_bound
+    """Write a checked ``Profile`` (obstacles/profile.py) into the PROFILE_* slots of ``p``."""
+    from ...obstacles.profile import bounds, sturm_bound
     p[PROFILE_NP] = len(profile.pieces)
     p[PROFILE_PERIOD] = profile.period
     p[PROFILE_CORNERS] = 1.0 if profile.has_corners else 0.0
@@ -246,7 +237,7 @@ def pack_profile(p, profile):
         start += pc.span
 
 
-# --- a profile's bounds, read from its packed row as models/obstacle.py's jitted functions
+# --- a profile's bounds, read from its packed row as obstacles/dispatch.py's jitted functions
 # read them, in Python: ``profile.scale_problem`` checks a scene with these, loading no numba
 # (tests/test_validate_imports.py checks that both give the same numbers)
 def row_bound(row, *slots):

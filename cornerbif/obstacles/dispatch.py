@@ -7,7 +7,7 @@ of the certified searches (``zpp_range``, ``zppp_max``, ``zpppp_max``, ``contact
 ``sturm_floors``, ``contact_floor``), the nearest corner of an event (``corner_of``) and
 the per-run switches of the flow kernel (``cycle_lag``, ``sinusoidal``).  A new obstacle adds a
 branch to each of them, and its Python declaration (name, code, period, pieces per
-period) in ``models/params.py``; docs/kernels.md says what each must return.
+period) in ``models/flow/params.py``; docs/kernels.md says what each must return.
 
 Time is kept as a piece index ``j`` and a local time ``tau`` in [0, L_j]
 (docs/kernels.md, "Obstacles"): precision stays at rounding level over long runs, and a corner is
@@ -29,7 +29,7 @@ from numba.core import types
 from numba.extending import overload
 
 from .._jit import jit, load_f64
-from . import params as P
+from ..models.flow import packed as P
 
 # derived per-point quantities (filled once per run by ``derive``)
 D_L0 = 0        # length of even pieces
@@ -367,7 +367,7 @@ def _profile_state(p, j, tau):
     """z and its first three time derivatives on profile piece j at local time tau:
     z = kappa + beta g(phi),
     phi = omega tau, g a polynomial of degree <= 7 plus a sin(n phi) + b cos(n phi)
-    (models/profile.py)."""
+    (obstacles/profile.py)."""
     o = profile_piece(p, j)
     w = p[P.OMEGA]
     x = w * tau

@@ -3,8 +3,8 @@
 w = kappa + beta sin(omega0 t) (eq 72); z and u harmonic in flight with omega1, omega2
 (eq 73), optionally damped and forced as the flow's oscillator (eq 4); w-z impacts by
 law (5) with r1, z-u impacts by the mass-ratio law (74) with r2 and mu = M/m.  The
-parameters' declarations and the packed layout are ``models/two_particle_params.py``,
-the impact law ``models/two_particle.py``; the kernel is ``kernels/two_particle.py``.
+parameters' declarations and the packed layout are ``models/two_particle/params.py``,
+the impact law ``models/two_particle/packed.py``; the kernel is ``models/two_particle/kernel.py``.
 """
 
 from __future__ import annotations
@@ -14,14 +14,14 @@ import math
 
 import numpy as np
 
-from ..model import Coord, Field, Model
-from . import two_particle_params as TP
-from .flow_model import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
+from ...model import Coord, Field, Model
+from ..flow.model import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
+from . import params as TP
 
-# The kernels (kernels/two_particle.py, the cycle analysis, the stability pass) are imported
+# The kernels (models/two_particle/kernel.py, the cycle analysis, the stability pass) are imported
 # by the methods that run them: importing this module, as checking a scene does, loads no numba.
 
-# the parameters that decide an undamped resonance (models.two_particle.resonance_problems)
+# the parameters that decide an undamped resonance (models.two_particle.packed.resonance_problems)
 RESONANCE_PARAMS = ("F1", "F2", "sigma1", "sigma2", "Omega1", "Omega2", "omega1", "omega2", "mu")
 MAX_RESONANCE_COMBINATIONS = 200_000
 
@@ -63,7 +63,7 @@ COMPILE_SECONDS = {"two_particle": 21.3, "stability": 14.6, "continuation": 5.4}
 # what ``cornerbif continue`` compiles for this model beyond the sweep's kernels
 CONTINUATION_KERNELS = ("stability.two_particle_steps", "stability.flight_matrix",
                         "stability.impact_saltation", "stability.zu_saltation",
-                        "models.oscillator.acceleration", "models.oscillator.forcing")
+                        "numerics.oscillator.acceleration", "numerics.oscillator.forcing")
 
 
 class TwoParticleModel(Model):
@@ -83,7 +83,7 @@ class TwoParticleModel(Model):
                 problems.append(f"initial.u: {list(ru)} must reach above initial.z "
                                 f"{list(rz)} (u >= z)")
         if not ctx.problems and not problems:
-            # undamped exact resonance of a particle or of the stuck pair (models.two_particle
+            # undamped exact resonance of a particle or of the stuck pair (models.two_particle.packed
             # .pack refuses it per point): checked over every combination of the values of
             # the parameters it involves, so that a sweep is refused before any kernel runs
             swept = [a for a in ctx.axes if a.name in RESONANCE_PARAMS]
@@ -99,7 +99,7 @@ class TwoParticleModel(Model):
         return problems
 
     def check_point(self, values: dict) -> str | None:
-        """Undamped exact resonance at one point (``models.two_particle.resonance_problem``)."""
+        """Undamped exact resonance at one point (``models.two_particle.packed.resonance_problem``)."""
         row = np.zeros(TP.NPARAM)
         for k, p in self.params.items():
             row[TP.INDEX[k]] = values.get(k, p.default)
@@ -122,17 +122,17 @@ class TwoParticleModel(Model):
 
     def kernel(self):
         # the kernels load with numba here, on first use (numba-free validation)
-        from ..kernels import two_particle as K
+        from . import kernel as K
         return K.run_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
         # the kernels load with numba here, on first use (numba-free validation)
-        from .._jit import dispatchers
-        from ..kernels import two_particle as K
-        from ..stability import batch_two_particle_stability
-        from .flow_model import ANALYSIS_KERNELS
-        from .flow_model import COMPILE_SECONDS as FLOW
+        from ..._jit import dispatchers
+        from ...stability import batch_two_particle_stability
+        from ..flow.model import ANALYSIS_KERNELS
+        from ..flow.model import COMPILE_SECONDS as FLOW
+        from . import kernel as K
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", FLOW["analysis"], dispatchers(*ANALYSIS_KERNELS)))
@@ -170,7 +170,7 @@ class TwoParticleModel(Model):
         return seconds, seconds / f, seconds * f, reasons
 
     def orbit_seed(self, values, scene, param, word, run):
-        from ..continuation import two_particle_seed
+        from ...continuation import two_particle_seed
         n = int(np.isfinite(run["sz"]).sum())
         x = [run[k][n - 1] for k in ("sz", "sy", "su", "sv")]
         return two_particle_seed(values, param, x, run["ipc"])
@@ -183,11 +183,11 @@ class TwoParticleModel(Model):
         the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
         """
         # the kernels load with numba here, on first use (numba-free validation)
-        from .._jit import raise_if_stopped
-        from ..analysis import detect_cycles
-        from ..kernels import two_particle as K
-        from ..kernels.fill import full
-        from ..stability import two_particle_outputs
+        from ..._jit import raise_if_stopped
+        from ...analysis import detect_cycles
+        from ...numerics.fill import full
+        from ...stability import two_particle_outputs
+        from . import kernel as K
         n = params.shape[0]
         rec = scene.record
         cap = wall_capacity(rec)

@@ -4,18 +4,18 @@ The maps (eqs 56-60, with P_alpha from (52)-(53): the printed (58) is a misprint
 docs/discrepancies.md) act on x = (a0, b1) with epsilon = 1, so omega1 = omega - 2 and
 kappa1 = kappa.  The iterates are stored where the flow stores its section values
 (``section/u`` = a_n, ``section/v`` = b_n), so flow and map files compare dataset by
-dataset.  The kernels are in ``cornerbif/maps2d.py``.
+dataset.  The kernels are in ``cornerbif/models/map2d/maps.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .. import status as S
-from ..model import Coord, CycleSeries, Field, Model, Param, anything, positive
-from .flow_model import SECTION_FIELDS, STABILITY_FIELDS, U
+from ... import status as S
+from ...model import Coord, CycleSeries, Field, Model, Param, anything, positive
+from ..flow.model import SECTION_FIELDS, STABILITY_FIELDS, U
 
-# The kernels (maps2d.py, the stability pass) are imported by the methods that run them:
+# The kernels (models/map2d/maps.py, the stability pass) are imported by the methods that run them:
 # importing this module, as checking a scene does, loads no numba.
 
 PARAMS = {p.name: p for p in (
@@ -64,15 +64,15 @@ class Map2dModel(Model):
 
     def kernel(self):
         # the kernels load with numba here, on first use (numba-free validation)
-        from ..maps2d import iterate_batch
+        from .maps import iterate_batch
         return iterate_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
         # the kernels load with numba here, on first use (numba-free validation)
-        from .._jit import dispatchers
-        from ..maps2d import detect_map_cycles, iterate_batch
-        from ..stability import batch_map_stability
+        from ..._jit import dispatchers
+        from ...stability import batch_map_stability
+        from .maps import detect_map_cycles, iterate_batch
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the map2d kernels", COMPILE_SECONDS["map2d"],
@@ -91,11 +91,11 @@ class Map2dModel(Model):
         return seconds, seconds / 1.5, seconds * 1.5, []
 
     def orbit_seed(self, values, scene, param, word, run):
-        from ..continuation import map_seed
+        from ...continuation import map_seed
         return map_seed(values, param, word)
 
     def word_seed(self, values, scene, param, word):
-        from ..continuation import map_seed
+        from ...continuation import map_seed
         return map_seed(values, param, word)
 
     def run_items(self, params, ics, ints, scene):
@@ -105,9 +105,9 @@ class Map2dModel(Model):
         section values (u, v)(nT); a run is OK unless an iterate is not finite.
         """
         # the kernels load with numba here, on first use (numba-free validation)
-        from .._jit import raise_if_stopped
-        from ..maps2d import detect_map_cycles, iterate_batch
-        from ..stability import new_outputs
+        from ..._jit import raise_if_stopped
+        from ...stability import new_outputs
+        from .maps import detect_map_cycles, iterate_batch
         n = params.shape[0]
         rec = scene.record
         a = np.empty((n, rec))
@@ -142,7 +142,7 @@ def batch_map_stability(*args):
     """``stability.batch_map_stability``, imported at its first call (numba-free
     validation): the stability pass of a block (``run_items``), a name of this module that
     a test may replace."""
-    from ..stability import batch_map_stability as kernel
+    from ...stability import batch_map_stability as kernel
     return kernel(*args)
 
 

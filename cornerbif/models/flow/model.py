@@ -2,8 +2,8 @@
 
 u'' + 2 sigma u' + k^2 u = f(t), f = 0 or F cos(Omega t + phi) (eq 4), for u >= z(t),
 with Newton's impact law v+ = (1 + r) z'(t) - r v- (eq 5).  Its parameters and obstacles
-are declared in ``models/flow_params.py`` (with the packed vector the kernels index), the
-obstacles' jitted pieces in ``models/obstacle.py``; the kernel is ``kernels/flow.py``.
+are declared in ``models/flow/params.py`` (with the packed vector the kernels index), the
+obstacles' jitted pieces in ``obstacles/dispatch.py``; the kernel is ``models/flow/kernel.py``.
 """
 
 from __future__ import annotations
@@ -12,16 +12,16 @@ import math
 
 import numpy as np
 
-from ..model import Coord, CycleSeries, Field, Model
-from . import flow_params as P
-from .flow_params import OBSTACLES
+from ...model import Coord, CycleSeries, Field, Model
+from . import params as P
+from .params import OBSTACLES
 
-# The kernels (kernels/flow.py, the cycle analysis, the stability pass) are imported by the
+# The kernels (models/flow/kernel.py, the cycle analysis, the stability pass) are imported by the
 # methods that run them: importing this module, as checking a scene does, loads no numba.
 
 # run.stop = "period": the kernel stops once the state at the corners repeats to this share of
 # run.period_tol (relative), tighter than the analysis so that the orbit has converged well
-# beyond what the period test reads (see kernels.flow.cycle_watch)
+# beyond what the period test reads (see models.flow.kernel.cycle_watch)
 STOP_TOL_FACTOR = 1e-3
 
 IMPACT_FIELDS = (
@@ -79,7 +79,7 @@ T0 = Coord("t", (0.0, 0.0), 2, None, "start time t0 of the run (the obstacle's p
 
 
 def resonance_problem(vals, key) -> str | None:
-    """Undamped exact resonance (F != 0, sigma = 0, Omega = k): models.oscillator's particular
+    """Undamped exact resonance (F != 0, sigma = 0, Omega = k): numerics.oscillator's particular
     solution divides by k^2 - Omega^2; and a constant force (Omega = 0) without spring (k = 0),
     where it divides by zero too.  ``vals(name)`` gives the set of values a parameter
     takes; ``key(name)`` its dotted key."""
@@ -163,11 +163,11 @@ COMPILE_SECONDS = {"analysis": 2.3, "flow": 25.1, "profile": 28.8, "t0": 1.4, "s
 # the cycle analysis and the file's chunk writer: every sweep of the flow and two-particle
 # models calls them
 ANALYSIS_KERNELS = ("analysis.detect_cycles", "analysis.cycle_signatures",
-                    "chunkwrite._shuffle_bytes", "kernels.fill._fill")
+                    "chunkwrite._shuffle_bytes", "numerics.fill._fill")
 # what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the
 # functions the continuation calls from Python, each cached on its own)
 CONTINUATION_KERNELS = ("stability.flight_matrix", "stability.impact_saltation",
-                        "stability.multipliers", "models.oscillator.acceleration")
+                        "stability.multipliers", "numerics.oscillator.acceleration")
 
 
 class FlowModel(Model):
@@ -214,14 +214,14 @@ class FlowModel(Model):
     def wall_at_start(self, params):
         if params.shape[1] > P.NPARAM:          # a profile: z(0) = kappa + beta g(0)
             # the kernels load with numba here, on first use (numba-free validation)
-            from ..kernels.flow import obstacle_heights
+            from .kernel import obstacle_heights
             return obstacle_heights(np.ascontiguousarray(params),
                                     np.zeros((params.shape[0], 1)))[:, 0]
         return params[:, P.KAPPA]
 
     def wall_at(self, params, t0):
         # the kernels load with numba here, on first use (numba-free validation)
-        from ..kernels.flow import obstacle_heights
+        from .kernel import obstacle_heights
         return obstacle_heights(np.ascontiguousarray(params),
                                 np.ascontiguousarray(t0, dtype=float))
 
@@ -230,7 +230,7 @@ class FlowModel(Model):
 
     def pack_points(self, scene, index_list):
         # the swept parameters as columns, packed at once (``params.pack_many``)
-        from ..config import IC_PREFIX
+        from ...config import IC_PREFIX
         idx = np.asarray(index_list, np.int64).reshape(len(index_list), -1)
         values = dict(scene.system)
         for i, a in enumerate(scene.axes):
@@ -256,7 +256,7 @@ class FlowModel(Model):
 
     def kernel(self):
         # the kernels load with numba here, on first use (numba-free validation)
-        from ..kernels.flow import run_batch
+        from .kernel import run_batch
         return run_batch
 
     def compiles(self, scene, what):
@@ -264,9 +264,9 @@ class FlowModel(Model):
         "continuation"; ``engine.cold_compiles``): (name, seconds, jitted functions) per
         kernel, the seconds from COMPILE_SECONDS."""
         # the kernels load with numba here, on first use (numba-free validation)
-        from .._jit import dispatchers
-        from ..kernels.flow import obstacle_heights, run_batch, run_batch_profile
-        from ..stability import batch_stability
+        from ..._jit import dispatchers
+        from ...stability import batch_stability
+        from .kernel import obstacle_heights, run_batch, run_batch_profile
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", COMPILE_SECONDS["analysis"],
@@ -338,11 +338,11 @@ class FlowModel(Model):
         return seconds, low, high, reasons
 
     def word_seed(self, values, scene, param, word):
-        from ..continuation import seed_from_word
+        from ...continuation import seed_from_word
         return seed_from_word(values, scene.obstacle, param, word, scene.tol)
 
     def orbit_seed(self, values, scene, param, word, run):
-        from ..continuation import seed_from_run
+        from ...continuation import seed_from_run
         return seed_from_run(values, scene.obstacle, param, run["t"], run["v_out"],
                              run["corner_offset"], run["ipc"], scene.tol)
 
@@ -353,7 +353,7 @@ class FlowModel(Model):
         fill = {"t"} | {f.source for f in self.fields(scene.keep)}
         cornered = np.isin(params[:, P.OBSTACLE],
                            [o.code for o in OBSTACLES.values() if o.corners])
-        # a profile has corners only where its slope jumps (models/profile.py)
+        # a profile has corners only where its slope jumps (obstacles/profile.py)
         if params.shape[1] > P.NPARAM:
             cornered &= params[:, P.PROFILE_CORNERS] != 0
         res = _run_flow(params, ics, ints, scene, fill, cornered)
@@ -419,8 +419,8 @@ def _stability(params, out, ipc, control=0):
     recorded window (cornerbif.stability), under a sweep's ``control`` (its address; 0:
     none): told to stop, ``KernelStopped``."""
     # the kernels load with numba here, on first use (numba-free validation)
-    from .._jit import raise_if_stopped
-    from ..stability import new_outputs
+    from ..._jit import raise_if_stopped
+    from ...stability import new_outputs
     res = new_outputs(params.shape[0])
     batch_stability(params, out["t"], out["u"], out["v_in"], out["v_out"],
                     out["corner_offset"], ipc, *res.values(), control)
@@ -432,7 +432,7 @@ def batch_stability(*args):
     """``stability.batch_stability``, imported at its first call (numba-free validation):
     the stability pass of a block (``_stability``), a name of this module that a test may
     replace."""
-    from ..stability import batch_stability as kernel
+    from ...stability import batch_stability as kernel
     return kernel(*args)
 
 
@@ -441,10 +441,10 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     unfilled.  Returns (out, status, final, period, impacts per cycle, symbols, first
     recorded impact)."""
     # the kernels load with numba here, on first use (numba-free validation)
-    from .._jit import raise_if_stopped
-    from ..analysis import detect_cycles
-    from ..kernels.fill import full
-    from ..kernels.flow import run_batch, run_batch_profile
+    from ..._jit import raise_if_stopped
+    from ...analysis import detect_cycles
+    from ...numerics.fill import full
+    from .kernel import run_batch, run_batch_profile
     n = params.shape[0]
     rec = scene.record
     out = {k: full((n, rec), np.nan) if k in fill else np.empty((n, rec))

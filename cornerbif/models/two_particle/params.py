@@ -11,7 +11,7 @@ mass as the ``flow`` oscillator (eq 4):
 z'' + 2 sigma1 z' + omega1^2 z = F1 cos(Omega1 t + phi1) and
 u'' + 2 sigma2 u' + omega2^2 u = F2 cos(Omega2 t + phi2); all default to 0
 (Omega to 1), which is (73) exactly.  Flights reuse the closed forms of
-``models.oscillator``.
+``numerics.oscillator``.
 
 * w-z impacts (z = w): law (5) with restitution r1, the wall having infinite
   mass: y+ = (1 + r1) w'(t) - r1 y-.
@@ -23,7 +23,7 @@ Parameters have names in Python and live in one packed float64 vector inside
 the kernels, indexed by the constants below.
 
 Pure Python (no numba): checking a scene reads these declarations without loading a
-kernel.  ``models/two_particle.py`` adds the jitted pieces the kernels call (``as_tuple``,
+kernel.  ``models/two_particle/packed.py`` adds the jitted pieces the kernels call (``as_tuple``,
 the impact law ``mass_ratio_impact``) and re-exports everything here.
 """
 
@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from ..model import FREQUENCY, Param, anything, frequency, nonnegative, positive, unit_interval
+from ...model import FREQUENCY, Param, anything, frequency, nonnegative, positive, unit_interval
 
 # --- the declarations (read by config through the registry) ------------------------------
 PARAMS = {p.name: p for p in (
@@ -147,7 +147,7 @@ def pack(values: dict, tol: float = 1e-12, chatter: float = 1e-6, escape: float 
 
 def resonance_problem(p: np.ndarray) -> str | None:
     """The undamped exact resonance of a particle or of the stuck pair in the packed row
-    ``p``, in words, or None: the closed forms of models.oscillator need a non-resonant
+    ``p``, in words, or None: the closed forms of numerics.oscillator need a non-resonant
     forcing when undamped (F cos(Omega t) with Omega equal to the undamped frequency of z,
     of u, or of the stuck pair, whose frequency and damping are mass-weighted)."""
     mu = p[MU]

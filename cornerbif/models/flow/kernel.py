@@ -4,7 +4,7 @@
 (exact, eq 4), impacts (law 5), chattering and sticking, with the certified event search of
 ``roots`` and the Sturm comparison of ``sturm_clear``; ``run_batch`` fans out over items.
 The phases, the early stop (``run.stop = "period"``) and the helpers are described in
-docs/kernels.md; the obstacles (eqs 7, 8) live in ``models.obstacle``.  Every run ends with
+docs/kernels.md; the obstacles (eqs 7, 8) live in ``obstacles.dispatch``.  Every run ends with
 a status from ``cornerbif.status``; nothing raises.
 """
 
@@ -13,11 +13,32 @@ import math
 import numpy as np
 from numba import prange
 
-from .. import status as S
-from .._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
-from ..models import params as P
-from ..models.impact import restitution
-from ..models.obstacle import (
+from ... import status as S
+from ..._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
+from ...numerics.impact import restitution
+from ...numerics.oscillator import (
+    SMALL_ANGLE,
+    budget_pieces,
+    derive,
+    forcing,
+    homogeneous,
+    particular,
+    rotate,
+    small_sincos,
+    upp_bound,
+)
+from ...numerics.roots import (
+    FAIL,
+    FOUND,
+    MAXIT,
+    NONE,
+    STEP,
+    bracket,
+    bracket_call,
+    quad_first_root,
+    quad_positive,
+)
+from ...obstacles.dispatch import (
     D_HALF,
     D_IK,
     D_NPP,
@@ -41,18 +62,7 @@ from ..models.obstacle import (
     zppp_max,
     zpppp_max,
 )
-from ..models.oscillator import (
-    SMALL_ANGLE,
-    budget_pieces,
-    derive,
-    forcing,
-    homogeneous,
-    particular,
-    rotate,
-    small_sincos,
-    upp_bound,
-)
-from .roots import FAIL, FOUND, MAXIT, NONE, STEP, bracket, bracket_call, quad_first_root, quad_positive
+from . import packed as P
 
 HINT_MARGIN = 1.25   # the next step's window: this times the certified bracket's rest
 
@@ -883,7 +893,7 @@ def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corne
                       o_status, o_final, o_rec0):
     """``run_batch`` for rows of ``obstacle = "profile"`` (NPARAM_PROFILE wide): the same
     ``run_one`` on a profile's tuples, which refer to their row of ``params`` (alive for
-    the whole call; models/obstacle.py, "the two tuple types").  A kernel of its own, so
+    the whole call; obstacles/dispatch.py, "the two tuple types").  A kernel of its own, so
     that a sweep of a built-in obstacle never compiles the profile's code."""
     if params.shape[1] != P.NPARAM_PROFILE or params.strides[1] != params.itemsize:
         raise ValueError("run_batch_profile: params must be rows of NPARAM_PROFILE "

@@ -29,10 +29,10 @@ without corners behaves as the smooth wall of section 2.2 (symbols ``x``).  ``co
 [i, ...]`` names the pieces whose start counts as a corner instead (the built-in triangle
 counts its valleys only, not its peaks).
 
-The packed layout (``models/params.py``: ``PROFILE_*``) holds, per piece, its span, its
+The packed layout (``models/flow/params.py``: ``PROFILE_*``) holds, per piece, its span, its
 coefficients and certified bounds of g, g'', |g'''| and |g''''| on the piece (Bernstein
 enclosures of the polynomial plus the sinusoid's amplitude), which the certified event
-search and the Sturm comparison of the kernels read (``models/obstacle.py``).
+search and the Sturm comparison of the kernels read (``obstacles/dispatch.py``).
 """
 
 from __future__ import annotations
@@ -406,7 +406,7 @@ def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: 
     ``npp_bound``; in Python, ``flow_params.row_bound`` and ``npp_bound``: checking a scene
     loads no numba and compiles nothing).  Each grows with |omega|, beta, sigma and k (a
     floor also as 1 / k^2), so a scene checks its extremes."""
-    from . import flow_params as P
+    from ..models.flow import params as P
     with np.errstate(all="ignore"):
         w = np.float64(abs(omega))
         if not math.isfinite(np.float64(profile.period) / w):

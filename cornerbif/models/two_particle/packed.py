@@ -2,15 +2,15 @@
 parameter row: the row as a tuple, law (74) for z-u impacts.
 
 The model's equations (72)-(74), its declarations, the slots of the packed vector and
-``pack`` are in ``models/two_particle_params.py`` (pure Python, so that checking a scene
+``pack`` are in ``models/two_particle/params.py`` (pure Python, so that checking a scene
 loads no numba); they are re-exported here, where the kernels read them as ``P.*``.
 """
 
 import math
 
-from .._jit import jit
-from .impact import restitution
-from .two_particle_params import *  # noqa: F403 (the declarations and slots, read by the kernels as P.*)
+from ..._jit import jit
+from ...numerics.impact import restitution
+from .params import *  # noqa: F403 (the declarations and slots, read by the kernels as P.*)
 
 
 @jit

@@ -152,8 +152,8 @@ import math
 import numpy as np
 from numba import prange
 
-from ._jit import count_done, jit, pjit, stop_requested
-from .analysis import smallest_rotation
+from ..._jit import count_done, jit, pjit, stop_requested
+from ...analysis import smallest_rotation
 
 #: region / symbol codes (out_region values); NONE marks NaN input
 ALPHA, BETA, GAMMA, NONE = 0, 1, 2, -1

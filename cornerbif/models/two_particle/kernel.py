@@ -14,16 +14,16 @@ import math
 import numpy as np
 from numba import prange
 
-from .. import status as S
-from .._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
-from ..models import params as FP
-from ..models import two_particle as P
-from ..models.impact import restitution
-from ..models.obstacle import D_REGIME, D_WD, D_X, D_Y, NDERIVED
-from ..models.oscillator import deriv_bound, homogeneous, particular
-from ..models.oscillator import derive as osc_derive
-from ..models.two_particle import mass_ratio_impact
-from .roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
+from ... import status as S
+from ..._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
+from ...numerics.impact import restitution
+from ...numerics.oscillator import deriv_bound, homogeneous, particular
+from ...numerics.oscillator import derive as osc_derive
+from ...numerics.roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
+from ...obstacles.dispatch import D_REGIME, D_WD, D_X, D_Y, NDERIVED
+from ..flow import packed as FP
+from . import packed as P
+from .packed import mass_ratio_impact
 
 # --- output columns -------------------------------------------------------------------
 ZU_T, ZU_U, ZU_VIN, ZU_VOUT, ZU_YIN, ZU_YOUT, ZU_OFF = 0, 1, 2, 3, 4, 5, 6
@@ -74,7 +74,7 @@ C_SMOOTH = 15  # 1: no damping and no forcing (eq 73 exactly): the undamped fast
 C_HZERO = 16   # 1: the pair's contact force lambda2 vanishes identically
 NC = 17
 
-# --- oscillator rows (``flow`` parameter vectors for ``models.oscillator``) -------------
+# --- oscillator rows (``flow`` parameter vectors for ``numerics.oscillator``) -------------
 RZ = 0    # z: sigma1, omega1, F1 cos(Omega1 t + phi1)
 RU = 1    # u: sigma2, omega2, F2 cos(Omega2 t + phi2)
 RP = 2    # stuck pair: Sigma, Omega, forcing mu F1/(mu + 1) at Omega1
@@ -130,7 +130,7 @@ def constants_tuple(c):
 @jit
 def oscillators(p, c):
     """Rows of ``flow`` parameter vectors (and their derived constants) for z, u and the
-    stuck pair, so every flight is the closed form of ``models.oscillator`` (eq 4).
+    stuck pair, so every flight is the closed form of ``numerics.oscillator`` (eq 4).
 
     A stuck pair obeys (M + m) z'' = M (f1 - 2 sigma1 z' - omega1^2 z)
     + m (f2 - 2 sigma2 z' - omega2^2 z): damping Sigma = (mu sigma1 + sigma2)/(mu + 1),
@@ -229,7 +229,7 @@ def part(Q, D, r, t):
 def fly(c, Q, D, r, tau_ref, x0, v0, s):
     """Closed-form flight of row r: (x, x') a time s after the state (x0, v0) at local
     time tau_ref.  Undamped and unforced (eq 73) it is ``harm``; otherwise the closed
-    forms of ``models.oscillator`` (homogeneous part carried, particular part added)."""
+    forms of ``numerics.oscillator`` (homogeneous part carried, particular part added)."""
     if c[C_SMOOTH] == 1.0:
         return harm(x0, v0, Q[r, FP.K], s)
     xp0, vp0 = part(Q, D, r, tau_ref)
@@ -1313,9 +1313,9 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
     final (z, y, u, v), period, impacts_per_cycle, symbols (``analysis``: the
     w-z impacts are the corners).
     """
-    from ..analysis import detect_cycles, words
+    from ...analysis import detect_cycles, words
 
-    # the declared defaults (models.two_particle.PARAMS), omega0 aside
+    # the declared defaults (models.two_particle.packed.PARAMS), omega0 aside
     defaults = {k: p.default for k, p in P.PARAMS.items() if k != "omega0"}
     unknown = set(params) - set(P.NAMES)
     if unknown:

@@ -1,1 +1,0 @@
-"""Numba kernels: pure functions of arrays and scalars, no I/O (docs/architecture.md)."""

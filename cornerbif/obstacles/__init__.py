@@ -1,0 +1,2 @@
+"""Obstacles z(t) of the ``flow`` model: the jitted dispatch over the obstacle codes
+(``dispatch``) and cam profiles (``profile``)."""
