@@ -334,7 +334,7 @@ def run_lyapunov(p, t, u, v_in, v_out, offset, ipc, warmup_share):
 
 def new_outputs(n):
     """The arrays of the ``stability`` observable for n items, keyed by the Fields'
-    sources (``flow_model.STABILITY_FIELDS``), in the order the batch kernels fill them."""
+    sources (``models.flow.model.STABILITY_FIELDS``), in the order the batch kernels fill them."""
     return {"mu_re": np.empty((n, 2)), "mu_im": np.empty((n, 2)),
             "cycle_duration": np.empty(n), "stability_status": np.empty(n, np.int8),
             "lyapunov": np.empty((n, 2)), "lyapunov_window": np.empty(n),

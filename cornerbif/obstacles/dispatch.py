@@ -525,7 +525,7 @@ def npp_bound(beta, w, sigma, k, g2, g3, g4):
     |g''|, |g'''|, |g''''| are at most g2, g3, g4: beta omega^2 (omega^2 g4 + 2 sigma omega
     g3 + k^2 g2), the contact force's |N''| less the forcing's share (``profile_npp``).
     Arithmetic alone: ``profile.scale_problem`` checks a scene with the same in Python
-    (``flow_params.npp_bound``)."""
+    (``models.flow.params.npp_bound``)."""
     return beta * w * w * (w * w * g4 + 2.0 * sigma * w * g3 + k * k * g2)
 
 

@@ -403,7 +403,7 @@ def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: 
     contact force's N'' and the Sturm floors.  Each is read from the row the kernels are
     given (``params.pack``: the pieces' bounds, Sturm bounds and floors) or computed as the
     obstacle's own functions compute them (``obstacle.profile_g2_abs``, ``_profile_max``,
-    ``npp_bound``; in Python, ``flow_params.row_bound`` and ``npp_bound``: checking a scene
+    ``npp_bound``; in Python, ``models.flow.params.row_bound`` and ``npp_bound``: checking a scene
     loads no numba and compiles nothing).  Each grows with |omega|, beta, sigma and k (a
     floor also as 1 / k^2), so a scene checks its extremes."""
     from ..models.flow import params as P
