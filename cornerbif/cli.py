@@ -229,7 +229,8 @@ def _raise_again_soon(interrupt):
     handler interrupts).  Landing in another finalizer, it comes back here and is tried
     again."""
     import signal
-    if threading_main() is False or not hasattr(signal, "setitimer"):
+    import threading
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
         return
 
     def again(signum, frame):
@@ -237,12 +238,6 @@ def _raise_again_soon(interrupt):
         raise interrupt
     previous = signal.signal(signal.SIGALRM, again)
     signal.setitimer(signal.ITIMER_REAL, 0.001)
-
-
-def threading_main() -> bool:
-    """Whether this is the main thread (where signal handlers run and may be set)."""
-    import threading
-    return threading.current_thread() is threading.main_thread()
 
 
 def _check_threads(threads):

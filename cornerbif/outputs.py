@@ -57,7 +57,6 @@ def not_a_regular_file(path: str) -> str | None:
     """What ``path`` is when it is not a regular file a command may open and read ('a
     directory', 'a FIFO', 'a character device', ...), or None.  A FIFO or a device is never
     opened: reading one may block for ever or never end."""
-    import stat
     try:
         mode = os.stat(path).st_mode
     except OSError:
@@ -303,7 +302,8 @@ def fresh_file(path: str, signatures=None):
     os.close(fd)
 
 
-def _remove(path):
+def remove_quietly(path):
+    """Remove ``path`` if it is there (a temporary of ours); an error is no one's concern."""
     try:
         os.remove(path)
     except OSError:
@@ -323,10 +323,10 @@ def replacing(path: str, kept: str = "the previous file, if any, is unchanged"):
         with signals_deferred():
             os.replace(tmp, path)
     except OSError as e:
-        _remove(tmp)
+        remove_quietly(tmp)
         raise WriteFailed(f"writing {path} failed ({reason(e)}); {kept}") from None
     except BaseException:
-        _remove(tmp)
+        remove_quietly(tmp)
         raise
 
 

@@ -475,7 +475,7 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
         nothing = created and not np.any(f["done"][...])
         f.close()
         if nothing:
-            _remove_quietly(partial)   # refused before a point was done (an unreachable
+            outputs.remove_quietly(partial)   # refused before a point was done (an unreachable
             raise                      # --scheduler): no partial file of this run is left
         if getattr(e, "failures", None):
             io.record_failures(partial, e.failures)
@@ -505,13 +505,6 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
     except OSError as e:
         raise WriteFailed(f"finishing {partial} failed ({io.reason(e)}); every point is kept; "
                           "free space and run the same command with --resume") from None
-
-
-def _remove_quietly(path):
-    try:
-        os.remove(path)
-    except OSError:
-        pass
 
 
 def simulate(*starts, **kw):
