@@ -45,9 +45,10 @@ import numpy as np
 from .models.flow import packed as P
 from .models.flow.params import OBSTACLES
 from .numerics.oscillator import acceleration, derive, particular
+from .numerics.saltation import flight_matrix, impact_saltation
 from .obstacles.dispatch import corner_of, piece_start, z_state
 from .outputs import CONTINUATION_FORMAT
-from .stability import flight_matrix, impact_saltation, multipliers
+from .stability import multipliers
 
 NEWTON_TOL = 1e-12     # |residual| (scaled) at which Newton stops
 NEWTON_MAX = 30
@@ -606,7 +607,8 @@ class TwoParticleOrbit:
         return {"w": w, "t": X[0::5].copy()}
 
     def floquet(self, X, lam):
-        from .stability import OK, sorted_eigenvalues, two_particle_steps
+        from .models.two_particle.tangent import two_particle_steps
+        from .stability import OK, sorted_eigenvalues
         p, _, _ = self.packed(lam)
         zu, wz = self.tables(X, lam)
         n_zu = self.kinds.count("U")

@@ -16,6 +16,8 @@ import pytest
 
 import cornerbif
 from cornerbif import stability as S
+from cornerbif.models.flow import tangent as FT
+from cornerbif.models.map2d import tangent as MT
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -63,7 +65,7 @@ def test_complex_pair_exponents_within_the_conditioning_bound(omega, record):
     assert math.isclose(res["t"][n - 1] - res["t"][first], win, rel_tol=1e-12)
     prm = cornerbif.models.flow.packed.pack(dict(omega=omega, kappa=0.0), "rectified_sine",
                                        1e-12, 1e-6, 1e6, None)
-    J = S.cycle_multipliers(prm, res["t"], res["u"], res["v_in"], res["v_out"],
+    J = FT.cycle_multipliers(prm, res["t"], res["u"], res["v_in"], res["v_out"],
                             res["corner_offset"], first, int(res["impacts_per_cycle"]))
     w, V = np.linalg.eig(J["jacobian"])
     P = np.column_stack([V[:, 0].real, V[:, 0].imag])
@@ -214,7 +216,7 @@ def test_map_exponents_use_the_finite_prefix():
     finite steps before it (log r for beta, 2 log r for alpha); none at all: NO_WINDOW."""
     r = 0.8
     regions = np.array([1, 0, 2, -1, 1], np.int8)
-    lam1, lam2, n, st = S.map_lyapunov(r, regions)
+    lam1, lam2, n, st = MT.map_lyapunov(r, regions)
     assert st == S.OK and n == 3
     assert math.isclose(lam1, (4 * math.log(r)) / 3, rel_tol=1e-15) and lam1 == lam2
-    assert S.map_lyapunov(r, np.array([-1, 1], np.int8))[3] == S.NO_WINDOW
+    assert MT.map_lyapunov(r, np.array([-1, 1], np.int8))[3] == S.NO_WINDOW

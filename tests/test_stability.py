@@ -17,6 +17,8 @@ from scipy.linalg import expm
 import cornerbif
 from cornerbif import stability as S
 from cornerbif.models.flow import packed as P
+from cornerbif.models.flow import tangent as FT
+from cornerbif.numerics import saltation as SAL
 from cornerbif.numerics.oscillator import derive
 
 
@@ -27,7 +29,7 @@ def test_flight_matrix_is_the_matrix_exponential(sigma, k, tau):
     """exp(A tau), A = [[0, 1], [-k^2, -2 sigma]]: under-, critically and over-damped, and
     the free particle; against scipy.linalg.expm to 1e-12 (relative to the largest entry)."""
     want = expm(np.array([[0.0, 1.0], [-k * k, -2.0 * sigma]]) * tau)
-    got = np.array(S.flight_matrix(sigma, k, tau)).reshape(2, 2)
+    got = np.array(SAL.flight_matrix(sigma, k, tau)).reshape(2, 2)
     assert np.abs(got - want).max() <= 1e-12 * max(1.0, np.abs(want).max())
     # Liouville: det = exp(-2 sigma tau), up to the cancellation of forming a det from
     # entries (over-damped, long tau: entries ~0.1 and det ~1e-11)
@@ -39,7 +41,7 @@ def test_saltation_of_the_bouncing_ball():
     """Fixed wall (z' = z'' = 0), sigma = 0, gravity a- = -g: [[-r, 0], [(1 + r) g/|v-|, -r]]
     (the bouncing ball's saltation), det r^2."""
     r, g, v = 0.7, 9.81, -3.0
-    s = np.array(S.impact_saltation(r, 0.0, v, -g, 0.0)).reshape(2, 2)
+    s = np.array(SAL.impact_saltation(r, 0.0, v, -g, 0.0)).reshape(2, 2)
     assert np.allclose(s, [[-r, 0.0], [(1 + r) * g / abs(v), -r]], rtol=1e-15)
     assert math.isclose(np.linalg.det(s), r * r, rel_tol=1e-15)
 
@@ -71,7 +73,7 @@ def test_multipliers_of_beta_orbits_match_the_section_map(omega, system):
     ~1e-9), and the monodromy's determinant is exp(-2 sigma T_cycle) r^(2N) to 1e-12."""
     res, prm = _orbit(omega, **system)
     n = int(res["impacts_per_cycle"][0])
-    out = S.cycle_multipliers(prm, res["t"][0], res["u"][0], res["v_in"][0], res["v_out"][0],
+    out = FT.cycle_multipliers(prm, res["t"][0], res["u"][0], res["v_in"][0], res["v_out"][0],
                               res["corner_offset"][0], 0, n)
     assert out["status"] == "ok"
     assert math.isclose(np.linalg.det(out["jacobian"]), out["det_closed_form"], rel_tol=1e-12)
@@ -90,7 +92,7 @@ def test_the_multipliers_do_not_depend_on_the_impact_the_cycle_starts_from():
     monodromies from each of its impacts are similar matrices: same multipliers."""
     res, prm = _orbit(1.8)
     n = int(res["impacts_per_cycle"][0])
-    mus = [S.cycle_multipliers(prm, res["t"][0], res["u"][0], res["v_in"][0],
+    mus = [FT.cycle_multipliers(prm, res["t"][0], res["u"][0], res["v_in"][0],
                                res["v_out"][0], res["corner_offset"][0], f, n)["multipliers"]
            for f in range(n)]
     for m in mus[1:]:
@@ -101,14 +103,14 @@ def test_a_grazing_impact_gives_no_multipliers():
     """A record whose impact 1 is reached by the free flight from impact 0 (k = 1, no
     forcing: u = u0 cos t + v0 sin t) with exactly the obstacle's velocity: w- = 0."""
     prm = P.pack(dict(omega=2.0, kappa=0.0), "rectified_sine", 1e-12, 1e-6, 1e6, None)
-    zp, _ = S.obstacle_at_offset(prm, derive(prm), 1.0, 0.3)
+    zp, _ = FT.obstacle_at_offset(prm, derive(prm), 1.0, 0.3)
     v0 = zp / np.cos(1.0)
     t = np.array([0.0, 1.0, 2.0])
     u = np.array([0.0, v0 * np.sin(1.0), 0.0])
     v_in = np.array([-1.0, v0 * np.cos(1.0), -1.0])
     v_out = np.array([v0, 0.0, 0.0])
     off = np.array([0.3, 0.3, 0.3])
-    out = S.cycle_multipliers(prm, t, u, v_in, v_out, off, 0, 1)
+    out = FT.cycle_multipliers(prm, t, u, v_in, v_out, off, 0, 1)
     assert out["status"].startswith("grazing") and np.isnan(out["jacobian"]).all()
 
 
@@ -153,7 +155,7 @@ def test_multipliers_match_the_slow_reference(omega, kappa, system):
     n = int(res["impacts_per_cycle"][0])
     if start:
         assert 0 < res["corner_offset"][0][3] < 1e-6
-    out = S.cycle_multipliers(prm, res["t"][0], res["u"][0], res["v_in"][0], res["v_out"][0],
+    out = FT.cycle_multipliers(prm, res["t"][0], res["u"][0], res["v_in"][0], res["v_out"][0],
                               res["corner_offset"][0], 3, n)
     fd, err = _fd_multipliers(omega, kappa, res, n, system)
     key = lambda z: (round(abs(z), 9), z.imag)       # noqa: E731
@@ -192,7 +194,7 @@ def test_a_sweep_keeping_stability_stores_each_runs_multipliers(tmp_path):
                 last = int(np.isfinite(t).sum()) - 1 - n
                 prm = P.pack(dict(omega=float(om[i]), kappa=0.0), "rectified_sine", 1e-12,
                              1e-6, 1e6, None)
-                want = S.cycle_multipliers(prm, t, f["impacts/u"][i, j], f["impacts/v_in"][i, j],
+                want = FT.cycle_multipliers(prm, t, f["impacts/u"][i, j], f["impacts/v_in"][i, j],
                                            f["impacts/v_out"][i, j],
                                            f["impacts/corner_offset"][i, j], last, n)
                 got = mre[i, j] + 1j * mim[i, j]
@@ -204,7 +206,7 @@ def test_a_sweep_keeping_stability_stores_each_runs_multipliers(tmp_path):
             for j in range(2):
                 prm = P.pack(dict(omega=float(om[i]), kappa=0.0), "rectified_sine", 1e-12,
                              1e-6, 1e6, None)
-                want = S.run_lyapunov(prm, f["impacts/t"][i, j], f["impacts/u"][i, j],
+                want = FT.run_lyapunov(prm, f["impacts/t"][i, j], f["impacts/u"][i, j],
                                       f["impacts/v_in"][i, j], f["impacts/v_out"][i, j],
                                       f["impacts/corner_offset"][i, j],
                                       int(f["impacts_per_cycle"][i, j]), S.WARMUP_SHARE)

@@ -15,6 +15,8 @@ import pytest
 
 import cornerbif
 from cornerbif import stability as S
+from cornerbif.models.two_particle import tangent as TT
+from cornerbif.numerics import saltation as SAL
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fd_reference_two_particle as FR  # noqa: E402
@@ -70,7 +72,7 @@ def test_monodromy_determinant_is_the_closed_form(name):
                   -1)[None]
     ipc = np.asarray(r["impacts_per_cycle"]).reshape(1).astype(np.int64)
     prm = TP.pack({k: v.default for k, v in TP.PARAMS.items()} | p)[None]
-    out = S.two_particle_outputs(prm, np.ascontiguousarray(zu), np.ascontiguousarray(wz), ipc)
+    out = TT.two_particle_outputs(prm, np.ascontiguousarray(zu), np.ascontiguousarray(wz), ipc)
     n = int(np.isfinite(zu[0, :, 0]).sum())
     t0, t1 = zu[0, n - 1 - ipc[0], 0], zu[0, n - 1, 0]
     n_wz = int(((wz[0, :, 0] > t0) & (wz[0, :, 0] <= t1)).sum())
@@ -153,8 +155,8 @@ def _tables(p, x0, record=12):
 def _flights(p, tau):
     """blockdiag(M_z(tau), M_u(tau)) (tau may be negative: a flight run backwards)."""
     F = np.zeros((4, 4))
-    F[:2, :2] = np.reshape(S.flight_matrix(p.get("sigma1", 0.0), p["omega1"], tau), (2, 2))
-    F[2:, 2:] = np.reshape(S.flight_matrix(p.get("sigma2", 0.0), p["omega2"], tau), (2, 2))
+    F[:2, :2] = np.reshape(SAL.flight_matrix(p.get("sigma1", 0.0), p["omega1"], tau), (2, 2))
+    F[2:, 2:] = np.reshape(SAL.flight_matrix(p.get("sigma2", 0.0), p["omega2"], tau), (2, 2))
     return F
 
 
@@ -175,7 +177,7 @@ def test_steps_between_mid_flight_times_match_the_fd_reference(case):
     full = {k: v.default for k, v in TP.PARAMS.items()} | p
     zu, wz = _tables(full, x0)
     i0, i1 = 0, 2
-    G, times, st = S.two_particle_steps(TP.pack(full), zu, wz, i0, i1)
+    G, times, st = TT.two_particle_steps(TP.pack(full), zu, wz, i0, i1)
     assert st == S.OK and len(G) >= 2
     t_i0, t_i1 = zu[i0, 0], zu[i1, 0]
     nxt = zu[i1 + 1, 0] if np.isfinite(zu[i1 + 1, 0]) else t_i1 + 0.2
@@ -201,7 +203,7 @@ def test_a_full_wall_table_is_said_not_read_as_sticking():
     zu, wz = _tables(full, x0, record=40)
     n_wz = int(np.isfinite(wz[:, 0]).sum())
     short = np.ascontiguousarray(wz[: n_wz // 2])          # a full table of half the rows
-    out = S.two_particle_outputs(TP.pack(full)[None], zu[None], short[None],
+    out = TT.two_particle_outputs(TP.pack(full)[None], zu[None], short[None],
                                  np.array([3], np.int64))
     assert out["stability_status"][0] == S.TABLE_FULL
     assert out["lyapunov_status"][0] == S.TABLE_FULL

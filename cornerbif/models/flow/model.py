@@ -265,8 +265,8 @@ class FlowModel(Model):
         kernel, the seconds from COMPILE_SECONDS."""
         # the kernels load with numba here, on first use (numba-free validation)
         from ..._jit import dispatchers
-        from ...stability import batch_stability
         from .kernel import obstacle_heights, run_batch, run_batch_profile
+        from .tangent import batch_stability
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", COMPILE_SECONDS["analysis"],
@@ -432,7 +432,7 @@ def batch_stability(*args):
     """``stability.batch_stability``, imported at its first call (numba-free validation):
     the stability pass of a block (``_stability``), a name of this module that a test may
     replace."""
-    from ...stability import batch_stability as kernel
+    from .tangent import batch_stability as kernel
     return kernel(*args)
 
 

@@ -71,8 +71,8 @@ class Map2dModel(Model):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
         # the kernels load with numba here, on first use (numba-free validation)
         from ..._jit import dispatchers
-        from ...stability import batch_map_stability
         from .maps import detect_map_cycles, iterate_batch
+        from .tangent import batch_map_stability
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the map2d kernels", COMPILE_SECONDS["map2d"],
@@ -142,7 +142,7 @@ def batch_map_stability(*args):
     """``stability.batch_map_stability``, imported at its first call (numba-free
     validation): the stability pass of a block (``run_items``), a name of this module that
     a test may replace."""
-    from ...stability import batch_map_stability as kernel
+    from .tangent import batch_map_stability as kernel
     return kernel(*args)
 
 

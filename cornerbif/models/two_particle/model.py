@@ -129,10 +129,10 @@ class TwoParticleModel(Model):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
         # the kernels load with numba here, on first use (numba-free validation)
         from ..._jit import dispatchers
-        from ...stability import batch_two_particle_stability
         from ..flow.model import ANALYSIS_KERNELS
         from ..flow.model import COMPILE_SECONDS as FLOW
         from . import kernel as K
+        from .tangent import batch_two_particle_stability
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", FLOW["analysis"], dispatchers(*ANALYSIS_KERNELS)))
@@ -186,8 +186,8 @@ class TwoParticleModel(Model):
         from ..._jit import raise_if_stopped
         from ...analysis import detect_cycles
         from ...numerics.fill import full
-        from ...stability import two_particle_outputs
         from . import kernel as K
+        from .tangent import two_particle_outputs
         n = params.shape[0]
         rec = scene.record
         cap = wall_capacity(rec)
