@@ -13,13 +13,14 @@ import numpy as np
 
 import cornerbif
 from cornerbif import continuation as C
+from cornerbif.models.flow import orbit as FO
 
 
 def seeded(omega, param):
     res = cornerbif.simulate([5.0], [0.0], omega=omega, kappa=0.0, obstacle="sine", r=0.8,
                              transient=1500, record=60)
     vals = dict(omega=omega, kappa=0.0, beta=1.0, r=0.8)
-    return C.seed_from_run(vals, "sine", param, res["t"][0], res["v_out"][0],
+    return FO.seed_from_run(vals, "sine", param, res["t"][0], res["v_out"][0],
                            res["corner_offset"][0], int(res["impacts_per_cycle"][0])), vals
 
 
@@ -37,7 +38,7 @@ def main():
     for omega in (2.2, 2.6):
         found = {}
         for j0 in (0, 1):
-            prob = C.FlowOrbit(dict(omega=omega, kappa=0.0, beta=1.0, r=0.8), "sine",
+            prob = FO.FlowOrbit(dict(omega=omega, kappa=0.0, beta=1.0, r=0.8), "sine",
                                "omega", np.array([j0]), 1)
             L = np.pi / omega
             for tau in np.linspace(0.02, 0.98, 25) * L:

@@ -436,7 +436,7 @@ def continue_(scene_path, out, sets, resume, overwrite):
               "docs/continuation.md)")
     import shlex
 
-    from . import continuation as C
+    from . import continuation_run as C
     from .sweep import default_output
     out = default_output(scene).removesuffix(".h5") + "_continue.h5" if out is None else out
     inputs = [("the scene file", scene_path)]

@@ -27,6 +27,7 @@ import math
 import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -289,6 +290,68 @@ class Model:
         from one run's record at the continuation's start (models with
         ``continuation = True``)."""
         raise NotImplementedError
+
+    def orbit_from_doc(self, doc: dict):
+        """The periodic-orbit problem that the problem's ``to_doc`` wrote (a partial file's
+        resume state)."""
+        raise NotImplementedError
+
+
+# ------------------------------------------------------------------ orbit problems
+class OrbitProblem(Protocol):
+    """What ``cornerbif.continuation`` asks of a model's periodic-orbit problem (one
+    itinerary of one model: ``models/<name>/orbit.py``), built by the model's
+    ``orbit_seed``, ``word_seed`` and ``orbit_from_doc``.  X is the problem's unknowns (2 per
+    impact or event), ``lam`` the value of the continued parameter ``param``; ``values`` holds
+    the scene's other [system] values.
+
+    * the equations: ``residual(X, lam)`` (length len(X)), ``jacobian(X, lam)`` (dR/dX),
+      ``d_param(X, lam)`` (dR/dlam); ``n`` the number of impacts of one cycle;
+    * the monitors along a branch: ``floquet(X, lam)`` -> (multipliers, monodromy),
+      ``corner_distances(X, lam)`` (one signed distance per impact to its corner; a sign
+      change is a corner collision), ``smallest_gap(X, lam)`` (the smallest gap of a flight to
+      the obstacle: grazing), ``impacts(X, lam)`` (a dict of arrays ``t``, ``v_in``, ...),
+      ``admissible(X, lam)`` -> (ok, why not);
+    * the itinerary: ``word(X, lam)``, ``itinerary()``, ``reindex(X, lam)`` (bookkeeping that
+      is not an event) and ``across(q, X, lam)`` (the problem with impact q on the far side of
+      the corner it reached, and its X);
+    * the file: ``store(X, lam, section)`` (a point's record), ``to_doc()`` (plain data with
+      ``type`` = the model's name, read back by ``Model.orbit_from_doc``);
+    * two-parameter curves, where ``curves`` is true: ``piece_length(q, lam)`` and
+      ``rebased(values, param)``.
+    """
+
+    param: str
+    values: dict
+    n: int
+
+    def residual(self, X: np.ndarray, lam: float) -> np.ndarray: ...
+
+    def jacobian(self, X: np.ndarray, lam: float) -> np.ndarray: ...
+
+    def d_param(self, X: np.ndarray, lam: float) -> np.ndarray: ...
+
+    def floquet(self, X: np.ndarray, lam: float): ...
+
+    def corner_distances(self, X: np.ndarray, lam: float) -> np.ndarray: ...
+
+    def smallest_gap(self, X: np.ndarray, lam: float) -> float: ...
+
+    def impacts(self, X: np.ndarray, lam: float) -> dict: ...
+
+    def admissible(self, X: np.ndarray, lam: float) -> tuple: ...
+
+    def word(self, X: np.ndarray, lam: float) -> str: ...
+
+    def itinerary(self) -> str: ...
+
+    def reindex(self, X: np.ndarray, lam: float) -> tuple: ...
+
+    def across(self, q: int, X: np.ndarray, lam: float) -> tuple: ...
+
+    def store(self, X: np.ndarray, lam: float, section) -> dict: ...
+
+    def to_doc(self) -> dict: ...
 
 
 # ------------------------------------------------------------------ small shared helpers

@@ -574,13 +574,13 @@ BRANCH_ARRAYS = ("impact_u", "impact_v_in", "section_u", "section_v", "stable",
 
 
 def read_continuation(path) -> dict:
-    """A continuation file for a figure or ``info``: ``continuation.read``, with "path", once
+    """A continuation file for a figure or ``info``: ``continuation_run.read``, with "path", once
     ``io.open_checked`` has found it a regular HDF5 file of format
     ``cornerbif-continuation`` this version reads, referring to no other file (links,
     external storage, virtual datasets), within memory; then each branch's datasets one row
     per point of its parameter values (finite), the events' and curves' likewise
     (``_check_continuation``).  Else ``FileFormatError`` naming the file."""
-    from .continuation import FORMAT, FORMAT_VERSION, read
+    from .continuation_run import FORMAT, FORMAT_VERSION, read
     from .io import FileFormatError, error_line, open_checked
     path = str(path)
     with open_checked(path, FORMAT, FORMAT_VERSION):

@@ -16,7 +16,11 @@ import pytest
 
 import cornerbif
 from cornerbif import continuation as C
+from cornerbif import continuation_run as CR
 from cornerbif import theory
+from cornerbif.models.flow import orbit as FO
+from cornerbif.models.map2d import orbit as MO
+from cornerbif.models.two_particle import orbit as TO
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -30,7 +34,7 @@ def _seed(values, obstacle, param, word=None, starts=None, transient=1500, **run
                              **sys_, **run)
     words = list(res["symbols"])
     i = words.index(word) if word is not None else 0
-    return C.seed_from_run(values, obstacle, param, res["t"][i], res["v_out"][i],
+    return FO.seed_from_run(values, obstacle, param, res["t"][i], res["v_out"][i],
                            res["corner_offset"][i], int(res["impacts_per_cycle"][i]))
 
 
@@ -116,7 +120,7 @@ def _fd_multipliers(prob, X, lam):
     p, _ = prob.packed(lam)
     vals = dict(prob.values, **{prob.param: lam})
     T = 2 * math.pi / vals["omega"]
-    u, v = C.section_state(prob, X, lam, T)
+    u, v = FO.section_state(prob, X, lam, T)
     t0 = math.ceil(prob.impacts(X, lam)["t"][0] / T) * T
     kw = {k: vals[k] for k in ("sigma", "k", "F", "Omega", "phi") if k in vals}
     J, err = FD.fd_jacobian(prob.obstacle, vals["omega"], vals["kappa"], vals["beta"],
@@ -208,14 +212,14 @@ def test_cornerbif_continue_writes_branches_and_plots_them(tmp_path):
     r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"), "-o",
                           str(out), "--set", "run.transient=300"])
     assert r.exit_code == 0, r.output
-    cont = C.read(out)
+    cont = CR.read(out)
     assert len(cont["branches"]) == 1 and str(cont["branches"][0]["word"]) == "b"
     kinds = [e["kind"] for e in cont["events"]]
     assert "corner" in kinds
     kc = [e["param"] for e in cont["events"] if e["kind"] == "corner"][0]
     assert abs(kc - theory.kappa_C(1.999, 0.8)) < 1e-10
     with h5py.File(out) as f:
-        assert f.attrs["format"] == C.FORMAT and f["branches/000/multiplier_re"].shape[1] == 2
+        assert f.attrs["format"] == CR.FORMAT and f["branches/000/multiplier_re"].shape[1] == 2
     r = run.invoke(main, ["plot", str(out), "-o", str(tmp_path / "alone.png")])
     assert r.exit_code == 0, r.output
     sw = tmp_path / "s.h5"
@@ -259,7 +263,7 @@ def test_map2d_branches_end_where_theory_says(word, kappa):
     """map2d: the orbit of a word is exact (the maps are affine), and its branch in kappa
     ends where one of its points reaches a switching line: at the ends of
     theory.word_interval (the exact interval of admissibility) to 1e-12."""
-    prob, X = C.map_seed(dict(omega=1.999, kappa=kappa, r=0.8), "kappa", word)
+    prob, X = MO.map_seed(dict(omega=1.999, kappa=kappa, r=0.8), "kappa", word)
     ok, why = prob.admissible(X, kappa)
     assert ok, why
     lo, hi = theory.word_interval(word, -0.001, 0.8)
@@ -287,7 +291,7 @@ def test_two_particle_period_one_branch_ends_at_omega0_C():
     from cornerbif.models.two_particle.kernel import simulate_two_particle
     vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
     x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
-    prob, X = C.two_particle_seed(vals, "omega0", x0, 1)
+    prob, X = TO.two_particle_seed(vals, "omega0", x0, 1)
     mu, _ = prob.floquet(X, 2.0)
     J, _ = FR.fd_jacobian(vals, np.array(x0), 0.0, 2 * math.pi / 2.0)
     fd = np.linalg.eigvals(J)
@@ -360,7 +364,7 @@ def test_switching_across_a_jump_follows_the_other_orbit_both_ways():
     word aa is the alpha fixed point (a jump of the map: the point moves), which is then
     followed both ways: down to its own collision at kappa_CC of the maps (-0.0031033,
     theory.word_interval('a')) and up to the range's end."""
-    prob, X = C.map_seed(dict(omega=1.999, kappa=0.0, r=0.8), "kappa", "ab")
+    prob, X = MO.map_seed(dict(omega=1.999, kappa=0.0, r=0.8), "kappa", "ab")
     brs = C.follow(prob, X, 0.0, (-0.01, 0.01), +1, ds=1e-4)
     words = [b.word for b in brs]
     assert words[0] == "ab" and words.count("a") == 2, words
@@ -414,13 +418,13 @@ seed = ["abbgb", "ab"]
     out = tmp_path / "m.h5"
     r = CliRunner().invoke(main, ["continue", str(scene), "-o", str(out)])
     assert r.exit_code == 0, r.output
-    cont = C.read(out)
+    cont = CR.read(out)
     assert cont["attrs"]["model"] == "map2d" and cont["parameter"] == "kappa"
     words = [str(b["word"]) for b in cont["branches"]]
     # ab exists only for kappa in (-0.0035, 0.0021) (theory.word_interval): not at the start
     assert words == ["abbgb"] and "'ab'" in r.output and "not admissible" in r.output
     b = cont["branches"][0]
-    prob, X = C.map_seed(dict(omega=1.999, kappa=float(b["param"][3]), r=0.8), "kappa",
+    prob, X = MO.map_seed(dict(omega=1.999, kappa=float(b["param"][3]), r=0.8), "kappa",
                          "abbgb")
     assert np.allclose(np.sort(b["section_v"][3]), np.sort(X[1::2]), rtol=0, atol=1e-12)
     r = CliRunner().invoke(main, ["plot", str(out), "-o", str(tmp_path / "m.png")])
@@ -446,7 +450,7 @@ def test_seeds_from_a_sweep_file(tmp_path):
     r = run.invoke(main, ["continue", os.path.join(ROOT, "configs", "cont_beta.toml"), "-o",
                           str(out), "--set", f'continue.seed_file="{sw}"'])
     assert r.exit_code == 0, r.output
-    cont = C.read(out)
+    cont = CR.read(out)
     assert [str(b["word"]) for b in cont["branches"]] == ["b"]
     kc = [e["param"] for e in cont["events"] if e["kind"] == "corner"][0]
     assert abs(kc - theory.kappa_C(1.999, 0.8)) < 1e-10
@@ -463,12 +467,12 @@ def test_two_particle_limits_are_said():
     from cornerbif.models.two_particle import packed as TPM
     vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
     x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
-    prob, X = C.two_particle_seed(vals, "omega0", x0, 1)
+    prob, X = TO.two_particle_seed(vals, "omega0", x0, 1)
     br = C.follow(prob, X, 2.0, (1.9995, 2.002), -1, ds=1e-4)[0]
     with pytest.raises(C.OrbitError, match="flow model"):
         C.corner_curve(br.events[-1], "kappa", (-0.01, 0.01))
     with pytest.raises(C.OrbitError, match="not a whole number"):
-        C.two_particle_seed(vals | {"F1": 0.3, "Omega1": 1.3}, "kappa", x0, 1)
+        TO.two_particle_seed(vals | {"F1": 0.3, "Omega1": 1.3}, "kappa", x0, 1)
 
 
 def test_a_seed_file_without_what_the_seed_reads_is_refused(tmp_path):

@@ -32,9 +32,11 @@ from conftest import FILL_DISK_SOURCE
 
 from cornerbif import config, theory
 from cornerbif import continuation as C
+from cornerbif import continuation_run as CR
 from cornerbif.analysis import MAX_WORD_LETTERS, MAX_WORD_TEXT, parse_word
 from cornerbif.cli import main
 from cornerbif.errors import SweepInterrupted, WriteFailed
+from cornerbif.models.flow import orbit as FO
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HYST = os.path.join(ROOT, "configs", "cont_hysteresis.toml")
@@ -112,7 +114,7 @@ def kept_branches(partial):
     """The partial file opens whole (never empty, never cut) and every branch in it is
     complete: its points all admissible, its datasets of one length."""
     assert os.path.getsize(partial) > 0
-    c = C.read(partial)
+    c = CR.read(partial)
     for b in c["branches"]:
         assert b["admissible"].all() and len(b["param"]) == len(b["stable"]) > 0
     return len(c["branches"]), len(c["curves"])
@@ -330,14 +332,16 @@ def test_an_interrupt_keeps_every_finished_branch_and_resume_completes(tmp_path,
 FILL_AFTER = """
 import sys
 from cornerbif import continuation as C
-real = C._write_bytes
+from cornerbif import continuation_run as CR
+from cornerbif.models.flow import orbit as FO
+real = CR._write_bytes
 n = [0]
 def fill_then_write(path, image, kept):
     n[0] += 1
     if n[0] == {at}:            # another process takes the rest of the disk
         fill_disk({filler!r})
     real(path, image, kept)
-C._write_bytes = fill_then_write
+CR._write_bytes = fill_then_write
 from cornerbif.cli import main
 sys.argv = ["cornerbif", "continue", {scene!r}, "-o", {out!r}] + {sets!r}
 main()
@@ -408,7 +412,7 @@ def _interrupted(tmp_path, name="p.h5", sets=SETS, at="branch 1:", command=""):
         if msg.startswith(at):
             raise KeyboardInterrupt
     with pytest.raises(SweepInterrupted, match="--resume"):
-        C.run_to_file(scene, str(out), log=log, command=command)
+        CR.run_to_file(scene, str(out), log=log, command=command)
     return out
 
 
@@ -462,7 +466,7 @@ def test_resume_of_a_finished_output_says_it_is_complete(tmp_path, reference):
 
 @pytest.mark.slow
 def test_run_to_file_as_the_gallery_calls_it(tmp_path, reference):
-    """`continuation.run_to_file` with the gallery's flags: an interrupted run of its scene
+    """`continuation_run.run_to_file` with the gallery's flags: an interrupted run of its scene
     resumed (``resume``; bitwise), the file keeping the command it was started with; a
     finished one of the same scene left as it is (``resume``: None); one of another scene
     replaced (``overwrite``), with the command given."""
@@ -470,17 +474,17 @@ def test_run_to_file_as_the_gallery_calls_it(tmp_path, reference):
     out = _interrupted(tmp_path, at="corner curve of branch 1", command="cornerbif continue mine")
     assert kept_branches(str(out) + ".partial") == (3, 2)
     quiet = []
-    assert C.run_to_file(scene, str(out), resume=True, log=quiet.append,
+    assert CR.run_to_file(scene, str(out), resume=True, log=quiet.append,
                          inputs=[("the scene file", HYST)], command="the gallery") == str(out)
     assert_same(reference[0], out)
-    assert C.read(out)["attrs"]["command"] == "cornerbif continue mine"
+    assert CR.read(out)["attrs"]["command"] == "cornerbif continue mine"
     before = out.read_bytes()
-    assert C.run_to_file(scene, str(out), resume=True, log=quiet.append) is None
+    assert CR.run_to_file(scene, str(out), resume=True, log=quiet.append) is None
     assert out.read_bytes() == before and "already complete" in quiet[-1]
     other = config.load(BETA, ["run.transient=300"])
-    assert C.run_to_file(other, str(out), overwrite=True, log=quiet.append,
+    assert CR.run_to_file(other, str(out), overwrite=True, log=quiet.append,
                          command="the gallery") == str(out)
-    assert C.read(out)["scene"] == other.text and C.read(out)["attrs"]["command"] == "the gallery"
+    assert CR.read(out)["scene"] == other.text and CR.read(out)["attrs"]["command"] == "the gallery"
 
 
 def test_the_command_line_is_kept_in_the_file(tmp_path):
@@ -489,7 +493,7 @@ def test_the_command_line_is_kept_in_the_file(tmp_path):
     out = tmp_path / "c.h5"
     r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), "--set", "run.transient=300"])
     assert r.exit_code == 0, r.output
-    assert C.read(out)["attrs"]["command"] == (f"cornerbif continue {BETA} -o {out} --set "
+    assert CR.read(out)["attrs"]["command"] == (f"cornerbif continue {BETA} -o {out} --set "
                                                "run.transient=300")
 
 
@@ -543,7 +547,7 @@ def test_another_scenes_partial_file_is_removed_only_by_overwrite(tmp_path):
         assert open(partial, "rb").read() == kept and not out.exists()
     r = CliRunner().invoke(main, base + ["--overwrite"])
     assert r.exit_code == 0, r.output
-    assert not os.path.exists(partial) and C.read(out)["parameter"] == "kappa"
+    assert not os.path.exists(partial) and CR.read(out)["parameter"] == "kappa"
 
 
 def _sweep_copy(path, sweep_file):
@@ -601,7 +605,7 @@ def test_no_events_still_ends_the_beta_orbit_at_its_corner_collision(tmp_path):
     r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), "--set",
                                   "continue.events=[]", "--set", "run.transient=300"])
     assert r.exit_code == 0, r.output
-    c = C.read(out)
+    c = CR.read(out)
     (b,) = c["branches"]
     kc = theory.kappa_C(1.999, 0.8)
     assert abs(b["param"].max() - kc) < 1e-10
@@ -616,7 +620,7 @@ def _beta_problem():
     import cornerbif
     res = cornerbif.simulate([a], [v], obstacle="rectified_sine", transient=100, record=60,
                              omega=1.999, kappa=-0.02, beta=1.0, r=0.8)
-    return C.seed_from_run(dict(omega=1.999, kappa=-0.02, beta=1.0, r=0.8), "rectified_sine",
+    return FO.seed_from_run(dict(omega=1.999, kappa=-0.02, beta=1.0, r=0.8), "rectified_sine",
                            "kappa", res["t"][0], res["v_out"][0], res["corner_offset"][0],
                            int(res["impacts_per_cycle"][0]))
 
@@ -647,7 +651,7 @@ def test_every_branch_end_says_why_it_stopped(tmp_path, monkeypatch):
     r = CliRunner().invoke(main, ["continue", BETA, "-o", str(out), "--set", "run.transient=300",
                                   "--set", "continue.switch=false"])
     assert r.exit_code == 0, r.output
-    stops = list(C.read(out)["branches"][0]["stops"])
+    stops = list(CR.read(out)["branches"][0]["stops"])
     assert stops[0] == "kappa = -0.02: the end of the range"
     assert stops[1].startswith("kappa = -0.0141371698") and "a corner collision of impact 0" in stops[1]
     assert "not continued across it (continue.switch = false)" in stops[1]
@@ -655,7 +659,7 @@ def test_every_branch_end_says_why_it_stopped(tmp_path, monkeypatch):
         assert f"  stopped at {s}" in r.output
     prob, X = _beta_problem()
     _, evs = C.continue_branch(prob, X, -0.02, (-0.02, 0.002), 1.0, ds=1e-4, max_steps=3)
-    assert "the step budget (3 steps) ran out" in C.stop_reason(evs[-1], "kappa")
+    assert "the step budget (3 steps) ran out" in CR.stop_reason(evs[-1], "kappa")
     real = C._tangent
     calls = [0]
 
@@ -790,7 +794,7 @@ def test_the_x_word_only_where_every_cluster_is_x():
     for scene in (BETA, FIG19):
         with pytest.raises(config.SceneError, match="x is the cluster of a smooth obstacle"):
             config.load(scene, ['continue.seed="x"'])
-    assert C._matches("xx", "x^2") and not C._matches("x", "x^2")
+    assert CR._matches("xx", "x^2") and not CR._matches("x", "x^2")
 
 
 SEED_SWEEP = """[scene]
@@ -868,16 +872,16 @@ def test_the_partial_file_is_rewritten_once_per_finished_unit(tmp_path):
     file (no resume state, a completion time)."""
     scene = config.load(HYST, [s for s in SETS if s != "--set"])
     written = []
-    real = C._write_bytes
+    real = CR._write_bytes
 
     def counted(path, image, kept):
         real(path, image, kept)
-        written.append(C._load(path))
-    C._write_bytes = counted
+        written.append(CR._load(path))
+    CR._write_bytes = counted
     try:
-        C.run_to_file(scene, str(tmp_path / "t.h5"), log=lambda m: None)
+        CR.run_to_file(scene, str(tmp_path / "t.h5"), log=lambda m: None)
     finally:
-        C._write_bytes = real
+        CR._write_bytes = real
     units = [(len(b), len(c)) for _, b, c, _ in written]
     assert units == [(1, 0), (2, 0), (3, 0), (3, 1), (3, 2), (3, 3), (3, 3)]
     assert all(state is not None for *_, state in written[:-1])
@@ -889,7 +893,7 @@ def test_write_failure_is_reported_by_errno(tmp_path, monkeypatch):
     """A write that fails (here ENOSPC raised by the file's write) ends the run with
     WriteFailed naming the reason, the branches kept and --resume."""
     scene = config.load(HYST, [s for s in SETS if s != "--set"])
-    real = C._write_bytes
+    real = CR._write_bytes
     n = [0]
 
     def failing(path, image, kept):
@@ -899,9 +903,9 @@ def test_write_failure_is_reported_by_errno(tmp_path, monkeypatch):
             with outputs.replacing(path, kept):
                 raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         real(path, image, kept)
-    monkeypatch.setattr(C, "_write_bytes", failing)
+    monkeypatch.setattr(CR, "_write_bytes", failing)
     with pytest.raises(WriteFailed, match="ENOSPC.*the 1 finished branch is kept in .*--resume"):
-        C.run_to_file(scene, str(tmp_path / "w.h5"), log=lambda m: None)
+        CR.run_to_file(scene, str(tmp_path / "w.h5"), log=lambda m: None)
     assert kept_branches(str(tmp_path / "w.h5.partial")) == (1, 0)
 
 

@@ -277,15 +277,15 @@ def test_every_file_in_the_way_is_named_at_once_and_a_users_same_sweep_is_reused
 @pytest.mark.slow
 def test_continuation_files_carry_who_made_them(tmp_path):
     """A continuation file keeps the command that started it (root attribute ``command``,
-    written by ``continuation.run_to_file``: the gallery's for its own), so a user's
+    written by ``continuation_run.run_to_file``: the gallery's for its own), so a user's
     continuation of another scene at a gallery name is refused (exit 2, named; replaced
     with --overwrite), and a full run's continuation is refused to a smoke run."""
-    from cornerbif import continuation
+    from cornerbif import continuation_run
     cfg = scenes(tmp_path / "cfg", ("cont_beta", "fig06a"))
     out, data = tmp_path / "g", tmp_path / "d"
     data.mkdir()
     mine = config.load(str(cfg / "cont_beta.toml"), ["continue.range=[-0.02, -0.01]"])
-    continuation.run_to_file(mine, str(data / "cont_beta.h5"), log=lambda *a: None)
+    continuation_run.run_to_file(mine, str(data / "cont_beta.h5"), log=lambda *a: None)
     assert gallery.made_by(str(data / "cont_beta.h5")) is None
     before = snapshot(data)
     for smoke in ([], ["--smoke"]):
@@ -309,7 +309,7 @@ def test_a_users_continuation_resumed_by_the_gallery_stays_the_users(tmp_path):
     name: the gallery resumes it (and never starts it again), and the finished file keeps
     the user's command, as a resumed sweep does (it is not the gallery's to replace); a
     second run reuses it."""
-    from cornerbif import continuation
+    from cornerbif import continuation_run
     from cornerbif.errors import SweepInterrupted
     cfg = scenes(tmp_path / "cfg", ("cont_beta", "fig06a"))
     out, data = tmp_path / "g", tmp_path / "d"
@@ -320,7 +320,7 @@ def test_a_users_continuation_resumed_by_the_gallery_stays_the_users(tmp_path):
         if msg.startswith("branch 0:"):
             raise KeyboardInterrupt
     with pytest.raises(SweepInterrupted):
-        continuation.run_to_file(scene, str(data / "cont_beta.h5"), command="cornerbif mine",
+        continuation_run.run_to_file(scene, str(data / "cont_beta.h5"), command="cornerbif mine",
                                  log=stop_after_the_first_branch)
     assert os.path.exists(data / "cont_beta.h5.partial")
     r = gallery_cli("--configs", cfg, "--out", out, "--data", data)

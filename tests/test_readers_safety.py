@@ -35,7 +35,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import fill_disk
 
-from cornerbif import config, continuation, gallery, plot_style
+from cornerbif import config, continuation_run, gallery, plot_style
 from cornerbif.cli import main
 from cornerbif.sweep import run_sweep
 
@@ -68,7 +68,7 @@ def files(tmp_path_factory):
         scene = gallery.load_scene(os.path.join(CONFIGS, f"{name}.toml"), smoke=True)
         path = str(d / f"{name}.h5")
         if scene.cont:
-            continuation.write(continuation.run_scene(scene, log=lambda *a: None), path)
+            continuation_run.write(continuation_run.run_scene(scene, log=lambda *a: None), path)
         else:
             run_sweep(scene, path, overwrite=True, progress=False, command="test")
         out[name] = path
@@ -470,7 +470,7 @@ def test_no_warning_reaches_the_user(tmp_path, work):
               command="test")
     files["empty_cont"] = str(craft / "empty_cont.h5")
     cont = gallery.load_scene(os.path.join(CONFIGS, "cont_fold.toml"), smoke=True)
-    continuation.write(continuation.Result(cont, []), files["empty_cont"])
+    continuation_run.write(continuation_run.Result(cont, []), files["empty_cont"])
     cases = [[files.get(a, a) for a in case] for case in WARNING_CASES]
     code = textwrap.dedent("""
         import json, sys, warnings

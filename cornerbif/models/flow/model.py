@@ -166,7 +166,7 @@ ANALYSIS_KERNELS = ("analysis.detect_cycles", "analysis.cycle_signatures",
                     "chunkwrite._shuffle_bytes", "numerics.fill._fill")
 # what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the
 # functions the continuation calls from Python, each cached on its own)
-CONTINUATION_KERNELS = ("stability.flight_matrix", "stability.impact_saltation",
+CONTINUATION_KERNELS = ("numerics.saltation.flight_matrix", "numerics.saltation.impact_saltation",
                         "stability.multipliers", "numerics.oscillator.acceleration")
 
 
@@ -338,11 +338,15 @@ class FlowModel(Model):
         return seconds, low, high, reasons
 
     def word_seed(self, values, scene, param, word):
-        from ...continuation import seed_from_word
+        from .orbit import seed_from_word
         return seed_from_word(values, scene.obstacle, param, word, scene.tol)
 
+    def orbit_from_doc(self, doc):
+        from .orbit import FlowOrbit
+        return FlowOrbit.from_doc(doc)
+
     def orbit_seed(self, values, scene, param, word, run):
-        from ...continuation import seed_from_run
+        from .orbit import seed_from_run
         return seed_from_run(values, scene.obstacle, param, run["t"], run["v_out"],
                              run["corner_offset"], run["ipc"], scene.tol)
 
@@ -429,7 +433,7 @@ def _stability(params, out, ipc, control=0):
 
 
 def batch_stability(*args):
-    """``stability.batch_stability``, imported at its first call (numba-free validation):
+    """``models.flow.tangent.batch_stability``, imported at its first call (numba-free validation):
     the stability pass of a block (``_stability``), a name of this module that a test may
     replace."""
     from .tangent import batch_stability as kernel

@@ -90,12 +90,16 @@ class Map2dModel(Model):
         seconds = (scene.transient + scene.record) / self.events_per_second
         return seconds, seconds / 1.5, seconds * 1.5, []
 
+    def orbit_from_doc(self, doc):
+        from .orbit import MapOrbit
+        return MapOrbit.from_doc(doc)
+
     def orbit_seed(self, values, scene, param, word, run):
-        from ...continuation import map_seed
+        from .orbit import map_seed
         return map_seed(values, param, word)
 
     def word_seed(self, values, scene, param, word):
-        from ...continuation import map_seed
+        from .orbit import map_seed
         return map_seed(values, param, word)
 
     def run_items(self, params, ics, ints, scene):
@@ -139,7 +143,7 @@ class Map2dModel(Model):
 
 
 def batch_map_stability(*args):
-    """``stability.batch_map_stability``, imported at its first call (numba-free
+    """``models.map2d.tangent.batch_map_stability``, imported at its first call (numba-free
     validation): the stability pass of a block (``run_items``), a name of this module that
     a test may replace."""
     from .tangent import batch_map_stability as kernel

@@ -61,8 +61,8 @@ CLOSE_FACTOR = 1.5       # otherwise (benchmarks/estimate_time.py)
 # as the time they took there: ``engine.compile_words``)
 COMPILE_SECONDS = {"two_particle": 21.3, "stability": 14.6, "continuation": 5.4}
 # what ``cornerbif continue`` compiles for this model beyond the sweep's kernels
-CONTINUATION_KERNELS = ("stability.two_particle_steps", "stability.flight_matrix",
-                        "stability.impact_saltation", "stability.zu_saltation",
+CONTINUATION_KERNELS = ("models.two_particle.tangent.two_particle_steps", "numerics.saltation.flight_matrix",
+                        "numerics.saltation.impact_saltation", "models.two_particle.tangent.zu_saltation",
                         "numerics.oscillator.acceleration", "numerics.oscillator.forcing")
 
 
@@ -169,8 +169,12 @@ class TwoParticleModel(Model):
         f = UNCERTAIN_FACTOR if reasons else CLOSE_FACTOR
         return seconds, seconds / f, seconds * f, reasons
 
+    def orbit_from_doc(self, doc):
+        from .orbit import TwoParticleOrbit
+        return TwoParticleOrbit.from_doc(doc)
+
     def orbit_seed(self, values, scene, param, word, run):
-        from ...continuation import two_particle_seed
+        from .orbit import two_particle_seed
         n = int(np.isfinite(run["sz"]).sum())
         x = [run[k][n - 1] for k in ("sz", "sy", "su", "sv")]
         return two_particle_seed(values, param, x, run["ipc"])

@@ -1,0 +1,481 @@
+"""The periodic-orbit problem of the ``flow`` model (docs/continuation.md).
+
+A periodic orbit is a closed chain of impacts: impact i lies on the obstacle's piece j_i at
+local time tau_i and leaves it with velocity v_i (law 5); the exact free flight (eq 4) from it
+meets the obstacle at impact i + 1; the chain closes after m obstacle periods.  The unknowns
+X = (tau_0, v_0, tau_1, v_1, ...) solve 2N equations
+
+    u_f(t_(i+1)) - z(t_(i+1)) = 0,   v_(i+1) - (1 + r) z'(t_(i+1)) + r v_f(t_(i+1)) = 0,
+
+(x_f the flight from impact i), whose Jacobian is written in closed form
+(``FlowOrbit.jacobian``): the flight matrix of ``numerics.saltation.flight_matrix`` and the
+vector field at both ends.  The itinerary (the pieces j_i) fixes on which side of each corner
+every impact lies, so an orbit can be followed up to the parameter where one of its impacts
+reaches a corner (tau_i -> 0 or L), and past it on the side where the orbit of the new
+itinerary exists (``across_corner``).  Seeds: from a run's record (``seed_from_run``) or from
+a word (``seed_from_word``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from ...continuation import GAP_SAMPLES, OrbitError, admissible, cached, central_d_param, newton
+from ...numerics.oscillator import acceleration, derive, particular
+from ...numerics.saltation import flight_matrix, impact_saltation
+from ...obstacles.dispatch import corner_of, piece_start, z_state
+from ...stability import multipliers
+from . import packed as P
+from .params import OBSTACLES
+
+
+@dataclass
+class FlowOrbit:
+    """The periodic-orbit problem of one itinerary of the ``flow`` model.
+
+    ``values``: the scene's [system] values (named, as ``params.pack`` takes them) with
+    ``param`` the one continued; ``obstacle``; ``pieces``: the piece j_i of each impact of
+    one cycle (nondecreasing, within one cycle); ``m``: obstacle periods per cycle.
+    """
+
+    values: dict
+    obstacle: str
+    param: str
+    pieces: np.ndarray
+    m: int
+    tol: float = 1e-12
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.pieces)
+
+    # two-parameter curves (``continuation.corner_curve``, ``fold_curve``) are continued
+    curves: ClassVar[bool] = True
+
+    def piece_length(self, q, lam) -> float:
+        """The length L of the obstacle piece impact q lies on (its local time runs 0..L)."""
+        _, d = self.packed(lam)
+        j = int(self.pieces[q])
+        return piece_start(d, j + 1) - piece_start(d, j)
+
+    def rebased(self, values, param):
+        """This itinerary's problem at other ``values``, continued in ``param``."""
+        return dataclasses.replace(self, values=values, param=param, pieces=self.pieces.copy(),
+                                   _cache={})
+
+    def to_doc(self) -> dict:
+        """The problem as plain data (a partial file's resume state), ``from_doc``'s inverse."""
+        return {"values": dict(self.values), "param": self.param, "type": "flow",
+                "obstacle": self.obstacle, "pieces": [int(j) for j in self.pieces],
+                "m": int(self.m), "tol": float(self.tol)}
+
+    @classmethod
+    def from_doc(cls, doc):
+        return cls(dict(doc["values"]), str(doc["obstacle"]), str(doc["param"]),
+                   np.array(doc["pieces"], np.int64), int(doc["m"]), float(doc["tol"]))
+
+    def packed(self, lam):
+        """(p, d): the packed parameter row at param = lam and its derived constants."""
+        def build():
+            vals = dict(self.values)
+            vals[self.param] = float(lam)
+            p = P.pack(vals, self.obstacle, self.tol, 1e-6, 1e6, None, 0.0)
+            return p, derive(p)
+        return cached(self._cache, float(lam), build)
+
+    def duration(self, lam) -> float:
+        p, d = self.packed(lam)
+        return self.m * (piece_start(d, 2) - piece_start(d, 0))
+
+    def times(self, X, lam):
+        """Absolute impact times t_i = start of piece j_i + tau_i."""
+        _, d = self.packed(lam)
+        return np.array([piece_start(d, int(j)) for j in self.pieces]) + X[0::2]
+
+    def _flight(self, p, d, t0, z0, v0, t1):
+        """The free flight from (z0, v0) at t0 to t1: (u, v, M)."""
+        M = flight_matrix(p[P.SIGMA], p[P.K], t1 - t0)
+        up0, vp0 = particular(p, d, t0)
+        up1, vp1 = particular(p, d, t1)
+        du, dv = z0 - up0, v0 - vp0
+        return (up1 + M[0] * du + M[1] * dv, vp1 + M[2] * du + M[3] * dv, M)
+
+    def residual(self, X, lam):
+        p, d = self.packed(lam)
+        r = p[P.R]
+        N = self.n
+        t = self.times(X, lam)
+        D = self.duration(lam)
+        R = np.empty(2 * N)
+        for i in range(N):
+            n = (i + 1) % N
+            tn = t[n] + (D if n == 0 else 0.0)
+            zi = z_state(p, int(self.pieces[i]), X[2 * i])
+            zn = z_state(p, int(self.pieces[n]), X[2 * n])
+            uf, vf, _ = self._flight(p, d, t[i], zi[0], X[2 * i + 1], tn)
+            R[2 * i] = uf - zn[0]
+            R[2 * i + 1] = X[2 * n + 1] - (1.0 + r) * zn[1] + r * vf
+        return R
+
+    def jacobian(self, X, lam):
+        """dR/dX in closed form: with x_f = x_p(t') + M (x_i - x_p(t_i)), x_i = (z(t_i), v_i),
+        dx_f/dtau_i = M ((z'(t_i), 0) - F(t_i, x_i)), dx_f/dv_i = M e2,
+        dx_f/dtau_(i+1) = F(t', x_f), F = (v, f(t) - 2 sigma v - k^2 u) (eq 4)."""
+        p, d = self.packed(lam)
+        r = p[P.R]
+        N = self.n
+        t = self.times(X, lam)
+        D = self.duration(lam)
+        Jm = np.zeros((2 * N, 2 * N))
+        for i in range(N):
+            n = (i + 1) % N
+            tn = t[n] + (D if n == 0 else 0.0)
+            zi, zpi, _, _ = z_state(p, int(self.pieces[i]), X[2 * i])
+            zn, zpn, zppn, _ = z_state(p, int(self.pieces[n]), X[2 * n])
+            vi = X[2 * i + 1]
+            uf, vf, M = self._flight(p, d, t[i], zi, vi, tn)
+            ai = acceleration(p, t[i], zi, vi)
+            af = acceleration(p, tn, uf, vf)
+            g0, g1 = zpi - vi, -ai
+            dti = (M[0] * g0 + M[1] * g1, M[2] * g0 + M[3] * g1)
+            Jm[2 * i, 2 * i] += dti[0]
+            Jm[2 * i, 2 * i + 1] += M[1]
+            Jm[2 * i, 2 * n] += vf - zpn
+            Jm[2 * i + 1, 2 * i] += r * dti[1]
+            Jm[2 * i + 1, 2 * i + 1] += r * M[3]
+            Jm[2 * i + 1, 2 * n] += -(1.0 + r) * zppn + r * af
+            Jm[2 * i + 1, 2 * n + 1] += 1.0
+        return Jm
+
+    def d_param(self, X, lam):
+        return central_d_param(self.residual, X, lam)
+
+    # --- what the orbit is -------------------------------------------------------------
+    def impacts(self, X, lam):
+        """Per impact of one cycle: t, u, v_in, v_out, the relative velocity w- (< 0 for a
+        real impact), the corner index and the signed corner offset (corner_of)."""
+        p, d = self.packed(lam)
+        N = self.n
+        t = self.times(X, lam)
+        D = self.duration(lam)
+        out = {k: np.empty(N) for k in ("t", "u", "v_in", "v_out", "w", "offset")}
+        out["corner"] = np.empty(N, np.int64)
+        for i in range(N):
+            n = (i + 1) % N
+            tn = t[n] + (D if n == 0 else 0.0)
+            zi = z_state(p, int(self.pieces[i]), X[2 * i])
+            zn = z_state(p, int(self.pieces[n]), X[2 * n])
+            _, vf, _ = self._flight(p, d, t[i], zi[0], X[2 * i + 1], tn)
+            out["v_in"][n] = vf
+            out["w"][n] = vf - zn[1]
+            out["t"][i] = t[i]
+            out["u"][i] = zi[0]
+            out["v_out"][i] = X[2 * i + 1]
+            c, off = corner_of(p, d, int(self.pieces[i]), X[2 * i])
+            out["corner"][i] = c
+            out["offset"][i] = off
+        return out
+
+    def monodromy(self, X, lam):
+        """J = prod S_i M_i over the cycle (stability's flight and saltation matrices, the
+        obstacle's slope and curvature on each impact's own piece: one-sided at a corner)."""
+        p, d = self.packed(lam)
+        r, sig, k = p[P.R], p[P.SIGMA], p[P.K]
+        imp = self.impacts(X, lam)
+        N = self.n
+        D = self.duration(lam)
+        J = np.eye(2)
+        for i in range(N):
+            n = (i + 1) % N
+            tn = imp["t"][n] + (D if n == 0 else 0.0)
+            M = np.array(flight_matrix(sig, k, tn - imp["t"][i])).reshape(2, 2)
+            _, zp, zpp, _ = z_state(p, int(self.pieces[n]), X[2 * n])
+            acc = acceleration(p, tn, imp["u"][n], imp["v_in"][n])
+            S = np.array(impact_saltation(r, sig, imp["w"][n], acc, zpp)).reshape(2, 2)
+            J = S @ M @ J
+        return J
+
+    def floquet(self, X, lam):
+        J = self.monodromy(X, lam)
+        re1, im1, re2, im2 = multipliers(J[0, 0], J[0, 1], J[1, 0], J[1, 1])
+        return np.array([complex(re1, im1), complex(re2, im2)]), J
+
+    def corner_distances(self, X, lam):
+        """Per impact, the signed distance in time to the corner on its side of the piece
+        (tau_i for the corner at the piece's start, L_j - tau_i for the one at its end,
+        whichever is nearer): negative once the impact has crossed it."""
+        p, d = self.packed(lam)
+        out = np.empty(self.n)
+        if not OBSTACLES[self.obstacle].corners:
+            out[:] = np.inf          # piece ends are no corners: reindex() crosses them
+            return out
+        for i, j in enumerate(self.pieces):
+            L = piece_start(d, int(j) + 1) - piece_start(d, int(j))
+            tau = X[2 * i]
+            out[i] = tau if tau < 0.5 * L else L - tau
+        return out
+
+    def reindex(self, X, lam):
+        """On an obstacle without corners (``sine``), an impact that left its piece is put
+        on the piece it now lies on (a piece end there is bookkeeping, not a corner):
+        (problem, X), a new problem where a piece changed."""
+        if OBSTACLES[self.obstacle].corners:
+            return self, X
+        p, d = self.packed(lam)
+        X = X.copy()
+        pieces = self.pieces.copy()
+        for i in range(self.n):
+            j = int(pieces[i])
+            while X[2 * i] < 0.0:
+                X[2 * i] += piece_start(d, j) - piece_start(d, j - 1)
+                j -= 1
+            while X[2 * i] >= piece_start(d, j + 1) - piece_start(d, j):
+                X[2 * i] -= piece_start(d, j + 1) - piece_start(d, j)
+                j += 1
+            pieces[i] = j
+        if np.array_equal(pieces, self.pieces):
+            return self, X
+        new = FlowOrbit(self.values, self.obstacle, self.param, pieces, self.m, self.tol)
+        new._cache = self._cache
+        return new, X
+
+    def smallest_gap(self, X, lam):
+        """The smallest gap u - z over the interior of every flight (sampled, then refined
+        by a parabola through the smallest sample): negative where the flight crosses the
+        obstacle (an impact the itinerary does not have), zero at a grazing."""
+        p, d = self.packed(lam)
+        imp = self.impacts(X, lam)
+        N = self.n
+        D = self.duration(lam)
+        per = piece_start(d, 2) - piece_start(d, 0)
+        L0 = piece_start(d, 1) - piece_start(d, 0)
+        best = math.inf
+        for i in range(N):
+            n = (i + 1) % N
+            t0 = imp["t"][i]
+            t1 = imp["t"][n] + (D if n == 0 else 0.0)
+            s = np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]
+            g = np.array([self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
+                                    t0 + x * (t1 - t0), per, L0) for x in s])
+            q = int(np.argmin(g))
+            gq = g[q]
+            if 0 < q < len(s) - 1:
+                a, b, c = g[q - 1], g[q], g[q + 1]
+                den = a - 2 * b + c
+                if den > 0:
+                    x = s[q] + 0.5 * (a - c) / den * (s[1] - s[0])
+                    gq = min(gq, self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
+                                           t0 + x * (t1 - t0), per, L0))
+            best = min(best, gq)
+        return best
+
+    def _gap(self, p, d, t0, u0, v0, t, per, L0):
+        uf, _, _ = self._flight(p, d, t0, u0, v0, t)
+        q = math.floor(t / per)
+        x = t - q * per
+        j = 2 * int(q) + (1 if x >= L0 else 0)
+        z = z_state(p, j, t - piece_start(d, j))[0]
+        return uf - z
+
+    # --- what every orbit problem provides (FlowOrbit, MapOrbit) -----------------------
+    def word(self, X, lam):
+        return word_of(self, X, lam)
+
+    def itinerary(self) -> str:
+        """The pieces of the cycle's impacts and the periods per cycle, as text."""
+        return f"pieces {list(map(int, self.pieces))}, {self.m} obstacle period(s)"
+
+    def admissible(self, X, lam):
+        return admissible(self, X, lam)
+
+    def across(self, q, X, lam):
+        return across_corner(self, q, X, lam)
+
+    def store(self, X, lam, section):
+        """What the continuation file keeps of the orbit at one point (docs/continuation.md):
+        the cycle's impacts, the section state, the cycle's duration."""
+        imp = self.impacts(X, lam)
+        p, d = self.packed(lam)
+        if section is None and self.obstacle in P.AUTO_SECTION:
+            # the kernel's section (flow.watch_for_cycle): the corners of the parity
+            # opposite to the first impact's corner, between the impact clusters
+            pps = P.section_pieces(self.obstacle, p[P.OMEGA], None)
+            c0 = int(imp["corner"][0])
+            phase = (c0 + pps // 2) % pps
+            j = c0 + 1
+            while (j - phase) % pps != 0:
+                j += 1
+            u, v = section_state(self, X, lam, None, at=piece_start(d, j))
+        else:
+            T = section or 2.0 * math.pi / p[P.OMEGA]
+            u, v = section_state(self, X, lam, T)
+        return {"impact_t": imp["t"], "impact_u": imp["u"], "impact_v_in": imp["v_in"],
+                "impact_v_out": imp["v_out"], "section_u": u, "section_v": v,
+                "cycle_duration": self.duration(lam)}
+
+
+def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-12):
+    """A FlowOrbit and its solved X from one run's record (``cornerbif.simulate`` or a
+    sweep file: its last complete cycle of ``ipc`` impacts)."""
+    n = int(np.isfinite(t).sum())
+    if ipc <= 0 or n < ipc + 1:
+        raise OrbitError("the run has no cycle to seed from")
+    first = n - 1 - ipc
+    prob = FlowOrbit(dict(values), obstacle, param, np.zeros(ipc, np.int64), 1, tol)
+    lam = float(values[param])
+    p, d = prob.packed(lam)
+    per = piece_start(d, 2) - piece_start(d, 0)
+    L0 = piece_start(d, 1) - piece_start(d, 0)
+    dur = t[first + ipc] - t[first]
+    m = int(round(dur / per))
+    if p[P.F_AMP] != 0.0:
+        cycles = p[P.F_OMEGA] * m * per / (2.0 * math.pi)
+        if abs(cycles - round(cycles)) > 1e-9 * max(1.0, cycles):
+            raise OrbitError(f"the forcing's period 2 pi/Omega does not divide the cycle's "
+                             f"{m} obstacle period(s): no periodic orbit to continue")
+        per = m * per      # the system's period: shift times by whole cycles only
+    t0 = math.floor(t[first + 1] / per) * per
+    pieces = np.empty(ipc, np.int64)
+    X = np.empty(2 * ipc)
+    for q in range(ipc):
+        tt = t[first + 1 + q] - t0
+        k = math.floor(tt / per)
+        x = tt - k * per
+        j = 2 * k + (1 if x >= L0 else 0)
+        tau = tt - piece_start(d, j)
+        # an impact recorded at a corner lies on the side its offset says
+        L = piece_start(d, j + 1) - piece_start(d, j)
+        off = corner_offset[first + 1 + q]
+        if off == off and off < 0 and tau < 0.5 * L and obstacle == "rectified_sine":
+            j -= 1
+            tau += L
+        pieces[q] = j
+        X[2 * q] = tau
+        X[2 * q + 1] = v_out[first + 1 + q]
+    prob.pieces = pieces
+    prob.m = m
+    return prob, newton(prob, X, lam)
+
+
+def seed_from_word(values, obstacle, param, word, tol=1e-12, cycles=6):
+    """A FlowOrbit of a cluster word (``a``, ``b``, ``g`` letters, e.g. "b^5 g", "ab"),
+    stable or not, near (omega, kappa) = (2, 0) on the rectified sine: the kernel is run
+    from the 2D maps' orbit of the word (``theory.word_orbit``: (a0, b1) = (u, u')(0) at
+    the section corner, epsilon = 1) for a few cycles without transient, the first run of
+    clusters spelling the word (up to rotation) gives the pieces and the first guess, and
+    Newton finds the flow's orbit.  OrbitError when the run does not spell it."""
+    import cornerbif
+
+    from ...analysis import parse_word
+    from ...theory import word_orbit
+    if obstacle != "rectified_sine":
+        raise OrbitError(f"a word seeds an orbit on the rectified sine only (eq 8), not "
+                         f"{obstacle!r}")
+    letters = parse_word(word)
+    x, _ = word_orbit(letters, values["omega"] - 2.0, values["kappa"], values["r"])
+    sys_ = {k: v for k, v in values.items() if k in P.INDEX}
+    rec = cycles * (2 * len(letters) + 2)
+    res = cornerbif.simulate([x[0, 0]], [x[0, 1]], obstacle=obstacle, transient=0,
+                             record=rec, **sys_)
+    t, off = res["t"][0], res["corner_offset"][0]
+    n = int(np.isfinite(t).sum())
+    L = math.pi / values["omega"]
+    corner = np.rint((t[:n] - off[:n]) / L).astype(int)
+    # clusters: (first impact, count, symbol)
+    clusters = []
+    for i in range(n):
+        if clusters and corner[i] == corner[clusters[-1][0]]:
+            clusters[-1][1] += 1
+        else:
+            clusters.append([i, 1])
+    sym = []
+    for i0, c in clusters:
+        if c == 1:
+            sym.append("b" if off[i0] >= 0 else "g")
+        elif c == 2 and off[i0] < 0 <= off[i0 + 1]:
+            sym.append("a")
+        else:
+            sym.append("x")
+    K = len(letters)
+    rotations = {letters[k:] + letters[:k] for k in range(K)}
+    for s in range(1, len(clusters) - K):
+        if "".join(sym[s:s + K]) in rotations:
+            first = clusters[s][0]
+            nxt = clusters[s + K][0]
+            ipc = nxt - first
+            tt = np.concatenate([[t[first - 1]], t[first:nxt + 1]])
+            vv = np.concatenate([[res["v_out"][0][first - 1]], res["v_out"][0][first:nxt + 1]])
+            oo = np.concatenate([[off[first - 1]], off[first:nxt + 1]])
+            return seed_from_run(values, obstacle, param, tt, vv, oo, ipc, tol)
+    raise OrbitError(f"the run from the maps' orbit of {word!r} does not spell it "
+                     f"(clusters {''.join(sym)})")
+
+
+def across_corner(problem, q, X, lam):
+    """The itinerary with impact q moved to the other side of the corner it reached (the
+    neighbouring piece, local time shifted by that piece's length): the problem and X."""
+    p, d = problem.packed(lam)
+    j = int(problem.pieces[q])
+    X = X.copy()
+    L = piece_start(d, j + 1) - piece_start(d, j)
+    pieces = problem.pieces.copy()
+    if X[2 * q] < 0.5 * L:
+        Lm = piece_start(d, j) - piece_start(d, j - 1)
+        pieces[q] = j - 1
+        X[2 * q] += Lm
+    else:
+        pieces[q] = j + 1
+        X[2 * q] -= L
+    new = FlowOrbit(problem.values, problem.obstacle, problem.param, pieces, problem.m,
+                    problem.tol)
+    return new, X
+
+
+def word_of(problem, X, lam, cycles=4):
+    """The orbit's word in the engine's symbols (``analysis.detect_cycle`` on ``cycles``
+    repetitions of its impacts: clusters by nearest corner, a, b, g)."""
+    from ...analysis import detect_cycles, words
+    imp = problem.impacts(X, lam)
+    N = problem.n
+    p, d = problem.packed(lam)
+    D = problem.duration(lam)
+    per_corners = round(D / (piece_start(d, 1) - piece_start(d, 0)))
+    if problem.obstacle != "rectified_sine":
+        per_corners = problem.m
+    reps = cycles * N + 2
+    t = np.full((1, reps), np.nan)
+    vin = np.full((1, reps), np.nan)
+    off = np.full((1, reps), np.nan)
+    corner = np.zeros((1, reps), np.int64)
+    for c in range(reps):
+        i, k = c % N, c // N
+        t[0, c] = imp["t"][i] + k * D
+        vin[0, c] = imp["v_in"][i]
+        off[0, c] = imp["offset"][i]
+        corner[0, c] = imp["corner"][i] + k * per_corners
+    per = np.zeros(1, np.int64)
+    ipc = np.zeros(1, np.int64)
+    sym = np.zeros((1, reps), np.uint8)
+    cornered = np.array([problem.obstacle != "sine"])
+    detect_cycles(t, vin, off, corner, cornered, 1e-9, per, ipc, sym)
+    return str(words(sym)[0])
+
+
+def section_state(problem, X, lam, section, at=None):
+    """The state (u, v) at the first section time n * section at or after the cycle's
+    first impact, or at the time ``at`` (the flight from the last impact before it)."""
+    p, d = problem.packed(lam)
+    imp = problem.impacts(X, lam)
+    D = problem.duration(lam)
+    ts = at if at is not None else math.ceil(imp["t"][0] / section) * section
+    t = np.append(imp["t"], imp["t"][0] + D)
+    i = int(np.searchsorted(t, ts, side="right")) - 1
+    i = min(max(i, 0), problem.n - 1)
+    u, v, _ = problem._flight(p, d, imp["t"][i], imp["u"][i], imp["v_out"][i], ts)
+    return u, v

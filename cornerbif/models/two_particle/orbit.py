@@ -1,0 +1,293 @@
+"""The periodic-orbit problem of the two-particle system (section 6, docs/continuation.md):
+a closed chain of w-z impacts (law 5) and z-u impacts (law 74) in the state (z, y, u, v), its
+monodromy from the tangent steps (``models.two_particle.tangent``), and its seed from a state at
+a section time (``two_particle_seed``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...continuation import (
+    GAP_SAMPLES,
+    OrbitError,
+    admissible,
+    cached,
+    central_d_param,
+    central_jacobian,
+    newton,
+)
+from ...numerics.oscillator import particular
+from ...numerics.saltation import flight_matrix
+from ...stability import OK, sorted_eigenvalues
+from . import kernel as TK
+from . import packed as TPM
+from .kernel import simulate_two_particle
+from .tangent import two_particle_steps
+
+
+@dataclass
+class TwoParticleOrbit:
+    """The periodic orbit of the ``two_particle`` model (section 6) as a closed chain of
+    events: event k is a w-z impact ("W": law 5 with r1 on the wall, eq 72) or a z-u
+    impact ("U": law 74); the unknowns per event are its time t_k and the state
+    x_k+ = (z, y, u, v) just after it; both particles fly in closed form between events
+    (``numerics.saltation.flight_matrix`` and the oscillator rows of ``models.two_particle.kernel``).
+    Per event five equations: its gap vanishes at t_k for the state the flight brings,
+    and the state after it is the impact law of that state.  The cycle closes after m wall
+    periods.  The Jacobian is by central differences (the chain is short: 5 unknowns per
+    event).  A corner collision is two consecutive events meeting in time (a w-z and a
+    z-u impact: this system's corner); across it the two swap.
+    """
+
+    values: dict
+    param: str
+    kinds: str          # "W" / "U" per event of one cycle, in time order
+    m: int
+    obstacle: str = "two_particle"
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    def to_doc(self) -> dict:
+        """The problem as plain data (a partial file's resume state), ``from_doc``'s inverse."""
+        return {"values": dict(self.values), "param": self.param, "type": "two_particle",
+                "kinds": self.kinds, "m": int(self.m)}
+
+    @classmethod
+    def from_doc(cls, doc):
+        return cls(dict(doc["values"]), str(doc["param"]), str(doc["kinds"]), int(doc["m"]))
+
+    @property
+    def n(self) -> int:
+        return len(self.kinds)
+
+    def packed(self, lam):
+        def build():
+            vals = dict(self.values)
+            vals[self.param] = float(lam)
+            p = TPM.pack(vals)
+            return (p, *TK.oscillators(p, TK.derive(p)))
+        return cached(self._cache, float(lam), build)
+
+    def duration(self, lam) -> float:
+        p, _, _ = self.packed(lam)
+        return self.m * 2.0 * math.pi / p[TPM.OMEGA0]
+
+    def _fly(self, lam, t0, x, t1):
+        """Both particles' free flights from state x at t0 to t1."""
+        p, Q, D = self.packed(lam)
+        out = np.empty(4)
+        for off, row, s, k in ((0, TK.RZ, p[TPM.SIGMA1], p[TPM.OMEGA1]),
+                               (2, TK.RU, p[TPM.SIGMA2], p[TPM.OMEGA2])):
+            M = flight_matrix(s, k, t1 - t0)
+            a0, b0 = particular(Q[row], D[row], t0)
+            a1, b1 = particular(Q[row], D[row], t1)
+            du, dv = x[off] - a0, x[off + 1] - b0
+            out[off] = a1 + M[0] * du + M[1] * dv
+            out[off + 1] = b1 + M[2] * du + M[3] * dv
+        return out
+
+    def _arrival(self, X, lam, k):
+        """(t_k, the state just before event k) from event k - 1's state after it."""
+        N = self.n
+        j = (k - 1) % N
+        tk = X[5 * k] + (self.duration(lam) if k == 0 else 0.0)
+        return tk, self._fly(lam, X[5 * j], X[5 * j + 1:5 * j + 5], tk)
+
+    def _law(self, lam, kind, t, xm):
+        """(gap, the state just after the event) for an event of ``kind`` at t."""
+        p, _, _ = self.packed(lam)
+        z, y, u, v = xm
+        if kind == "W":
+            w, wp, _, _ = TK.wall(p, t, 0.0)
+            return z - w, np.array([z, (1.0 + p[TPM.R1]) * wp - p[TPM.R1] * y, u, v])
+        y2, v2 = TPM.mass_ratio_impact(y, v, p[TPM.MU], p[TPM.R2])
+        return u - z, np.array([z, y2, u, v2])
+
+    def residual(self, X, lam):
+        N = self.n
+        R = np.empty(5 * N)
+        for k in range(N):
+            t, xm = self._arrival(X, lam, k)
+            g, xp = self._law(lam, self.kinds[k], t, xm)
+            R[5 * k] = g
+            R[5 * k + 1:5 * k + 5] = X[5 * k + 1:5 * k + 5] - xp
+        return R
+
+    def jacobian(self, X, lam):
+        return central_jacobian(self.residual, X, lam)
+
+    def d_param(self, X, lam):
+        return central_d_param(self.residual, X, lam)
+
+    def tables(self, X, lam):
+        """The orbit as the kernel's tables over two cycles (z-u rows:
+        t, u, v_in, v_out, y_in, y_out, offset; w-z rows: t, z, y_in, y_out), for
+        ``models.two_particle.tangent.two_particle_steps``."""
+        N = self.n
+        D = self.duration(lam)
+        zu, wz = [], []
+        for rep in range(2):
+            for k in range(N):
+                t, xm = self._arrival(X, lam, k)
+                t = X[5 * k] + rep * D
+                xp = X[5 * k + 1:5 * k + 5]
+                if self.kinds[k] == "U":
+                    zu.append([t, xm[0], xm[3], xp[3], xm[1], xp[1], 0.0])
+                else:
+                    wz.append([t, xm[0], xm[1], xp[1]])
+        # a NaN row: the table is not full (models.two_particle.tangent.two_particle_steps' TABLE_FULL test)
+        wz.append([math.nan] * 4)
+        return np.array(zu), np.array(wz).reshape(-1, 4)
+
+    def impacts(self, X, lam):
+        """Per event: its time and the relative velocity of its approach (< 0)."""
+        w = np.empty(self.n)
+        for k in range(self.n):
+            t, xm = self._arrival(X, lam, k)
+            if self.kinds[k] == "W":
+                p, _, _ = self.packed(lam)
+                w[k] = xm[1] - TK.wall(p, t, 0.0)[1]
+            else:
+                w[k] = xm[3] - xm[1]
+        return {"w": w, "t": X[0::5].copy()}
+
+    def floquet(self, X, lam):
+        p, _, _ = self.packed(lam)
+        zu, wz = self.tables(X, lam)
+        n_zu = self.kinds.count("U")
+        if n_zu == 0:
+            nan = np.full(4, np.nan + 0j)
+            return nan, np.full((4, 4), np.nan)
+        G, _, st = two_particle_steps(p, np.ascontiguousarray(zu), np.ascontiguousarray(wz),
+                                      0, n_zu)
+        J = np.eye(4)
+        for g in G:
+            J = g @ J
+        if st != OK:
+            J[:] = np.nan
+        return sorted_eigenvalues(J[None])[0], J
+
+    def corner_distances(self, X, lam):
+        """Per event, the time to the next event (a w-z and a z-u impact meeting: the
+        system's corner; any two events meeting change the itinerary)."""
+        t = X[0::5]
+        D = self.duration(lam)
+        gaps = np.append(np.diff(t), t[0] + D - t[-1])
+        # two events of one kind meet only through a zero approach velocity (chatter or a
+        # graze, its own event), not at this system's corner
+        same = np.array([self.kinds[k] == self.kinds[(k + 1) % self.n]
+                         for k in range(self.n)])
+        gaps[same] = np.inf
+        return gaps
+
+    def smallest_gap(self, X, lam):
+        """The smallest of both gaps z - w and u - z over the interior of every flight."""
+        p, _, _ = self.packed(lam)
+        N = self.n
+        D = self.duration(lam)
+        best = math.inf
+        for k in range(N):
+            t0 = X[5 * k]
+            t1 = X[5 * ((k + 1) % N)] + (D if k == N - 1 else 0.0)
+            x0 = X[5 * k + 1:5 * k + 5]
+            for s in np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]:
+                t = t0 + s * (t1 - t0)
+                x = self._fly(lam, t0, x0, t)
+                best = min(best, x[0] - TK.wall(p, t, 0.0)[0], x[2] - x[0])
+        return best
+
+    def reindex(self, X, lam):
+        return self, X
+
+    def word(self, X, lam):
+        """The itinerary: W and U in time order, grouped by wall period."""
+        return self.kinds
+
+    def itinerary(self) -> str:
+        return f"events {self.kinds}, {self.m} wall period(s)"
+
+    def admissible(self, X, lam):
+        return admissible(self, X, lam)
+
+    def across(self, q, X, lam):
+        """Events q and q + 1 swap their order (the z-u impact passes the w-z impact)."""
+        N = self.n
+        r = (q + 1) % N
+        kinds = list(self.kinds)
+        kinds[q], kinds[r] = kinds[r], kinds[q]
+        Xn = X.copy()
+        # the guess: the two impact laws in the new order on the state the flight brings
+        tq, xm = self._arrival(X, lam, q)
+        tr = X[5 * r] + (self.duration(lam) if r == 0 else 0.0)
+        _, first = self._law(lam, kinds[q], tr, self._fly(lam, tq, xm, tr))
+        _, second = self._law(lam, kinds[r], tq, first)
+        Xn[5 * q], Xn[5 * q + 1:5 * q + 5] = tr, first
+        Xn[5 * r], Xn[5 * r + 1:5 * r + 5] = tq, second
+        if r == 0:      # the last event passes the first one of the next cycle
+            D = self.duration(lam)
+            Xn[5 * q] = tr
+            Xn[0] = tq - D
+        new = TwoParticleOrbit(self.values, self.param, "".join(kinds), self.m)
+        new._cache = self._cache
+        return new, Xn
+
+    def store(self, X, lam, section):
+        zu, _ = self.tables(X, lam)
+        n_zu = self.kinds.count("U")
+        zu = zu.reshape(-1, 7)
+        return {"impact_t": zu[:n_zu, 0], "impact_u": zu[:n_zu, 1],
+                "impact_v_in": zu[:n_zu, 2], "impact_v_out": zu[:n_zu, 3],
+                "event_t": X[0::5].copy(), "cycle_duration": self.duration(lam)}
+
+
+def two_particle_seed(values, param, x_section, ipc):
+    """A TwoParticleOrbit and its solved unknowns from a state at a section time (the
+    system has the wall's period, so it is a state at t = 0): one cycle of ``ipc`` z-u
+    impacts run by the kernel from it, with the w-z impacts between."""
+    kw = {k: v for k, v in values.items() if k in TPM.NAMES}
+    for F, W in (("F1", "Omega1"), ("F2", "Omega2")):
+        if kw.get(F, 0.0) != 0.0:
+            ratio = kw.get(W, 1.0) / kw["omega0"]
+            if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio) or round(ratio) < 1:
+                raise OrbitError(f"{F} != 0 with {W}/omega0 = {ratio!r} not a whole number: "
+                                 "the seed's section state (t = n 2 pi/omega0) would not be "
+                                 "a state at t = 0, nor the forcing periodic with the wall")
+    r = simulate_two_particle(*x_section, transient=0, record=ipc + 2, **kw)
+    zu_t = np.ravel(r["t"])
+    n = int(np.isfinite(zu_t).sum())
+    if n < ipc + 1:
+        raise OrbitError("the run from the section state has no cycle")
+    t0, t1 = zu_t[0], zu_t[ipc]
+    T = 2.0 * math.pi / values["omega0"]
+    m = int(round((t1 - t0) / T))
+    ev = []
+    for i in range(ipc):
+        ev.append((zu_t[i], 1, "U", [np.ravel(r["u"])[i], np.ravel(r["y_out"])[i],
+                                     np.ravel(r["u"])[i], np.ravel(r["v_out"])[i]]))
+    wz_t = np.ravel(r["wz_t"])
+    for j in range(int(np.isfinite(wz_t).sum())):
+        if t0 < wz_t[j] < t1:
+            ev.append((wz_t[j], 0, "W", [np.ravel(r["wz_z"])[j], np.ravel(r["wz_y_out"])[j],
+                                         math.nan, math.nan]))
+    ev.sort(key=lambda e: (e[0], e[1]))
+    prob = TwoParticleOrbit(dict(values), param, "".join(e[2] for e in ev), m)
+    lam = float(values[param])
+    # times within the first cycle: a periodic orbit's system has the cycle's period, and
+    # small times keep the unknowns' scale (d t / d omega0 grows with t)
+    shift = math.floor(ev[0][0] / prob.duration(lam)) * prob.duration(lam)
+    ev = [(t - shift, o, kind, x) for t, o, kind, x in ev]
+    X = np.empty(5 * len(ev))
+    last_u = None
+    for k, (t, _, kind, x) in enumerate(ev):
+        X[5 * k] = t
+        if kind == "U":
+            last_u = (t, x)
+            X[5 * k + 1:5 * k + 5] = x
+        else:
+            # u and v at a w-z impact: the flight of u from the z-u impact before it
+            tu, xu = last_u
+            fl = prob._fly(lam, tu, np.array(xu), t)
+            X[5 * k + 1:5 * k + 5] = [x[0], x[1], fl[2], fl[3]]
+    return prob, newton(prob, X, lam)
