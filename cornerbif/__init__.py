@@ -9,8 +9,7 @@ Public entry points: ``simulate`` (any model from Python), ``load_scene``
 registry in ``cornerbif.registry``.  See README.md.
 """
 
-__version__ = "0.1.0"
-FORMAT_VERSION = 1
+from ._version import FORMAT_VERSION, __version__
 
 __all__ = ["simulate", "load_scene", "run_sweep", "Scene", "SceneError",
            "SweepError", "__version__", "FORMAT_VERSION"]

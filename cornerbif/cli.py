@@ -369,7 +369,7 @@ def plot(files, out, y, title, color_by, style):
 
     from .plot import draw_files
     try:
-        # what matplotlib or numpy still say (plot.quiet silences what files hold by
+        # what matplotlib or numpy still say (plot_style.quiet silences what files hold by
         # design) is said after the figure, one line each
         with warnings.catch_warnings(record=True) as said:
             draw_files(list(files), out, y=y, title=title, color_by=color_by, style=style)
@@ -462,7 +462,8 @@ def info(file):
     summarises those; a sweep with no finished point is refused. Every text the file holds
     is shown on one line, cut at a bounded length."""
     from .io import FileFormatError
-    from .plot import is_continuation, quiet, read_continuation
+    from .plot import is_continuation, read_continuation
+    from .plot_style import quiet
     try:
         with quiet():             # numpy on the NaN and infinities a file holds by design
             if is_continuation(file):

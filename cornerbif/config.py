@@ -15,7 +15,6 @@ in README.md.
 
 from __future__ import annotations
 
-import difflib
 import functools
 import hashlib
 import math
@@ -26,9 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import registry
+from . import plot_style, registry
 from .cycles import parse_word
-from .model import KEY_CHARS, cut, shown
+from .model import KEY_CHARS, cut, did_you_mean, shown
 from .model import is_number as _is_number
 
 FOLLOW = ("none", "up", "down")
@@ -113,10 +112,6 @@ MAX_TITLE = 500
 # plot.marks: dotted lines on a diagram, each with a label beside it
 MAX_MARKS = 100
 MAX_MARK_LABEL = 100
-# plot.style: a matplotlib style name or a path (a path's length, PATH_MAX) and the size of
-# the sheet it names (an .mplstyle file is a few hundred lines)
-MAX_STYLE_PATH = 4096
-MAX_STYLE_BYTES = 2**20
 # plot.marker_size in points: a marker of 100 pt is 1.4 inches across, more than a figure's
 # panel shows; the raster of a large diagram grows every point to a disc of that radius
 MAX_MARKER_SIZE = 100.0
@@ -329,13 +324,7 @@ class Scene:
 
 
 # --------------------------------------------------------------------------- helpers
-def _suggest(word, options):
-    """ " (did you mean 'x'?)" for a near miss among ``options``; nothing for a word far
-    longer than any option (difflib's cost grows with it)."""
-    if len(word) > 100:
-        return ""
-    m = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
-    return f" (did you mean '{m[0]}'?)" if m else ""
+_suggest = did_you_mean   # (a name the tests watch: ``test_scene_hardening``)
 
 
 def _is_int(x):
@@ -1180,8 +1169,7 @@ def undrawable(text: str, key: str) -> str | None:
     between $ signs, does not parse, or nests past what its parser can recurse), else None
     (``plot_style.mathtext_problem``, which imports matplotlib only when some line of the
     text is mathtext)."""
-    from .plot_style import mathtext_problem
-    found = mathtext_problem(text)
+    found = plot_style.mathtext_problem(text)
     if found is None:
         return None
     line, why = found
@@ -1246,7 +1234,7 @@ def _read_plot(w):
         problems.append(f"plot.orbits: {shown(plot['orbits'])} must be \"words\" (a colour per "
                         "orbit) or \"families\" (one per family such as beta^N gamma)")
     if "style" in plot:
-        p = style_problem(plot["style"], "plot.style")
+        p = plot_style.style_problem(plot["style"], "plot.style")
         if p:
             problems.append(p)
     _read_plot_kind(w, plot)
@@ -1373,41 +1361,7 @@ def _title_lines(text: str) -> str:
     imports no matplotlib (a quarter of a second at every command's start)."""
     if "$" not in text:
         return text
-    from .plot_style import title_tex
-    return title_tex(text)
-
-
-def style_problem(style, key: str) -> str | None:
-    """A problem with a style sheet given at ``key`` (``[plot] style``), or None: a name of
-    matplotlib's styles, or the path of a regular file of at most MAX_STYLE_BYTES (a path
-    with a '/' or ending in .mplstyle is a path; relative to the working directory, as
-    ``cornerbif plot`` reads it)."""
-    if not isinstance(style, str) or not style:
-        return (f"{key}: {shown(style)} must be a matplotlib style name or the path of a "
-                ".mplstyle file")
-    if len(style) > MAX_STYLE_PATH or "\0" in style:
-        return (f"{key}: {shown(style)} ({len(style)} characters) is neither a style name nor "
-                f"a path (at most {MAX_STYLE_PATH} characters, no NUL)")
-    try:
-        st = os.stat(style)
-    except OSError:
-        st = None
-    if st is None and ("/" in style or os.sep in style or style.endswith(".mplstyle")):
-        return f"{key}: {shown(style)}: no such style sheet (a path, relative to the working directory)"
-    if st is not None:
-        if not stat.S_ISREG(st.st_mode):
-            return f"{key}: {shown(style)} is not a regular file (a .mplstyle style sheet)"
-        if st.st_size > MAX_STYLE_BYTES:
-            return (f"{key}: {shown(style)} is {st.st_size} bytes; a style sheet is at most "
-                    f"{MAX_STYLE_BYTES} (a few hundred lines of rc settings)")
-        if not os.access(style, os.R_OK):
-            return f"{key}: {shown(style)}: cannot read the style sheet (permission denied)"
-        return None
-    import matplotlib.style as mstyle
-    if style in mstyle.available:
-        return None
-    return (f"{key}: {shown(style)} is neither a file nor one of matplotlib's styles"
-            f"{_suggest(style, mstyle.available)} ({', '.join(sorted(mstyle.available)[:6])}, ...)")
+    return plot_style.title_tex(text)
 
 
 def _read_continue(w):
@@ -1569,10 +1523,10 @@ def _continue_names(w, c, out):
     if "seed_file" in c:
         sf = c["seed_file"]
         if (not isinstance(sf, str) or not sf or "\0" in sf
-                or len(os.fsencode(sf)) > MAX_STYLE_PATH):
+                or len(os.fsencode(sf)) > plot_style.MAX_STYLE_PATH):
             pr.append(f"continue.seed_file: {_fmt(sf)} must be the path of a sweep file "
                       f"(cornerbif sweep) of this model over {out['parameter']!r} (text "
-                      f"without NUL characters, at most {MAX_STYLE_PATH} bytes)")
+                      f"without NUL characters, at most {plot_style.MAX_STYLE_PATH} bytes)")
         else:
             out["seed_file"] = sf
     if "over" in c:

@@ -497,7 +497,7 @@ def _image(scene, head, branches, curves, state=None) -> bytes:
 
     import h5py
 
-    from . import __version__
+    from ._version import __version__
     c = scene.cont
     with h5py.File("continuation.h5", "w", driver="core", backing_store=False) as f:
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, scene=scene.text,

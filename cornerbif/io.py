@@ -48,7 +48,8 @@ import sys
 import h5py
 import numpy as np
 
-from . import FORMAT_VERSION, __version__, attractors, engine, outputs, registry
+from . import attractors, engine, outputs, registry
+from ._version import FORMAT_VERSION, __version__
 from . import status as S
 from .errors import SweepError, WriteFailed
 from .model import cut, shown

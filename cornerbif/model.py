@@ -23,6 +23,7 @@ This module imports neither numba nor h5py: ``cornerbif validate`` stays fast.
 
 from __future__ import annotations
 
+import difflib
 import math
 import reprlib
 from collections.abc import Callable
@@ -411,6 +412,15 @@ def cut(text, limit: int = SHOWN_CHARS, *, quote: bool = False, mark: str | None
     if len(text) <= limit:
         return head
     return head + (f"...<{len(text)} characters>" if mark is None else mark)
+
+
+def did_you_mean(word, options) -> str:
+    """ " (did you mean 'x'?)" for a near miss among ``options``; nothing for a word far
+    longer than any option (difflib's cost grows with it)."""
+    if len(word) > 100:
+        return ""
+    m = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    return f" (did you mean '{m[0]}'?)" if m else ""
 
 
 def shown(x, limit: int = SHOWN_CHARS) -> str:

@@ -27,38 +27,13 @@ from . import status as S
 from .errors import SweepError
 from .io import check_readable
 from .model import cut
-from .plot_style import bounded, legend, plain, title_lines
+from .plot_style import bounded, legend, plain, quiet, save, title_lines
 
 
 class Undrawable(SweepError, ValueError):
     """Files or options one figure cannot show truthfully, refused before anything is drawn
     (exit 2); the message names each file and what it holds."""
 
-
-@contextlib.contextmanager
-def quiet():
-    """Drawing, without the warnings numpy and matplotlib give on what a file holds by
-    design: NaN where a run has no value and infinities where it escaped (numpy's overflow,
-    invalid value, All-NaN slice: the figure counts what it leaves out), and a layout that
-    cannot be tightened around long texts (the figure keeps its layout)."""
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.filterwarnings("ignore", category=RuntimeWarning)
-        warnings.filterwarnings("ignore", message=".*[Tt]ight.?layout")
-        yield
-
-
-def save(fig, out, **kw):
-    """Write ``fig`` to ``out`` whole or not at all (``outputs.save_figure``), then free it;
-    a failed write is ``WriteFailed`` naming ``out`` (the previous figure is unchanged)."""
-    import matplotlib.pyplot as plt
-
-    from .outputs import save_figure
-    try:
-        with quiet():
-            save_figure(fig, out, **kw)
-    finally:
-        plt.close(fig)
-    return out
 
 LABELS = {
     "initial.u": r"start $u(t_0)$", "initial.v": r"start $v(t_0)$",
@@ -514,7 +489,6 @@ def draw_plane_stability(ax, data: PlotData, what):
     the starts at each point (the least stable attractor found there)."""
     a, b = data.axes[:2]
     val = stability_values(data, what).astype(float)
-    import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)      # points with no value at all
         show = np.nanmax(val, axis=-1)
@@ -989,7 +963,6 @@ def draw_plane(ax, data: PlotData):
     a, b = data.axes[:2]
     per = data.period.astype(float)
     per[per <= 0] = np.nan
-    import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)   # points where no start found a cycle
         show = np.nanmax(per, axis=-1)

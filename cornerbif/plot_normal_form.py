@@ -221,8 +221,7 @@ def figure(datas, out, plot_cfg, title=None):
     ``_figure_return_maps``) or the orbits (Fig. 11, ``_figure_orbits``)."""
     import matplotlib.pyplot as plt
 
-    from .plot import save
-    from .plot_style import title_lines
+    from .plot_style import save, title_lines
 
     kind = plot_cfg["kind"]
     for d in datas:

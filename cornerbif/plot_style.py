@@ -10,11 +10,13 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import stat
+import warnings
 
 import numpy as np
 
 from .errors import SweepError
-from .model import cut
+from .model import cut, did_you_mean, shown
 
 # one style for every figure: serif text in the paper's sizes, thin frames, vector fonts
 # embedded as text (Type 42) so that a journal's PDF checks accept them, rasterised point
@@ -67,14 +69,52 @@ def style(user=None):
         yield
 
 
+# plot.style: a matplotlib style name or a path (a path's length, PATH_MAX) and the size of
+# the sheet it names (an .mplstyle file is a few hundred lines)
+MAX_STYLE_PATH = 4096
+MAX_STYLE_BYTES = 2**20
+
+
+def style_problem(style, key: str) -> str | None:
+    """A problem with a style sheet given at ``key`` (``[plot] style``), or None: a name of
+    matplotlib's styles, or the path of a regular file of at most MAX_STYLE_BYTES (a path
+    with a '/' or ending in .mplstyle is a path; relative to the working directory, as
+    ``cornerbif plot`` reads it)."""
+    if not isinstance(style, str) or not style:
+        return (f"{key}: {shown(style)} must be a matplotlib style name or the path of a "
+                ".mplstyle file")
+    if len(style) > MAX_STYLE_PATH or "\0" in style:
+        return (f"{key}: {shown(style)} ({len(style)} characters) is neither a style name nor "
+                f"a path (at most {MAX_STYLE_PATH} characters, no NUL)")
+    try:
+        st = os.stat(style)
+    except OSError:
+        st = None
+    if st is None and ("/" in style or os.sep in style or style.endswith(".mplstyle")):
+        return f"{key}: {shown(style)}: no such style sheet (a path, relative to the working directory)"
+    if st is not None:
+        if not stat.S_ISREG(st.st_mode):
+            return f"{key}: {shown(style)} is not a regular file (a .mplstyle style sheet)"
+        if st.st_size > MAX_STYLE_BYTES:
+            return (f"{key}: {shown(style)} is {st.st_size} bytes; a style sheet is at most "
+                    f"{MAX_STYLE_BYTES} (a few hundred lines of rc settings)")
+        if not os.access(style, os.R_OK):
+            return f"{key}: {shown(style)}: cannot read the style sheet (permission denied)"
+        return None
+    import matplotlib.style as mstyle
+    if style in mstyle.available:
+        return None
+    return (f"{key}: {shown(style)} is neither a file nor one of matplotlib's styles"
+            f"{did_you_mean(style, mstyle.available)} ({', '.join(sorted(mstyle.available)[:6])}, ...)")
+
+
 def check_style(user, key: str = "style") -> str | None:
     """A problem with a user's style sheet given at ``key``, or None: a name of matplotlib's,
-    or a readable file (``config.style_problem``, which ``validate`` uses for ``[plot]
+    or a readable file (``style_problem``, which ``validate`` uses for ``[plot]
     style``) of lines 'key: value', each key one of matplotlib's settings and each value one
     it takes (matplotlib itself would print a warning of its own and go on)."""
     if user is None:
         return None
-    from .config import style_problem
     problem = style_problem(user, key)
     if problem or not os.path.isfile(user):
         return problem
@@ -467,3 +507,29 @@ def legend(ax, *args, **kw):
     if args or "handles" in kw or ax.get_legend_handles_labels()[0]:
         return ax.legend(*args, **kw)
     return None
+
+
+@contextlib.contextmanager
+def quiet():
+    """Drawing, without the warnings numpy and matplotlib give on what a file holds by
+    design: NaN where a run has no value and infinities where it escaped (numpy's overflow,
+    invalid value, All-NaN slice: the figure counts what it leaves out), and a layout that
+    cannot be tightened around long texts (the figure keeps its layout)."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
+        warnings.filterwarnings("ignore", message=".*[Tt]ight.?layout")
+        yield
+
+
+def save(fig, out, **kw):
+    """Write ``fig`` to ``out`` whole or not at all (``outputs.save_figure``), then free it;
+    a failed write is ``WriteFailed`` naming ``out`` (the previous figure is unchanged)."""
+    import matplotlib.pyplot as plt
+
+    from .outputs import save_figure
+    try:
+        with quiet():
+            save_figure(fig, out, **kw)
+    finally:
+        plt.close(fig)
+    return out

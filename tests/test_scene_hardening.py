@@ -25,7 +25,7 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from cornerbif import config, registry
+from cornerbif import config, plot_style, registry
 from cornerbif.cli import main
 from cornerbif.obstacles import profile as PR
 
@@ -490,9 +490,9 @@ def test_a_style_sheet_past_its_size_is_refused_and_a_real_one_accepted(tmp_path
     accepted(FIG06A, ['plot.style="ggplot"'])
     big = tmp_path / "big.mplstyle"
     with open(big, "wb") as fh:
-        fh.truncate(config.MAX_STYLE_BYTES + 1)
+        fh.truncate(plot_style.MAX_STYLE_BYTES + 1)
     refused(tmp_path, FIG06A, [f'plot.style="{big}"'],
-            needles=[f"a style sheet is at most {config.MAX_STYLE_BYTES}"], sweep=False)
+            needles=[f"a style sheet is at most {plot_style.MAX_STYLE_BYTES}"], sweep=False)
 
 
 # ------------------------------------------------------------------ 6. smaller ones
