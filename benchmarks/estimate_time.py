@@ -8,7 +8,7 @@ runs cross many obstacle pieces or section periods per impact) is swept in a sub
 (``sweep.run_sweep`` timed alone, after a tiny sweep of the same scene has loaded its
 kernels) and the table gives the measured wall seconds (and the process's CPU seconds over
 the threads: this machine is shared, and other users' load stretches the wall time) beside
-``sweep.estimate_time``'s middle, range and reasons, and their ratio; last, the CPU time per
+``estimate.estimate_time``'s middle, range and reasons, and their ratio; last, the CPU time per
 impact asked for (transient + record, every run): a cam's ``COST_IMPACT`` is that of the
 shipped cam_cycloidal sweep (``--only cam_cycloidal``).
 
@@ -60,7 +60,8 @@ CHILD = r"""
 import json, os, sys, time
 sys.path.insert(0, {root!r})
 from cornerbif import config
-from cornerbif.sweep import estimate_time, run_sweep
+from cornerbif.estimate import estimate_time
+from cornerbif.sweep import run_sweep
 import numpy as np
 path = os.path.join({root!r}, "configs", {scene!r} + ".toml")
 tiny_sets = list({sets!r}) + ["initial.count=1", "run.transient=2", "run.record=2"]

@@ -26,7 +26,7 @@ stop flag, per model (Fig. 4(c) flow, Fig. 19(a) two_particle, Fig. 15(b) map2d)
 point of ``--count`` starts recording run.record = MAX_RECORD events each, kept stability,
 on this process's numba threads; the pass's seconds (``run_items`` with stability less without,
 best of 2) and per recorded event; the largest block this machine's memory admits (a grid of
-such blocks: ``sweep.estimate_memory`` of two blocks within ``io.available_memory``) and its
+such blocks: ``estimate.estimate_memory`` of two blocks within ``io.available_memory``) and its
 pass at that rate; and the seconds from a stop set halfway through the pass to ``run_items``'
 return (``KernelStopped``), or the pass's end where it does not read the flag.
 """
@@ -163,7 +163,7 @@ def stability_pass(count):
     from cornerbif import config, engine, io, registry
     from cornerbif._jit import Control
     from cornerbif.config import MAX_RECORD
-    from cornerbif.sweep import PROCESS_BASELINE, estimate_memory
+    from cornerbif.estimate import PROCESS_BASELINE, estimate_memory
     avail = io.available_memory()
     print(f"{'model':13s} {'events':>9s} {'pass s':>7s} {'ns/event':>9s} {'largest block':>14s} "
           f"{'its pass s':>10s}  stop -> return s")

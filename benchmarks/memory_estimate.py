@@ -6,7 +6,7 @@ and a grid of many blocks (the local backend's writer holds two at once).
 For each model (flow, map2d, two_particle) a scene of one grid point with ``--starts``
 starts (transient 20, record 20, every observable kept) is swept by the command under
 ``/usr/bin/time -v`` (peak resident memory of the whole process), after a warm-up that fills
-numba's cache; ``cornerbif sweep --dry-run`` gives the estimate (``sweep.estimate_memory``,
+numba's cache; ``cornerbif sweep --dry-run`` gives the estimate (``estimate.estimate_memory``,
 which includes the process's own baseline).  The grid scene (``flow grid``: 40 000 values of
 omega, 4 starts, 100 impacts recorded, impacts and section kept) runs many blocks, so one is
 written while the next computes.  The report gives estimate / peak: the issue of

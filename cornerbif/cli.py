@@ -182,7 +182,7 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
     if plan != "done":
-        from .sweep import estimate_time, estimate_words
+        from .estimate import estimate_time, estimate_words
         eta = estimate_time(scene, threads or cores)
         if eta.high > 60 and plan == "start":
             click.echo(f"this sweep will take {estimate_words(eta)} on {threads or cores} "
@@ -272,7 +272,7 @@ def _numba_threads() -> int:
 
 def _describe(scene, out, threads):
     """What a scene will do, in lines: grid, runs, output size, memory and time."""
-    from .sweep import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
+    from .estimate import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
     n_points = 1
     for n in scene.shape:
         n_points *= n

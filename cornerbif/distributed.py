@@ -287,7 +287,7 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
              + ("; followed scene: one chunk at a time, in order" if followed else ""))
         if progress:
             # runs, counted per finished chunk (the workers' kernels are not watched)
-            from .sweep import estimate_seconds
+            from .estimate import estimate_seconds
             total = sum(block_runs(scene, b) for b in every)
             bar = Progress(scene, total, total - sum(block_runs(scene, b) for _, b in todo),
                            estimate_seconds(scene, max(1, dask_threads * (numba_threads or 1))))

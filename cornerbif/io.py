@@ -49,8 +49,8 @@ import h5py
 import numpy as np
 
 from . import attractors, engine, outputs, registry
-from ._version import FORMAT_VERSION, __version__
 from . import status as S
+from ._version import FORMAT_VERSION, __version__
 from .errors import SweepError, WriteFailed
 from .model import cut, shown
 
@@ -252,7 +252,7 @@ def write_block(f, index, block):
     The room for it is checked before anything is written (``ensure_room``): where the disk
     and the file-size limit leave room for the block's size in memory, each dataset's slab
     is compressed and written in turn (``chunkwrite.prepare_slab``, one at a time: the
-    memory of a sweep is two blocks, ``sweep.estimate_memory``); where they do not, every
+    memory of a sweep is two blocks, ``estimate.estimate_memory``); where they do not, every
     chunk is compressed first and the room checked against what the block will add to the
     file (the compressed chunks, the parts HDF5 compresses itself counted uncompressed),
     which holds the block's compressed copy as well, only then.  A full disk or a

@@ -48,7 +48,7 @@ class Progress:
     (``run_blocks``: the kernels count finished runs into the sweep's control while a block
     computes), so a one-block sweep shows progress too.  The rate is that of this session's
     runs; before the first run has finished the time left is the estimate
-    (``sweep.estimate_seconds``), said as such.  On a terminal the line is redrawn at most
+    (``estimate.estimate_seconds``), said as such.  On a terminal the line is redrawn at most
     every ``REDRAW`` seconds; elsewhere a line is written every ``LOG_EVERY`` seconds.
     ``clock``: the seconds it reads (``time.monotonic``)."""
 
@@ -71,7 +71,7 @@ class Progress:
         self.update(self.done, force=True)
 
     def line(self) -> str:
-        from .sweep import about, duration
+        from .estimate import about, duration
         now = self.clock() - self.start
         new = self.done - self.already
         text = f"{self.label}: {self.done}/{self.total} runs"
@@ -273,7 +273,7 @@ def run_blocks(scene, f, progress=False, block_points=None):
     if progress:
         import numba
 
-        from .sweep import estimate_seconds
+        from .estimate import estimate_seconds
         bar = Progress(scene, total, state["done"], estimate_seconds(scene,
                                                                       numba.get_num_threads()))
 

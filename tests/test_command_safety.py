@@ -17,7 +17,7 @@ import pytest
 from click.testing import CliRunner
 from conftest import FILL_DISK_SOURCE
 
-from cornerbif import config
+from cornerbif import config, estimate
 from cornerbif import sweep as sweep_mod
 from cornerbif.cli import main
 
@@ -58,7 +58,7 @@ def test_the_estimate_bounds_every_shipped_scene_it_is_tried_on(tmp_path):
         out = tmp_path / f"{name}.h5"
         sweep_mod.run_sweep(sc, str(out), threads=1)
         size = os.path.getsize(out)
-        bound = sweep_mod.estimate_bytes(sc)
+        bound = estimate.estimate_bytes(sc)
         assert size < bound, (name, size, bound)
         assert size > sweep_mod.RATIO_DEFLATE_LIMIT * bound, name
 
@@ -103,7 +103,7 @@ def test_a_disk_that_cannot_hold_the_file_is_refused_before_any_work(tmp_path, m
     written. With room for that but not for a new file's HDF5 structures, the command stops
     when it creates the file: exit 1, "nothing was computed"."""
     sc = config.load(FIG06A, [s for s in TINY[1::2] if "=" in s])
-    sure = sweep_mod.sure_file_bytes(sc)
+    sure = estimate.sure_file_bytes(sc)
     assert sure >= len(sc.text)
     monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: sure - 1)
     out = tmp_path / "x.h5"
@@ -124,7 +124,7 @@ def test_a_disk_that_may_not_hold_the_file_gets_a_note_and_the_sweep_runs(tmp_pa
     disk would stop it with every point kept): room for the tiny file, not for the largest
     ratio measured on the shipped scenes."""
     sc = config.load(FIG06A, [s for s in TINY[1::2] if "=" in s])
-    low, typical, high = sweep_mod.estimate_file_bytes(sc)
+    low, typical, high = estimate.estimate_file_bytes(sc)
     assert low <= typical <= high
     monkeypatch.setattr(sweep_mod, "_free_bytes", lambda d: 2 * high - 1)
     out = tmp_path / "x.h5"

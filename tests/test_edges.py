@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cornerbif import config, sweep
+from cornerbif import config, estimate, sweep
 from cornerbif.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(__file__))
@@ -81,7 +81,7 @@ def test_many_starts_at_one_point_are_counted_in_the_memory_estimate():
     of fig06a (record 100) need gigabytes, and the estimate says so."""
     sc = config.load(FIG06A, ["initial.count=1000000"])
     per_start = sc.record * sc.spec.bytes_per_event
-    assert sweep.estimate_memory(sc) > 1e6 * per_start
+    assert estimate.estimate_memory(sc) > 1e6 * per_start
 
 
 # ------------------------------------------------------------------ threads

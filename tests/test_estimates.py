@@ -19,7 +19,7 @@ from click.testing import CliRunner
 
 from cornerbif import config, engine
 from cornerbif.cli import main
-from cornerbif.sweep import estimate_seconds, estimate_time, estimate_words, sample_points
+from cornerbif.estimate import estimate_seconds, estimate_time, estimate_words, sample_points
 
 HERE = os.path.dirname(__file__)
 ROOT = os.path.dirname(HERE)
@@ -177,7 +177,7 @@ def test_durations_are_said_in_bounded_words():
     it inf: before, "about inf days") or of 1e300 s is said as 'more than a thousand years';
     finite ones in the largest unit they fill twice: 1e8 s = 3.17 years (1e8 / 31 557 600),
     1e7 s = 115.7 days (1e7 / 86 400)."""
-    from cornerbif.sweep import about, duration
+    from cornerbif.estimate import about, duration
     for s in (math.inf, math.nan, 1e300, 1000 * 365.25 * 86400):
         assert duration(s) == "more than a thousand years"
         assert about(s) == "more than a thousand years"

@@ -117,7 +117,7 @@ def obstacle_top(ctx):
     return None
 
 
-# --- the time model of a run (``sweep.estimate_time``) --------------------------------------
+# --- the time model of a run (``estimate.estimate_time``) --------------------------------------
 # Seconds of one core per impact (with its share of the cycle analysis) and per obstacle piece
 # crossed, by the kernel's path: "free" (sigma = 0, F = 0, k > 0: flights rotate in closed form
 # and a piece without impact is crossed by the Sturm test alone), "searched" (damped or forced:
@@ -290,7 +290,7 @@ class FlowModel(Model):
 
     def run_seconds(self, scene, values):
         """The time model of one run at the parameter ``values`` of a grid point
-        (``sweep.estimate_time``): (seconds of one core, low, high, reasons the estimate is
+        (``estimate.estimate_time``): (seconds of one core, low, high, reasons the estimate is
         uncertain).
 
         A run pays per impact and per obstacle piece it crosses (``COST_IMPACT``,

@@ -84,7 +84,7 @@ class Map2dModel(Model):
         return out
 
     def run_seconds(self, scene, values):
-        """The time model of one run (``sweep.estimate_time``): its transient + record map
+        """The time model of one run (``estimate.estimate_time``): its transient + record map
         steps at ``events_per_second``; (seconds, low, high, reasons): within a factor 1.5,
         never uncertain."""
         seconds = (scene.transient + scene.record) / self.events_per_second

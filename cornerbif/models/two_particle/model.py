@@ -47,7 +47,7 @@ STABILITY = tuple(Field(f.name, f.source, f.long_name, f.units, axis=(f.axis[0],
                   for f in STABILITY_FIELDS)
 
 
-# the time model of a run (``sweep.estimate_time``): seconds of one core per z-u impact (with
+# the time model of a run (``estimate.estimate_time``): seconds of one core per z-u impact (with
 # the w-z impacts between and the cycle analysis) and per section period crossed, measured by
 # ``python benchmarks/estimate_time.py --calibrate``; an estimate resting on the sections' cost
 # may be off by UNCERTAIN_FACTOR either way
@@ -148,7 +148,7 @@ class TwoParticleModel(Model):
 
     def run_seconds(self, scene, values):
         """The time model of one run at the parameter ``values`` of a grid point
-        (``sweep.estimate_time``): (seconds of one core, low, high, reasons the estimate is
+        (``estimate.estimate_time``): (seconds of one core, low, high, reasons the estimate is
         uncertain).  A run pays per z-u impact and per section period it crosses
         (COST_IMPACT, COST_SECTION); between two z-u impacts about half the slower
         particle's period pi / min(omega1, omega2) passes (measured: 1.00 pi at Fig. 19(a)),
