@@ -60,7 +60,7 @@ def test_the_estimate_bounds_every_shipped_scene_it_is_tried_on(tmp_path):
         size = os.path.getsize(out)
         bound = estimate.estimate_bytes(sc)
         assert size < bound, (name, size, bound)
-        assert size > sweep_mod.RATIO_DEFLATE_LIMIT * bound, name
+        assert size > estimate.RATIO_DEFLATE_LIMIT * bound, name
 
 
 @pytest.mark.slow
