@@ -9,7 +9,7 @@ from . import registry
 RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
 
 
-def simulate(*starts, model="flow", transient=0, record=100, tol=1e-12, chatter=1e-6,
+def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol=1e-12, chatter=1e-6,
              escape=1e6, period_tol=1e-6, max_events=None, max_periods=None, stop="none",
              keep=None, **system):
     """Run ``model`` for one or many initial states at t = 0 (``flow``: at ``t0``).

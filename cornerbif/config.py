@@ -736,8 +736,7 @@ def _read_system(w):
     sy = w.table("system")
     spec = w.spec
     w.unknown("system", tuple(spec.params) + tuple(spec.system_extra))
-    default_obstacle = registry.get(registry.DEFAULT_MODEL).system_extra["obstacle"]
-    obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", default_obstacle))
+    obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", registry.DEFAULT_OBSTACLE))
     if spec.obstacles and not (isinstance(obstacle, str) and obstacle in spec.obstacles):
         allowed = tuple(spec.obstacles)
         w.problems.append(f"system.obstacle: {shown(obstacle)} is not an obstacle"
@@ -760,26 +759,17 @@ def _read_system(w):
             section_period = None
         else:
             section_period = float(section_period)
-    w.profile, w.profile_table = None, None
-    if "profile" in spec.system_extra:
-        table = sy.get("profile")
-        if obstacle == "profile":
-            from .obstacles.profile import ProfileError, read
-            if table is None:
-                w.problems.append("system.profile: obstacle = \"profile\" needs a "
-                                  "[system.profile] table (period, pieces; docs/cams.md)")
-            else:
-                try:
-                    w.profile = read(table)
-                    w.profile_table = {"period": float(table.get("period", w.profile.period)),
-                                       "pieces": table["pieces"]}
-                    if "corners" in table:
-                        w.profile_table["corners"] = table["corners"]
-                except ProfileError as e:
-                    w.problems += e.problems
-        elif table is not None:
-            w.problems.append(f"system.profile: given, but system.obstacle is {obstacle!r}; "
-                              "a profile is the obstacle \"profile\"")
+    # an obstacle kind's own tables (a cam's [system.profile]): read by the kind, refused
+    # under another
+    w.profile, w.obstacle_tables = None, {}
+    kind = spec.obstacles.get(obstacle) if spec.obstacles else None
+    for other in (spec.obstacles or {}).values():
+        for key in other.tables:
+            if other is not kind and sy.get(key) is not None:
+                w.problems.append(f"system.{key}: given, but system.obstacle is {obstacle!r}; "
+                                  f"a {key} is the obstacle \"{other.name}\"")
+    if kind is not None:
+        kind.read_tables(sy, w)
     w.obstacle, w.system, w.section_period = obstacle, system, section_period
 
 
@@ -957,11 +947,10 @@ def _read_sweep(w):
         w.problems.append("system.section_period: cannot be fixed while omega is swept "
                           "(the default T = 2 pi / omega follows omega)")
     ob = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
-    if ob is not None and ob.name == "profile" and getattr(w, "profile", None) is None:
-        ob = None                       # no valid profile: its problem is reported already
+    if ob is not None and any(t not in w.obstacle_tables for t in ob.tables):
+        ob = None                       # a table not read: its problem is reported already
     if sp is not None and ob is not None and w.system.get("omega"):
-        per = (w.profile.period / w.system["omega"] if ob.name == "profile"
-               else ob.period(w.system["omega"]))
+        per = ob.period(w.system["omega"], w.profile)
         m = sp / per
         if not m < 2**52:
             w.problems.append(f"system.section_period: {sp!r} is {m:.3g} obstacle periods "
@@ -969,36 +958,9 @@ def _read_sweep(w):
         elif abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
             w.problems.append(f"system.section_period: {sp!r} is not a whole number of "
                               f"obstacle periods (P = {per!r})")
-    if ob is not None and ob.name == "profile":
-        _profile_scales(w, axes)
+    if ob is not None:
+        ob.check_scales(w, axes)
     w.axes, w.follow = axes, follow
-
-
-def _profile_scales(w, axes):
-    """A cam profile at the scene's extreme omega, beta, k and kappa (swept or fixed): a
-    problem, naming the parameter's key and value, where the kernels' numbers would not be
-    finite (``profile.scale_problem``: lengths in time, certified bounds, Sturm floors)."""
-    from .obstacles.profile import scale_problem
-    swept = {a.name: a.values for a in axes}
-
-    def values(name):
-        v = swept.get(name, [w.system.get(name)])
-        return [x for x in v if x is not None and math.isfinite(x)] or [0.0]
-    for omega in {min(values("omega")), max(values("omega"))}:
-        for k in {min(values("k")), max(values("k"))}:
-            for kappa in {min(values("kappa")), max(values("kappa"))}:
-                beta = max(values("beta"))
-                if omega <= 0.0:
-                    continue
-                sigma = max(values("sigma"))
-                found = scale_problem(w.profile, omega, beta, k, kappa, sigma)
-                if found:
-                    name, why = found
-                    value = {"omega": omega, "beta": beta, "k": k, "sigma": sigma}[name]
-                    key = f"sweep.{name}" if name in swept else f"system.{name}"
-                    w.problems.append(f"{key}: {value!r} with this cam profile: {why} (the "
-                                      "kernels' numbers must stay finite)")
-                    return
 
 
 def _fixed(rng) -> bool:
@@ -1311,13 +1273,16 @@ def _read_plot_kind(w, plot):
         if "impacts" not in w.keep:
             problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
                             "output.keep must contain \"impacts\"")
-    if kind == "obstacle" and (w.model != "flow"
-                               or w.obstacle not in ("rectified_sine", "triangle")):
+    ob = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
+    if kind == "obstacle" and not (ob is not None and ob.corner_wedge):
+        wedges = [(m.name, o.name) for m in _all_models() for o in m.obstacles.values()
+                  if o.corner_wedge]
+        models = " or ".join(dict.fromkeys(repr(m) for m, _ in wedges))
         problems.append("plot.kind: 'obstacle' draws z(t) with its corners at the period's "
-                        "start and the wedge of eq (7) (Fig. 2): it needs model 'flow' with "
-                        "obstacle 'rectified_sine' or 'triangle' (this scene: model "
-                        f"{w.model!r}" + (f", obstacle {w.obstacle!r}" if w.model == "flow"
-                                            else "") + ")")
+                        f"start and the wedge of eq (7) (Fig. 2): it needs model {models} with "
+                        "obstacle " + " or ".join(repr(o) for _, o in wedges) + " (this scene: "
+                        f"model {w.model!r}" + (f", obstacle {w.obstacle!r}" if w.spec.obstacles
+                                                else "") + ")")
     if kind == "fractions" and (len(w.axes) != 1 or w.axes[0].name.startswith(IC_PREFIX)):
         problems.append("plot.kind: 'fractions' draws the share of the starts reaching each "
                         "attractor against one swept parameter; this scene sweeps "
@@ -1383,9 +1348,11 @@ def _read_continue(w):
         pr.append(f"continue: model {w.model!r} has no orbit solver yet; continuation runs "
                   f"model {which}")
         return
-    if w.obstacle == "profile":
-        pr.append("continue: obstacle 'profile' has no orbit solver yet (it takes two pieces "
-                  "per obstacle period); sweep it, or continue a built-in obstacle")
+    kind = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
+    if kind is not None and not kind.continuation:
+        which = ", ".join(repr(o.name) for o in w.spec.obstacles.values() if o.continuation)
+        pr.append(f"continue: obstacle {w.obstacle!r} has no orbit solver yet; sweep it, or "
+                  f"continue one of the obstacles {which}")
         return
     name = c.get("parameter")
     numeric = list(w.spec.params)
@@ -1655,8 +1622,8 @@ def _scene(w) -> Scene:
         del as_run["sweep"]
     if w.section_period is not None:
         as_run["system"]["section_period"] = w.section_period
-    if getattr(w, "profile_table", None) is not None:
-        as_run["system"]["profile"] = w.profile_table
+    for key, table in getattr(w, "obstacle_tables", {}).items():
+        as_run["system"][key] = table
     if w.plot:
         as_run["plot"] = w.plot
     if w.cont:

@@ -114,14 +114,29 @@ class Field:
 
 @dataclass(frozen=True)
 class Obstacle:
-    """A periodic obstacle z(t) of the ``flow`` model: its declaration.
+    """A kind of periodic obstacle z(t) = kappa + beta g(omega t) of the ``flow`` model: its
+    declaration and its Python side.  Each kind is one module of ``cornerbif/obstacles``
+    (registered in ``registry.OBSTACLE_MODULES``) defining ``OBSTACLE``, an instance of this
+    class or of a subclass that overrides the methods below; its jitted pieces are
+    ``obstacles/dispatch.py``'s branches on its code, the only place that reads a code.
 
-    ``code``: the value of the packed parameter ``OBSTACLE`` the kernels read (their
-    jitted pieces are in ``obstacles/dispatch.py``); ``period_pi``: the period in units
-    of pi/omega; ``pieces``: smooth pieces per period (the certified search works
-    piece by piece); ``corners``: whether the slope jumps between pieces (corner
-    offsets and cluster symbols exist); ``normal_form``: the corner normal form of
-    sections 4-5 (the maps alpha, beta, gamma and theory.py) is derived for it.
+    Declared facts: ``code`` (the packed parameter ``OBSTACLE`` the kernels read),
+    ``formula``, ``period_pi`` (the period in units of pi/omega), ``pieces`` (smooth pieces
+    per period: the certified search works piece by piece), and what it can do:
+
+    * ``corners``: the slope jumps between pieces (corner offsets and cluster symbols exist);
+    * ``normal_form``: the corner normal form of sections 4-5 (the maps alpha, beta, gamma,
+      the closed forms of ``theory``: kappa_C, kappa_CC, omega_C, omega_CC) is derived for it;
+    * ``auto_section``: its attractors near omega = 2 have one cluster every second corner,
+      and the Poincare section's corners are put between the clusters (``models.flow.kernel``);
+    * ``word_seeds``: a bare word of cluster letters seeds a periodic orbit (continuation);
+    * ``continuation``: the flow's orbit problem applies (``models/flow/orbit.py``);
+    * ``corner_wedge``: one corner per period at its start with a slope on each side, the
+      wedge of eq (7) (``[plot] kind = "obstacle"``);
+    * ``params``: its own ``Param``s (the triangle's slopes); ``tables``: its own
+      ``[system]`` tables (a cam's ``profile``), read by ``read_tables``;
+    * ``own_kernel``: its packed rows are longer (``NPARAM_PROFILE``) and run on a kernel of
+      their own (``models.flow.kernel.run_batch_profile``).
     """
 
     name: str
@@ -131,9 +146,78 @@ class Obstacle:
     pieces: int
     corners: bool
     normal_form: bool = False
+    auto_section: bool = False
+    word_seeds: bool = False
+    continuation: bool = True
+    corner_wedge: bool = False
+    params: tuple = ()
+    tables: tuple = ()
+    own_kernel: bool = False
 
-    def period(self, omega: float) -> float:
+    @property
+    def corner_each_piece(self) -> bool:
+        """Every piece starts at a corner (one smooth piece per period, with corners)."""
+        return self.corners and self.pieces == 1
+
+    # ``table`` below is what ``read_tables`` read from the scene (``Scene.profile`` for a
+    # cam), None for a kind without tables
+    def period(self, omega: float, table=None) -> float:
+        """The period of z(t) at frequency omega."""
         return self.period_pi * math.pi / omega
+
+    def pieces_per_period(self, table=None) -> int:
+        return self.pieces
+
+    def section_period(self, omega: float, table=None) -> float:
+        """The Poincare section's period when the scene gives none: T = 2 pi / omega."""
+        return 2.0 * math.pi / omega
+
+    def read_tables(self, system: dict, w) -> None:
+        """Read this kind's own ``[system]`` tables into the scene being read (``w``), adding
+        each problem to ``w.problems``."""
+
+    def check_scales(self, w, axes) -> None:
+        """Problems of the kind at the scene's extreme parameter values (``w.problems``)."""
+
+    def pack_rows(self, rows: np.ndarray, values: dict, table=None) -> None:
+        """Write the kind's own slots of packed rows (the triangle's slopes, a cam's table);
+        ``values`` maps each named parameter to one value or one per row."""
+
+    def top(self, ctx) -> float | None:
+        """The obstacle's highest point over a period at the scene's largest kappa and beta,
+        or None when unknown."""
+        return max(ctx.values_list("kappa")) + max(ctx.values_list("beta"))
+
+    def height_at_zero(self, ctx, kappa: float) -> tuple:
+        """(z(0) at the largest kappa and beta, the words that name it): kappa for a kind whose
+        g(0) = 0."""
+        return kappa, "kappa"
+
+    def marks(self, ax, axes: tuple, values: dict, system: dict) -> list:
+        """What a diagram of this kind's scene marks on its swept axis beyond the normal form's
+        corner points (matplotlib artists on ``ax``; ``axes`` the file's swept names,
+        ``values`` their values, ``system`` its [system] table)."""
+        return []
+
+    def resonant_amplitude(self, values: dict) -> float | None:
+        """The amplitude b of a closed-form orbit u = b |sin t| at these values, where the
+        kind has one (the smooth wall's eq 6), else None."""
+        return None
+
+    def has_corners(self, table=None) -> bool:
+        """Whether its runs have corners (a cam's: where some joint's slope jumps)."""
+        return self.corners
+
+    def corner_places(self, rows: np.ndarray, ids: np.ndarray, has: np.ndarray) -> np.ndarray:
+        """``impacts/corner``: the place of each impact's corner among its period's corners,
+        from the kernel's corner ids (``obstacles.dispatch.corner_of``) where ``has`` (an
+        impact with corners): 0 for a kind with one corner per period."""
+        return np.zeros(ids.shape, np.int64)
+
+    def speed(self, values: dict, table=None) -> float:
+        """The obstacle's largest speed |z'| at one grid point: beta omega for a kind whose
+        |g'| is at most 1."""
+        return float(values["beta"]) * float(values["omega"])
 
 
 @dataclass(frozen=True)
@@ -179,7 +263,9 @@ class Model:
     with the same word, ``cycle/signature`` and ``cycle/point`` in the file),
     ``start_time`` (a ``Coord`` for the time t0 at which each run starts, the obstacle's
     phase at the start: a start coordinate beside the state, ``[initial] t`` and
-    ``[sweep] initial.t``, the kernel's last start column; not carried by ``follow``).
+    ``[sweep] initial.t``, the kernel's last start column; not carried by ``follow``),
+    ``axis_labels`` (a figure's labels of its own axes and diagram values where they are not
+    the flow's: the maps' start (a_0, b_1) and section (a_n, b_n)).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -208,6 +294,7 @@ class Model:
     seed_observable: str = ""
     cycle: CycleSeries | None = None
     start_time: Coord | None = None
+    axis_labels: dict = field(default_factory=dict)
 
     # --- declared facts, derived ------------------------------------------------------
     @property

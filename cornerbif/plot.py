@@ -35,6 +35,15 @@ class Undrawable(SweepError, ValueError):
     (exit 2); the message names each file and what it holds."""
 
 
+def obstacle_kind(system: dict):
+    """The obstacle kind (``model.Obstacle``) a file's ``[system]`` names, the default where it
+    names none (the figures ask it what it draws: corner curves, marks, its wedge)."""
+    from .model import Obstacle
+    name = system.get("obstacle", registry.DEFAULT_OBSTACLE)
+    known = registry.obstacles().get(name) if isinstance(name, str) else None
+    return known or Obstacle(str(name), -1, "not a registered obstacle", 1, 1, corners=False)
+
+
 LABELS = {
     "initial.u": r"start $u(t_0)$", "initial.v": r"start $v(t_0)$",
     "initial.z": r"start $z(t_0)$", "initial.y": r"start $y(t_0)$",
@@ -52,29 +61,29 @@ YLABELS = {
     "winding": r"winding number $W$ (share of $\gamma$, §5.4)",
     "period": "period (clusters per cycle)",
 }
-# the maps' start is the point x = (a_0, b_1) of their plane (section 4, Fig. 9)
-MAP_STARTS = {"initial.u": r"start $a_0$", "initial.v": r"start $b_1$"}
+def _model_labels(model: str | None) -> dict:
+    """The labels a model declares for its own axes (``Model.axis_labels``)."""
+    spec = registry.models().get(model) if isinstance(model, str) else None
+    return spec.axis_labels if spec is not None else {}
 
 
 def axis_label(name: str, model: str | None = None) -> str:
     """The label of a swept axis ``name`` for a file of ``model``."""
-    if model == "map2d" and name in MAP_STARTS:
-        return MAP_STARTS[name]
-    return LABELS.get(name, name)
+    return _model_labels(model).get(name) or LABELS.get(name, name)
 
 
-# the section of the local 2D maps (sections 4-5) is (a_n, b_n); a flow's is (u(nT), v(nT))
-MAP_SECTION = {"section_u": r"$a_n$", "section_v": r"$b_n$"}
+# the diagram's y values that a model may name in its own terms (the maps' section is
+# (a_n, b_n), a flow's (u(nT), v(nT)))
+SECTION_KINDS = ("section_u", "section_v")
 
 
 def y_label(kind: str, model: str | None = None) -> str:
-    """The axis label of a drawn ``kind`` for a file of ``model`` (the maps' section is
-    a_n, b_n; a flow's u(nT), v(nT); a file of either compared on one axis names both)."""
-    if kind in MAP_SECTION:
-        if model == "map2d":
-            return MAP_SECTION[kind]
-        if model is None:
-            return YLABELS[kind]
+    """The axis label of a drawn ``kind`` for a file of ``model`` (its own label where it
+    declares one; a file of several models compared on one axis names both)."""
+    own = _model_labels(model).get(kind)
+    if own:
+        return own
+    if kind in SECTION_KINDS and model is not None:
         return YLABELS[kind].split(" (")[0]
     return YLABELS.get(kind, kind)
 
@@ -780,7 +789,7 @@ def draw_corner_curves_continued(ax, conts, colors=None):
                             label=f"branch {b} ({_word_label(word)}): {what}, continued")
     sys_ = tomllib.loads(conts[0]["scene"]).get("system", {})
     cv0 = next(cv for c in conts for cv in c["curves"])
-    if names == ("omega", "kappa") and sys_.get("obstacle", "rectified_sine") == "rectified_sine":
+    if names == ("omega", "kappa") and obstacle_kind(sys_).normal_form:
         r, beta = sys_.get("r", 0.8), sys_.get("beta", 1.0)
         w = np.linspace(cv0["param"].min(), cv0["param"].max(), 300)
         arts += ax.plot(w, [theory.kappa_C(t, r, beta) for t in w], ":", color="tab:red",
@@ -899,10 +908,9 @@ def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
     """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis
     (``mono``: in greys, beside curves coloured by attractor)."""
     sys_ = data.scene.get("system", {})
-    if sys_.get("obstacle") == "profile":
-        return draw_jump_speed(ax, data)
-    if sys_.get("obstacle", "rectified_sine") != "rectified_sine":
-        return []
+    kind = obstacle_kind(sys_)
+    if not kind.normal_form:      # the kind's own marks (a cam's jump speed), if any
+        return kind.marks(ax, data.axes, data.values, sys_)
     if not data.axes:
         return []
     a = data.axes[0]
@@ -929,29 +937,6 @@ def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
             arts.append(ax.axvline(x, color="0.3" if mono else c, lw=0.8,
                                    ls=("--", "-.")[i] if mono else "--", label=f"{lab} = {x:.6g}"))
     return arts
-
-
-def draw_jump_speed(ax, data: PlotData):
-    """A cam profile swept in omega with a constant force (Omega = 0: a follower's spring
-    preload): the jump speed above which a follower riding the cam leaves it
-    (``obstacles.profile.jump_speed``), a vertical line."""
-    sys_ = data.scene.get("system", {})
-    if not data.axes or data.axes[0] != "omega" or sys_.get("Omega", 1.0) != 0.0:
-        return []
-    from .obstacles.profile import jump_speed, read
-    prof = read(sys_["profile"])
-    force = sys_.get("F", 0.0) * math.cos(sys_.get("phi", 0.0))
-    w = jump_speed(prof, sys_.get("kappa", 0.0), sys_.get("beta", 1.0), sys_.get("k", 1.0),
-                   force, sys_.get("sigma", 0.0), sys_.get("r", 0.8))
-    x = data.values["omega"]
-    if w == 0.0:
-        return [ax.text(0.99, 0.99, "no jump speed: the follower leaves the cam at every "
-                        "speed (a corner launches or strikes it)",
-                        transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.3")]
-    if w is None or not (x.min() <= w <= x.max()):
-        return []
-    return [ax.axvline(w, color="tab:red", lw=0.8, ls="--",
-                       label=rf"jump speed $\omega_j$ = {w:.6g}")]
 
 
 def draw_plane(ax, data: PlotData):
@@ -1000,7 +985,7 @@ def draw_plane_curves(ax, data: PlotData):
     a, b = data.axes[:2]
     x, y = data.values[a], data.values[b]
     sys_ = data.scene.get("system", {})
-    if {a, b} == {"omega", "kappa"} and sys_.get("obstacle", "rectified_sine") == "rectified_sine":
+    if {a, b} == {"omega", "kappa"} and obstacle_kind(sys_).normal_form:
         r = sys_.get("r", 0.8)
         beta = sys_.get("beta", 1.0)
         w = np.linspace(x.min(), x.max(), 400) if a == "omega" else np.linspace(y.min(), y.max(), 400)
@@ -1815,7 +1800,9 @@ def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
     with check_readable(path) as f:
         scene = C.loads(f.attrs["scene"])
         if not scene.spec.timeseries:
-            raise ValueError(f"{path}: a time series needs a 'flow' scene, not {scene.model!r}")
+            which = " or ".join(repr(m.name) for m in registry.models().values() if m.timeseries)
+            raise ValueError(f"{path}: a time series needs a scene of model {which}, not "
+                             f"{scene.model!r}")
         if "impacts/t" not in f:
             raise ValueError(f"{path}: a time series needs the impacts: set output.keep = [\"impacts\"]")
         idx = tuple(point) + (ic,)
@@ -1881,10 +1868,9 @@ def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
                      f"{r['ipc']}, word {_word_text(r['word'])}; the rebuilt flight meets $z$ at "
                      f"the next impact to {r['meet']:.1e}", fontsize=7, loc="left")
         v = r["vals"]
-        if (data.scene["system"].get("obstacle") == "sine" and v["omega"] == 2.0 and v["kappa"] == 0.0
-                and v.get("sigma", 0.0) == 0.0 and v.get("k", 1.0) == 1.0 and v.get("F", 0.0) == 0.0):
-            # the resonant orbit u = 2 beta (1 + r)/(1 - r) |sin t| of eq (6)
-            b = theory.resonant_amplitude(v["r"], v["beta"])
+        b = obstacle_kind(data.scene["system"]).resonant_amplitude(v)
+        if b is not None:
+            # the resonant orbit u = b |sin t| of eq (6)
             ss = np.linspace(r["t"][r["t"] >= r["t0"]][0], r["t1"], 2000)
             ax.plot(ss - r["t0"], b * np.abs(np.sin(ss)), "--", color="tab:red", lw=0.9,
                     label=f"eq (6): ${b:.6g}\\,|\\sin t|$")
@@ -1955,18 +1941,17 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
 
 
 def obstacle_curve(data: PlotData):
-    """z(t) of a flow scene's obstacle at its system values (``models.flow.kernel``
-    ``obstacle_heights``, the kernels' own obstacle) as a function of t, its period and
-    the scene."""
+    """z(t) of a scene's obstacle at its system values (the model's ``wall_at``: the kernels'
+    own obstacle) as a function of t, its period and the scene."""
     from .config import loads
-    from .models.flow import packed as P
-    from .models.flow.kernel import obstacle_heights
     scene = loads(data.scene_text)
-    row = np.ascontiguousarray(registry.get("flow").pack_values(scene.system, scene)[None, :])
+    model = registry.get(scene.model)
+    row = np.ascontiguousarray(model.pack_values(scene.system, scene)[None, :])
 
     def z(t):
-        return obstacle_heights(row, np.ascontiguousarray(np.asarray(t, float)[None, :]))[0]
-    return z, P.obstacle_period(scene.obstacle, scene.system["omega"], scene.profile), scene
+        return model.wall_at(row, np.asarray(t, float)[None, :])[0]
+    kind = model.obstacles[scene.obstacle]
+    return z, kind.period(scene.system["omega"], scene.profile), scene
 
 
 def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
@@ -1985,7 +1970,7 @@ def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
     ax.plot(t, z, color="k", lw=1.0, label="$z(t)$")
     corners = per * np.arange(0, int(cycles) + 1)
     kap = float(sys_.get("kappa", 0.0))
-    if scene.obstacle in ("rectified_sine", "triangle"):
+    if obstacle_kind(sys_).corner_wedge:
         ax.plot(corners, np.full(corners.size, kap), "o", ms=4, mfc="w", mec="tab:red",
                 label=r"corners $t_k = k\pi/\omega$")
     ax.set_xlabel("$t$")

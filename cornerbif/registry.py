@@ -1,7 +1,9 @@
-"""The model registry: one object per model (``cornerbif.model.Model``).
+"""The registries: one object per model (``cornerbif.model.Model``) and one per obstacle
+kind of the ``flow`` model (``cornerbif.model.Obstacle``).
 
-A new model is its own files (its declaration module, its kernel) and one line in
-``MODEL_MODULES`` below; nothing else in the package names a model
+A new model is its own folder (``models/<name>/``) and one line in ``MODEL_MODULES``; a new
+obstacle kind is its own module (``obstacles/<name>.py``) and one line in
+``OBSTACLE_MODULES``.  Nothing else in the package names a model or an obstacle
 (docs/architecture.md).
 """
 
@@ -16,7 +18,25 @@ MODEL_MODULES = (
     "cornerbif.models.two_particle.model",
 )
 
+# each module defines OBSTACLE, a cornerbif.model.Obstacle instance (its code unique)
+OBSTACLE_MODULES = (
+    "cornerbif.obstacles.sine",
+    "cornerbif.obstacles.rectified_sine",
+    "cornerbif.obstacles.triangle",
+    "cornerbif.obstacles.profile",
+)
+
 _MODELS = {}
+_OBSTACLES = {}
+
+
+def obstacles() -> dict:
+    """Every registered obstacle kind, name -> Obstacle, in registration order."""
+    if not _OBSTACLES:
+        for path in OBSTACLE_MODULES:
+            o = importlib.import_module(path).OBSTACLE
+            _OBSTACLES[o.name] = o
+    return _OBSTACLES
 
 
 def models() -> dict:
@@ -38,3 +58,5 @@ def get(name: str):
 
 
 DEFAULT_MODEL = "flow"
+# the flow model's obstacle when a scene names none: the paper's, eq (8)
+DEFAULT_OBSTACLE = "rectified_sine"

@@ -303,7 +303,6 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
 
 
 def simulate(*starts, **kw):
-    """The ``flow`` model from Python: ``cornerbif.simulate(*starts, model="flow", **kw)``."""
+    """``cornerbif.simulate(*starts, **kw)`` (the default model, ``registry.DEFAULT_MODEL``)."""
     from .api import simulate as _simulate
-    kw.setdefault("model", "flow")
     return _simulate(*starts, **kw)

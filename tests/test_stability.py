@@ -20,6 +20,7 @@ from cornerbif.models.flow import packed as P
 from cornerbif.models.flow import tangent as FT
 from cornerbif.numerics import saltation as SAL
 from cornerbif.numerics.oscillator import derive
+from cornerbif.obstacles import dispatch as OB
 
 
 @pytest.mark.parametrize("sigma,k", [(0.0, 1.0), (0.1, 1.0), (1.0, 1.0), (1.7, 1.0),
@@ -103,7 +104,7 @@ def test_a_grazing_impact_gives_no_multipliers():
     """A record whose impact 1 is reached by the free flight from impact 0 (k = 1, no
     forcing: u = u0 cos t + v0 sin t) with exactly the obstacle's velocity: w- = 0."""
     prm = P.pack(dict(omega=2.0, kappa=0.0), "rectified_sine", 1e-12, 1e-6, 1e6, None)
-    zp, _ = FT.obstacle_at_offset(prm, derive(prm), 1.0, 0.3)
+    zp, _ = OB.obstacle_at_offset(prm, derive(prm), 1.0, 0.3)
     v0 = zp / np.cos(1.0)
     t = np.array([0.0, 1.0, 2.0])
     u = np.array([0.0, v0 * np.sin(1.0), 0.0])

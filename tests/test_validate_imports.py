@@ -134,11 +134,11 @@ def test_validate_loads_no_numba_and_no_kernel():
                                        {"law": "polynomial_345", "span": math.pi / 2, "rise": -1.5}]},
 ])
 def test_profile_checks_equal_the_kernels_bounds(table):
-    """A cam's scale check reads its bounds in Python (``models.flow.params.row_bound``,
+    """A cam's scale check reads its bounds in Python (``obstacles.profile.row_bound``,
     ``npp_bound``): the same numbers as the obstacle's jitted functions run as Python, also
     where they overflow (a scene's check meets its extremes)."""
     from cornerbif.models.flow import packed as P
-    from cornerbif.models.flow import params as FP
+    from cornerbif.obstacles import profile as FP
     from cornerbif.obstacles import dispatch as O
     from cornerbif.obstacles import profile as PR
     prof = PR.read(table)

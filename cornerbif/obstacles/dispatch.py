@@ -6,8 +6,9 @@ derivatives (``z_state``; ``sine_amp``, ``sine_part`` for sinusoidal pieces), th
 of the certified searches (``zpp_range``, ``zppp_max``, ``zpppp_max``, ``contact_npp``,
 ``sturm_floors``, ``contact_floor``), the nearest corner of an event (``corner_of``) and
 the per-run switches of the flow kernel (``cycle_lag``, ``sinusoidal``).  A new obstacle adds a
-branch to each of them, and its Python declaration (name, code, period, pieces per
-period) in ``models/flow/params.py``; docs/kernels.md says what each must return.
+branch to each of them, beside its own module (``obstacles/<name>.py``: its declaration and
+Python side, registered in ``registry.OBSTACLE_MODULES``); docs/kernels.md says what each
+must return.
 
 Time is kept as a piece index ``j`` and a local time ``tau`` in [0, L_j]
 (docs/kernels.md, "Obstacles"): precision stays at rounding level over long runs, and a corner is
@@ -30,6 +31,16 @@ from numba.extending import overload
 
 from .._jit import jit, load_f64
 from ..models.flow import packed as P
+from .profile import OBSTACLE as _profile
+from .rectified_sine import OBSTACLE as _rectified_sine
+from .sine import OBSTACLE as _sine
+from .triangle import OBSTACLE as _triangle
+
+# the obstacle codes the branches below compare, each its kind's (registry.OBSTACLE_MODULES)
+SINE = _sine.code                      # section 2.2 (smooth, no corners)
+RECTIFIED_SINE = _rectified_sine.code  # eq (8), corners at k pi / omega
+TRIANGLE = _triangle.code              # eq (7) made periodic with period pi / omega
+PROFILE = _profile.code                # a cam profile (obstacles/profile.py)
 
 # derived per-point quantities (filled once per run by ``derive``)
 D_L0 = 0        # length of even pieces
@@ -128,14 +139,14 @@ def _ov_cycle_slot(d, m, dslot, pcslot):
 
 def is_profile(p):
     """Whether the packed parameters are a profile's (``obstacle = "profile"``)."""
-    return p[P.OBSTACLE] == P.PROFILE
+    return p[P.OBSTACLE] == PROFILE
 
 
 @overload(is_profile)
 def _is_profile(p):
     if _short(p, P.NPARAM):
         return lambda p: False
-    return lambda p: p[P.OBSTACLE] == P.PROFILE
+    return lambda p: p[P.OBSTACLE] == PROFILE
 
 
 def cycle_np(d):
@@ -155,14 +166,14 @@ def piece_lengths(p):
     """(L0, L1, L0 + L1): the lengths of the even and the odd pieces, and of a pair (a
     profile of more than two pieces: its first two, and its period; ``profile_pieces``)."""
     w = p[P.OMEGA]
-    if p[P.OBSTACLE] == P.PROFILE:
+    if p[P.OBSTACLE] == PROFILE:
         n = np.int64(p[P.PROFILE_NP])
         L0 = profile_slot(p, P.PROFILE0 + P.PC_LEN)
         if n == 1:
             return L0, L0, 2.0 * L0
         L1 = profile_slot(p, P.PROFILE0 + P.PIECE_STRIDE + P.PC_LEN)
         return L0, L1, (L0 + L1) if n == 2 else p[P.PROFILE_PERIOD] / w
-    if p[P.OBSTACLE] == P.TRIANGLE:
+    if p[P.OBSTACLE] == TRIANGLE:
         per = math.pi / w
         t1 = p[P.THETA1]
         t2 = p[P.THETA2]
@@ -212,7 +223,7 @@ def contact_npp(p, f2):
     """Bound of |N''|, N = z'' + 2 sigma z' + k^2 z - f the contact force while stuck,
     given f2 >= |f''| (the forcing's share): a bound of |z'''' + 2 sigma z''' + k^2 z''|
     plus f2."""
-    if p[P.OBSTACLE] == P.TRIANGLE:
+    if p[P.OBSTACLE] == TRIANGLE:
         return f2
     w = p[P.OMEGA]
     k = p[P.K]
@@ -233,16 +244,16 @@ def sturm_floors(p, d):
     """
     kap = p[P.KAPPA]
     ob = p[P.OBSTACLE]
-    if ob == P.PROFILE:
+    if ob == PROFILE:
         n = np.int64(p[P.PROFILE_NP])
         return profile_sturm_floor(p, 0), profile_sturm_floor(p, 1 % n)
-    if ob == P.TRIANGLE:
+    if ob == TRIANGLE:
         f = -(kap + p[P.THETA2] * d[D_L0])
         return f, f
     k = p[P.K]
     w = p[P.OMEGA]
     a = p[P.BETA] * (w * w - k * k) / (k * k)
-    return -kap + min(0.0, a), -kap + min(0.0, -a if ob == P.SINE else a)
+    return -kap + min(0.0, a), -kap + min(0.0, -a if ob == SINE else a)
 
 
 @jit
@@ -261,7 +272,7 @@ def contact_floor(p):
     """
     ob = p[P.OBSTACLE]
     b = p[P.BETA]
-    if ob == P.TRIANGLE or ob == P.PROFILE or (ob == P.RECTIFIED_SINE and b != 0.0):
+    if ob == TRIANGLE or ob == PROFILE or (ob == RECTIFIED_SINE and b != 0.0):
         return -math.inf
     k2 = p[P.K] * p[P.K]
     w = p[P.OMEGA]
@@ -276,14 +287,14 @@ def cycle_lag(p):
     (``flow.cycle_watch``) looks for a repeating state at multiples of this lag."""
     if is_profile(p):
         return profile_np(p)
-    return 1 if p[P.OBSTACLE] == P.RECTIFIED_SINE else 2
+    return 1 if p[P.OBSTACLE] == RECTIFIED_SINE else 2
 
 
 @jit
 def sinusoidal(p):
     """Whether every piece is z = kappa + b sin(omega tau), b = ``sine_amp``: then the flow
     kernel's free-flight fast path (``flow.first_impact_free``, its phase grid) applies."""
-    return p[P.OBSTACLE] != P.TRIANGLE and p[P.OBSTACLE] != P.PROFILE
+    return p[P.OBSTACLE] != TRIANGLE and p[P.OBSTACLE] != PROFILE
 
 
 @jit
@@ -334,7 +345,7 @@ def sturm_floor(d, j):
 def profile_cycle(p, d):
     """Fill the per-piece slots of ``d`` for a profile of more than two pieces (its
     lengths, starts and Sturm floors); two for every other obstacle."""
-    if p[P.OBSTACLE] != P.PROFILE or p[P.PROFILE_NP] <= 2.0:
+    if p[P.OBSTACLE] != PROFILE or p[P.PROFILE_NP] <= 2.0:
         d[D_NP] = 2.0
         return
     n = np.int64(p[P.PROFILE_NP])
@@ -352,7 +363,7 @@ def z_state(p, j, tau):
     ob = p[P.OBSTACLE]
     if is_profile(p):
         return profile_state(p, j, tau)
-    if ob == P.TRIANGLE:
+    if ob == TRIANGLE:
         if j % 2 == 0:
             return p[P.KAPPA] + p[P.THETA2] * tau, p[P.THETA2], 0.0, 0.0
         L1 = p[P.THETA2] * math.pi / p[P.OMEGA] / (p[P.THETA1] + p[P.THETA2])
@@ -405,7 +416,7 @@ def _profile_state(p, j, tau):
 def sine_amp(p, j):
     """Amplitude b of z - kappa = b sin(omega tau) on piece j of a sinusoidal obstacle:
     beta for rectified_sine, +-beta on the even/odd half periods of sine."""
-    if p[P.OBSTACLE] == P.SINE and j % 2 == 1:
+    if p[P.OBSTACLE] == SINE and j % 2 == 1:
         return -p[P.BETA]
     return p[P.BETA]
 
@@ -422,12 +433,12 @@ def sine_part(p, j, tau):
 def zpp_range(p, j):
     """Lower and upper bound of z'' on piece j (used by the certified event search)."""
     ob = p[P.OBSTACLE]
-    if ob == P.TRIANGLE:
+    if ob == TRIANGLE:
         return 0.0, 0.0
     if is_profile(p):
         return profile_zpp_range(p, j)
     a = p[P.BETA] * p[P.OMEGA] * p[P.OMEGA]
-    if ob == P.SINE and j % 2 == 1:
+    if ob == SINE and j % 2 == 1:
         return 0.0, a
     return -a, 0.0
 
@@ -435,7 +446,7 @@ def zpp_range(p, j):
 @jit
 def zppp_max(p):
     """Bound of |z'''| on every piece."""
-    if p[P.OBSTACLE] == P.TRIANGLE:
+    if p[P.OBSTACLE] == TRIANGLE:
         return 0.0
     if is_profile(p):
         return p[P.BETA] * p[P.OMEGA] ** 3 * profile_bound(p, P.PC_G3)
@@ -445,7 +456,7 @@ def zppp_max(p):
 @jit
 def zpppp_max(p):
     """Bound of |z''''| on every piece (used by the sinusoidal fast search)."""
-    if p[P.OBSTACLE] == P.TRIANGLE:
+    if p[P.OBSTACLE] == TRIANGLE:
         return 0.0
     if is_profile(p):
         return p[P.BETA] * p[P.OMEGA] ** 4 * profile_bound(p, P.PC_G4)
@@ -462,7 +473,7 @@ def corner_of(p, d, j, tau):
     without corners is grouped by its periods, as ``sine``.
     """
     ob = p[P.OBSTACLE]
-    if ob == P.RECTIFIED_SINE:
+    if ob == RECTIFIED_SINE:
         L = d[D_L0]
         if tau < 0.5 * L:
             return j, tau
@@ -607,3 +618,27 @@ def _ov_profile_corner(p, d, j, tau):
     if _short(p, P.NPARAM):
         return lambda p, d, j, tau: (j, tau, False)
     return lambda p, d, j, tau: _profile_corner(p, d, j, tau)
+
+
+@jit
+def obstacle_at_offset(p, d, t, offset):
+    """(z', z'') of the obstacle at an impact given by its offset to the nearest valley
+    corner (``impacts/corner_offset``: t - t_corner, >= 0 after the corner): the slope
+    and curvature of the piece the impact lies on, as the kernel's law (5) used them.  A
+    profile's impact is placed by its time t (its corners need not start a period); one
+    at a joint takes the piece on the offset's side."""
+    if p[P.OBSTACLE] == PROFILE:
+        j, tau = piece_at(d, t)
+        if offset < 0.0 and tau == 0.0:
+            j -= 1
+            tau = piece_length(d, j)
+        _, zp, zpp, _ = z_state(p, j, tau)
+        return zp, zpp
+    L0, L1, per = piece_lengths(p)
+    if p[P.OBSTACLE] == RECTIFIED_SINE:
+        j, tau = (0, offset) if offset >= 0.0 else (0, L0 + offset)
+    else:
+        x = offset if offset >= 0.0 else per + offset
+        j, tau = (0, x) if x < L0 else (1, x - L0)
+    _, zp, zpp, _ = z_state(p, j, tau)
+    return zp, zpp

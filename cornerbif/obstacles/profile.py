@@ -42,7 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import KEY_CHARS, cut, is_number, shown
+from ..model import KEY_CHARS, Obstacle, cut, is_number, shown
+from ..models.flow import slots as P
 
 MAX_PIECES = 8        # pieces per period (the packed vector's room; docs/cams.md)
 MAX_DEGREE = 7
@@ -403,26 +404,26 @@ def scale_problem(profile: Profile, omega: float, beta: float, k: float, kappa: 
     contact force's N'' and the Sturm floors.  Each is read from the row the kernels are
     given (``params.pack``: the pieces' bounds, Sturm bounds and floors) or computed as the
     obstacle's own functions compute them (``obstacle.profile_g2_abs``, ``_profile_max``,
-    ``npp_bound``; in Python, ``models.flow.params.row_bound`` and ``npp_bound``: checking a scene
+    ``npp_bound``; in Python, ``row_bound`` and ``npp_bound`` here: checking a scene
     loads no numba and compiles nothing).  Each grows with |omega|, beta, sigma and k (a
     floor also as 1 / k^2), so a scene checks its extremes."""
-    from ..models.flow import params as P
     with np.errstate(all="ignore"):
         w = np.float64(abs(omega))
         if not math.isfinite(np.float64(profile.period) / w):
             return "omega", f"the period in time, {profile.period!r} / omega, overflows float64"
-        row = P.pack({"omega": w, "beta": beta, "k": k, "kappa": kappa, "sigma": sigma},
-                     "profile", 0.0, 0.0, 0.0, None, profile=profile)
+        row = np.zeros(P.NPARAM_PROFILE)
+        row[P.OMEGA], row[P.BETA], row[P.K], row[P.KAPPA], row[P.SIGMA] = w, beta, k, kappa, sigma
+        pack_profile(row, profile)
         b = row[P.BETA]
-        G = (P.row_bound(row, P.PC_G2_LO, P.PC_G2_HI), P.row_bound(row, P.PC_G3),
-             P.row_bound(row, P.PC_G4))                     # g'', g''', g''''
+        G = (row_bound(row, P.PC_G2_LO, P.PC_G2_HI), row_bound(row, P.PC_G3),
+             row_bound(row, P.PC_G4))                     # g'', g''', g''''
         for j, g in zip((2, 3, 4), G):
             if not (math.isfinite(b * w ** j) and math.isfinite(b * w ** j * g)):
                 top = (FLOAT_MAX / 1e3 / (b * max(g, 1.0))) ** (1.0 / j) if b > 0 else 0.0
                 return "omega", (f"the certified bound of z's derivative {j}, beta omega^{j} "
                                  f"max|g^({j})| (beta {beta!r}, max|g^({j})| {g:.6g}), overflows "
                                  f"float64; omega at most about {top:.3g} with this beta")
-        if not math.isfinite(P.npp_bound(b, w, row[P.SIGMA], row[P.K], *G)):
+        if not math.isfinite(npp_bound(b, w, row[P.SIGMA], row[P.K], *G)):
             name = "sigma" if not math.isfinite(2.0 * row[P.SIGMA] * w * G[1]) else "k"
             return name, ("the bound of the contact force's second derivative, beta omega^2 "
                           "(omega^2 G4 + 2 sigma omega G3 + k^2 G2), overflows float64")
@@ -552,3 +553,178 @@ def sturm_bound(piece: Piece, k, omega):
     q = k * k - omega * omega * piece.n ** 2
     slo, shi = sinusoid_range(piece.a, piece.b, piece.n, piece.span)
     return hi + max(q * slo, q * shi)
+
+
+def pack_profile(p, profile):
+    """Write a checked ``Profile`` (obstacles/profile.py) into the PROFILE_* slots of ``p``."""
+    p[P.PROFILE_NP] = len(profile.pieces)
+    p[P.PROFILE_PERIOD] = profile.period
+    p[P.PROFILE_CORNERS] = 1.0 if profile.has_corners else 0.0
+    start = 0.0
+    for m, pc in enumerate(profile.pieces):
+        o = P.PROFILE0 + m * P.PIECE_STRIDE
+        p[o + P.PC_SPAN] = pc.span
+        p[o + P.PC_C0:o + P.PC_C0 + 8] = pc.poly
+        p[o + P.PC_A], p[o + P.PC_B], p[o + P.PC_N] = pc.a, pc.b, pc.n
+        p[o + P.PC_G_LO:o + P.PC_G4 + 1] = bounds(pc)
+        p[o + P.PC_CORNER] = 1.0 if profile.corners[m] else 0.0
+        p[o + P.PC_START] = start
+        p[o + P.PC_STURM] = sturm_bound(pc, p[P.K], p[P.OMEGA])
+        p[o + P.PC_LEN] = pc.span / p[P.OMEGA]
+        p[o + P.PC_T0] = start / p[P.OMEGA]
+        if p[P.K] > 0.0:
+            p[o + P.PC_FLOOR] = -p[P.KAPPA] - p[P.BETA] * p[o + P.PC_STURM] / (p[P.K] * p[P.K])
+        nz = np.flatnonzero(np.array(pc.poly))
+        p[o + P.PC_DEG] = nz[-1] if nz.size else 0
+        start += pc.span
+
+
+# --- a profile's bounds, read from its packed row as obstacles/dispatch.py's jitted functions
+# read them, in Python: ``scale_problem`` checks a scene with these, loading no numba
+# (tests/test_validate_imports.py checks that both give the same numbers)
+def row_bound(row, *slots):
+    """The largest |row[o + slot]| over the pieces o of a profile's packed row (``pack``)
+    and the ``slots`` given: ``obstacle._profile_max(row, slot)`` for one slot,
+    ``obstacle.profile_g2_abs(row)`` for PC_G2_LO and PC_G2_HI."""
+    n = np.int64(row[P.PROFILE_NP])
+    m = 0.0
+    for i in range(n):
+        o = P.PROFILE0 + i * P.PIECE_STRIDE
+        for slot in slots:
+            m = max(m, abs(row[o + slot]))
+    return m
+
+
+def npp_bound(beta, w, sigma, k, g2, g3, g4):
+    """``obstacle.npp_bound``: beta omega^2 (omega^2 g4 + 2 sigma omega g3 + k^2 g2), the
+    bound of the contact force's |N''| less the forcing's share."""
+    return beta * w * w * (w * w * g4 + 2.0 * sigma * w * g3 + k * k * g2)
+
+
+# ------------------------------------------------------------------ the kind
+class CamProfile(Obstacle):
+    """``obstacle = "profile"``: a cam profile given by the scene's ``[system.profile]``
+    table, whose period, pieces and corners are the table's own."""
+
+    def period(self, omega, table=None):
+        return table.period / omega
+
+    def pieces_per_period(self, table=None):
+        return len(table.pieces)
+
+    def section_period(self, omega, table=None):
+        """The profile's own period (its section is one turn of the cam)."""
+        return self.period(omega, table)
+
+    def read_tables(self, system, w):
+        """``[system.profile]`` read and checked (``read``) into ``w.profile``; what was read,
+        as the scene records it, into ``w.obstacle_tables``."""
+        table = system.get("profile")
+        if table is None:
+            w.problems.append("system.profile: obstacle = \"profile\" needs a "
+                              "[system.profile] table (period, pieces; docs/cams.md)")
+            return
+        try:
+            w.profile = read(table)
+        except ProfileError as e:
+            w.problems += e.problems
+            return
+        record = {"period": float(table.get("period", w.profile.period)),
+                  "pieces": table["pieces"]}
+        if "corners" in table:
+            record["corners"] = table["corners"]
+        w.obstacle_tables["profile"] = record
+
+    def check_scales(self, w, axes):
+        """The profile at the scene's extreme omega, beta, k and kappa (swept or fixed): a
+        problem, naming the parameter's key and value, where the kernels' numbers would not
+        be finite (``scale_problem``: lengths in time, certified bounds, Sturm floors)."""
+        swept = {a.name: a.values for a in axes}
+
+        def values(name):
+            v = swept.get(name, [w.system.get(name)])
+            return [x for x in v if x is not None and math.isfinite(x)] or [0.0]
+        for omega in {min(values("omega")), max(values("omega"))}:
+            for k in {min(values("k")), max(values("k"))}:
+                for kappa in {min(values("kappa")), max(values("kappa"))}:
+                    beta = max(values("beta"))
+                    if omega <= 0.0:
+                        continue
+                    sigma = max(values("sigma"))
+                    found = scale_problem(w.profile, omega, beta, k, kappa, sigma)
+                    if found:
+                        name, why = found
+                        value = {"omega": omega, "beta": beta, "k": k, "sigma": sigma}[name]
+                        key = f"sweep.{name}" if name in swept else f"system.{name}"
+                        w.problems.append(f"{key}: {value!r} with this cam profile: {why} (the "
+                                          "kernels' numbers must stay finite)")
+                        return
+
+    def pack_rows(self, rows, values, table=None):
+        for row in rows:
+            pack_profile(row, table)
+
+    def top(self, ctx):
+        """kappa + beta max g."""
+        prof = getattr(ctx, "profile", None)
+        if prof is None:
+            return None
+        th = np.linspace(0.0, prof.period, 4097)
+        return max(ctx.values_list("kappa")) + max(ctx.values_list("beta")) * float(
+            prof.lift(th).max())
+
+    def height_at_zero(self, ctx, kappa):
+        prof = getattr(ctx, "profile", None)
+        if prof is None:
+            return kappa, "kappa"
+        g0 = float(prof.lift(0.0))
+        return (kappa + max(b * g0 for b in ctx.values_list("beta")),
+                f"kappa + beta g(0), g(0) = {g0!r},")
+
+    def has_corners(self, table=None):
+        return table.has_corners
+
+    def corner_places(self, rows, ids, has):
+        """The piece whose start is the corner (its id), counted on from the first piece
+        (m = id mod its pieces per period): its place is the number of corners among pieces
+        0 .. m less one."""
+        n = rows[:, P.PROFILE_NP].astype(np.int64)
+        flags = rows[:, P.PROFILE0 + P.PC_CORNER::P.PIECE_STRIDE] != 0.0
+        ordinal = np.cumsum(flags, axis=1) - 1
+        m = np.where(has, ids, 0) % n[:, None]
+        return np.take_along_axis(ordinal, m, axis=1)
+
+    def marks(self, ax, axes, values, system):
+        """Swept in omega with a constant force (Omega = 0: a follower's spring preload): the
+        jump speed above which a follower riding the cam leaves it (``jump_speed``), a
+        vertical line."""
+        if not axes or axes[0] != "omega" or system.get("Omega", 1.0) != 0.0:
+            return []
+        prof = read(system["profile"])
+        force = system.get("F", 0.0) * math.cos(system.get("phi", 0.0))
+        w = jump_speed(prof, system.get("kappa", 0.0), system.get("beta", 1.0),
+                       system.get("k", 1.0), force, system.get("sigma", 0.0),
+                       system.get("r", 0.8))
+        x = values["omega"]
+        if w == 0.0:
+            return [ax.text(0.99, 0.99, "no jump speed: the follower leaves the cam at every "
+                            "speed (a corner launches or strikes it)",
+                            transform=ax.transAxes, ha="right", va="top", fontsize=7,
+                            color="0.3")]
+        if w is None or not (x.min() <= w <= x.max()):
+            return []
+        return [ax.axvline(w, color="tab:red", lw=0.8, ls="--",
+                           label=rf"jump speed $\omega_j$ = {w:.6g}")]
+
+    def speed(self, values, table=None):
+        """beta omega max |g'|."""
+        th = np.linspace(0.0, table.period, 1025)
+        return float(values["beta"]) * float(values["omega"]) * float(
+            np.abs(table.lift(th, 1)).max())
+
+
+# period, pieces and corners are the scene's profile's (docs/cams.md); the flow's orbit problem
+# takes two pieces per obstacle period, so a cam has no continuation yet
+OBSTACLE = CamProfile("profile", 3, "kappa + beta g(omega t), g a cam profile of polynomial and "
+                      "sinusoidal pieces ([system.profile])", period_pi=2, pieces=1, corners=True,
+                      continuation=False, tables=("profile",), own_kernel=True)

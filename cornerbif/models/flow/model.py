@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ... import registry
 from ...model import Coord, CycleSeries, Field, Model
 from . import params as P
 from .params import OBSTACLES
@@ -96,38 +97,17 @@ def resonance_problem(vals, key) -> str | None:
     return None
 
 
-def obstacle_top(ctx):
-    """The obstacle's highest point over a period at the scene's largest kappa and beta
-    (the triangle: its peak; a profile: kappa + beta max g), or None when unknown."""
-    kap = max(ctx.values_list("kappa"))
-    beta = max(ctx.values_list("beta"))
-    if ctx.obstacle in ("sine", "rectified_sine"):
-        return kap + beta
-    if ctx.obstacle == "profile":
-        prof = getattr(ctx, "profile", None)
-        if prof is None:
-            return None
-        th = np.linspace(0.0, prof.period, 4097)
-        return kap + beta * float(prof.lift(th).max())
-    if ctx.obstacle == "triangle":
-        w = min(ctx.values_list("omega"))
-        t1 = [x if x is not None else beta * w for x in ctx.values_list("theta1")]
-        t2 = [x if x is not None else beta * w for x in ctx.values_list("theta2")]
-        return kap + max(a * b / (a + b) for a in t1 for b in t2) * math.pi / w
-    return None
-
-
 # --- the time model of a run (``estimate.estimate_time``) --------------------------------------
 # Seconds of one core per impact (with its share of the cycle analysis) and per obstacle piece
 # crossed, by the kernel's path: "free" (sigma = 0, F = 0, k > 0: flights rotate in closed form
 # and a piece without impact is crossed by the Sturm test alone), "searched" (damped or forced:
-# every piece needs a certified search) and "profile" (a cam).  Measured by
+# every piece needs a certified search) and "own_kernel" (a cam's own kernel).  Measured by
 # ``python benchmarks/estimate_time.py --calibrate``, but a cam's impact: its follower chatters
 # and sticks, and some runs spend their event budget on a few impacts and many releases, so
 # it is priced per impact asked for (transient + record) from the CPU time of the whole
 # shipped sweep, ``python benchmarks/estimate_time.py --only cam_cycloidal``.
-COST_IMPACT = {"free": 2.0e-7, "searched": 4.0e-7, "profile": 1.5e-6}
-COST_PIECE = {"free": 1.25e-8, "searched": 5.1e-8, "profile": 1.13e-7}
+COST_IMPACT = {"free": 2.0e-7, "searched": 4.0e-7, "own_kernel": 1.5e-6}
+COST_PIECE = {"free": 1.25e-8, "searched": 5.1e-8, "own_kernel": 1.13e-7}
 # a run's flights last about half the oscillator's period (pi / k between impacts: the span
 # per impact that ``benchmarks/estimate_time.py --calibrate`` prints)
 FLIGHT_SHARE = 0.5
@@ -158,7 +138,7 @@ def escape_impacts(speed, r, k, escape):
 # --- what a first run compiles (``engine.announce_compiles``) ------------------------------
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``)
-COMPILE_SECONDS = {"analysis": 2.3, "flow": 25.1, "profile": 28.8, "t0": 1.4, "stability": 4.0,
+COMPILE_SECONDS = {"analysis": 2.3, "flow": 25.1, "own_kernel": 28.8, "t0": 1.4, "stability": 4.0,
                    "continuation": 1.5}
 # the cycle analysis and the file's chunk writer: every sweep of the flow and two-particle
 # models calls them
@@ -192,17 +172,12 @@ class FlowModel(Model):
                             "(the start time t0)")
         moving_start = t0[1] > 0.0 or (swept_t is not None and max(swept_t.values) > 0.0)
         if ctx.drawn and rng and moving_start and not ctx.problems and not ctx.swept("initial.u"):
-            top = obstacle_top(ctx)
+            top = OBSTACLES[ctx.obstacle].top(ctx)
             if top is not None and rng[1] <= top:
                 problems.append(f"initial.u: {list(rng)} does not reach above the obstacle's "
                                 f"top z = {top!r} over the start times (initial.t): a start "
                                 "at such a t0 would lie below it; raise the upper end")
-        z0 = max(kap) if kap else None
-        what = "kappa"
-        if z0 is not None and ctx.obstacle == "profile" and getattr(ctx, "profile", None):
-            g0 = float(ctx.profile.lift(0.0))
-            z0 += max(b * g0 for b in ctx.values_list("beta"))
-            what = f"kappa + beta g(0), g(0) = {g0!r},"
+        z0, what = OBSTACLES[ctx.obstacle].height_at_zero(ctx, max(kap)) if kap else (None, "")
         if ctx.drawn and rng and kap and rng[1] <= z0:
             problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
                             f"(z(0) = {what} up to {z0!r}); the upper end must exceed it")
@@ -212,7 +187,7 @@ class FlowModel(Model):
         return resonance_problem(lambda n: {values.get(n)}, lambda n: f"system.{n}")
 
     def wall_at_start(self, params):
-        if params.shape[1] > P.NPARAM:          # a profile: z(0) = kappa + beta g(0)
+        if P.wide_rows(params):     # a kind with its own kernel (a cam): z(0) = kappa + beta g(0)
             # the kernels load with numba here, on first use (numba-free validation)
             from .kernel import obstacle_heights
             return obstacle_heights(np.ascontiguousarray(params),
@@ -271,8 +246,8 @@ class FlowModel(Model):
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", COMPILE_SECONDS["analysis"],
                         dispatchers(*ANALYSIS_KERNELS)))
-            if scene.obstacle == "profile":
-                out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["profile"],
+            if OBSTACLES[scene.obstacle].own_kernel:
+                out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["own_kernel"],
                             [run_batch_profile, obstacle_heights]))
             else:
                 out.append(("the flow kernel", COMPILE_SECONDS["flow"], [run_batch]))
@@ -304,11 +279,10 @@ class FlowModel(Model):
         w, k, r = float(values["omega"]), float(values["k"]), float(values["r"])
         sigma, F = float(values["sigma"]), float(values["F"])
         Om = float(values["Omega"])
-        ob = scene.obstacle
-        piece = (P.obstacle_period(ob, w, scene.profile)
-                 / P.pieces_per_period(ob, scene.profile))
-        if ob == "profile":
-            path = "profile"
+        kind = OBSTACLES[scene.obstacle]
+        piece = kind.period(w, scene.profile) / kind.pieces_per_period(scene.profile)
+        if kind.own_kernel:
+            path = "own_kernel"
         else:
             path = "free" if sigma == 0.0 and F == 0.0 and k > 0.0 else "searched"
         scale = (2 * math.pi / k if k > 0 else 2 * math.pi / Om if F != 0 and Om > 0 else 0.0)
@@ -318,7 +292,7 @@ class FlowModel(Model):
             flight = piece
             reasons.append("a free particle (k = 0, F = 0) has no flight time of its own")
         n = scene.transient + scene.record
-        esc = escape_impacts(obstacle_speed(scene, values), r, k, scene.escape)
+        esc = escape_impacts(kind.speed(values, scene.profile), r, k, scene.escape)
         if esc < n:
             n = esc
             reasons.append(f"runs escape (run.escape = {scene.escape:g}) after about {esc} "
@@ -355,11 +329,8 @@ class FlowModel(Model):
         # of the recorded window; what is neither is left unfilled (a summary-only chart then
         # touches only the few rows' entries its early-stopped runs write)
         fill = {"t"} | {f.source for f in self.fields(scene.keep)}
-        cornered = np.isin(params[:, P.OBSTACLE],
-                           [o.code for o in OBSTACLES.values() if o.corners])
-        # a profile has corners only where its slope jumps (obstacles/profile.py)
-        if params.shape[1] > P.NPARAM:
-            cornered &= params[:, P.PROFILE_CORNERS] != 0
+        kind = OBSTACLES[scene.obstacle]
+        cornered = np.full(params.shape[0], kind.has_corners(scene.profile))
         res = _run_flow(params, ics, ints, scene, fill, cornered)
         out, st, final, period, ipc, sym, rec0 = res
         # early stop: a run stopped on a cycle the analysis does not confirm (e.g. a
@@ -380,42 +351,11 @@ class FlowModel(Model):
         # the kernel's corner ids are read here only (unset where a run has no impact)
         ids = out.pop("corner_id")
         if "corners" in scene.keep:
-            out["corner"] = corner_places(params, ids, out["t"], cornered)
+            has = np.isfinite(out["t"]) & cornered[:, None]
+            out["corner"] = np.where(has, kind.corner_places(params, ids, has), -1).astype(np.int8)
         if not cornered.all():
             out["corner_offset"][~cornered] = np.nan
         return out, st, final, period, ipc, sym
-
-
-def obstacle_speed(scene, values) -> float:
-    """The obstacle's largest speed |z'| at one grid point: beta omega for sine and
-    rectified_sine, the triangle's steeper slope, beta omega max |g'| for a profile."""
-    w, beta = float(values["omega"]), float(values["beta"])
-    if scene.obstacle == "triangle":
-        t1, t2 = values.get("theta1"), values.get("theta2")
-        return max(beta * w if t1 is None else float(t1), beta * w if t2 is None else float(t2))
-    if scene.obstacle == "profile":
-        th = np.linspace(0.0, scene.profile.period, 1025)
-        return beta * w * float(np.abs(scene.profile.lift(th, 1)).max())
-    return beta * w
-
-
-def corner_places(params, ids, t, cornered):
-    """``impacts/corner``: the place of each impact's corner among its period's corners.
-
-    ``ids`` are the kernel's corner ids (``obstacle.corner_of``): for a profile the piece
-    whose start is the corner, counted on from the first piece (m = id mod its pieces per
-    period, the place the number of corners among pieces 0 .. m less one); the built-in
-    obstacles with corners have one per period (0); -1 where a run has no corners
-    (``cornered`` false) or no impact (t NaN)."""
-    has = np.isfinite(t) & cornered[:, None]
-    place = np.zeros(t.shape, np.int64)
-    if params.shape[1] > P.NPARAM:
-        n = params[:, P.PROFILE_NP].astype(np.int64)
-        flags = params[:, P.PROFILE0 + P.PC_CORNER::P.PIECE_STRIDE] != 0.0
-        ordinal = np.cumsum(flags, axis=1) - 1
-        m = np.where(has, ids, 0) % n[:, None]
-        place = np.take_along_axis(ordinal, m, axis=1)
-    return np.where(has, place, -1).astype(np.int8)
 
 
 def _stability(params, out, ipc, control=0):
@@ -457,7 +397,7 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     st = np.zeros(n, np.int8)
     final = np.zeros((n, 2))
     rec0 = np.zeros(n, np.int64)
-    kernel = run_batch_profile if params.shape[1] > P.NPARAM else run_batch
+    kernel = run_batch_profile if P.wide_rows(params) else run_batch
     kernel(np.ascontiguousarray(params, dtype=np.float64), ints, ics, out["t"], out["u"], out["v_in"],
            out["v_out"], out["corner_offset"], corner, out["su"], out["sv"], st, final, rec0)
     raise_if_stopped(ints[P.I_CONTROL])     # stopped: nothing half-computed goes on
@@ -482,7 +422,8 @@ MODEL = FlowModel(
     continuation=True,
     seed_observable="impacts",
     cycle=IMPACT_CYCLE,
-    system_extra={"obstacle": "rectified_sine", "section_period": None, "profile": None},
+    system_extra={"obstacle": registry.DEFAULT_OBSTACLE, "section_period": None}
+    | {t: None for o in OBSTACLES.values() for t in o.tables},
     obstacles=OBSTACLES,
     events_per_impact=10,
     early_stop=True,

@@ -302,7 +302,7 @@ class FlowOrbit:
         the cycle's impacts, the section state, the cycle's duration."""
         imp = self.impacts(X, lam)
         p, d = self.packed(lam)
-        if section is None and self.obstacle in P.AUTO_SECTION:
+        if section is None and OBSTACLES[self.obstacle].auto_section:
             # the kernel's section (flow.watch_for_cycle): the corners of the parity
             # opposite to the first impact's corner, between the impact clusters
             pps = P.section_pieces(self.obstacle, p[P.OMEGA], None)
@@ -352,7 +352,7 @@ def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-
         # an impact recorded at a corner lies on the side its offset says
         L = piece_start(d, j + 1) - piece_start(d, j)
         off = corner_offset[first + 1 + q]
-        if off == off and off < 0 and tau < 0.5 * L and obstacle == "rectified_sine":
+        if off == off and off < 0 and tau < 0.5 * L and OBSTACLES[obstacle].corner_each_piece:
             j -= 1
             tau += L
         pieces[q] = j
@@ -374,8 +374,9 @@ def seed_from_word(values, obstacle, param, word, tol=1e-12, cycles=6):
 
     from ...analysis import parse_word
     from ...theory import word_orbit
-    if obstacle != "rectified_sine":
-        raise OrbitError(f"a word seeds an orbit on the rectified sine only (eq 8), not "
+    if not OBSTACLES[obstacle].word_seeds:
+        which = ", ".join(o.name for o in OBSTACLES.values() if o.word_seeds)
+        raise OrbitError(f"a word seeds an orbit on the obstacle {which} only, not "
                          f"{obstacle!r}")
     letters = parse_word(word)
     x, _ = word_orbit(letters, values["omega"] - 2.0, values["kappa"], values["r"])
@@ -446,7 +447,7 @@ def word_of(problem, X, lam, cycles=4):
     p, d = problem.packed(lam)
     D = problem.duration(lam)
     per_corners = round(D / (piece_start(d, 1) - piece_start(d, 0)))
-    if problem.obstacle != "rectified_sine":
+    if not OBSTACLES[problem.obstacle].corner_each_piece:
         per_corners = problem.m
     reps = cycles * N + 2
     t = np.full((1, reps), np.nan)
@@ -462,7 +463,7 @@ def word_of(problem, X, lam, cycles=4):
     per = np.zeros(1, np.int64)
     ipc = np.zeros(1, np.int64)
     sym = np.zeros((1, reps), np.uint8)
-    cornered = np.array([problem.obstacle != "sine"])
+    cornered = np.array([OBSTACLES[problem.obstacle].corners])
     detect_cycles(t, vin, off, corner, cornered, 1e-9, per, ipc, sym)
     return str(words(sym)[0])
 

@@ -19,7 +19,7 @@ from numba import prange
 from ..._jit import jit, pjit, stop_requested
 from ...numerics.oscillator import acceleration, derive
 from ...numerics.saltation import GRAZING_TOL, flight_matrix, flight_misses, impact_saltation
-from ...obstacles.dispatch import piece_at, piece_length, piece_lengths, z_state
+from ...obstacles.dispatch import obstacle_at_offset
 from ...stability import (
     GRAZING,
     NO_CYCLE,
@@ -38,30 +38,6 @@ from . import packed as P
 
 # a generic first basis vector (not an eigenvector of a triangular or diagonal step)
 START_U, START_V = 0.6, 0.8
-
-
-@jit
-def obstacle_at_offset(p, d, t, offset):
-    """(z', z'') of the obstacle at an impact given by its offset to the nearest valley
-    corner (``impacts/corner_offset``: t - t_corner, >= 0 after the corner): the slope
-    and curvature of the piece the impact lies on, as the kernel's law (5) used them.  A
-    profile's impact is placed by its time t (its corners need not start a period); one
-    at a joint takes the piece on the offset's side."""
-    if p[P.OBSTACLE] == P.PROFILE:
-        j, tau = piece_at(d, t)
-        if offset < 0.0 and tau == 0.0:
-            j -= 1
-            tau = piece_length(d, j)
-        _, zp, zpp, _ = z_state(p, j, tau)
-        return zp, zpp
-    L0, L1, per = piece_lengths(p)
-    if p[P.OBSTACLE] == P.RECTIFIED_SINE:
-        j, tau = (0, offset) if offset >= 0.0 else (0, L0 + offset)
-    else:
-        x = offset if offset >= 0.0 else per + offset
-        j, tau = (0, x) if x < L0 else (1, x - L0)
-    _, zp, zpp, _ = z_state(p, j, tau)
-    return zp, zpp
 
 
 @jit

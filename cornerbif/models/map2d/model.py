@@ -163,6 +163,10 @@ MODEL = Map2dModel(
     cycle=CycleSeries(end="su", a="su", b="sv", per="period", names=("a", "b"),
                       long_names=("iterate a_n", "iterate b_n")),
     normal_form_role="map",
+    # the maps' start is the point x = (a_0, b_1) of their plane (section 4, Fig. 9), their
+    # section (a_n, b_n)
+    axis_labels={"initial.u": r"start $a_0$", "initial.v": r"start $b_1$",
+                 "section_u": r"$a_n$", "section_v": r"$b_n$"},
     default_y="section_v",
     keep_hint=" (the map's iterates are stored as section/u = a_n, section/v = b_n)",
     # per item and recorded step: a, b, the region, the word, and the flow-shaped NaN rows
