@@ -1117,10 +1117,11 @@ def _plain(v) -> bool:
 def _normal_form_needs():
     """Which models (and obstacles) the (a0, b1)-plane figures accept, in words."""
     parts = []
-    for m in sorted(_all_models(), key=lambda m: m.normal_form_role != "map"):
-        if m.normal_form_role == "map":
+    sides = [m for m in _all_models() if m.normal_form is not None]
+    for m in sorted(sides, key=lambda m: not m.normal_form.maps):
+        if m.normal_form.maps:
             parts.append(f"model {m.name!r}")
-        elif m.normal_form_role == "flow":
+        else:
             obs = [o for o, d in m.obstacles.items() if d.normal_form]
             parts.append(f"{m.name!r} with obstacle " + " or ".join(repr(o) for o in obs))
     return " or ".join(parts)

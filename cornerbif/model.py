@@ -221,6 +221,34 @@ class Obstacle:
 
 
 @dataclass(frozen=True)
+class NormalFormSide:
+    """A model's part in the figures of sections 4-5 that set an impacting system beside its
+    corner normal form in the (a0, b1) plane (``plot_normal_form``; Figs 9-11, 16).
+
+    ``maps``: this model is the local maps alpha, beta, gamma (else the impacting system they
+    are the normal form of); ``panel``: how a figure names its panel; ``order``: its place
+    from left to right; ``first_return``: the recorded section slot that holds a start's
+    first return A0 (run.transient = 0: a map's slot 0 is its start itself).  A subclass in
+    the model's folder says which map acts on what the model recorded (``start_regions``,
+    ``point_regions``)."""
+
+    maps: bool
+    panel: str
+    order: int
+    first_return: int
+
+    def start_regions(self, data, omega: float, omega1: float, kappa1: float, r: float) -> tuple:
+        """(the letter 'a', 'b', 'g' or 'x' of the map acting on each start of a file, the
+        words that say how it was found)."""
+        raise NotImplementedError
+
+    def point_regions(self, a, b, omega1: float, kappa1: float, r: float):
+        """The letter of the map acting on each recorded section point (a, b), or None where
+        the model has no regions of its own (a flow has only its word)."""
+        return None
+
+
+@dataclass(frozen=True)
 class CycleSeries:
     """What names a run's cycle in the attractor table (``cornerbif.attractors``): two
     recorded series (kernel outputs ``a`` and ``b``, the file's ``names``), read over the
@@ -247,8 +275,8 @@ class Model:
     ``[system]`` keys: name -> default), ``obstacles`` (name -> Obstacle, ``flow``
     only), ``events_per_impact`` (the automatic event budget per recorded or transient
     impact), ``early_stop`` (``run.stop = "period"`` is implemented), ``timeseries``
-    (``[plot] kind = "timeseries"`` can rebuild its flights), ``normal_form_role``
-    ("flow", "map" or None: its part in the flow-against-map figures of sections 4-5),
+    (``[plot] kind = "timeseries"`` can rebuild its flights), ``normal_form``
+    (a ``NormalFormSide`` or None: its part in the flow-against-map figures of sections 4-5),
     ``default_y`` (the diagram's default y), ``keep_hint`` (said when a scene asks for
     an observable the model lacks), ``bytes_per_event`` (working memory per item and
     recorded event, counted from the arrays ``run_items`` allocates; the peak memory of a
@@ -284,7 +312,7 @@ class Model:
     events_per_impact: int = 10
     early_stop: bool = False
     timeseries: bool = False
-    normal_form_role: str | None = None
+    normal_form: NormalFormSide | None = None
     default_y: str | None = None
     keep_hint: str = ""
     bytes_per_event: int = 72
@@ -324,10 +352,12 @@ class Model:
     def has_normal_form(self, obstacle: str | None) -> bool:
         """Whether the (a0, b1)-plane figures of sections 4-5 apply to this model and
         obstacle."""
-        if self.normal_form_role == "map":
+        if self.normal_form is None:
+            return False
+        if self.normal_form.maps:
             return True
         ob = self.obstacles.get(obstacle) if self.obstacles else None
-        return self.normal_form_role == "flow" and ob is not None and ob.normal_form
+        return ob is not None and ob.normal_form
 
     # --- behaviour: every model implements these -------------------------------------
     def check(self, ctx) -> list:

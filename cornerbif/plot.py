@@ -219,7 +219,7 @@ class PlotData:
             self.model = self.scene.get("scene", {}).get("model", registry.DEFAULT_MODEL)
             self.spec = registry.models().get(self.model)
             # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
-            self.role = self.spec.normal_form_role if self.spec else None
+            self.normal_form = self.spec.normal_form if self.spec else None
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
             runs = self.status.shape
             shapes = {n: f[n].shape for n in RECORDED if n in f}
@@ -1069,12 +1069,11 @@ def draw_comparison(fig, datas, kind, plot_cfg):
     """Flow against map2d on one parameter axis (paper Fig. 16): both, and their distance."""
     axs = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [2, 2, 1]})
     a = datas[0].axes[0]
-    panel = {"flow": "the impacting system (direct simulation of the flow)",
-             "map": "the local 2D maps (56)"}
     for ax, d, tag in zip(axs[:2], datas, "ab"):
         draw_bifurcation(ax, d, kind, ms=plot_cfg.get("marker_size", 0.6))
         ax.set_ylabel(y_label(kind, d.model), fontsize=8)
-        ax.set_title(f"({tag}) {panel.get(d.role, d.model)}", fontsize=8, loc="left")
+        ax.set_title(f"({tag}) {d.normal_form.panel if d.normal_form else d.model}", fontsize=8,
+                     loc="left")
         if "ylim" in plot_cfg:
             ax.set_ylim(*plot_cfg["ylim"])
     dist = hausdorff_per_point(datas[0].y(kind), datas[1].y(kind))
@@ -1239,7 +1238,7 @@ def check_scenes_drawable(sweeps, conts=(), plot_cfg=None):
                                 f"beyond {DRAW_LIMIT:g} in size, which no figure can place"
                                 if far else None)
             self.model, self.spec = sc.model, registry.models().get(sc.model)
-            self.role = self.spec.normal_form_role if self.spec else None
+            self.normal_form = self.spec.normal_form if self.spec else None
             self.data = {f.name: None for f in sc.spec.fields(sc.keep)} if self.spec else {}
             self.stability = {}
             self.initial = {k: np.array([sc.n_ic, sc.seed, *sc.initial.get(k, (np.nan,) * 2)],
@@ -1254,9 +1253,14 @@ def check_scenes_drawable(sweeps, conts=(), plot_cfg=None):
     check_together(wills, cs, plot_cfg=plot_cfg)
 
 
+def _sides(datas) -> set:
+    """Which sides of the normal-form figures the files are: maps or not (None: neither)."""
+    return {d.normal_form.maps if d.normal_form else None for d in datas}
+
+
 def _flow_and_map(datas) -> bool:
     """Whether ``datas`` are a flow and its map (two files, of the roles flow and map)."""
-    return len(datas) == 2 and sorted(str(d.role) for d in datas) == ["flow", "map"]
+    return len(datas) == 2 and _sides(datas) == {False, True}
 
 
 def _check_single_runs(datas, conts, kind, y, color_by, plot_cfg):
@@ -1268,7 +1272,7 @@ def _check_single_runs(datas, conts, kind, y, color_by, plot_cfg):
         if d.axes:
             raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws single runs (a "
                              "scene without sweep axes: sections 4-5)")
-        if d.role not in ("flow", "map"):
+        if d.normal_form is None:
             raise Undrawable(f"{_described(d)}: [plot] kind {kind!r} draws a flow or "
                              "map2d file")
     if len(datas) > 1 and not pair:
@@ -1502,7 +1506,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
             fig = figure_corner_curves(plt, d0, plot_cfg, title)
         _partial_notes(fig, datas)
         return save(fig, out)
-    if len(datas) == 2 and {d.role for d in datas} == {"flow", "map"} and len(d0.axes) == 1:
+    if _flow_and_map(datas) and len(d0.axes) == 1:
         return _figure_flow_and_map(plt, datas, out, y, title, plot_cfg)
     fig, ax = _panels(plt, d0, kind_, color_by)
     diagram = len(d0.axes) == 1 and kind_ != "fractions"
@@ -1522,7 +1526,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
 
 def _figure_flow_and_map(plt, datas, out, y, title, plot_cfg):
     """A flow's diagram against its map's, value by value (Fig. 16: ``draw_comparison``)."""
-    datas.sort(key=lambda d: d.role != "flow")
+    datas.sort(key=lambda d: d.normal_form.order)
     fig = plt.figure(figsize=(7, 7), dpi=150)
     draw_comparison(fig, datas, y or "section_v", plot_cfg)
     sc = datas[1].scene.get("scene", {})

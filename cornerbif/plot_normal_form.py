@@ -48,36 +48,6 @@ def _system(data):
     return omega, omega - 2.0, s.get("kappa", 0.0), s.get("r", 0.8)
 
 
-def map_regions(a, b, omega1, kappa1, r):
-    """Letter of the map (56) acting on each x = (a, b): 'a', 'b', 'g' (or 'x' for NaN)."""
-    code = np.array([maps2d.region(float(x), float(y), omega1, kappa1, r)
-                     for x, y in zip(np.ravel(a), np.ravel(b))], dtype=np.int64)
-    return np.array(["abgx"[c] if c >= 0 else "x" for c in code]).reshape(np.shape(a))
-
-
-def flow_regions(t, offset, omega):
-    """Letter of the first-period corner cluster of each flow start (section 4).
-
-    ``t`` and ``offset`` are the impacts (time, signed offset to the nearest
-    corner) of each start, shape (n, record).  Only impacts with t < T =
-    2 pi/omega whose nearest corner is t0 = pi/omega count.
-    """
-    T = 2.0 * math.pi / omega
-    t0 = math.pi / omega
-    out = np.full(t.shape[0], "x", dtype="<U1")
-    for i in range(t.shape[0]):
-        ok = np.isfinite(t[i]) & (t[i] < T) & (np.abs(t[i] - t0) < 0.5 * t0)
-        off = offset[i][ok]
-        before, after = int(np.sum(off < 0)), int(np.sum(off >= 0))
-        if before == 0 and after == 1:
-            out[i] = "b"
-        elif before == 1 and after == 0:
-            out[i] = "g"
-        elif before == 1 and after == 1:
-            out[i] = "a"
-    return out
-
-
 def draw_sigma(ax, omega1, kappa1, r, alim, blim):
     """Sigma_1: b = kappa1 - (pi omega1/4) a (eqs 36, 39); Sigma_2: a = 2 + 4/r below it (41)."""
     a = np.linspace(alim[0], alim[1], 200)
@@ -96,17 +66,7 @@ def draw_regions(ax, data, ms=1.5):
     omega, omega1, kappa1, r = _system(data)
     a0 = data.initial["u"].ravel()
     b0 = data.initial["v"].ravel()
-    if data.role == "map":
-        lab = map_regions(a0, b0, omega1, kappa1, r)
-        source = "the map's rule (56)"
-    else:
-        if "impacts/t" not in data.data:
-            raise ValueError(f"{data.path}: plot kind 'regions' of a flow file needs "
-                             "output.keep = [\"impacts\", ...]")
-        n = a0.size
-        lab = flow_regions(data.data["impacts/t"].reshape(n, -1),
-                           data.data["impacts/corner_offset"].reshape(n, -1), omega)
-        source = "the flow's first impacts at $t_0 = \\pi/\\omega$"
+    lab, source = data.normal_form.start_regions(data, omega, omega1, kappa1, r)
     for ch in "abgx":
         m = lab == ch
         if m.any():
@@ -132,7 +92,7 @@ def return_values(data):
     if su is None:
         raise ValueError(f"{data.path}: plot kind 'return_map' needs output.keep = [\"section\"]")
     a0 = data.initial["u"].ravel()
-    col = 1 if data.role == "map" else 0
+    col = data.normal_form.first_return
     A0 = su.reshape(a0.size, -1)[:, col]
     order = np.argsort(a0)
     return a0[order], A0[order]
@@ -175,11 +135,11 @@ def draw_orbit(ax, data, ms=4.0):
     a, b = su.ravel(), sv.ravel()
     ok = np.isfinite(a) & np.isfinite(b)
     a, b = a[ok], b[ok]
-    if data.role == "flow":
+    lab = data.normal_form.point_regions(a, b, omega1, kappa1, r)
+    if lab is None:               # no regions of its own: the system's points, its word
         ax.plot(a, b, ls="none", marker="x", ms=1.6 * ms, mew=0.9, color="k",
                 label=f"flow: $(u, u')(nT)$, word {_word(data)}")
         return a, b
-    lab = map_regions(a, b, omega1, kappa1, r)
     for ch in "abg":
         m = lab == ch
         if m.any():
@@ -228,7 +188,7 @@ def figure(datas, out, plot_cfg, title=None):
         if d.axes:
             raise ValueError(f"{d.path}: plot kind {kind!r} draws a scene without sweep axes "
                              f"(this one sweeps {', '.join(d.axes)})")
-    datas = sorted(datas, key=lambda d: d.role != "flow")
+    datas = sorted(datas, key=lambda d: d.normal_form.order)
     ms = plot_cfg.get("marker_size")
     draw = {"regions": _figure_regions, "return_map": _figure_return_maps,
             "orbit": _figure_orbits}.get(kind)
@@ -277,10 +237,10 @@ def _figure_return_maps(plt, datas, ms):
                 ax.axvline(x, color="0.5", lw=0.7, ls=":")
                 ax.text(x, 1.0, lab, transform=ax.get_xaxis_transform(), ha="center",
                         va="bottom", fontsize=7)
-        name = "(a) the impacting system (flow)" if d.role == "flow" else \
+        name = "(a) the impacting system (flow)" if not d.normal_form.maps else \
             "(b) the linear maps (56)"
         ax.set_title(name, fontsize=8, loc="left", pad=12)
-    if datas[0].role == "flow" and len(datas) == 2:
+    if not datas[0].normal_form.maps and len(datas) == 2:
         a0, A0 = return_values(datas[0])
         a0m, A0m = return_values(datas[1])
         ax = axs[0][0]
@@ -311,7 +271,7 @@ def _figure_orbits(plt, datas, ms):
     fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 4.8), dpi=150,
                                    gridspec_kw={"width_ratios": [3, 2]})
     draw_orbit_frame(ax, datas)
-    for d in sorted(datas, key=lambda d: d.role == "flow"):
+    for d in sorted(datas, key=lambda d: -d.normal_form.order):
         draw_orbit(ax, d, ms=ms or 4.0)
     legend(ax, loc="lower center", fontsize=6)
     # right: the approach to x_beta* along (0, 1) and the switching iterate there
@@ -320,7 +280,7 @@ def _figure_orbits(plt, datas, ms):
     a_all = np.concatenate([d.data["section/u"].ravel() for d in datas])
     b_all = np.concatenate([d.data["section/v"].ravel() for d in datas])
     near = np.isfinite(a_all) & (np.abs(a_all - xs[0]) < 0.02 * abs(xs[0]))
-    for d in sorted(datas, key=lambda d: d.role == "flow"):
+    for d in sorted(datas, key=lambda d: -d.normal_form.order):
         draw_orbit(zoom, d, ms=ms or 4.0)
     zoom.plot([xs[0]], [xs[1]], "k*", ms=9)
     if near.sum() > 3:

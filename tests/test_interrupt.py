@@ -239,7 +239,8 @@ def test_a_control_changes_no_result(path, sets):
 
 # the stability pass of each model: (module holding the name it calls, the batch kernel's name)
 STABILITY_KERNELS = {"flow": ("cornerbif.models.flow.model", "batch_stability"),
-                     "two_particle": ("cornerbif.models.two_particle.tangent", "batch_two_particle_stability"),
+                     "two_particle": ("cornerbif.models.two_particle.tangent",
+                                      "batch_two_particle_stability"),
                      "map2d": ("cornerbif.models.map2d.model", "batch_map_stability")}
 
 

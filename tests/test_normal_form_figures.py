@@ -19,6 +19,8 @@ import pytest
 
 from cornerbif import config
 from cornerbif import plot_normal_form as nf
+from cornerbif.models.flow import normal_form as FN
+from cornerbif.models.map2d import normal_form as MN
 from cornerbif.plot import PlotData, figure
 from cornerbif.sweep import run_sweep
 
@@ -41,9 +43,9 @@ def test_fig09_flow_regions_match_the_maps_regions(tmp_path):
     a = f.initial["u"].ravel()
     b = f.initial["v"].ravel()
     n = a.size
-    lf = nf.flow_regions(f.data["impacts/t"].reshape(n, -1),
+    lf = FN.flow_regions(f.data["impacts/t"].reshape(n, -1),
                          f.data["impacts/corner_offset"].reshape(n, -1), 1.999)
-    lm = nf.map_regions(a, b, -0.001, -0.01, 0.8)
+    lm = MN.map_regions(a, b, -0.001, -0.01, 0.8)
     sel = a > 2.0
     assert set(lm[sel]) == {"a", "b", "g"}
     assert np.mean(lf[sel] == lm[sel]) >= 0.995

@@ -138,8 +138,8 @@ def test_profile_checks_equal_the_kernels_bounds(table):
     ``npp_bound``): the same numbers as the obstacle's jitted functions run as Python, also
     where they overflow (a scene's check meets its extremes)."""
     from cornerbif.models.flow import packed as P
-    from cornerbif.obstacles import profile as FP
     from cornerbif.obstacles import dispatch as O
+    from cornerbif.obstacles import profile as FP
     from cornerbif.obstacles import profile as PR
     prof = PR.read(table)
     for omega, beta, k, sigma in ((2.0, 1.0, 1.0, 0.0), (1e100, 3.0, 1e60, 0.5), (0.7, 0.0, 0.0, 2.0)):

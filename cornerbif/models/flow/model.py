@@ -15,6 +15,7 @@ import numpy as np
 from ... import registry
 from ...model import Coord, CycleSeries, Field, Model
 from . import params as P
+from .normal_form import SIDE
 from .params import OBSTACLES
 
 # The kernels (models/flow/kernel.py, the cycle analysis, the stability pass) are imported by the
@@ -428,7 +429,7 @@ MODEL = FlowModel(
     events_per_impact=10,
     early_stop=True,
     timeseries=True,
-    normal_form_role="flow",
+    normal_form=SIDE,
     # per item and recorded event: 7 float64 outputs, the corner index, the word (the arrays
     # run_items allocates)
     bytes_per_event=7 * 8 + 8 + 1,

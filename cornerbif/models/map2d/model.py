@@ -14,6 +14,7 @@ import numpy as np
 from ... import status as S
 from ...model import Coord, CycleSeries, Field, Model, Param, anything, positive
 from ..flow.model import SECTION_FIELDS, STABILITY_FIELDS, U
+from .normal_form import SIDE
 
 # The kernels (models/map2d/maps.py, the stability pass) are imported by the methods that run them:
 # importing this module, as checking a scene does, loads no numba.
@@ -162,7 +163,7 @@ MODEL = Map2dModel(
     # an attractor's identity beside its word: its iterates (a_n, b_n) over one cycle
     cycle=CycleSeries(end="su", a="su", b="sv", per="period", names=("a", "b"),
                       long_names=("iterate a_n", "iterate b_n")),
-    normal_form_role="map",
+    normal_form=SIDE,
     # the maps' start is the point x = (a_0, b_1) of their plane (section 4, Fig. 9), their
     # section (a_n, b_n)
     axis_labels={"initial.u": r"start $a_0$", "initial.v": r"start $b_1$",
