@@ -145,7 +145,7 @@ def bench_transient(smoke=False):
     Returns {case: {"T_ref", "record", "rows": [{T, median, p90, max, word_wrong, period_wrong,
     seconds_per_item}]}}.
     """
-    from cornerbif.plot import hausdorff_per_point
+    from cornerbif.plot_diagram import hausdorff_per_point
     Ts = [0, 20, 100, 300, 1000] if smoke else [0, 10, 30, 100, 300, 500, 1000, 3000]
     T_ref = 3000 if smoke else 20000
     record = 200
@@ -231,7 +231,7 @@ def _shared_attractor_distance(fsv, fwords, msv, mwords, n, count):
     b_n over the attractors (words) both models reached there (NaN if none is shared), and
     whether the two sets of words differ (a coexisting attractor found by one model's starts
     only: a question of basins, not of the map's accuracy)."""
-    from cornerbif.plot import hausdorff_per_point
+    from cornerbif.plot_diagram import hausdorff_per_point
     dist = np.full(n, np.nan)
     differ = np.zeros(n, bool)
     for i in range(n):

@@ -462,7 +462,7 @@ def info(file):
     summarises those; a sweep with no finished point is refused. Every text the file holds
     is shown on one line, cut at a bounded length."""
     from .io import FileFormatError
-    from .plot import is_continuation, read_continuation
+    from .plot_base import is_continuation, read_continuation
     from .plot_style import quiet
     try:
         with quiet():             # numpy on the NaN and infinities a file holds by design
@@ -486,13 +486,13 @@ def info(file):
 
 
 def _sweep_lines(file):
-    """``info`` of a sweep, in lines (``plot.PlotData`` reads it: only its finished points)."""
+    """``info`` of a sweep, in lines (``plot_base.PlotData`` reads it: only its finished points)."""
     import json
 
     import numpy as np
 
     from .io import check_readable
-    from .plot import PlotData, attractor_summary, status_name
+    from .plot_base import PlotData, attractor_summary, status_name
     from .plot_style import TITLE_MAX, bounded
     d = PlotData(file)
     with check_readable(file) as f:
@@ -557,7 +557,7 @@ def _continuation_lines(c):
 
     import numpy as np
 
-    from .plot import continuation_note
+    from .plot_base import continuation_note
     from .plot_style import TITLE_MAX, bounded
     a, p = c["attrs"], bounded(c["parameter"])
     sc = tomllib.loads(c["scene"]).get("scene", {})
@@ -620,7 +620,7 @@ MAX_LISTED = 40
 def _stability_summary(f, d=None):
     """One line on the stored stability: how the multipliers were found, the largest
     modulus of the runs' cycles (stable below 1), and the largest Lyapunov exponents
-    (positive: chaotic).  ``d``: the file's ``plot.PlotData`` (its finished points only);
+    (positive: chaotic).  ``d``: the file's ``plot_base.PlotData`` (its finished points only);
     datasets that do not match its runs are said to, and not read."""
     import numpy as np
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import plot_style, registry
 from .cycles import parse_word
-from .model import KEY_CHARS, cut, did_you_mean, shown
+from .model import IC_PREFIX, KEY_CHARS, cut, did_you_mean, shown
 from .model import is_number as _is_number
 
 FOLLOW = ("none", "up", "down")
@@ -131,15 +131,9 @@ PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic",
 PLOT_COLOR_BY = ("lyapunov", "multiplier")
 PLOT_Y = ("impact_u", "impact_v", "impact_height", "section_u", "section_v", "winding",
           "period")
-# [plot] kind: what ``cornerbif plot`` draws from the file (cornerbif/plot.py)
-PLOT_KINDS = ("diagram", "timeseries", "corner_curves", "obstacle", "regions", "return_map",
-              "orbit", "fractions")
-# the (a0, b1)-plane figures of the corner normal form (sections 4-5)
-NORMAL_FORM_KINDS = ("regions", "return_map", "orbit")
 
 
 # [sweep] initial.<coordinate>: an axis over a coordinate of the start (docs/basins.md)
-IC_PREFIX = "initial."
 
 
 def sweep_items(sweep: dict):
@@ -173,7 +167,8 @@ def _union(seqs):
 #   KEEP_DEFAULT  what a scene without [output] keep keeps: every observable but the opt-in ones
 #   OBSTACLES     the default model's obstacles
 #   TABLES        each table's keys (None: [sweep], parameter names + 'follow')
-REGISTERED = ("MODELS", "KEEP", "KEEP_DEFAULT", "OBSTACLES", "TABLES")
+#   PLOT_KINDS    the figure kinds of [plot] kind (registry.FIGURE_MODULES)
+REGISTERED = ("MODELS", "KEEP", "KEEP_DEFAULT", "OBSTACLES", "TABLES", "PLOT_KINDS")
 
 
 def _all_models():
@@ -194,6 +189,7 @@ def _derive(names: tuple) -> dict:
         "KEEP": keep,
         "KEEP_DEFAULT": tuple(k for k in keep if not any(k in m.opt_in for m in models)),
         "OBSTACLES": tuple(registry.get(registry.DEFAULT_MODEL).obstacles),
+        "PLOT_KINDS": tuple(registry.figures()),
         "TABLES": {
             "scene": ("name", "title", "model"),
             "system": _union(tuple(m.params) + tuple(m.system_extra) for m in models),
@@ -638,6 +634,10 @@ class _Walk:
     def table(self, name):
         b = self.raw.get(name, {})
         return b if isinstance(b, dict) else {}
+
+    def run_setting(self, name):
+        """A ``[run]`` setting as the scene gives it, else its preset's (once [run] is read)."""
+        return self.run_given.get(name, PRESETS[self.preset][name])
 
     def unknown(self, name, allowed):
         for k in self.table(name):
@@ -1114,19 +1114,6 @@ def _plain(v) -> bool:
     return isinstance(v, (str, bool)) or _is_number(v)
 
 
-def _normal_form_needs():
-    """Which models (and obstacles) the (a0, b1)-plane figures accept, in words."""
-    parts = []
-    sides = [m for m in _all_models() if m.normal_form is not None]
-    for m in sorted(sides, key=lambda m: not m.normal_form.maps):
-        if m.normal_form.maps:
-            parts.append(f"model {m.name!r}")
-        else:
-            obs = [o for o, d in m.obstacles.items() if d.normal_form]
-            parts.append(f"{m.name!r} with obstacle " + " or ".join(repr(o) for o in obs))
-    return " or ".join(parts)
-
-
 def undrawable(text: str, key: str) -> str | None:
     """A problem when matplotlib cannot draw ``text`` (a title or a label: its mathtext,
     between $ signs, does not parse, or nests past what its parser can recurse), else None
@@ -1244,50 +1231,15 @@ def _read_plot_text(w, plot):
 
 
 def _read_plot_kind(w, plot):
-    """``[plot] kind``: one of PLOT_KINDS that the scene's model, obstacle, axes and kept
-    observables can draw (the normal-form kinds: the corner normal form, single runs;
-    timeseries: impacts kept; obstacle: Fig. 2's obstacles; fractions: one swept
-    parameter)."""
-    problems = w.problems
+    """``[plot] kind``: one of the registered figure kinds (``registry.figures``), whose own
+    ``check`` says what of the scene it needs."""
+    kinds = registry.figures()
     kind = plot.get("kind", "diagram")
-    if kind not in PLOT_KINDS:
-        problems.append(f"plot.kind: {shown(kind)} is not a plot kind"
-                        f"{_suggest(str(kind)[:100], PLOT_KINDS)}; allowed: {', '.join(PLOT_KINDS)}")
-        kind = None
-    if kind in NORMAL_FORM_KINDS:
-        if not w.spec.has_normal_form(w.obstacle):
-            problems.append(f"plot.kind: {kind!r} draws the corner normal form of z = kappa + "
-                            f"beta |sin omega t| (sections 4-5): it needs {_normal_form_needs()} "
-                            f"(this scene: model {w.model!r}"
-                            + (f", obstacle {w.obstacle!r}" if w.spec.obstacles else "") + ")")
-        if w.axes:
-            problems.append(f"plot.kind: {kind!r} draws a scene without sweep axes; this one "
-                            f"sweeps {', '.join(a.name for a in w.axes)}")
-        if kind == "return_map" and w.run_given.get("transient", PRESETS[w.preset]["transient"]) != 0:
-            problems.append("plot.kind: 'return_map' needs run.transient = 0 (A0 is the first "
-                            "section value after the start)")
-    if kind == "timeseries":
-        if not w.spec.timeseries:
-            which = " or ".join(repr(m.name) for m in _all_models() if m.timeseries)
-            problems.append(f"plot.kind: 'timeseries' needs model {which} (the scene's model is "
-                            f"{w.model!r})")
-        if "impacts" not in w.keep:
-            problems.append("plot.kind: 'timeseries' is rebuilt from the impacts; "
-                            "output.keep must contain \"impacts\"")
-    ob = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
-    if kind == "obstacle" and not (ob is not None and ob.corner_wedge):
-        wedges = [(m.name, o.name) for m in _all_models() for o in m.obstacles.values()
-                  if o.corner_wedge]
-        models = " or ".join(dict.fromkeys(repr(m) for m, _ in wedges))
-        problems.append("plot.kind: 'obstacle' draws z(t) with its corners at the period's "
-                        f"start and the wedge of eq (7) (Fig. 2): it needs model {models} with "
-                        "obstacle " + " or ".join(repr(o) for _, o in wedges) + " (this scene: "
-                        f"model {w.model!r}" + (f", obstacle {w.obstacle!r}" if w.spec.obstacles
-                                                else "") + ")")
-    if kind == "fractions" and (len(w.axes) != 1 or w.axes[0].name.startswith(IC_PREFIX)):
-        problems.append("plot.kind: 'fractions' draws the share of the starts reaching each "
-                        "attractor against one swept parameter; this scene sweeps "
-                        + (", ".join(a.name for a in w.axes) or "nothing"))
+    if not (isinstance(kind, str) and kind in kinds):
+        w.problems.append(f"plot.kind: {shown(kind)} is not a plot kind"
+                          f"{_suggest(str(kind)[:100], kinds)}; allowed: {', '.join(kinds)}")
+        return
+    w.problems += kinds[kind].check(w)
 
 
 def _read_plot_runs(w, plot):

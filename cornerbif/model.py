@@ -248,6 +248,38 @@ class NormalFormSide:
         return None
 
 
+# a start coordinate's name on a sweep axis or in a file: ``initial.u``, ``initial.t``, ...
+IC_PREFIX = "initial."
+
+
+@dataclass(frozen=True)
+class FigureKind:
+    """A ``[plot] kind`` of ``cornerbif plot``: one module of ``cornerbif/figures`` (registered
+    in ``registry.FIGURE_MODULES``) defining ``FIGURE``, an instance of a subclass.
+
+    ``doc``: what it draws, in words; ``files``: which files one figure of it draws, checked
+    by ``plot.check_together`` before anything is drawn: "diagram" (swept files overlaid, a
+    chart or a basin), "one" (one file) or "single_runs" (a file of single runs, or a flow
+    beside its map).  ``check`` says what a scene must hold for it (``cornerbif validate``
+    asks it); ``draw`` draws the checked files into ``out``.  A kind module's top level
+    loads neither matplotlib nor h5py nor a kernel: checking a scene stays fast."""
+
+    name: str
+    doc: str
+    files: str = "diagram"
+    one_axis: bool = False     # its file is swept over exactly one parameter
+
+    def check(self, w) -> list:
+        """Problems of the scene being read (``config``'s walk ``w``: its ``spec``, ``axes``,
+        ``keep``, ``obstacle``, ``run_setting``) for this kind."""
+        return []
+
+    def draw(self, plt, datas: list, out: str, y, title, plot_cfg: dict, color_by, branches):
+        """Draw the files ``datas`` (``plot_base.PlotData``; continuation files ``branches``
+        over them where the kind draws them) into ``out``, whole or not at all."""
+        raise NotImplementedError
+
+
 @dataclass(frozen=True)
 class CycleSeries:
     """What names a run's cycle in the attractor table (``cornerbif.attractors``): two
@@ -396,6 +428,13 @@ class Model:
 
     def kernel(self):
         """The compiled kernel entry (for the cold-cache notice)."""
+        raise NotImplementedError
+
+    def time_series(self, scene, values: dict, t, u, v_out, t_start: float, t_stop: float) -> dict:
+        """A recorded run's flights rebuilt between its impacts (models with ``timeseries``):
+        ``t``, ``u`` and the obstacle ``z`` sampled over [t_start, t_stop], ``meet`` the
+        distance of each flight's end from the next recorded impact, ``p``, ``d`` the packed
+        row and its derived constants."""
         raise NotImplementedError
 
     def word_seed(self, values: dict, scene, param: str, word: str):

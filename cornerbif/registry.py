@@ -1,9 +1,11 @@
-"""The registries: one object per model (``cornerbif.model.Model``) and one per obstacle
-kind of the ``flow`` model (``cornerbif.model.Obstacle``).
+"""The registries: one object per model (``cornerbif.model.Model``), one per obstacle kind of
+the ``flow`` model (``cornerbif.model.Obstacle``) and one per figure kind of ``cornerbif plot``
+(``cornerbif.model.FigureKind``).
 
 A new model is its own folder (``models/<name>/``) and one line in ``MODEL_MODULES``; a new
 obstacle kind is its own module (``obstacles/<name>.py``) and one line in
-``OBSTACLE_MODULES``.  Nothing else in the package names a model or an obstacle
+``OBSTACLE_MODULES``; a new figure kind its own module (``figures/<name>.py``) and one line in
+``FIGURE_MODULES``.  Nothing else in the package names a model or an obstacle
 (docs/architecture.md).
 """
 
@@ -26,8 +28,30 @@ OBSTACLE_MODULES = (
     "cornerbif.obstacles.profile",
 )
 
+# each module defines FIGURE, a cornerbif.model.FigureKind instance: one per [plot] kind
+FIGURE_MODULES = (
+    "cornerbif.figures.diagram",
+    "cornerbif.figures.timeseries",
+    "cornerbif.figures.corner_curves",
+    "cornerbif.figures.obstacle",
+    "cornerbif.figures.regions",
+    "cornerbif.figures.return_map",
+    "cornerbif.figures.orbit",
+    "cornerbif.figures.fractions",
+)
+
 _MODELS = {}
 _OBSTACLES = {}
+_FIGURES = {}
+
+
+def figures() -> dict:
+    """Every registered figure kind, name -> FigureKind, in registration order."""
+    if not _FIGURES:
+        for path in FIGURE_MODULES:
+            k = importlib.import_module(path).FIGURE
+            _FIGURES[k.name] = k
+    return _FIGURES
 
 
 def obstacles() -> dict:

@@ -21,7 +21,8 @@ from cornerbif import config
 from cornerbif import plot_normal_form as nf
 from cornerbif.models.flow import normal_form as FN
 from cornerbif.models.map2d import normal_form as MN
-from cornerbif.plot import PlotData, figure
+from cornerbif.plot import figure
+from cornerbif.plot_base import PlotData
 from cornerbif.sweep import run_sweep
 
 CONFIGS = Path(__file__).resolve().parent.parent / "configs"
@@ -95,7 +96,7 @@ def test_chart_counts_the_coexisting_fixed_points_of_the_hysteresis_wedge(tmp_pa
     # fixed points x_alpha* and x_beta* are admissible (section 5.2: c_alpha < 0 < c_beta), so
     # the chart must count 2 attractors there; below kappa_CC only beta's: 1.
     from cornerbif import theory as th
-    from cornerbif.plot import coexisting_words
+    from cornerbif.plot_diagram import coexisting_words
     text = (CONFIGS / "chart_map2d.toml").read_text()
     scene = config.loads(text, overrides=["sweep.omega.start=2.001", "sweep.omega.stop=2.001",
                                           "sweep.omega.num=1", "sweep.kappa.start=-0.01",

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from cornerbif import plot_base as PB
+from cornerbif import plot_diagram as PD
 from cornerbif import plot_style as PS
 from cornerbif.cli import main
 
@@ -120,7 +122,8 @@ def test_diagram_colours_runs_by_their_orbit(tmp_path, kappa_sweep):
 def test_the_obstacle_figure_draws_eq_8(tmp_path):
     """[plot] kind = "obstacle" (Fig. 2) draws the kernels' obstacle: at the scene's values
     it is kappa + beta |sin omega t| (eq 8) to rounding, its period pi / omega."""
-    from cornerbif.plot import PlotData, obstacle_curve
+    from cornerbif.figures.obstacle import obstacle_curve
+    from cornerbif.plot_base import PlotData
     out = tmp_path / "o.h5"
     r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig02.toml"), "-o",
                                   str(out), "--no-progress", "--set", "system.kappa=0.3",
@@ -211,7 +214,7 @@ def test_marks_and_the_obstacle_figure_are_checked_against_the_scene():
 def test_the_scenes_y_window_holds_for_its_own_y_only():
     """[plot] ylim is in the scene's y: kept for that y (given or the file's default),
     dropped for another --y (Fig. 6(a)'s window in u would hide every impact velocity)."""
-    from cornerbif.plot import cfg_for_y
+    from cornerbif.plot_base import cfg_for_y
     cfg = {"ylim": [-0.0155, 0.0125], "orbits": "families"}
     assert cfg_for_y(cfg, None, "impact_u") == cfg
     assert cfg_for_y(cfg, "impact_u", "impact_u") == cfg
@@ -304,8 +307,7 @@ def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypat
     its attractors are those of the whole arrays, and the whole y is never read."""
     import matplotlib.image as mimage
 
-    from cornerbif import plot as P
-    whole = P.PlotData(str(kappa_sweep))
+    whole = PB.PlotData(str(kappa_sweep))
     labels, count = whole.attractors()
     height = whole.y("impact_height")
     assert np.array_equal(height, whole.y("impact_u") - whole.values["kappa"][:, None, None])
@@ -316,7 +318,7 @@ def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypat
     pngs = {}
     for per_slab in (1 << 30, 8 * 40 * 3):              # one slab; slabs of 3 kappa values
         monkeypatch.setattr(PS, "RASTER_VALUES", per_slab)
-        d = P.PlotData(str(kappa_sweep))
+        d = PB.PlotData(str(kappa_sweep))
         assert all(np.array_equal(a, b) for a, b in zip(d.attractors(), (labels, count)))
         rows = d.y_rows("impact_height")
         assert np.array_equal(rows[4:9], height[4:9], equal_nan=True)
@@ -370,22 +372,20 @@ def test_title_lines_break_between_words_only():
 def test_labels_follow_the_model():
     """The maps' section and start are (a_n, b_n) and (a_0, b_1); a flow's v(nT) and
     u(t_0), v(t_0): the fixed wall's continuation was labelled with the maps' b_n."""
-    from cornerbif import plot as P
-    assert P.y_label("section_v", "map2d") == "$b_n$"
-    assert P.y_label("section_v", "flow") == "$v(nT)$"
-    assert "b_n" in P.y_label("section_v")                 # flow and maps on one axis
-    assert P.axis_label("initial.v", "map2d") == "start $b_1$"
-    assert P.axis_label("initial.v", "flow") == r"start $v(t_0)$"
+    assert PB.y_label("section_v", "map2d") == "$b_n$"
+    assert PB.y_label("section_v", "flow") == "$v(nT)$"
+    assert "b_n" in PB.y_label("section_v")                 # flow and maps on one axis
+    assert PB.axis_label("initial.v", "map2d") == "start $b_1$"
+    assert PB.axis_label("initial.v", "flow") == r"start $v(t_0)$"
 
 
 def test_branches_take_their_orbits_colour():
     """A continued branch is coloured as its orbit is in every diagram (beta blue, alpha
     orange: plot_attractors.FIXED), not by its index in the file (the hysteresis figure
     had alpha blue and beta red)."""
-    from cornerbif import plot as P
     from cornerbif import plot_attractors as PA
     conts = [{"branches": [{"word": "a"}, {"word": "b"}, {"word": "abg"}]}]
-    colors = P.branch_colors(conts)
+    colors = PB.branch_colors(conts)
     fixed = PA.attractor_colors(["b", "a", "g"])
     assert colors["b"] == fixed["b"] and colors["a"] == fixed["a"]
     assert len(set(colors.values())) == 3
@@ -402,7 +402,6 @@ def test_plane_of_exponents_paints_black_only_where_runs_stick():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cornerbif import plot as P
     rng = np.random.default_rng(1)
     lam = rng.uniform(-0.1, -0.05, (20, 10, 2))
     lam[3, 4] = -5.0                      # far below the others: under the scale
@@ -412,7 +411,7 @@ def test_plane_of_exponents_paints_black_only_where_runs_stick():
                                          "kappa": np.linspace(-0.01, 0.01, 10)},
                                  scene={"system": {"obstacle": "sine"}}, path="x.h5")
     fig, ax = plt.subplots()
-    im = P.draw_plane_stability(ax, data, "lyapunov")
+    im = PD.draw_plane_stability(ax, data, "lyapunov")
     rgba = im.to_rgba(im.get_array().reshape(10, 20))
     black = np.array([0.0, 0.0, 0.0, 1.0])
     assert not np.allclose(rgba[4, 3], black)                      # under: the end colour
@@ -426,7 +425,7 @@ def test_plane_of_exponents_paints_black_only_where_runs_stick():
     mu[7, 2] = 0.0
     data.stability = {"multiplier": mu}
     fig, ax = plt.subplots()
-    im = P.draw_plane_stability(ax, data, "multiplier")
+    im = PD.draw_plane_stability(ax, data, "multiplier")
     shown = np.ma.filled(im.get_array().astype(float), np.nan).reshape(10, 20)
     assert np.isnan(shown[2, 7]) and np.isfinite(shown).sum() == 199      # not on the scale
     assert np.isfinite(ax.collections[1].get_array()).sum() == 1
@@ -437,7 +436,7 @@ def test_plane_of_exponents_paints_black_only_where_runs_stick():
 def test_a_continuation_figure_keeps_its_scenes_window_for_its_own_y_only(tmp_path,
                                                                           monkeypatch):
     """``[plot] ylim`` of a continuation scene is a window in its own y: drawn with another
-    ``--y`` it is dropped (as for a sweep's figure, plot.cfg_for_y), not applied to values
+    ``--y`` it is dropped (as for a sweep's figure, PB.cfg_for_y), not applied to values
     it does not fit."""
     import matplotlib.figure
 
@@ -485,17 +484,16 @@ def test_a_diagrams_title_is_its_scenes_and_its_notes_sit_outside_the_axes(tmp_p
 
 
 def test_cells_of_uneven_values_on_a_log_axis():
-    """plot.cell_edges: each value's cell runs to the midpoints with its neighbours (the
+    """PD.cell_edges: each value's cell runs to the midpoints with its neighbours (the
     geometric means on a log axis, as mu_sweep's mass ratios 10 ... 1e7 need), so every
     value sits in its own cell and the cells tile the axis."""
-    from cornerbif import plot as P
     mu = np.array([10.0, 30.0, 100.0, 1e3, 1e4, 1e6, 1e7])
-    e = P.cell_edges(mu, log=True)
+    e = PD.cell_edges(mu, log=True)
     assert np.allclose(e[1:-1], np.sqrt(mu[1:] * mu[:-1]))
     assert np.all((e[:-1] < mu) & (mu < e[1:]))
     assert np.allclose(e[1] / mu[0], mu[0] / e[0])             # the end cell as wide in log
     x = np.array([1.0, 2.0, 4.0])
-    assert np.allclose(P.cell_edges(x), [0.5, 1.5, 3.0, 5.0])
+    assert np.allclose(PD.cell_edges(x), [0.5, 1.5, 3.0, 5.0])
 
 
 def test_no_orbit_takes_the_light_partner_of_a_fixed_colour():

@@ -16,6 +16,7 @@ from click.testing import CliRunner
 
 import cornerbif
 from cornerbif.cli import main
+from cornerbif.figures import timeseries as FTS
 from cornerbif.obstacles import profile as PR
 
 PI = math.pi
@@ -365,9 +366,8 @@ def test_a_profiles_time_series_is_drawn(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cornerbif import plot
     fig, ax = plt.subplots()
-    plot.draw_timeseries(ax, str(tmp_path / "c.h5"), (0,), 0)
+    FTS.draw_timeseries(ax, str(tmp_path / "c.h5"), (0,), 0)
     plt.close(fig)
 
 

@@ -312,6 +312,13 @@ class FlowModel(Model):
             reasons.append("runs stop once their cycle is found (run.stop = \"period\")")
         return seconds, low, high, reasons
 
+    def time_series(self, scene, values, t, u, v_out, t_start, t_stop):
+        from . import timeseries as TR  # jitted flights: loaded when drawn
+        p, d = TR.pack(values, scene.obstacle, scene.section_period, scene.profile)
+        s, us, zs = TR.rebuild(p, d, t, u, v_out, t_start, t_stop)
+        return {"t": s, "u": us, "z": zs, "meet": TR.meet_error(p, d, t, u, v_out), "p": p,
+                "d": d}
+
     def word_seed(self, values, scene, param, word):
         from .orbit import seed_from_word
         return seed_from_word(values, scene.obstacle, param, word, scene.tol)

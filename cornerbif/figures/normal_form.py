@@ -1,0 +1,38 @@
+"""What the three figure kinds of the corner normal form share (``regions``, ``return_map``,
+``orbit``: sections 4-5, Figs 9-11): single runs of a scene without sweep axes, of a model
+that is a side of the normal form (``Model.normal_form``), drawn by ``plot_normal_form``."""
+
+from .. import registry
+from ..model import FigureKind
+
+
+def normal_form_needs() -> str:
+    """Which models (and obstacles) the (a0, b1)-plane figures accept, in words."""
+    parts = []
+    sides = [m for m in registry.models().values() if m.normal_form is not None]
+    for m in sorted(sides, key=lambda m: not m.normal_form.maps):
+        if m.normal_form.maps:
+            parts.append(f"model {m.name!r}")
+        else:
+            obs = [o for o, d in m.obstacles.items() if d.normal_form]
+            parts.append(f"{m.name!r} with obstacle " + " or ".join(repr(o) for o in obs))
+    return " or ".join(parts)
+
+
+class NormalFormKind(FigureKind):
+    def check(self, w):
+        problems = []
+        if not w.spec.has_normal_form(w.obstacle):
+            problems.append(f"plot.kind: {self.name!r} draws the corner normal form of z = kappa "
+                            f"+ beta |sin omega t| (sections 4-5): it needs {normal_form_needs()} "
+                            f"(this scene: model {w.model!r}"
+                            + (f", obstacle {w.obstacle!r}" if w.spec.obstacles else "") + ")")
+        if w.axes:
+            problems.append(f"plot.kind: {self.name!r} draws a scene without sweep axes; this "
+                            f"one sweeps {', '.join(a.name for a in w.axes)}")
+        return problems
+
+    def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
+        # drawing loads h5py, matplotlib and numba; checking a scene loads none
+        from .. import plot_normal_form
+        return plot_normal_form.figure(datas, out, plot_cfg, title)
