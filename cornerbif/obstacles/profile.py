@@ -475,21 +475,21 @@ def bounds(piece: Piece):
     """Certified bounds on the piece: least and largest g, least and largest second
     derivative, largest magnitudes of the third and fourth (all in the angle): the
     Bernstein enclosure of the polynomial plus the sinusoid's exact range."""
-    P = np.polynomial.polynomial
+    poly = np.polynomial.polynomial
     c = np.array(piece.poly)
     out = []
     amp = math.hypot(piece.a, piece.b)
     n = abs(piece.n)
     sin_on = n != 0.0 and amp != 0.0
     for order in (0, 2):
-        lo, hi = _bernstein_range(P.polyder(c, order) if order else c, piece.span)
+        lo, hi = _bernstein_range(poly.polyder(c, order) if order else c, piece.span)
         slo, shi = sinusoid_range(piece.a, piece.b, piece.n, piece.span)
         if order:       # the sinusoid's second derivative is -n^2 times itself
             slo, shi = -n * n * shi, -n * n * slo
         lo, hi = lo + slo, hi + shi
         out += [lo, hi]
     for order in (3, 4):
-        lo, hi = _bernstein_range(P.polyder(c, order), piece.span)
+        lo, hi = _bernstein_range(poly.polyder(c, order), piece.span)
         m = max(abs(lo), abs(hi))
         if sin_on:
             m += amp * n ** order
@@ -546,9 +546,9 @@ def sturm_bound(piece: Piece, k, omega):
     floor of the Sturm comparison of the free undamped gap is f_min = -k^2 kappa - beta
     times it (``obstacle.profile_sturm_floor``).  The sinusoid's share is exact,
     (k^2 - omega^2 n^2) times its range; the polynomial's a Bernstein enclosure."""
-    P = np.polynomial.polynomial
+    poly = np.polynomial.polynomial
     c = np.array(piece.poly)
-    h = P.polyadd(k * k * c, omega * omega * P.polyder(c, 2))
+    h = poly.polyadd(k * k * c, omega * omega * poly.polyder(c, 2))
     _, hi = _bernstein_range(h, piece.span)
     q = k * k - omega * omega * piece.n ** 2
     slo, shi = sinusoid_range(piece.a, piece.b, piece.n, piece.span)

@@ -20,7 +20,7 @@ from ...numerics.impact import restitution
 from ...numerics.oscillator import deriv_bound, homogeneous, particular
 from ...numerics.oscillator import derive as osc_derive
 from ...numerics.roots import FAIL, FOUND, MAXIT, NONE, quad_first_root
-from ...obstacles.dispatch import D_REGIME, D_WD, D_X, D_Y, NDERIVED
+from ...obstacles.dispatch import D_REGIME, D_WD, D_X, D_Y, NDERIVED, SINE
 from ..flow import packed as FP
 from . import packed as P
 from .packed import mass_ratio_impact
@@ -144,7 +144,7 @@ def oscillators(p, c):
     muf = c[C_MUF]
     for r in range(NROW):
         Q[r, FP.OMEGA] = p[P.OMEGA0]
-        Q[r, FP.OBSTACLE] = FP.SINE
+        Q[r, FP.OBSTACLE] = SINE           # a smooth row: the oscillator alone
         Q[r, FP.F_OMEGA] = 1.0
     Q[RZ, FP.SIGMA] = p[P.SIGMA1]
     Q[RZ, FP.K] = p[P.OMEGA1]
