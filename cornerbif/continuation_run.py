@@ -294,7 +294,8 @@ def _seeds(scene, log, control):
     for word, run in found:
         try:
             if run.get("word_seed"):
-                prob, X = scene.spec.word_seed(values, scene, c["parameter"], word)
+                from .api import simulate  # the kernel, run for the word's seed
+                prob, X = scene.spec.word_seed(values, scene, c["parameter"], word, simulate)
             else:
                 prob, X = scene.spec.orbit_seed(values, scene, c["parameter"], word, run)
             ok, why = prob.admissible(X, start)

@@ -437,9 +437,10 @@ class Model:
         row and its derived constants."""
         raise NotImplementedError
 
-    def word_seed(self, values: dict, scene, param: str, word: str):
+    def word_seed(self, values: dict, scene, param: str, word: str, simulate):
         """A periodic-orbit problem and its solved unknowns for a cycle word that no start
-        reached (stable or not), where the model can build one."""
+        reached (stable or not), where the model can build one; ``simulate`` is
+        ``cornerbif.simulate``, handed down by the caller (a model runs no scene itself)."""
         raise NotImplementedError(f"model {self.name!r} seeds orbits from attractors only")
 
     def orbit_seed(self, values: dict, scene, param: str, word: str, run: dict):

@@ -11,6 +11,7 @@ import math
 import numpy as _np
 
 from .analysis import parse_word, winding_number  # noqa: F401  (part of theory's API)
+from .obstacles.sine import resonant_amplitude  # noqa: F401  (eq 6: the smooth wall's own)
 
 
 def kappa_C(omega: float, r: float, beta: float = 1.0) -> float:
@@ -64,11 +65,6 @@ def omega_CC(kappa: float, r: float, beta: float = 1.0, lo: float = 1.0 + 1e-9,
              hi: float = 3.0) -> float:
     """omega_CC(kappa): eq (17) solved for omega on (lo, hi) by bisection."""
     return _solve_omega(lambda w: kappa_CC(w, r, beta), kappa, lo, hi)
-
-
-def resonant_amplitude(r: float, beta: float = 1.0) -> float:
-    """b = 2 beta (1 + r)/(1 - r): the orbit u = b |sin t| of the smooth wall at omega = 2, eq (6)."""
-    return 2.0 * beta * (1.0 + r) / (1.0 - r)
 
 
 # ---------------------------------------------------------------------------

@@ -206,7 +206,7 @@ class FlowModel(Model):
 
     def pack_points(self, scene, index_list):
         # the swept parameters as columns, packed at once (``params.pack_many``)
-        from ...config import IC_PREFIX
+        from ...model import IC_PREFIX
         idx = np.asarray(index_list, np.int64).reshape(len(index_list), -1)
         values = dict(scene.system)
         for i, a in enumerate(scene.axes):
@@ -319,9 +319,9 @@ class FlowModel(Model):
         return {"t": s, "u": us, "z": zs, "meet": TR.meet_error(p, d, t, u, v_out), "p": p,
                 "d": d}
 
-    def word_seed(self, values, scene, param, word):
+    def word_seed(self, values, scene, param, word, simulate):
         from .orbit import seed_from_word
-        return seed_from_word(values, scene.obstacle, param, word, scene.tol)
+        return seed_from_word(values, scene.obstacle, param, word, simulate, scene.tol)
 
     def orbit_from_doc(self, doc):
         from .orbit import FlowOrbit

@@ -363,14 +363,14 @@ def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-
     return prob, newton(prob, X, lam)
 
 
-def seed_from_word(values, obstacle, param, word, tol=1e-12, cycles=6):
+def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6):
     """A FlowOrbit of a cluster word (``a``, ``b``, ``g`` letters, e.g. "b^5 g", "ab"),
     stable or not, near (omega, kappa) = (2, 0) on the rectified sine: the kernel is run
     from the 2D maps' orbit of the word (``theory.word_orbit``: (a0, b1) = (u, u')(0) at
     the section corner, epsilon = 1) for a few cycles without transient, the first run of
     clusters spelling the word (up to rotation) gives the pieces and the first guess, and
-    Newton finds the flow's orbit.  OrbitError when the run does not spell it."""
-    import cornerbif
+    Newton finds the flow's orbit.  OrbitError when the run does not spell it.
+    ``simulate``: ``cornerbif.simulate``, which runs the kernel."""
 
     from ...analysis import parse_word
     from ...theory import word_orbit
@@ -382,7 +382,7 @@ def seed_from_word(values, obstacle, param, word, tol=1e-12, cycles=6):
     x, _ = word_orbit(letters, values["omega"] - 2.0, values["kappa"], values["r"])
     sys_ = {k: v for k, v in values.items() if k in P.INDEX}
     rec = cycles * (2 * len(letters) + 2)
-    res = cornerbif.simulate([x[0, 0]], [x[0, 1]], obstacle=obstacle, transient=0,
+    res = simulate([x[0, 0]], [x[0, 1]], obstacle=obstacle, transient=0,
                              record=rec, **sys_)
     t, off = res["t"][0], res["corner_offset"][0]
     n = int(np.isfinite(t).sum())

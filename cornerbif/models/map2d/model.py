@@ -99,7 +99,7 @@ class Map2dModel(Model):
         from .orbit import map_seed
         return map_seed(values, param, word)
 
-    def word_seed(self, values, scene, param, word):
+    def word_seed(self, values, scene, param, word, simulate):
         from .orbit import map_seed
         return map_seed(values, param, word)
 
