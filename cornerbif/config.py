@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import plot_style, registry
+from . import figures, obstacles, plot_style, registry
 from .cycles import parse_word
 from .model import IC_PREFIX, KEY_CHARS, cut, did_you_mean, shown
 from .model import is_number as _is_number
@@ -167,7 +167,7 @@ def _union(seqs):
 #   KEEP_DEFAULT  what a scene without [output] keep keeps: every observable but the opt-in ones
 #   OBSTACLES     the default model's obstacles
 #   TABLES        each table's keys (None: [sweep], parameter names + 'follow')
-#   PLOT_KINDS    the figure kinds of [plot] kind (registry.FIGURE_MODULES)
+#   PLOT_KINDS    the figure kinds of [plot] kind (figures.FIGURE_MODULES)
 REGISTERED = ("MODELS", "KEEP", "KEEP_DEFAULT", "OBSTACLES", "TABLES", "PLOT_KINDS")
 
 
@@ -189,7 +189,7 @@ def _derive(names: tuple) -> dict:
         "KEEP": keep,
         "KEEP_DEFAULT": tuple(k for k in keep if not any(k in m.opt_in for m in models)),
         "OBSTACLES": tuple(registry.get(registry.DEFAULT_MODEL).obstacles),
-        "PLOT_KINDS": tuple(registry.figures()),
+        "PLOT_KINDS": tuple(figures.registered()),
         "TABLES": {
             "scene": ("name", "title", "model"),
             "system": _union(tuple(m.params) + tuple(m.system_extra) for m in models),
@@ -736,7 +736,7 @@ def _read_system(w):
     sy = w.table("system")
     spec = w.spec
     w.unknown("system", tuple(spec.params) + tuple(spec.system_extra))
-    obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", registry.DEFAULT_OBSTACLE))
+    obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", obstacles.DEFAULT))
     if spec.obstacles and not (isinstance(obstacle, str) and obstacle in spec.obstacles):
         allowed = tuple(spec.obstacles)
         w.problems.append(f"system.obstacle: {shown(obstacle)} is not an obstacle"
@@ -1233,7 +1233,7 @@ def _read_plot_text(w, plot):
 def _read_plot_kind(w, plot):
     """``[plot] kind``: one of the registered figure kinds (``registry.figures``), whose own
     ``check`` says what of the scene it needs."""
-    kinds = registry.figures()
+    kinds = figures.registered()
     kind = plot.get("kind", "diagram")
     if not (isinstance(kind, str) and kind in kinds):
         w.problems.append(f"plot.kind: {shown(kind)} is not a plot kind"

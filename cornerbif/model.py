@@ -116,7 +116,7 @@ class Field:
 class Obstacle:
     """A kind of periodic obstacle z(t) = kappa + beta g(omega t) of the ``flow`` model: its
     declaration and its Python side.  Each kind is one module of ``cornerbif/obstacles``
-    (registered in ``registry.OBSTACLE_MODULES``) defining ``OBSTACLE``, an instance of this
+    (registered in ``obstacles.OBSTACLE_MODULES``) defining ``OBSTACLE``, an instance of this
     class or of a subclass that overrides the methods below; its jitted pieces are
     ``obstacles/dispatch.py``'s branches on its code, the only place that reads a code.
 
@@ -255,7 +255,7 @@ IC_PREFIX = "initial."
 @dataclass(frozen=True)
 class FigureKind:
     """A ``[plot] kind`` of ``cornerbif plot``: one module of ``cornerbif/figures`` (registered
-    in ``registry.FIGURE_MODULES``) defining ``FIGURE``, an instance of a subclass.
+    in ``figures.FIGURE_MODULES``) defining ``FIGURE``, an instance of a subclass.
 
     ``doc``: what it draws, in words; ``files``: which files one figure of it draws, checked
     by ``plot.check_together`` before anything is drawn: "diagram" (swept files overlaid, a

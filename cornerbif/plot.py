@@ -18,7 +18,7 @@ import tomllib
 
 import numpy as np
 
-from . import registry
+from . import figures, registry
 from .model import cut
 from .plot_base import (
     BRANCH_Y,
@@ -134,7 +134,7 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
             raise Undrawable(d.unplaceable)
     cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
     kind = cfg.get("kind", "diagram")
-    fk = registry.figures().get(kind) if isinstance(kind, str) else None
+    fk = figures.registered().get(kind) if isinstance(kind, str) else None
     if fk is None:
         raise Undrawable(f"{datas[0].path}: [plot] kind {cut(kind)!r} is not a figure this "
                          "cornerbif draws")
@@ -425,5 +425,5 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     if color_by is not None and color_by not in COLOR_BY:
         raise Undrawable(f"color_by: {cut(color_by)!r} is not allowed; allowed: "
                          + ", ".join(COLOR_BY))
-    return registry.figures()[kind_].draw(plt, datas, out, y, title, plot_cfg, color_by,
+    return figures.registered()[kind_].draw(plt, datas, out, y, title, plot_cfg, color_by,
                                           branches)

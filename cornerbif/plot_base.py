@@ -12,7 +12,7 @@ import tomllib
 
 import numpy as np
 
-from . import plot_attractors, registry
+from . import obstacles, plot_attractors, registry
 from . import status as S
 from .errors import SweepError
 from .io import check_readable
@@ -29,8 +29,8 @@ def obstacle_kind(system: dict):
     """The obstacle kind (``model.Obstacle``) a file's ``[system]`` names, the default where it
     names none (the figures ask it what it draws: corner curves, marks, its wedge)."""
     from .model import Obstacle
-    name = system.get("obstacle", registry.DEFAULT_OBSTACLE)
-    known = registry.obstacles().get(name) if isinstance(name, str) else None
+    name = system.get("obstacle", obstacles.DEFAULT)
+    known = obstacles.registered().get(name) if isinstance(name, str) else None
     return known or Obstacle(str(name), -1, "not a registered obstacle", 1, 1, corners=False)
 
 

@@ -1,11 +1,10 @@
-"""The registries: one object per model (``cornerbif.model.Model``), one per obstacle kind of
-the ``flow`` model (``cornerbif.model.Obstacle``) and one per figure kind of ``cornerbif plot``
-(``cornerbif.model.FigureKind``).
+"""The model registry: one object per model (``cornerbif.model.Model``).
 
-A new model is its own folder (``models/<name>/``) and one line in ``MODEL_MODULES``; a new
-obstacle kind is its own module (``obstacles/<name>.py``) and one line in
-``OBSTACLE_MODULES``; a new figure kind its own module (``figures/<name>.py``) and one line in
-``FIGURE_MODULES``.  Nothing else in the package names a model or an obstacle
+A new model is its own folder (``models/<name>/``) and one line in ``MODEL_MODULES``.  The
+obstacle kinds and the figure kinds have registries of their own, each the ``__init__`` of
+their package (``obstacles.registered``, ``figures.registered``), so that loading one kind of
+plug-in never loads a module that imports its registry (no cycle, the loads included).
+Nothing else in the package names a model, an obstacle or a figure kind
 (docs/architecture.md).
 """
 
@@ -20,47 +19,7 @@ MODEL_MODULES = (
     "cornerbif.models.two_particle.model",
 )
 
-# each module defines OBSTACLE, a cornerbif.model.Obstacle instance (its code unique)
-OBSTACLE_MODULES = (
-    "cornerbif.obstacles.sine",
-    "cornerbif.obstacles.rectified_sine",
-    "cornerbif.obstacles.triangle",
-    "cornerbif.obstacles.profile",
-)
-
-# each module defines FIGURE, a cornerbif.model.FigureKind instance: one per [plot] kind
-FIGURE_MODULES = (
-    "cornerbif.figures.diagram",
-    "cornerbif.figures.timeseries",
-    "cornerbif.figures.corner_curves",
-    "cornerbif.figures.obstacle",
-    "cornerbif.figures.regions",
-    "cornerbif.figures.return_map",
-    "cornerbif.figures.orbit",
-    "cornerbif.figures.fractions",
-)
-
 _MODELS = {}
-_OBSTACLES = {}
-_FIGURES = {}
-
-
-def figures() -> dict:
-    """Every registered figure kind, name -> FigureKind, in registration order."""
-    if not _FIGURES:
-        for path in FIGURE_MODULES:
-            k = importlib.import_module(path).FIGURE
-            _FIGURES[k.name] = k
-    return _FIGURES
-
-
-def obstacles() -> dict:
-    """Every registered obstacle kind, name -> Obstacle, in registration order."""
-    if not _OBSTACLES:
-        for path in OBSTACLE_MODULES:
-            o = importlib.import_module(path).OBSTACLE
-            _OBSTACLES[o.name] = o
-    return _OBSTACLES
 
 
 def models() -> dict:
@@ -82,5 +41,3 @@ def get(name: str):
 
 
 DEFAULT_MODEL = "flow"
-# the flow model's obstacle when a scene names none: the paper's, eq (8)
-DEFAULT_OBSTACLE = "rectified_sine"

@@ -25,6 +25,7 @@ import os
 
 import pytest
 
+from cornerbif import obstacles as obstacle_kinds
 from cornerbif import registry
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -72,7 +73,7 @@ def _carries(node) -> bool:
 def dispatch_in(source: str, owner_of) -> list:
     """(line, what) of every dispatch on a name or code in ``source``; ``owner_of(name)`` says
     whether the module may decide by ``name`` (its own model or obstacle)."""
-    models, obstacles = set(registry.names()), set(registry.obstacles())
+    models, obstacles = set(registry.names()), set(obstacle_kinds.registered())
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Compare):
@@ -104,7 +105,7 @@ def _owner(rel):
 
     def owns(name):
         if rel == "cornerbif/registry.py":
-            return name in set(registry.names()) | set(registry.obstacles())
+            return name in set(registry.names()) | set(obstacle_kinds.registered())
         if name == "<codes>":
             return rel == "cornerbif/obstacles/dispatch.py"
         if name == "<width>":
@@ -143,6 +144,6 @@ def test_the_scan_catches_dispatch(snippet, what):
         assert dispatch_in(snippet, _owner("cornerbif/obstacles/dispatch.py")) == []
     else:
         name = what.split("'")[1]
-        own = (f"cornerbif/obstacles/{name}.py" if name in registry.obstacles()
+        own = (f"cornerbif/obstacles/{name}.py" if name in obstacle_kinds.registered()
                else f"cornerbif/models/{name}/model.py")
         assert [w for _, w in dispatch_in(snippet, _owner(own)) if name in w] == []

@@ -1,3 +1,33 @@
-"""The figure kinds of ``cornerbif plot``: one module per ``[plot] kind`` (registered in
-``registry.FIGURE_MODULES``), each defining ``FIGURE``, a ``model.FigureKind``: what of a scene
-it needs (``check``) and how it draws its files (``draw``)."""
+"""The figure kinds of ``cornerbif plot``: one module per ``[plot] kind``, each defining
+``FIGURE``, a ``model.FigureKind``: what of a scene it needs (``check``) and how it draws its
+files (``draw``).  A kind module's top level loads neither matplotlib nor h5py nor a kernel.
+
+This is the figure kinds' registry: a new kind is its own module and one line in
+``FIGURE_MODULES``.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+FIGURE_MODULES = (
+    "cornerbif.figures.diagram",
+    "cornerbif.figures.timeseries",
+    "cornerbif.figures.corner_curves",
+    "cornerbif.figures.obstacle",
+    "cornerbif.figures.regions",
+    "cornerbif.figures.return_map",
+    "cornerbif.figures.orbit",
+    "cornerbif.figures.fractions",
+)
+
+_KINDS = {}
+
+
+def registered() -> dict:
+    """Every registered figure kind, name -> FigureKind, in registration order."""
+    if not _KINDS:
+        for path in FIGURE_MODULES:
+            k = importlib.import_module(path).FIGURE
+            _KINDS[k.name] = k
+    return _KINDS

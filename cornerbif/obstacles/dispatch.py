@@ -7,7 +7,7 @@ of the certified searches (``zpp_range``, ``zppp_max``, ``zpppp_max``, ``contact
 ``sturm_floors``, ``contact_floor``), the nearest corner of an event (``corner_of``) and
 the per-run switches of the flow kernel (``cycle_lag``, ``sinusoidal``).  A new obstacle adds a
 branch to each of them, beside its own module (``obstacles/<name>.py``: its declaration and
-Python side, registered in ``registry.OBSTACLE_MODULES``); docs/kernels.md says what each
+Python side, registered in ``obstacles.OBSTACLE_MODULES``); docs/kernels.md says what each
 must return.
 
 Time is kept as a piece index ``j`` and a local time ``tau`` in [0, L_j]
@@ -36,7 +36,7 @@ from .rectified_sine import OBSTACLE as _rectified_sine
 from .sine import OBSTACLE as _sine
 from .triangle import OBSTACLE as _triangle
 
-# the obstacle codes the branches below compare, each its kind's (registry.OBSTACLE_MODULES)
+# the obstacle codes the branches below compare, each its kind's (obstacles.OBSTACLE_MODULES)
 SINE = _sine.code                      # section 2.2 (smooth, no corners)
 RECTIFIED_SINE = _rectified_sine.code  # eq (8), corners at k pi / omega
 TRIANGLE = _triangle.code              # eq (7) made periodic with period pi / omega

@@ -12,28 +12,28 @@ import math
 
 import numpy as np
 
-from ... import registry
-from ...model import Coord, CycleSeries, Field, Model
+from ... import obstacles
+from ...model import Coord, Field, Model
+from ...observables import (
+    ANALYSIS_KERNELS,
+    ANALYSIS_SECONDS,
+    IMPACT_CYCLE,
+    IMPACT_FIELDS,
+    SECTION_FIELDS,
+    STABILITY_FIELDS,
+    U,
+    V,
+)
 from . import params as P
 from .normal_form import SIDE
 from .params import OBSTACLES
-
-# The kernels (models/flow/kernel.py, the cycle analysis, the stability pass) are imported by the
-# methods that run them: importing this module, as checking a scene does, loads no numba.
 
 # run.stop = "period": the kernel stops once the state at the corners repeats to this share of
 # run.period_tol (relative), tighter than the analysis so that the orbit has converged well
 # beyond what the period test reads (see models.flow.kernel.cycle_watch)
 STOP_TOL_FACTOR = 1e-3
 
-IMPACT_FIELDS = (
-    Field("impacts/t", "t", "impact time t", "time"),
-    Field("impacts/u", "u", "impact height u = z(t)", "length"),
-    Field("impacts/v_in", "v_in", "velocity just before impact v-", "length/time"),
-    Field("impacts/v_out", "v_out", "velocity just after impact v+ (law 5)", "length/time"),
-    Field("impacts/corner_offset", "corner_offset",
-          "signed offset of the impact to the nearest corner (t - t_k)", "time"),
-)
+
 # which corner of a period an impact is grouped by, when a period has several (a cam
 # profile's); opt-in: the built-in obstacles have one corner per period (0) or none (-1)
 CORNER_FIELDS = (
@@ -42,38 +42,8 @@ CORNER_FIELDS = (
           "period's corners from the period's start, 0 the first; -1 none (an obstacle "
           "without corners, no impact)", axis=None, dtype="i1", fill=-1),
 )
-SECTION_FIELDS = (
-    Field("section/u", "su", "u at the Poincare section t = nT"),
-    Field("section/v", "sv", "v at the Poincare section t = nT"),
-)
-STABILITY_FIELDS = (
-    Field("stability/multiplier_re", "mu_re", "real part of the Floquet multipliers of the "
-          "run's cycle, by decreasing modulus (docs/stability.md)", axis=("multiplier", 2)),
-    Field("stability/multiplier_im", "mu_im", "imaginary part of the Floquet multipliers",
-          axis=("multiplier", 2)),
-    Field("stability/cycle_duration", "cycle_duration", "duration of the cycle", "time",
-          axis=()),
-    Field("stability/status", "stability_status", "how the multipliers were found: 0 ok, "
-          "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none); "
-          "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
-          axis=(), dtype="i1", fill=-1),
-    Field("stability/lyapunov", "lyapunov", "Lyapunov exponents over the recorded window, "
-          "largest first, per unit time (QR through flights and impacts, docs/stability.md)",
-          "1/time", axis=("exponent", 2)),
-    Field("stability/lyapunov_window", "lyapunov_window", "time over which the Lyapunov "
-          "exponents are averaged (after the warm-up, whole cycles where there is one)",
-          "time", axis=()),
-    Field("stability/lyapunov_status", "lyapunov_status", "how the exponents were found: 0 "
-          "ok, 1 grazing impact (none), 2 the window sticks (-inf), 4 too few impacts (none); "
-          "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
-          axis=(), dtype="i1", fill=-1),
-)
-# an attractor's identity beside its word: the impact heights and velocities over one cycle
-IMPACT_CYCLE = CycleSeries(end="t", a="u", b="v_in", per="impacts", names=("u", "v_in"),
-                           long_names=("impact height u", "velocity before impact v-"))
-U = Coord("u", (0.0, 20.0), 0, "wall", "initial position u(0)",
-          "u at the last section crossed (the state a followed sweep carries on)")
-V = Coord("v", (-20.0, 20.0), 1, None, "initial velocity v(0)", "v at the last section crossed")
+
+
 # the start time t0 of each run, the obstacle's phase at the start (0: a corner of the
 # rectified sine); a start coordinate beside the state, not carried by follow
 T0 = Coord("t", (0.0, 0.0), 2, None, "start time t0 of the run (the obstacle's phase at the "
@@ -139,12 +109,10 @@ def escape_impacts(speed, r, k, escape):
 # --- what a first run compiles (``engine.announce_compiles``) ------------------------------
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``)
-COMPILE_SECONDS = {"analysis": 2.3, "flow": 25.1, "own_kernel": 28.8, "t0": 1.4, "stability": 4.0,
+COMPILE_SECONDS = {"flow": 25.1, "own_kernel": 28.8, "t0": 1.4, "stability": 4.0,
                    "continuation": 1.5}
-# the cycle analysis and the file's chunk writer: every sweep of the flow and two-particle
-# models calls them
-ANALYSIS_KERNELS = ("analysis.detect_cycles", "analysis.cycle_signatures",
-                    "chunkwrite._shuffle_bytes", "numerics.fill._fill")
+
+
 # what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the
 # functions the continuation calls from Python, each cached on its own)
 CONTINUATION_KERNELS = ("numerics.saltation.flight_matrix", "numerics.saltation.impact_saltation",
@@ -245,7 +213,7 @@ class FlowModel(Model):
         from .tangent import batch_stability
         out = []
         if "sweep" in what or "continuation" in what:
-            out.append(("the cycle analysis", COMPILE_SECONDS["analysis"],
+            out.append(("the cycle analysis", ANALYSIS_SECONDS,
                         dispatchers(*ANALYSIS_KERNELS)))
             if OBSTACLES[scene.obstacle].own_kernel:
                 out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["own_kernel"],
@@ -430,7 +398,7 @@ MODEL = FlowModel(
     continuation=True,
     seed_observable="impacts",
     cycle=IMPACT_CYCLE,
-    system_extra={"obstacle": registry.DEFAULT_OBSTACLE, "section_period": None}
+    system_extra={"obstacle": obstacles.DEFAULT, "section_period": None}
     | {t: None for o in OBSTACLES.values() for t in o.tables},
     obstacles=OBSTACLES,
     events_per_impact=10,

@@ -13,7 +13,7 @@ kernel.  ``models/flow/packed.py`` adds the jitted views of a packed row the ker
 
 import numpy as np
 
-from ... import registry
+from ... import obstacles
 from ...model import FREQUENCY, Param, anything, frequency, nonnegative, unit_interval
 from .slots import *  # noqa: F403 (the packed row's slots, read as P.* with the declarations)
 from .slots import (
@@ -38,8 +38,8 @@ def steady_or_frequency(v):
 
 # --- the declarations (read by config through the registry) ------------------------------
 # every obstacle kind of the flow model, each in its own module of cornerbif/obstacles
-# (registry.OBSTACLE_MODULES; docs/architecture.md)
-OBSTACLES = registry.obstacles()
+# (obstacles.OBSTACLE_MODULES; docs/architecture.md)
+OBSTACLES = obstacles.registered()
 
 PARAMS = {p.name: p for p in (
     Param("omega", 2.0, FREQUENCY, frequency, "obstacle frequency", "eq 8"),

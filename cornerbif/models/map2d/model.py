@@ -13,7 +13,7 @@ import numpy as np
 
 from ... import status as S
 from ...model import Coord, CycleSeries, Field, Model, Param, anything, positive
-from ..flow.model import SECTION_FIELDS, STABILITY_FIELDS, U
+from ...observables import SECTION_FIELDS, STABILITY_FIELDS, U
 from .normal_form import SIDE
 
 # The kernels (models/map2d/maps.py, the stability pass) are imported by the methods that run them:

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ...model import Coord, Field, Model
-from ..flow.model import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
+from ...observables import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
 from . import params as TP
 
 # The kernels (models/two_particle/kernel.py, the cycle analysis, the stability pass) are imported
@@ -129,13 +129,12 @@ class TwoParticleModel(Model):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
         # the kernels load with numba here, on first use (numba-free validation)
         from ..._jit import dispatchers
-        from ..flow.model import ANALYSIS_KERNELS
-        from ..flow.model import COMPILE_SECONDS as FLOW
+        from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS
         from . import kernel as K
         from .tangent import batch_two_particle_stability
         out = []
         if "sweep" in what or "continuation" in what:
-            out.append(("the cycle analysis", FLOW["analysis"], dispatchers(*ANALYSIS_KERNELS)))
+            out.append(("the cycle analysis", ANALYSIS_SECONDS, dispatchers(*ANALYSIS_KERNELS)))
             out.append(("the two-particle kernel", COMPILE_SECONDS["two_particle"],
                         [K.run_batch]))
         if "stability" in what or ("sweep" in what and "stability" in scene.keep):
