@@ -462,7 +462,7 @@ def info(file):
     summarises those; a sweep with no finished point is refused. Every text the file holds
     is shown on one line, cut at a bounded length."""
     from .io import FileFormatError
-    from .plot_base import is_continuation, read_continuation
+    from .plot_data import is_continuation, read_continuation
     from .plot_style import quiet
     try:
         with quiet():             # numpy on the NaN and infinities a file holds by design
@@ -492,7 +492,8 @@ def _sweep_lines(file):
     import numpy as np
 
     from .io import check_readable
-    from .plot_base import PlotData, attractor_summary, status_name
+    from .plot_base import attractor_summary, status_name
+    from .plot_data import PlotData
     from .plot_style import TITLE_MAX, bounded
     d = PlotData(file)
     with check_readable(file) as f:

@@ -877,7 +877,8 @@ def facts(h5: str) -> dict:
     * the attractor table (``cornerbif.attractors``), where the file has one: per parameter
       point its attractors' words and shares, with the runs that reached none.
     """
-    from .plot_base import PlotData, attractor_summary
+    from .plot_base import attractor_summary
+    from .plot_data import PlotData
     d = PlotData(h5)
     labels, count = d.attractors()
     st, cnt = np.unique(d.status, return_counts=True)

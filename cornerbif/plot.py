@@ -20,19 +20,8 @@ import numpy as np
 
 from . import figures, registry
 from .model import cut
-from .plot_base import (
-    BRANCH_Y,
-    COLOR_BY,
-    DRAW_LIMIT,
-    Y_DATASETS,
-    PlotData,
-    Undrawable,
-    branch_keys,
-    cfg_for_y,
-    flow_and_map,
-    is_continuation,
-    read_continuation,
-)
+from .plot_base import BRANCH_Y, COLOR_BY, Undrawable, branch_keys, cfg_for_y, flow_and_map
+from .plot_data import DRAW_LIMIT, Y_DATASETS, PlotData, is_continuation, read_continuation
 from .plot_diagram import branches_figure
 from .plot_style import quiet
 

@@ -12,6 +12,7 @@ import os
 import tomllib
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,7 +24,6 @@ from .plot_base import (
     DRAW_LIMIT,
     EVENT_MARKERS,
     LABELS,
-    PlotData,
     Undrawable,
     attractor_summary,
     axis_label,
@@ -43,6 +43,9 @@ from .plot_base import (
     y_label,
 )
 from .plot_style import legend, plain, save, title_lines
+
+if TYPE_CHECKING:
+    from .plot_data import PlotData
 
 
 def draw_bifurcation(ax, data: PlotData, y="impact_u", ms=0.6, color="k", label=None,

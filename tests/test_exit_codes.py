@@ -137,14 +137,14 @@ def test_every_writing_command_ends_a_fault_with_exit_1_and_one_message(tmp_path
 def _plant(monkeypatch, error):
     """``error`` raised where each command starts its work: the scene loader (sweep,
     continue, validate, gallery), the figure (plot) and the file's reader (info)."""
-    from cornerbif import config, plot, plot_base
+    from cornerbif import config, plot, plot_data
 
     def raise_it(*a, **k):
         raise error
 
     monkeypatch.setattr(config, "load", raise_it)
     monkeypatch.setattr(plot, "draw_files", raise_it)
-    monkeypatch.setattr(plot_base, "PlotData", raise_it)
+    monkeypatch.setattr(plot_data, "PlotData", raise_it)
 
 
 @pytest.mark.parametrize("command", ["sweep", "continue", "plot", "info", "validate", "gallery"])

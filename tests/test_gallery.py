@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from cornerbif import analysis, config, gallery, registry, run_sweep, simulate, theory
 from cornerbif.cli import main
 from cornerbif.models.flow import timeseries as trajectory
-from cornerbif.plot_base import PlotData
+from cornerbif.plot_data import PlotData
 
 ROOT = os.path.dirname(os.path.dirname(__file__))
 CONFIGS = os.path.join(ROOT, "configs")

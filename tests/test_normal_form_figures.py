@@ -22,7 +22,7 @@ from cornerbif import plot_normal_form as nf
 from cornerbif.models.flow import normal_form as FN
 from cornerbif.models.map2d import normal_form as MN
 from cornerbif.plot import figure
-from cornerbif.plot_base import PlotData
+from cornerbif.plot_data import PlotData
 from cornerbif.sweep import run_sweep
 
 CONFIGS = Path(__file__).resolve().parent.parent / "configs"

@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from cornerbif import plot_base as PB
+from cornerbif import plot_data as PDATA
 from cornerbif import plot_diagram as PD
 from cornerbif import plot_style as PS
 from cornerbif.cli import main
@@ -123,7 +124,7 @@ def test_the_obstacle_figure_draws_eq_8(tmp_path):
     """[plot] kind = "obstacle" (Fig. 2) draws the kernels' obstacle: at the scene's values
     it is kappa + beta |sin omega t| (eq 8) to rounding, its period pi / omega."""
     from cornerbif.figures.obstacle import obstacle_curve
-    from cornerbif.plot_base import PlotData
+    from cornerbif.plot_data import PlotData
     out = tmp_path / "o.h5"
     r = CliRunner().invoke(main, ["sweep", os.path.join(ROOT, "configs", "fig02.toml"), "-o",
                                   str(out), "--no-progress", "--set", "system.kappa=0.3",
@@ -307,7 +308,7 @@ def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypat
     its attractors are those of the whole arrays, and the whole y is never read."""
     import matplotlib.image as mimage
 
-    whole = PB.PlotData(str(kappa_sweep))
+    whole = PDATA.PlotData(str(kappa_sweep))
     labels, count = whole.attractors()
     height = whole.y("impact_height")
     assert np.array_equal(height, whole.y("impact_u") - whole.values["kappa"][:, None, None])
@@ -318,7 +319,7 @@ def test_a_diagram_past_the_raster_threshold_is_read_by_slab(tmp_path, monkeypat
     pngs = {}
     for per_slab in (1 << 30, 8 * 40 * 3):              # one slab; slabs of 3 kappa values
         monkeypatch.setattr(PS, "RASTER_VALUES", per_slab)
-        d = PB.PlotData(str(kappa_sweep))
+        d = PDATA.PlotData(str(kappa_sweep))
         assert all(np.array_equal(a, b) for a, b in zip(d.attractors(), (labels, count)))
         rows = d.y_rows("impact_height")
         assert np.array_equal(rows[4:9], height[4:9], equal_nan=True)

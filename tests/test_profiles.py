@@ -367,7 +367,8 @@ def test_a_profiles_time_series_is_drawn(tmp_path):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots()
-    FTS.draw_timeseries(ax, str(tmp_path / "c.h5"), (0,), 0)
+    from cornerbif.plot_data import PlotData
+    FTS.draw_timeseries(ax, PlotData(str(tmp_path / "c.h5")), (0,), 0)
     plt.close(fig)
 
 

@@ -505,7 +505,7 @@ def test_a_fifo_or_a_device_is_refused_by_its_kind_by_either_reader(tmp_path, re
     by its kind and never opened, the path named (the continuation reader called both 'the
     file is empty', their size on stat)."""
     from cornerbif.io import FileFormatError, check_readable
-    from cornerbif.plot_base import read_continuation
+    from cornerbif.plot_data import read_continuation
     fifo = tmp_path / "pipe.h5"
     os.mkfifo(fifo)
     read = check_readable if reader == "sweep" else read_continuation
@@ -538,7 +538,7 @@ def test_both_readers_say_the_same_of_the_same_fault(tmp_path, work):
     import re
 
     from cornerbif.io import FileFormatError, check_readable
-    from cornerbif.plot_base import read_continuation
+    from cornerbif.plot_data import read_continuation
     readers = {"fig06a": check_readable, "cont_beta": read_continuation}
     for name, other, says in (("fig06a", "cont_beta", "not a cornerbif file"),
                               ("cont_beta", "fig06a", "not a cornerbif continuation file")):

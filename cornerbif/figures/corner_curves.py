@@ -10,7 +10,7 @@ import numpy as np
 from ..model import FigureKind
 
 if TYPE_CHECKING:
-    from ..plot_base import PlotData
+    from ..plot_data import PlotData
 
 
 def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):

@@ -11,15 +11,13 @@ from .. import registry
 from ..model import FigureKind
 
 if TYPE_CHECKING:
-    from ..plot_base import PlotData
+    from ..plot_data import PlotData
 
 
 def obstacle_curve(data: PlotData):
     """z(t) of a scene's obstacle at its system values (the model's ``wall_at``: the kernels'
     own obstacle) as a function of t, its period and the scene."""
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
-    from ..config import loads
-    scene = loads(data.scene_text)
+    scene = data.parsed
     model = registry.get(scene.model)
     row = np.ascontiguousarray(model.pack_values(scene.system, scene)[None, :])
 

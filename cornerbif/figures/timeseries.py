@@ -12,7 +12,7 @@ from .. import registry
 from ..model import FigureKind, cut
 
 if TYPE_CHECKING:
-    from ..plot_base import PlotData
+    from ..plot_data import PlotData
 
 ROMAN = ("I", "II", "III", "IV", "V", "VI", "VII", "VIII")
 
@@ -55,31 +55,22 @@ def timeseries_choice(data: PlotData, plot_cfg: dict):
     return point, chosen[: int(plot_cfg.get("max_panels", 4))], lab
 
 
-def draw_timeseries(ax, path, point, ic, cycles=2.0, color="k", label=None):
-    """u(t) and z(t) over ``cycles`` cycles of the attractor reached by start ``ic``.
+def draw_timeseries(ax, data, point, ic, cycles=2.0, color="k", label=None):
+    """u(t) and z(t) over ``cycles`` cycles of the attractor reached by start ``ic`` of the
+    file ``data`` (``plot_data.PlotData``).
 
     Rebuilt from the stored impacts by exact free flight (the model's ``time_series``);
     impacts are marked.  Time is counted from the section t0 = nT (T = 2 pi/omega)
     before the first recorded impact.  Returns a dict of what was drawn and measured.
     """
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
-    from .. import config as C
-    from ..io import check_readable
-    with check_readable(path) as f:
-        scene = C.loads(f.attrs["scene"])
-        if not scene.spec.timeseries:
-            which = " or ".join(repr(m.name) for m in registry.models().values() if m.timeseries)
-            raise ValueError(f"{path}: a time series needs a scene of model {which}, not "
-                             f"{scene.model!r}")
-        if "impacts/t" not in f:
-            raise ValueError(f"{path}: a time series needs the impacts: set output.keep = [\"impacts\"]")
-        idx = tuple(point) + (ic,)
-        t, u, vo, off = (f[f"impacts/{k}"][idx] for k in ("t", "u", "v_out", "corner_offset"))
-        per = int(f["period"][idx])
-        ipc = int(f["impacts_per_cycle"][idx])
-        word = f["symbols"][idx]
-        word = word.decode() if isinstance(word, bytes) else str(word)
-        st = int(f["status"][idx])
+    scene, path = data.parsed, data.path
+    if not scene.spec.timeseries:
+        which = " or ".join(repr(m.name) for m in registry.models().values() if m.timeseries)
+        raise ValueError(f"{path}: a time series needs a scene of model {which}, not "
+                         f"{scene.model!r}")
+    run = data.run_record(point, ic)
+    t, u, vo, off = (run[k] for k in ("t", "u", "v_out", "corner_offset"))
+    per, ipc, word, st = run["period"], run["ipc"], run["word"], run["status"]
     vals = scene.point(tuple(point))
     ok = np.isfinite(t)
     t, u, vo, off = t[ok], u[ok], vo[ok], off[ok]
@@ -133,7 +124,7 @@ def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
     for k, (ax, ic) in enumerate(zip(axs[:, 0], chosen)):
         rank = int(lab[ic])
         color = "k" if n == 1 else ATTRACTOR_COLORS[k % len(ATTRACTOR_COLORS)]
-        r = draw_timeseries(ax, data.path, point, ic, cycles=float(plot_cfg.get("cycles", 2)),
+        r = draw_timeseries(ax, data, point, ic, cycles=float(plot_cfg.get("cycles", 2)),
                             color=color)
         name = (ROMAN[rank] + ": ") if (n > 1 and 0 <= rank < len(ROMAN)) else ""
         ax.set_title(f"{name}start {ic}: period {r['period']} (map iterates), impacts per cycle "
