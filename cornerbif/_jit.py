@@ -8,6 +8,7 @@ IEEE rounding).
 """
 
 import ctypes
+import importlib
 
 import numba
 import numpy as np
@@ -48,7 +49,6 @@ def cache_is_cold(dispatcher) -> bool:
 def dispatchers(*names):
     """The jitted functions named ``module.function`` under the package (e.g.
     ``"models.flow.kernel.run_batch"``), for ``cache_is_cold``: imported when asked for."""
-    import importlib
     out = []
     for name in names:
         module, _, fn = name.rpartition(".")

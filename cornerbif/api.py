@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import registry
+from .config import SceneError, from_dict
 
 RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
 
@@ -30,8 +31,7 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
     their per-run arrays (``keep=["stability"]``: mu_re, mu_im (``shape + (2,)``),
     cycle_duration, stability_status, lyapunov, lyapunov_window, lyapunov_status).
     """
-    from .analysis import words
-    from .config import SceneError, from_dict
+    from .analysis import words  # start-up: loads numba
     if model not in registry.models():
         raise ValueError(f"simulate(model={model!r}): not a model; allowed: "
                          + ", ".join(registry.models()))

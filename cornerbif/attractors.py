@@ -314,7 +314,7 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
 def read_table(path_or_file):
     """The attractor table of a file as a dict of arrays (words as str), or None when the
     file has none (written before tables existed, or a model without cycle series)."""
-    import h5py
+    import h5py  # start-up: loads h5py
     own = not isinstance(path_or_file, h5py.File)
     f = h5py.File(path_or_file, "r") if own else path_or_file
     try:

@@ -8,13 +8,27 @@ error into its message and its code (docs/guarantees.md, "Exit codes").
 
 from __future__ import annotations
 
+import json
 import os
+import shlex
+import signal
 import sys
+import textwrap
+import threading
+import time
+import tomllib
+import warnings
 
 import click
+import numpy as np
 
-from .config import PLOT_COLOR_BY, PLOT_Y, SceneError
-from .errors import EXIT_FAULT, EXIT_INPUT, EXIT_INTERRUPTED, SweepError, WriteFailed
+from . import config, engine, outputs, plot_style
+from . import continuation_run as C
+from .config import PLOT_COLOR_BY, PLOT_Y, SceneError, undrawable
+from .errors import EXIT_FAULT, EXIT_INPUT, EXIT_INTERRUPTED, SweepError, SweepInterrupted, WriteFailed
+from .estimate import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
+from .model import cut
+from .plot_style import TITLE_MAX, bounded, quiet
 
 
 def _fail(msg, code=EXIT_INPUT):
@@ -23,7 +37,6 @@ def _fail(msg, code=EXIT_INPUT):
 
 
 def _load(scene_path, sets):
-    from . import config
     try:
         return config.load(scene_path, sets)
     except SceneError as e:
@@ -66,7 +79,6 @@ class Commands(click.Group):
             _fail("interrupted", EXIT_INTERRUPTED)
 
     def invoke(self, ctx):
-        from . import outputs
         handlers = outputs.install_signal_handlers()
         hook, sys.unraisablehook = sys.unraisablehook, _quiet_failed_hdf5
         try:
@@ -76,7 +88,6 @@ class Commands(click.Group):
             sys.unraisablehook = hook
 
     def _invoke(self, ctx):
-        from . import outputs
         try:
             return super().invoke(ctx)
         except (click.exceptions.Exit, click.ClickException, click.Abort):
@@ -156,13 +167,13 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     scene = _load(scene_path, sets)
     if scheduler is not None:
-        from .distributed import parse_scheduler, require_dask
+        from .distributed import parse_scheduler, require_dask  # start-up: loads numba
         parse_scheduler(scheduler)
         require_dask()
-    from .sweep import default_output, run_sweep
+    from .sweep import default_output, run_sweep  # start-up: loads h5py
     out = default_output(scene) if out is None else out
     cores = _check_threads(threads)
-    from .sweep import check_budget, check_directory, plan_output
+    from .sweep import check_budget, check_directory, plan_output  # start-up: loads h5py
     check_directory(out)
     # what the sweep will do with its output, refused before anything else is said
     plan = plan_output(scene, out, resume, overwrite, (scene_path,))
@@ -182,14 +193,12 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     if progress is None:
         progress = sys.stderr.isatty() and not os.environ.get("CI")
     if plan != "done":
-        from .estimate import estimate_time, estimate_words
         eta = estimate_time(scene, threads or cores)
         if eta.high > 60 and plan == "start":
             click.echo(f"this sweep will take {estimate_words(eta)} on {threads or cores} "
                        "thread(s) (cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps "
                        "every finished point, --resume completes it)", err=True)
-        from .engine import announce_compiles
-        announce_compiles(scene, lambda m: click.echo(m, err=True), ("sweep",))
+        engine.announce_compiles(scene, lambda m: click.echo(m, err=True), ("sweep",))
     path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
                      progress=progress, command=_command_line(scene_path, out, sets, threads,
                                                               resume, overwrite, block_points,
@@ -228,8 +237,6 @@ def _raise_again_soon(interrupt):
     the hook, where it is lost again; a thread started here would wait on a lock the
     handler interrupts).  Landing in another finalizer, it comes back here and is tried
     again."""
-    import signal
-    import threading
     if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
         return
 
@@ -242,7 +249,7 @@ def _raise_again_soon(interrupt):
 
 def _check_threads(threads):
     """The cores numba may use here; refuse ``--threads`` above them (exit 2)."""
-    import numba
+    import numba  # start-up: loads numba
     cores = numba.config.NUMBA_NUM_THREADS
     if threads and threads > cores:
         _fail(f"--threads {threads}: numba can use at most {cores} threads on this machine "
@@ -266,13 +273,12 @@ def _numba_threads() -> int:
                 return max(1, os.cpu_count() or 1)
         if given.strip().isdecimal() and int(given) > 0:
             return int(given)
-    import numba
+    import numba  # start-up: loads numba
     return numba.config.NUMBA_NUM_THREADS
 
 
 def _describe(scene, out, threads):
     """What a scene will do, in lines: grid, runs, output size, memory and time."""
-    from .estimate import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
     n_points = 1
     for n in scene.shape:
         n_points *= n
@@ -309,7 +315,6 @@ def _describe(scene, out, threads):
 def _command_line(scene_path, out, sets, threads, resume, overwrite, block_points,
                   scheduler=None):
     """The sweep command as run, for the file's provenance."""
-    import shlex
     parts = ["cornerbif", "sweep", scene_path, "-o", out]
     for s in sets:
         parts += ["--set", s]
@@ -348,9 +353,7 @@ def plot(files, out, y, title, color_by, style):
     the diagram of their parameter; anything else is refused before drawing. An existing
     figure at OUT is replaced (only a figure of its format; never a file drawn, a style
     sheet or any other file), whole or not at all."""
-    from . import outputs, plot_style
-    from .io import FileFormatError
-    from .model import cut
+    from .io import FileFormatError  # start-up: loads h5py
     out = os.path.splitext(files[0])[0] + ".png" if out is None else out
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".png", ".pdf", ".svg"):
@@ -365,9 +368,8 @@ def plot(files, out, y, title, color_by, style):
         inputs.append(("the style sheet", style))
     outputs.check_output(out, False, inputs=inputs, kind="figure", option="-o",
                          suffixes=(".partial",))
-    import warnings
 
-    from .plot import draw_files
+    from .plot import draw_files  # start-up: loads numba
     try:
         # what matplotlib or numpy still say (plot_style.quiet silences what files hold by
         # design) is said after the figure, one line each
@@ -376,7 +378,6 @@ def plot(files, out, y, title, color_by, style):
     except FileFormatError as e:
         _fail(str(e))
     except KeyboardInterrupt:
-        from .errors import SweepInterrupted
         raise SweepInterrupted(f"interrupted: no figure written ({out}, if it existed, is "
                                "unchanged)") from None
     except (SweepError, RecursionError, MemoryError):
@@ -397,8 +398,6 @@ def plot(files, out, y, title, color_by, style):
 def _plot_title(title):
     """``--title``: at most ``plot_style.TITLE_MAX`` characters (the rest cut, said on
     stderr), refused (exit 2) when matplotlib cannot draw its formulas."""
-    from . import plot_style
-    from .config import undrawable
     if len(title) > plot_style.TITLE_MAX:
         click.echo(f"note: --title has {len(title)} characters; the figure shows the first "
                    f"{plot_style.TITLE_MAX}", err=True)
@@ -434,16 +433,13 @@ def continue_(scene_path, out, sets, resume, overwrite):
     if not scene.cont:
         _fail(f"{scene_path}: no [continue] table (parameter, range, ...: "
               "docs/continuation.md)")
-    import shlex
 
-    from . import continuation_run as C
-    from .sweep import default_output
+    from .sweep import default_output  # start-up: loads h5py
     out = default_output(scene).removesuffix(".h5") + "_continue.h5" if out is None else out
     inputs = [("the scene file", scene_path)]
     # what continue will do with its output, refused before anything else is said
     if C.plan_output(scene, out, resume, overwrite, inputs) != "done":
-        from .engine import announce_compiles
-        announce_compiles(scene, lambda m: click.echo(m, err=True), ("continuation",))
+        engine.announce_compiles(scene, lambda m: click.echo(m, err=True), ("continuation",))
     command = ["cornerbif", "continue", scene_path, "-o", out]
     for s in sets:
         command += ["--set", s]
@@ -461,9 +457,8 @@ def info(file):
     A partial file says how many of its grid points (or branches) are finished and
     summarises those; a sweep with no finished point is refused. Every text the file holds
     is shown on one line, cut at a bounded length."""
-    from .io import FileFormatError
-    from .plot_data import is_continuation, read_continuation
-    from .plot_style import quiet
+    from .io import FileFormatError  # start-up: loads h5py
+    from .plot_data import is_continuation, read_continuation  # start-up: loads numba
     try:
         with quiet():             # numpy on the NaN and infinities a file holds by design
             if is_continuation(file):
@@ -477,7 +472,6 @@ def info(file):
     except Exception as e:  # noqa: BLE001 - a file crafted past the readers' checks
         if os.environ.get("CORNERBIF_DEBUG"):
             raise
-        from .model import cut
         _fail(f"{file}: cannot be summarised ({cut(f'{type(e).__name__}: {e}', 300)}); the "
               "file holds values cornerbif does not write (damaged or crafted), or this is a "
               "bug in cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
@@ -487,14 +481,11 @@ def info(file):
 
 def _sweep_lines(file):
     """``info`` of a sweep, in lines (``plot_base.PlotData`` reads it: only its finished points)."""
-    import json
 
-    import numpy as np
 
-    from .io import check_readable
-    from .plot_base import attractor_summary, status_name
-    from .plot_data import PlotData
-    from .plot_style import TITLE_MAX, bounded
+    from .io import check_readable  # start-up: loads h5py
+    from .plot_base import attractor_summary, status_name  # start-up: loads numba
+    from .plot_data import PlotData  # start-up: loads numba
     d = PlotData(file)
     with check_readable(file) as f:
         a = f.attrs
@@ -554,12 +545,9 @@ def _continuation_lines(c):
     """``info`` of a continuation file (``plot.read_continuation``), in lines: its scene,
     parameter and seeds; each branch's word, range, points, stable points and why each end
     stopped; the events; the curves."""
-    import tomllib
 
-    import numpy as np
 
-    from .plot_base import continuation_note
-    from .plot_style import TITLE_MAX, bounded
+    from .plot_base import continuation_note  # start-up: loads numba
     a, p = c["attrs"], bounded(c["parameter"])
     sc = tomllib.loads(c["scene"]).get("scene", {})
     lines = [f"{c['path']}: cornerbif continuation, format {bounded(a.get('format_version', '?'))}"
@@ -623,9 +611,8 @@ def _stability_summary(f, d=None):
     modulus of the runs' cycles (stable below 1), and the largest Lyapunov exponents
     (positive: chaotic).  ``d``: the file's ``plot_base.PlotData`` (its finished points only);
     datasets that do not match its runs are said to, and not read."""
-    import numpy as np
 
-    from .stability import REASONS
+    from .stability import REASONS  # start-up: loads numba
     runs = f["status"].shape
     names = ["stability/status", "stability/multiplier_re", "stability/multiplier_im"]
     if "stability/lyapunov" in f:
@@ -666,7 +653,7 @@ def _stability_summary(f, d=None):
 
 
 def _names(f):
-    import h5py
+    import h5py  # start-up: loads h5py
     out = []
     f.visititems(lambda n, o: out.append(n) if isinstance(o, h5py.Dataset) else None)
     return out
@@ -676,9 +663,7 @@ def _dataset_lines(names, width=100):
     """The dataset names, grouped by folder ('impacts/: t, u, v_in'), each group wrapped to
     ``width`` columns; at most MAX_LISTED names of a group and MAX_LISTED groups, each name
     cut to a bounded length."""
-    import textwrap
 
-    from .plot_style import bounded
     groups = {}
     for n in sorted(names):
         folder, _, leaf = n.rpartition("/")
@@ -722,9 +707,8 @@ def gallery(config_dir, out, data, only, smoke, overwrite, threads):
     wrote itself (others with --overwrite). Interrupted (Ctrl-C, a kill, a full disk), the
     same command run again continues where it stopped."""
     _check_threads(threads)
-    import time
 
-    from . import gallery as G
+    from . import gallery as G  # start-up: loads numba
     t = time.perf_counter()
     recs = G.run(config_dir, out, data, only=only, smoke=smoke, threads=threads,
                  overwrite=overwrite, echo=click.echo)
@@ -742,7 +726,7 @@ def gallery(config_dir, out, data, only, smoke, overwrite, threads):
               "every default explicit, every axis value listed).")
 def validate(scene_path, sets, toml):
     """Check a scene: a verdict, what it will do, and with --toml the scene as it would run."""
-    from .sweep import default_output
+    from .sweep import default_output  # start-up: loads h5py
     scene = _load(scene_path, sets)
     click.echo(f"ok: {scene_path} is a valid scene")
     click.echo(f"# run.preset {scene.preset!r} -> transient {scene.transient}, tol {scene.tol!r}, "

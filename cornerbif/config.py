@@ -19,6 +19,7 @@ import functools
 import hashlib
 import math
 import os
+import re
 import stat
 import tomllib
 from dataclasses import dataclass, field
@@ -393,7 +394,6 @@ def parse_override(text: str):
 
 def _too_many_digits(text: str):
     """The line and length of the first integer in ``text`` past MAX_INT_DIGITS digits."""
-    import re
     m = re.search(r"(?:^|[=\[,{\s])[+-]?(?:0[xob])?([0-9A-Fa-f_]{" + str(MAX_INT_DIGITS + 1)
                   + ",})", text, re.M)
     if m is None:

@@ -10,13 +10,20 @@ uninterrupted run.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
+import stat
 import time
+import tomllib
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import engine, outputs, registry
+from ._version import __version__
+from .api import simulate
+from .config import same_run, scene_difference, sweep_items
 from .continuation import (
     ENDING_WORDS,
     MAX_BRANCHES,
@@ -27,7 +34,9 @@ from .continuation import (
     fold_curve,
     follow_step,
 )
-from .outputs import CONTINUATION_FORMAT
+from .errors import Fault, SweepError, SweepInterrupted, WriteFailed
+from .model import cut
+from .outputs import CONTINUATION_FORMAT, is_kind, reason
 
 FORMAT = CONTINUATION_FORMAT         # the root attribute ``format`` (``outputs``)
 FORMAT_VERSION = 1
@@ -47,14 +56,13 @@ class Result:
 
 def _matches(word: str, seed: str) -> bool:
     """Whether a cycle word is the seed word up to rotation."""
-    from .analysis import parse_word
+    from .analysis import parse_word  # start-up: loads numba
     s = parse_word(seed, allow_x=True)
     return len(s) == len(word) and s in word + word
 
 
 def _seed_file_error(scene, what):
     """The refusal of ``[continue] seed_file`` (bad input: exit 2, before any work)."""
-    from .errors import SweepError
     c = scene.cont
     return SweepError(f"continue.seed_file: {c['seed_file']}: {what}; a seed file is a finished "
                       f"sweep (cornerbif sweep) of model {scene.model!r} over "
@@ -69,12 +77,9 @@ def seeds_from_file(scene):
     that grid point, and keep what the model's seed reads (the impacts for flow, the
     section for two_particle); every other file is refused before any work (SweepError,
     exit 2), naming the key, the path and what is wrong."""
-    import stat
 
-    from .analysis import distinct_attractors
-    from .errors import SweepError
-    from .io import FileFormatError, check_readable
-    from .outputs import is_kind, reason
+    from .analysis import distinct_attractors  # start-up: loads numba
+    from .io import FileFormatError, check_readable  # start-up: loads h5py
     path = scene.cont["seed_file"]
     try:
         st = os.stat(path)
@@ -99,7 +104,6 @@ def seeds_from_file(scene):
     except SweepError:
         raise
     except Exception as e:  # noqa: BLE001 - a file crafted past check_readable: say so
-        from .model import cut
         raise _seed_file_error(scene, f"cannot be read as a sweep ({type(e).__name__}: "
                                       f"{cut(e)}): damaged, or not written by cornerbif"
                                ) from None
@@ -120,9 +124,7 @@ def _seed_runs(scene, f):
     """The runs of an open sweep file at its grid value nearest continue.start: (runs by
     the model's output names, periods, words, that grid value); SweepError where the file
     cannot seed this scene."""
-    import tomllib
 
-    from .config import sweep_items
     c = scene.cont
     name = c["parameter"]
     model = f.attrs.get("model", "")
@@ -171,8 +173,7 @@ def find_seeds(scene, control=None):
     the model's outputs of that run and "ipc", its impacts per cycle).  ``control``
     (``_jit.Control``): the kernel polls its stop flag (``engine.with_control``) and, told
     to stop, returns within milliseconds, raising ``KernelStopped``."""
-    from . import engine
-    from .analysis import distinct_attractors, words
+    from .analysis import distinct_attractors, words  # start-up: loads numba
     c = scene.cont
     run_scene = dataclasses.replace(scene, keep=("impacts",), stop="none",
                                     system=dict(scene.system) | {c["parameter"]: c["start"]})
@@ -218,7 +219,6 @@ def _problem_doc(prob) -> dict:
 
 def _problem_from(doc):
     """The orbit problem of ``_problem_doc``'s data, rebuilt by its model."""
-    from . import registry
     name = str(doc["type"])
     if name not in registry.models():
         raise ValueError(f"unknown orbit problem {name!r}")
@@ -257,8 +257,8 @@ def _seed_stage(scene, log):
     stop flag (``find_seeds``), so that SIGINT and SIGTERM end it within about a second
     whatever the scene (at omega = 1e9 the starts' runs take minutes): the interrupt is
     raised here, as ``KeyboardInterrupt``, with nothing written."""
-    from ._jit import Control
-    from .local import run_interruptibly
+    from ._jit import Control  # start-up: loads numba
+    from .local import run_interruptibly  # start-up: loads numba
     control = Control()
     state = run_interruptibly(lambda: _seeds(scene, log, control), control)
     if state is None:                   # the kernel was told to stop (``KernelStopped``)
@@ -294,7 +294,6 @@ def _seeds(scene, log, control):
     for word, run in found:
         try:
             if run.get("word_seed"):
-                from .api import simulate  # the kernel, run for the word's seed
                 prob, X = scene.spec.word_seed(values, scene, c["parameter"], word, simulate)
             else:
                 prob, X = scene.spec.orbit_seed(values, scene, c["parameter"], word, run)
@@ -494,11 +493,9 @@ def _image(scene, head, branches, curves, state=None) -> bytes:
     ``state`` a partial one that --resume goes on from.  ``head``: the root attributes
     ``created``, ``seeds``, ``command`` (the command line that made it; optional) and, when
     finished, ``completed``."""
-    import json
 
-    import h5py
+    import h5py  # start-up: loads h5py
 
-    from ._version import __version__
     c = scene.cont
     with h5py.File("continuation.h5", "w", driver="core", backing_store=False) as f:
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, scene=scene.text,
@@ -538,9 +535,8 @@ def _load(path):
     """A continuation file (finished or partial) as its records: (root attributes,
     branches, curves, resume state or None), each record as ``_branch_record`` and
     ``_curve_record`` make it (the numbers read back bit for bit)."""
-    import json
 
-    import h5py
+    import h5py  # start-up: loads h5py
     with h5py.File(path, "r", locking=False) as f:
         attrs = {k: _plain(v) for k, v in f.attrs.items()}
         names = sorted(f["branches"]) if "branches" in f else []
@@ -580,7 +576,6 @@ def _write_bytes(path, image, kept):
     """Write ``image`` to ``path`` whole or not at all (``outputs.replacing``: a temporary
     name, flushed to disk, renamed), with SIGINT and SIGTERM deferred until it is done; a
     full disk or a file-size limit is ``WriteFailed`` naming the file and what is ``kept``."""
-    from . import outputs
     with outputs.signals_deferred():
         with outputs.replacing(path, kept) as tmp:
             with open(tmp, "wb") as fh:
@@ -664,8 +659,6 @@ def run_to_file(scene, out_path, *, resume=False, overwrite=False, log=print, in
     ``SweepInterrupted`` saying what was kept where.  A full disk or a file-size limit:
     ``WriteFailed``, the same.  Bad input: ``SweepError``.
     """
-    from . import outputs
-    from .errors import SweepError
     out_path = str(out_path)
     log = _quiet_on_closed(log)
     if not scene.cont:
@@ -698,9 +691,6 @@ def plan_output(scene, out_path, resume, overwrite, inputs=(), locked=False) -> 
     ``locked``: this process holds the lock), a partial file that is not a continuation's
     (never removed), and another scene's or a damaged partial file without ``overwrite``
     (never removed by --resume, which completes only this scene's)."""
-    from . import outputs
-    from .config import same_run, scene_difference
-    from .errors import SweepError
     named = _inputs(scene, out_path, inputs)
     if not locked:
         outputs.check_unlocked(out_path)
@@ -753,8 +743,6 @@ def _inputs(scene, out_path, inputs) -> list:
     output's folder and name are checked (``outputs.check_directory``,
     ``check_name_length``) and no file written beside the output (its partial file, its
     lock, their temporaries) is one of them."""
-    from . import outputs
-    from .errors import SweepError
     outputs.check_name_length(out_path, outputs.check_directory(out_path))
     named = list(outputs._named(inputs))
     if "seed_file" in scene.cont:
@@ -785,7 +773,7 @@ def _quiet_on_closed(log):
 def _finished(path) -> tuple:
     """(scene text, completion time) of an existing continuation file; the time is '' when
     it was never completed or cannot be read."""
-    import h5py
+    import h5py  # start-up: loads h5py
     try:
         with h5py.File(path, "r", locking=False) as f:
             return (str(_plain(f.attrs.get("scene", ""))),
@@ -798,8 +786,6 @@ def _partial_state(partial, scene):
     """What the partial file beside an output holds: ("none"), ("empty"), ("foreign", why:
     not a regular file, or not a continuation's), ("damaged", why), ("other", what differs)
     or ("ours", records) where records are ``_load``'s (attrs, branches, curves, state)."""
-    from . import outputs
-    from .config import scene_difference
     if not os.path.lexists(partial):
         return "none", None
     kind = "a symbolic link" if os.path.islink(partial) else outputs.not_a_regular_file(partial)
@@ -821,7 +807,6 @@ def _partial_state(partial, scene):
                                   or state["branches"] != len(branches)):
             raise ValueError("its resume state does not match its branches")
     except Exception as e:  # noqa: BLE001 - crafted or damaged: said, never a traceback
-        from .model import cut
         return "damaged", f"{type(e).__name__}: {cut(e)}"
     return "ours", loaded
 
@@ -846,7 +831,6 @@ def _run_locked(scene, out_path, plan, log, command):
     """``run_to_file`` once the output is locked and ``plan_output`` said "resume" or
     "start": the partial file resumed (``_resumed``) or started afresh (``_started``), its
     units written (``_write_units``), the file renamed to ``out_path``."""
-    from . import outputs
     partial = out_path + ".partial"
     tmp = outputs.temporary_name(partial)
     if os.path.isfile(tmp) and not os.path.islink(tmp):
@@ -885,7 +869,6 @@ def _resumed(scene, partial, log):
 def _started(scene, log):
     """The state of a new run: its seeds (``_seed_stage``), said; an interrupt meanwhile is
     ``SweepInterrupted`` (nothing is written yet), no seed at all a ``Fault``."""
-    from .errors import Fault, SweepInterrupted
     try:
         state = _seed_stage(scene, log)
     except KeyboardInterrupt:
@@ -906,8 +889,6 @@ def _write_units(scene, partial, head, branches, curves, state, done, log):
     return ``done`` = (branches, curves) on disk.  An interrupt waits for a write under
     way and is ``SweepInterrupted`` saying what is kept; a failed write is ``WriteFailed``
     (``outputs.replacing``), an exhausted memory a ``Fault``, the same."""
-    from . import outputs
-    from .errors import Fault, SweepError, SweepInterrupted
     again = "run the same command with --resume to complete it"
     room = "free space (or raise the file-size limit) and " + again
     try:
@@ -944,8 +925,6 @@ def _write_units(scene, partial, head, branches, curves, state, done, log):
 def _rename(partial, out_path, done):
     """The finished partial file becomes ``out_path`` (one atomic rename, signals deferred:
     an interrupt raised once it is done finds the output whole, and the run ends as done)."""
-    from . import outputs
-    from .errors import WriteFailed
     try:
         with outputs.signals_deferred():
             os.replace(partial, out_path)

@@ -54,6 +54,7 @@ import uuid
 from . import io
 from .engine import block_carry, blocks, compute_block
 from .errors import Fault, SweepError
+from .estimate import estimate_seconds
 from .local import Progress, block_runs, carry_from_file
 
 try:  # the plugin's base class; the module imports without Dask (the CLI says how to install)
@@ -101,7 +102,7 @@ def parse_scheduler(spec: str):
 def require_dask():
     """Import Dask distributed or say how to install it."""
     try:
-        import distributed  # noqa: F401
+        import distributed  # noqa: F401 (optional: cornerbif[dask])
     except ImportError:
         raise SweepError("--scheduler needs Dask distributed, which is not installed; "
                          f"install it with: {INSTALL_HINT}") from None
@@ -136,7 +137,7 @@ class SceneSetup(_PluginBase):
 
 
 def _numba_threads(requested, dask_threads):
-    import numba
+    import numba  # start-up: loads numba
     if requested:
         n = int(requested)
     elif os.environ.get(THREADS_ENV, "").strip():
@@ -147,7 +148,7 @@ def _numba_threads(requested, dask_threads):
 
 
 def _set_numba_threads(requested, dask_threads):
-    import numba
+    import numba  # start-up: loads numba
     n = _numba_threads(requested, dask_threads)
     numba.set_num_threads(n)      # per calling thread in numba: set in the task's thread
     return n
@@ -158,7 +159,7 @@ def compute_chunk(scene_hash, i, blk, carry=None):
 
     Returns (block dict as ``engine.compute_block``, seconds spent computing, numba
     threads used).  No I/O (apart from the test-only hook)."""
-    from distributed import get_worker
+    from distributed import get_worker  # optional: cornerbif[dask]
     try:
         scene, requested = _SCENES[scene_hash]
     except KeyError:
@@ -217,8 +218,8 @@ def _log(msg):
 
 
 def _connect(kind, arg):
-    import dask
-    from distributed import Client, LocalCluster
+    import dask  # optional: cornerbif[dask]
+    from distributed import Client, LocalCluster  # optional: cornerbif[dask]
     if kind == "local":
         # exactly one task per worker thread at a time: a task is only counted against a
         # worker that dies while it is running it, not while it waits in its queue
@@ -256,7 +257,7 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
     seconds and the driver's write seconds per chunk).
     """
     require_dask()
-    from distributed import as_completed
+    from distributed import as_completed  # optional: cornerbif[dask]
     kind, arg = parse_scheduler(scheduler)
     every = blocks(scene, block_points)
     todo = [(i, every[i]) for i in io.unfinished(every, f)]
@@ -287,7 +288,6 @@ def run_blocks_dask(scene, f, scheduler, progress=False, block_points=None, numb
              + ("; followed scene: one chunk at a time, in order" if followed else ""))
         if progress:
             # runs, counted per finished chunk (the workers' kernels are not watched)
-            from .estimate import estimate_seconds
             total = sum(block_runs(scene, b) for b in every)
             bar = Progress(scene, total, total - sum(block_runs(scene, b) for _, b in todo),
                            estimate_seconds(scene, max(1, dask_threads * (numba_threads or 1))))

@@ -120,7 +120,7 @@ def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scen
 def kernel_cache_cold(scene: Scene) -> bool:
     """Whether the scene's kernel has nothing in numba's on-disk cache yet: its first call
     then compiles (``cornerbif sweep`` says so before it starts)."""
-    from ._jit import cache_is_cold
+    from ._jit import cache_is_cold  # start-up: loads numba
     return cache_is_cold(registry.get(scene.model).kernel())
 
 
@@ -130,7 +130,7 @@ def cold_compiles(scene: Scene, what=("sweep",)) -> list:
     benchmarks/compile_time.py).  ``what``: "sweep" (the sweep's kernels, with the stability
     kernels when ``[output] keep`` has "stability"), "stability" (those whatever keep says),
     "continuation" (what ``cornerbif continue`` compiles)."""
-    from ._jit import cache_is_cold
+    from ._jit import cache_is_cold  # start-up: loads numba
     compiles = getattr(registry.get(scene.model), "compiles", None)
     if compiles is None:
         return []
@@ -288,8 +288,8 @@ def cycle_signatures(series, out, period, ipc):
     """Per run, the signature of its cycle and a point of it (``analysis.cycle_signatures``
     on the model's ``CycleSeries``): what tells two attractors with one word apart in the
     file's attractor table (``cornerbif.attractors``)."""
-    from .analysis import SIGNATURE
-    from .analysis import cycle_signatures as kernel
+    from .analysis import SIGNATURE  # start-up: loads numba
+    from .analysis import cycle_signatures as kernel  # start-up: loads numba
     n = period.shape[0]
     sig = np.empty((n, len(SIGNATURE)))
     pt = np.empty((n, 2))

@@ -53,9 +53,11 @@ import tomllib
 import numpy as np
 
 from . import config as C
-from . import outputs, registry
+from . import engine, outputs, registry
 from .analysis import run_length
+from .attractors import read_table
 from .config import SceneError
+from .continuation_run import read
 from .errors import Fault, SweepError, SweepInterrupted, WriteFailed
 from .model import cut
 
@@ -138,7 +140,7 @@ def defaults(smoke: bool) -> tuple:
 def file_matches(h5: str, scene: C.Scene) -> bool:
     """True when ``h5`` is a complete cornerbif file of this scene ([plot] aside), with the
     attractor table where its model has one (a file from before tables is swept again)."""
-    from .io import FileFormatError, check_readable
+    from .io import FileFormatError, check_readable  # start-up: loads h5py
     if not os.path.isfile(h5):
         return False
     if scene.cont:
@@ -178,7 +180,7 @@ def file_attrs(path: str):
     file (a sweep's partial file whose writer was killed too: HDF5 then says it is "already
     open for write", and it is read in SWMR mode), or None when it cannot be read or is not
     a regular file (a FIFO or a device is never opened)."""
-    import h5py
+    import h5py  # start-up: loads h5py
     if outputs.not_a_regular_file(path):
         return None
     for kw in ({}, {"swmr": True}):
@@ -493,7 +495,7 @@ def _check_drawable(todo, scenes, files):
     and a map of other systems, branches over a sweep of another parameter, ...): the rules
     of ``plot.check_together``, applied to the files the scenes will write
     (``plot.check_scenes_drawable``), each refusal naming the figure."""
-    from .plot import check_scenes_drawable
+    from .plot import check_scenes_drawable  # start-up: loads numba
     problems = []
     for fig, names in todo:
         sweeps, conts = [], []
@@ -693,8 +695,7 @@ def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
     if d.action == "reuse":
         return "reused"
     prog.current = d
-    from . import continuation_run, sweep
-    from .engine import announce_compiles
+    from . import continuation_run, sweep  # start-up: loads numba
     # the file's own guard first (another command may have taken it since the plan): a
     # refused file is never announced
     if d.kind == "sweep":
@@ -703,9 +704,9 @@ def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
     else:
         continuation_run.plan_output(d.scene, d.path, d.action == "resume", d.replace or d.discard,
                                  [("the scene file", d.source)])
-    announce_compiles(d.scene, echo, ("sweep",) if d.kind == "sweep" else ("continuation",))
+    engine.announce_compiles(d.scene, echo, ("sweep",) if d.kind == "sweep" else ("continuation",))
     if d.kind == "sweep":
-        from .sweep import run_sweep
+        from .sweep import run_sweep  # start-up: loads h5py
         run_sweep(d.scene, d.path, threads=threads, resume=d.action == "resume",
                   overwrite=d.replace or d.discard, progress=False, command=COMMAND[p.smoke],
                   inputs=(d.source,))
@@ -831,7 +832,7 @@ def _figure(fig_name, names, p: Plan, threads, prog: _Progress, echo) -> dict:
     t = time.perf_counter()
     head = p.scenes[names[0]]
     prog.drawing = png
-    from .plot import figure, figure_branches
+    from .plot import figure, figure_branches  # start-up: loads numba
     sweeps = [f for f in files if f not in conts]
     if sweeps:
         figure(sweeps, png, plot_cfg=head.plot, branches=conts,
@@ -877,8 +878,8 @@ def facts(h5: str) -> dict:
     * the attractor table (``cornerbif.attractors``), where the file has one: per parameter
       point its attractors' words and shares, with the runs that reached none.
     """
-    from .plot_base import attractor_summary
-    from .plot_data import PlotData
+    from .plot_base import attractor_summary  # start-up: loads numba
+    from .plot_data import PlotData  # start-up: loads numba
     d = PlotData(h5)
     labels, count = d.attractors()
     st, cnt = np.unique(d.status, return_counts=True)
@@ -915,7 +916,6 @@ def facts(h5: str) -> dict:
         vals, c = np.unique(per, return_counts=True)
         top = sorted(zip(c.tolist(), vals.tolist()), reverse=True)[:10]
         out["periods"] = {int(v): int(n) for n, v in top}
-    from .attractors import read_table
     table = read_table(h5)
     if table is not None and table["outcomes"].shape[0] <= 4:
         out["table"] = [{"point": int(p), "word": _rle(w), "share": round(float(f), 4),
@@ -932,7 +932,6 @@ def facts(h5: str) -> dict:
 def continuation_facts(h5: str) -> dict:
     """What the notes quote of a continuation file: per branch its word and range, and
     the located events."""
-    from .continuation_run import read
     c = read(h5)
     return {"parameter": c["parameter"],
             "branches": [{"word": str(b["word"]), "from": float(b["param"].min()),

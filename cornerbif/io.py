@@ -42,8 +42,10 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
+import resource
 import shutil
 import sys
+import tomllib
 
 import h5py
 import numpy as np
@@ -51,6 +53,8 @@ import numpy as np
 from . import attractors, engine, outputs, registry
 from . import status as S
 from ._version import FORMAT_VERSION, __version__
+from .config import SceneError, loads, same_run
+from .config import scene_difference as what
 from .errors import SweepError, WriteFailed
 from .model import cut, shown
 
@@ -71,7 +75,7 @@ def create(path, scene, n_ic, command="", versions=None):
     and the per-run summary every model shares (status, period, impacts_per_cycle,
     symbols) with the grid's ``done`` mask.
     """
-    from . import chunkwrite  # jitted: loaded by the commands that write (numba-free validation)
+    from . import chunkwrite  # start-up: loads numba (jitted), imported by the commands that write
     spec = registry.get(scene.model)
     G = scene.shape
     rec = scene.record
@@ -169,7 +173,7 @@ def create(path, scene, n_ic, command="", versions=None):
          long_name="cycle word: a alpha, b beta, g gamma, x other; smallest rotation",
          _Encoding="ascii")      # read back as text (CF / xarray), not bytes
     if spec.cycle is not None:
-        from .analysis import SIGNATURE
+        from .analysis import SIGNATURE  # start-up: loads numba
         cs = spec.cycle
         make("cycle/signature", per_run + (len(SIGNATURE),), "f8", np.nan,
              gsc + [ic, axis_scale("statistic", len(SIGNATURE))],
@@ -211,7 +215,6 @@ def free_space(directory) -> int | None:
 
 def size_limit() -> int | None:
     """This process's file-size limit (``ulimit -f``) in bytes, or None."""
-    import resource
     soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
     return None if soft == resource.RLIM_INFINITY else soft
 
@@ -258,7 +261,7 @@ def write_block(f, index, block):
     which holds the block's compressed copy as well, only then.  A full disk or a
     file-size limit stops the sweep with the file as it was after the last block, which
     --resume completes."""
-    from . import chunkwrite  # jitted: loaded by the commands that write (numba-free validation)
+    from . import chunkwrite  # start-up: loads numba (jitted), imported by the commands that write
     # each dataset's chunkwrite.Layout (None: a block's array the file does not keep), read
     # from HDF5 at the first block written through this File object and kept on it
     layouts = f.__dict__.setdefault("_cornerbif_layouts", {})
@@ -475,7 +478,6 @@ def _check_contents(path, f):
     """Refuse, before anything is read, a file whose contents the readers cannot take: a
     ``scene`` attribute that is not a scene's TOML, summary datasets of the wrong kind or
     of shapes that do not match the grid (its size: ``open_checked``)."""
-    import tomllib
     try:
         scene = tomllib.loads(str(f.attrs.get("scene", "")))
         model = scene["scene"]["model"]
@@ -505,7 +507,6 @@ def check_stored_plot(path, scene_text):
     file seen from where the sweep ran and is checked when the figure applies it, nor
     ``plot.color_by``, applied by a figure only where the file holds its datasets
     (``plot.scene_color_by``)."""
-    from .config import SceneError, loads
     try:
         loads(scene_text)
     except SceneError as e:
@@ -523,7 +524,6 @@ def available_memory():
     or, where less, what an address-space limit (``ulimit -v``, RLIMIT_AS) leaves above the
     process's present size (``VmSize``); None where neither can be read."""
     found = [_proc_kib("/proc/meminfo", "MemAvailable:")]
-    import resource
     try:
         limit = resource.getrlimit(resource.RLIMIT_AS)[0]
     except (OSError, ValueError):
@@ -554,7 +554,7 @@ def _datasets(f):
 
 
 def versions():
-    import numba
+    import numba  # start-up: loads numba
     return {"numpy": np.__version__, "numba": numba.__version__, "h5py": h5py.__version__,
             "python": sys.version.split()[0]}
 
@@ -604,7 +604,6 @@ def reopen(partial, scene):
 
 def _same_scene(f, scene) -> bool:
     """Whether an open file was started from ``scene``, ``[plot]`` aside."""
-    from .config import same_run
     return f.attrs.get("scene_hash") == scene.hash or same_run(str(f.attrs.get("scene", "")),
                                                                scene.text)
 
@@ -612,7 +611,6 @@ def _same_scene(f, scene) -> bool:
 def scene_difference(text_a, text_b) -> str:
     """Where two scene texts differ, in words for a message: ' (system.omega: 1.999 there,
     2.001 here)', or '' when nothing does (``config.scene_difference``)."""
-    from .config import scene_difference as what
     d = what(text_a, text_b)
     return f" ({d})" if d else ""
 

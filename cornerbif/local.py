@@ -22,6 +22,8 @@ import time
 
 from . import engine, io, outputs
 from ._jit import Control, KernelStopped
+from .errors import EXIT_FAULT, EXIT_INTERRUPTED
+from .estimate import about, duration, estimate_seconds
 
 FOLLOW_BATCH = 256   # followed slabs written together at most
 # seconds the main thread waits at a time while the blocks compute (the progress bar's
@@ -71,7 +73,6 @@ class Progress:
         self.update(self.done, force=True)
 
     def line(self) -> str:
-        from .estimate import about, duration
         now = self.clock() - self.start
         new = self.done - self.already
         text = f"{self.label}: {self.done}/{self.total} runs"
@@ -271,9 +272,8 @@ def run_blocks(scene, f, progress=False, block_points=None):
     state = {"done": total - sum(block_runs(scene, b) for b in todo), "block": 0}
     bar = tick = None
     if progress:
-        import numba
+        import numba  # start-up: loads numba
 
-        from .estimate import estimate_seconds
         bar = Progress(scene, total, state["done"], estimate_seconds(scene,
                                                                       numba.get_num_threads()))
 
@@ -295,7 +295,7 @@ def compute_blocks(scene, todo, carry, ints, writer, control, state):
     ``todo`` through ``engine.compute_block`` (under ``control``), handed to ``writer``;
     stops before the next block, or inside one (``KernelStopped``: the block is dropped),
     once ``control`` is told to stop.  ``state`` counts the runs done for the progress."""
-    import numba
+    import numba  # start-up: loads numba
     numba.set_parallel_chunksize(PARALLEL_CHUNK)   # per thread in numba: this one's
     last = 0
     for blk in todo:
@@ -329,7 +329,7 @@ def run_interruptibly(work, control, tick=None):
     Any command may run its long kernel calls so, e.g. ``cornerbif continue``: build the
     kernel's integer settings with ``engine.with_control(scene, ints, control)`` and keep
     ``control`` alive for the call."""
-    import numba
+    import numba  # start-up: loads numba
     threads = numba.get_num_threads()
     finished = threading.Event()   # not Thread.join: in Python 3.11 a join cut short by
     box = {}                       # Ctrl-C marks the thread stopped while it still runs
@@ -386,7 +386,6 @@ def _left_behind(finished, cause):
     under them).  At the process's exit, if such a thread still runs, the standard streams
     are flushed and the process ends at once (``os._exit``) with the status the command's
     exception gives (``cli.Commands``): 130 after an interrupt, 1 after another error."""
-    from .errors import EXIT_FAULT, EXIT_INTERRUPTED
     if not _LEFT["threads"]:
         atexit.register(_end_beside_left_threads)
     _LEFT["threads"].append(finished)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fcntl
 import json
 import os
 import signal
@@ -77,7 +78,7 @@ def hdf5_format(path):
     if not os.path.exists(path) or not_a_regular_file(path):
         return None
     try:
-        import h5py
+        import h5py  # start-up: loads h5py
         if not h5py.is_hdf5(path):
             return None
         with h5py.File(path, "r", locking=False) as f:
@@ -439,7 +440,6 @@ def take_late_interrupt() -> bool:
 def check_unlocked(out_path: str, what: str = "cornerbif command"):
     """Refuse (``SweepError``) when another process holds ``out_path``'s lock: its files
     are being written, so nothing about them can be judged yet."""
-    import fcntl
     try:
         fd = os.open(out_path + ".lock", os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
     except OSError:
@@ -460,7 +460,6 @@ def output_lock(out_path: str, what: str = "cornerbif command"):
     truncating (a link planted at its name is refused, never written through), and removed
     while still held; a lock taken on a file that was removed meanwhile (its holder ended
     between our open and our lock) is taken again on the file now at the name."""
-    import fcntl
     lock_path = out_path + ".lock"
     for _ in range(8):
         try:

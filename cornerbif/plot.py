@@ -18,7 +18,7 @@ import tomllib
 
 import numpy as np
 
-from . import figures, registry
+from . import figures, plot_style, registry
 from .model import cut
 from .plot_base import BRANCH_Y, COLOR_BY, Undrawable, branch_keys, cfg_for_y, flow_and_map
 from .plot_data import DRAW_LIMIT, Y_DATASETS, PlotData, is_continuation, read_continuation
@@ -33,7 +33,6 @@ def figure_branches(paths, out, y=None, title=None, plot_cfg=None, style=None, c
     the window of the branches' panel.  ``check_together`` first: files continued in one
     parameter of one model, a ``y`` they store; ``color_by`` is refused (a branch is
     drawn stable solid, unstable dashed)."""
-    from . import plot_style
     conts = [read_continuation(p) for p in paths]
     scene = tomllib.loads(conts[0]["scene"])
     if plot_cfg is None:                 # the first file's scene, as a sweep's figure
@@ -50,7 +49,6 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
     ``[plot] style``), continuation files ``branches`` over them.  What the files and
     options ask is checked before anything is drawn (``check_together``); the figure is
     written whole or not at all (``save``).  See ``_figure``."""
-    from . import plot_style
     datas = [PlotData(p) for p in paths]
     conts = [read_continuation(b) for b in branches]
     cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
@@ -111,7 +109,7 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
     stability datasets.  A chart (two swept parameters), a basin and the one-file kinds
     draw one file.
     """
-    from .io import check_stored_plot
+    from .io import check_stored_plot  # start-up: loads h5py
     for c in conts:
         check_stored_plot(c["path"], c["scene"])
     if not datas:
@@ -404,9 +402,9 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
     points, or the left panel of an (omega, kappa) chart, by the run's stability.
     ``branches``: continuation files (``read_continuation``) drawn over a diagram.
     """
-    import matplotlib
+    import matplotlib  # start-up: loads matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # start-up: loads matplotlib
 
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg

@@ -10,12 +10,14 @@ outcome code (``OUTCOME_COLORS``).
 
 from __future__ import annotations
 
+import re
 import zlib
 
 import numpy as np
 
 from .analysis import run_length
 from .attractors import CODES, ESCAPES, FAILED, NO_CYCLE, NOT_RUN, STICKS, read_table
+from .plot_style import Rows, raster_runs, row_slabs
 
 # tab20 without its two greys: dark and light of nine hues
 PALETTE = ("#1f77b4", "#aec7e8", "#ff7f0e", "#ffbb78", "#2ca02c", "#98df8a", "#d62728",
@@ -99,8 +101,8 @@ def draw_basin(ax, path, axes, values, labels_of=None):
     without one in greys; the legend gives each
     attractor's share of the cells (a grid's share has no sampling error: its convergence
     is shown by refining, docs/basins.md)."""
-    import matplotlib.colors as mcolors
-    import matplotlib.patches as mpatches
+    import matplotlib.colors as mcolors  # start-up: loads matplotlib
+    import matplotlib.patches as mpatches  # start-up: loads matplotlib
     table = read_table(path)
     n_ic = table["ids"].shape[-1]
     ids = table["ids"][..., 0]        # the first start of each cell (module doc)
@@ -182,7 +184,6 @@ def family(label: str) -> str:
     """The family of an orbit's label: its word run-length encoded with every power of two
     or more written N ('bbbba#2' -> 'b^N a', 'abbgbbbg' -> 'a b^N g b^N g'): the period-adding
     cascades beta^N alpha and beta^N gamma (section 5) each become one label."""
-    import re
     return re.sub(r"\^\d+", "^N", run_length(label.partition("#")[0]))
 
 
@@ -219,7 +220,6 @@ def run_index(ids, row):
 def label_counts(ids, row, n_labels):
     """(runs per label, runs without an attractor) of the attractor ids ``ids`` (an array
     or ``plot_style.Rows``), counted a slab of rows at a time."""
-    from .plot_style import row_slabs
     counts = np.zeros(n_labels, np.int64)
     none = 0
     for _, block in row_slabs(ids):
@@ -278,9 +278,8 @@ def _raster_by_label(ax, x, yv, ids, row_layer, cols, ms, window, xlim=None):
     cycles, 2 + k the k-th label shown (the rarer over the more common, as the markers;
     ``row_layer``: each table row's layer, ``cols``: each layer's colour).  The runs'
     layers are made from their ids a slab at a time, beside their values."""
-    import matplotlib as mpl
+    import matplotlib as mpl  # start-up: loads matplotlib
 
-    from .plot_style import Rows, raster_runs
     row_layer = np.append(row_layer, np.int16(0))        # the last: no attractor (id < 0)
     layer = Rows(ids.shape, lambda a, b: row_layer[np.where(ids[a:b] >= 0, ids[a:b], -1)])
     if xlim is None:
@@ -293,7 +292,7 @@ def _raster_by_label(ax, x, yv, ids, row_layer, cols, ms, window, xlim=None):
 def _legend_handles(counts, none, names, top, colors, tex):
     """The diagram's legend: the labels shown, then "no cycle" and the other cycles where
     there are runs of them (``counts``: runs per label; ``none``: runs without one)."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # start-up: loads matplotlib
 
     def dot(color, label):
         return Line2D([], [], ls="none", marker="o", ms=4, mew=0, color=color, label=label)

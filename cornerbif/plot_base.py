@@ -14,6 +14,7 @@ import numpy as np
 from . import obstacles, plot_attractors, registry
 from . import status as S
 from .errors import SweepError
+from .model import Obstacle
 from .plot_style import bounded, plain
 
 if TYPE_CHECKING:
@@ -28,7 +29,6 @@ class Undrawable(SweepError, ValueError):
 def obstacle_kind(system: dict):
     """The obstacle kind (``model.Obstacle``) a file's ``[system]`` names, the default where it
     names none (the figures ask it what it draws: corner curves, marks, its wedge)."""
-    from .model import Obstacle
     name = system.get("obstacle", obstacles.DEFAULT)
     known = obstacles.registered().get(name) if isinstance(name, str) else None
     return known or Obstacle(str(name), -1, "not a registered obstacle", 1, 1, corners=False)

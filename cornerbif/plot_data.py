@@ -13,9 +13,13 @@ import tomllib
 import numpy as np
 
 from . import registry
+from .config import loads, sweep_items
+from .continuation_run import FORMAT, FORMAT_VERSION, read
 from .io import check_readable
 from .model import cut
+from .outputs import CONTINUATION_FORMAT, hdf5_format
 from .plot_base import DRAW_LIMIT, beyond_drawing, symbol_words
+from .plot_style import Rows, slab_rows
 
 # the per-event datasets a figure may draw (read when first drawn: ``RecordedData``)
 RECORDED = ("impacts/u", "impacts/v_in", "section/u", "section/v", "impacts/t",
@@ -73,7 +77,7 @@ class RecordedData(dict):
         if self._file is not None:
             yield
             return
-        import h5py
+        import h5py  # start-up: loads h5py
         with h5py.File(self.path, "r", swmr=self.swmr, locking=False) as f:
             self._file = f
             try:
@@ -90,12 +94,11 @@ class PlotData:
     many are finished; a file with none finished is refused (``FileFormatError``)."""
 
     def __init__(self, path):
-        from .io import FileFormatError
+        from .io import FileFormatError  # start-up: loads h5py
         with check_readable(path) as f:
             self.path = str(path)
             self.scene_text = f.attrs["scene"]
             self.scene = tomllib.loads(self.scene_text)
-            from .config import sweep_items
             self.axes = [k for k, _ in sweep_items(self.scene.get("sweep", {}))]
             self.done = f["done"][...].astype(bool)
             G = self.done.shape
@@ -164,9 +167,9 @@ class PlotData:
     def _check_axes(self, f, G):
         """The swept parameters of the file's scene are its grid's axes: one dataset of
         finite values each, of the grid's length along its axis."""
-        import h5py
+        import h5py  # start-up: loads h5py
 
-        from .io import FileFormatError
+        from .io import FileFormatError  # start-up: loads h5py
         if len(self.axes) != len(G):
             raise FileFormatError(f"{self.path}: its scene sweeps {len(self.axes)} parameter(s), "
                                   f"its grid has {len(G)} axes")
@@ -189,7 +192,6 @@ class PlotData:
     def parsed(self):
         """The file's scene as a ``config.Scene``, parsed once (a figure asks its model and
         obstacle through it)."""
-        from .config import loads
         return loads(self.scene_text)
 
     def run_record(self, point, ic) -> dict:
@@ -229,8 +231,7 @@ class PlotData:
         G + (n_ic,), count G).
         """
         if self._attractors is None:
-            from .analysis import distinct_attractors
-            from .plot_style import slab_rows
+            from .analysis import distinct_attractors  # start-up: loads numba
             if "impacts/u" in self.data:
                 names = [("impacts/u", "impacts"), ("impacts/v_in", "impacts")]
             elif "section/u" in self.data:
@@ -261,7 +262,6 @@ class PlotData:
         rows at a time (sliced from the whole when ``y`` has computed it, or when it has one
         value per run): a diagram of millions of points is never whole in memory.  None
         when the file holds none."""
-        from .plot_style import Rows
         if kind in ("winding", "period") or kind in self._y:     # one value per run
             whole = self.y(kind)
             return None if whole is None else Rows(whole.shape, lambda a, b: whole[a:b])
@@ -274,7 +274,7 @@ class PlotData:
         """``kind``'s values in ``rows`` of the first axis (all by default; a slab is read
         alone, ``RecordedData.rows``), or None when the file holds none."""
         if kind == "winding":
-            from .analysis import winding_number
+            from .analysis import winding_number  # start-up: loads numba
             return np.vectorize(winding_number, otypes=[float])(self.symbols[rows])
         if kind == "period":
             per = self.period[rows]
@@ -311,7 +311,6 @@ class PlotData:
 def is_continuation(path) -> bool:
     """Whether ``path`` is a ``cornerbif continue`` file (root attribute ``format``; a
     FIFO or a device is never opened: ``outputs.hdf5_format``)."""
-    from .outputs import CONTINUATION_FORMAT, hdf5_format
     return hdf5_format(path) == CONTINUATION_FORMAT
 
 
@@ -327,8 +326,7 @@ def read_continuation(path) -> dict:
     external storage, virtual datasets), within memory; then each branch's datasets one row
     per point of its parameter values (finite), the events' and curves' likewise
     (``_check_continuation``).  Else ``FileFormatError`` naming the file."""
-    from .continuation_run import FORMAT, FORMAT_VERSION, read
-    from .io import FileFormatError, error_line, open_checked
+    from .io import FileFormatError, error_line, open_checked  # start-up: loads h5py
     path = str(path)
     with open_checked(path, FORMAT, FORMAT_VERSION):
         pass

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import plot_attractors, theory
+from . import plot_attractors, plot_style, theory
 from .plot_base import (
     ATTRACTOR_COLORS,
     BRANCH_Y,
@@ -95,7 +95,7 @@ def stability_norm(values, centre):
     """A diverging colour scale with its neutral colour at ``centre`` (lambda = 0,
     |mu| = 1: the stability boundary); each side spans its own values (2nd and 98th
     percentiles), so stable cycles and chaos both reach a saturated colour."""
-    import matplotlib.colors as mcolors
+    import matplotlib.colors as mcolors  # start-up: loads matplotlib
     fin = values[np.isfinite(values)]
     lo = np.percentile(fin, 2) if fin.size else centre - 1.0
     hi = np.percentile(fin, 98) if fin.size else centre + 1.0
@@ -143,8 +143,8 @@ def draw_plane_stability(ax, data: PlotData, what):
         show = np.nanmax(val, axis=-1)
     x, y = data.values[a], data.values[b]
     label, centre = COLOR_BY[what]
-    import matplotlib
-    import matplotlib.colors as mcolors
+    import matplotlib  # start-up: loads matplotlib
+    import matplotlib.colors as mcolors  # start-up: loads matplotlib
     # every start at the point sticks: lambda = -inf, |mu_1| = 0
     stuck = (show == -np.inf) | ((what == "multiplier") & (show == 0.0))
     # the scale spans the 2nd to 98th percentiles (stability_norm): values past it take its
@@ -226,9 +226,9 @@ def draw_branches(ax, cont: dict, y="impact_u", colors=None):
 
 
 def branches_figure(conts, scene, out, y, title, plot_cfg):
-    import matplotlib
+    import matplotlib  # start-up: loads matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # start-up: loads matplotlib
 
     curves = any(c["curves"] for c in conts)
     fig, axs = plt.subplots(1, 2 if curves else 1, figsize=(12 if curves else 7, 4.5),
@@ -367,7 +367,7 @@ def draw_plane(ax, data: PlotData):
     the starts), on a log scale: a few long periods (73-75 in the charts near (2, 0)) do
     not press periods 1-20 into one colour.  A mass ratio spanning decades is drawn on a
     log axis, each value's cell between the geometric means with its neighbours."""
-    import matplotlib.colors as mcolors
+    import matplotlib.colors as mcolors  # start-up: loads matplotlib
     a, b = data.axes[:2]
     per = data.period.astype(float)
     per[per <= 0] = np.nan
@@ -444,7 +444,7 @@ def draw_plane_count(ax, data: PlotData):
     n = coexisting_words(data.symbols).astype(float)
     x, y = data.values[a], data.values[b]
     top = max(int(n.max()), 1)
-    import matplotlib.colors as mcolors
+    import matplotlib.colors as mcolors  # start-up: loads matplotlib
     cmap = mcolors.ListedColormap(["0.85", "k", "tab:orange", "tab:red", "tab:purple",
                                    "tab:blue"][: top + 1])
     if b == "mu" and np.all(y > 0) and y.max() / y.min() > 20:
@@ -582,12 +582,11 @@ def _diagram_values(fig, datas, y, plot_cfg, color_by, conts) -> _DiagramValues:
     windowed a slab at a time (plot_style.Rows) and, past RASTER_POINTS, rastered without
     holding them whole; refused (``Undrawable``, the figure closed) when the files hold
     none of ``y``."""
-    from . import plot_style
     d0 = datas[0]
     kind = y or plot_cfg.get("y") or d0.default_y()
     ys = [d.y_rows(kind) for d in datas] if kind else [None]
     if ys[0] is None:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # start-up: loads matplotlib
         plt.close(fig)
         raise Undrawable(f"{d0.path}: the file holds no {kind or 'recorded'} values to draw "
                          "(output.keep of its scene; impact values need \"impacts\", "
@@ -694,7 +693,7 @@ def _label_diagram(ax, datas, v: _DiagramValues, plot_cfg, color_by, conts, orbi
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(y_label(v.kind, d0.model if all(d.model == d0.model for d in datas)
                           else None))
-    from matplotlib.ticker import MaxNLocator
+    from matplotlib.ticker import MaxNLocator  # start-up: loads matplotlib
     ax.xaxis.set_major_locator(MaxNLocator(6))   # long tick labels (1.9996) stay apart
     ax.ticklabel_format(axis="x", useOffset=False)
     if v.window and "ylim" not in plot_cfg:

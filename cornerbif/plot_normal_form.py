@@ -36,6 +36,7 @@ import numpy as np
 from . import theory
 from .analysis import run_length
 from .models.map2d import maps as maps2d
+from .plot_style import emptiest_corner, legend, save, title_lines
 
 KINDS = ("regions", "return_map", "orbit")
 REGION_COLORS = {"a": "tab:blue", "b": "tab:orange", "g": "tab:green", "x": "0.6"}
@@ -179,9 +180,8 @@ def figure(datas, out, plot_cfg, title=None):
     """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d):
     the regions of the starts (Fig. 9, ``_figure_regions``), the return maps (Fig. 10,
     ``_figure_return_maps``) or the orbits (Fig. 11, ``_figure_orbits``)."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # start-up: loads matplotlib
 
-    from .plot_style import save, title_lines
 
     kind = plot_cfg["kind"]
     for d in datas:
@@ -206,7 +206,6 @@ def figure(datas, out, plot_cfg, title=None):
 def _figure_regions(plt, datas, ms):
     """The regions of the starts, flow and map side by side, with the share of starts whose
     letter the map gives as the flow does (Fig. 9)."""
-    from .plot_style import legend
     fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.6), dpi=150,
                             squeeze=False, sharex=True, sharey=True)
     labs = [draw_regions(ax, d, ms=ms or 1.5) for ax, d in zip(axs[0], datas)]
@@ -223,7 +222,6 @@ def _figure_return_maps(plt, datas, ms):
     """The return maps A0 of a flow and of the linear maps (56), the transitions Sigma_1 and
     Sigma_2 marked, the maps' curve over the flow's with an inset at the grazing Sigma_2,
     where the flow has a square-root form (Fig. 10)."""
-    from .plot_style import emptiest_corner, legend
     fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.4), dpi=150,
                             squeeze=False, sharey=True)
     for ax, d in zip(axs[0], datas):
@@ -267,7 +265,6 @@ def _figure_orbits(plt, datas, ms):
     """The orbits of a flow and its map on the section (left), and their approach to the
     fixed point x_beta* along (0, 1) with the switching iterate there (right; section
     5.1, Fig. 11)."""
-    from .plot_style import legend
     fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 4.8), dpi=150,
                                    gridspec_kw={"width_ratios": [3, 2]})
     draw_orbit_frame(ax, datas)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import shutil
 import stat
 import warnings
 
@@ -17,6 +18,7 @@ import numpy as np
 
 from .errors import SweepError
 from .model import cut, did_you_mean, shown
+from .outputs import save_figure
 
 # one style for every figure: serif text in the paper's sizes, thin frames, vector fonts
 # embedded as text (Type 42) so that a journal's PDF checks accept them, rasterised point
@@ -60,7 +62,7 @@ def style(user=None):
     """The project's style, then the user's style sheet (a name matplotlib knows or a
     .mplstyle path) over it; a sheet that is neither, or that matplotlib would not take
     whole, is refused before anything is drawn (``check_style``: ``SweepError``, exit 2)."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # start-up: loads matplotlib
     problem = check_style(user)
     if problem:
         raise StyleRefused(problem)
@@ -101,7 +103,7 @@ def style_problem(style, key: str) -> str | None:
         if not os.access(style, os.R_OK):
             return f"{key}: {shown(style)}: cannot read the style sheet (permission denied)"
         return None
-    import matplotlib.style as mstyle
+    import matplotlib.style as mstyle  # start-up: loads matplotlib
     if style in mstyle.available:
         return None
     return (f"{key}: {shown(style)} is neither a file nor one of matplotlib's styles"
@@ -127,7 +129,7 @@ STYLE_BYTES = 1 << 20
 
 def _style_file_problem(path: str, key: str) -> str | None:
     """What is wrong with the style sheet at ``path`` (``check_style``), or None."""
-    import matplotlib as mpl
+    import matplotlib as mpl  # start-up: loads matplotlib
     name = f"{key}: {bounded(path, 200)}"
     try:
         with open(path, "rb") as fh:
@@ -167,7 +169,6 @@ def _style_file_problem(path: str, key: str) -> str | None:
 def latex_available() -> bool:
     """Whether matplotlib's ``text.usetex`` can work here: latex and a DVI converter on PATH
     (matplotlib runs them for every text drawn, and fails mid-drawing without them)."""
-    import shutil
     return bool(shutil.which("latex")) and bool(shutil.which("dvipng") or shutil.which("dvips"))
 
 
@@ -339,7 +340,7 @@ def raster_runs(ax, x, y, layer, colors, xlim, ylim, ms, dpi):
     RASTER_VALUES (``row_slabs``): memory is the image's (an int16 and 4 floats per pixel)
     and one slab's, whatever the number of points.  Sets the axes' limits to ``xlim``,
     ``ylim``."""
-    from matplotlib.colors import to_rgba
+    from matplotlib.colors import to_rgba  # start-up: loads matplotlib
     fig = ax.figure
     pos = ax.get_position()
     W = max(16, int(round(pos.width * fig.get_figwidth() * dpi)))
@@ -485,8 +486,8 @@ def mathtext_problem(text: str) -> tuple | None:
     lines = [x for x in text.split("\n") if x.count("$") - x.count("\\$") >= 2]
     if not lines:
         return None
-    from matplotlib import cbook
-    from matplotlib.mathtext import MathTextParser
+    from matplotlib import cbook  # start-up: loads matplotlib
+    from matplotlib.mathtext import MathTextParser  # start-up: loads matplotlib
     if not _PARSER:
         _PARSER.append(MathTextParser("path"))
     for line in lines:
@@ -524,9 +525,8 @@ def quiet():
 def save(fig, out, **kw):
     """Write ``fig`` to ``out`` whole or not at all (``outputs.save_figure``), then free it;
     a failed write is ``WriteFailed`` naming ``out`` (the previous figure is unchanged)."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # start-up: loads matplotlib
 
-    from .outputs import save_figure
     try:
         with quiet():
             save_figure(fig, out, **kw)

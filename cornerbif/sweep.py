@@ -10,10 +10,12 @@ file once its data are flushed, so an interrupted sweep resumes where it stopped
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 
 from . import io, outputs
+from .api import simulate as _simulate
 from .config import Scene, same_run
 from .errors import SweepError, SweepInterrupted, WriteFailed
 from .estimate import estimate_file_bytes, estimate_memory, sure_file_bytes
@@ -30,7 +32,6 @@ def default_output(scene: Scene) -> str:
     component of ``scene.name``, other characters than letters, digits, '.', '_' and '-'
     replaced by '_', no leading dot, at most 100 characters (a name such as ``../x`` or
     ``/etc/x`` cannot place the file elsewhere)."""
-    import re
     base = os.path.basename(scene.name.replace("\\", "/").rstrip("/"))
     base = re.sub(r"[^A-Za-z0-9._-]", "_", base).lstrip(".")[:DEFAULT_NAME_MAX]
     return (base or "scene") + ".h5"
@@ -116,13 +117,13 @@ class _NumbaThreads:
         self.threads = threads
 
     def __enter__(self):
-        import numba
+        import numba  # start-up: loads numba
         self.before = numba.get_num_threads()
         if self.threads:
             numba.set_num_threads(int(self.threads))
 
     def __exit__(self, *exc):
-        import numba
+        import numba  # start-up: loads numba
         numba.set_num_threads(self.before)
 
 
@@ -258,11 +259,11 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
     io.watch_room(f, echo)
     try:
         if scheduler:
-            from .distributed import run_blocks_dask
+            from .distributed import run_blocks_dask  # start-up: loads numba
             run_blocks_dask(scene, f, scheduler, progress=progress, block_points=block_points,
                             numba_threads=threads, stats=stats)
         else:
-            from .local import run_blocks
+            from .local import run_blocks  # start-up: loads numba
             run_blocks(scene, f, progress, block_points)
     except SweepError as e:
         if getattr(e, "broken", False):
@@ -304,5 +305,4 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
 
 def simulate(*starts, **kw):
     """``cornerbif.simulate(*starts, **kw)`` (the default model, ``registry.DEFAULT_MODEL``)."""
-    from .api import simulate as _simulate
     return _simulate(*starts, **kw)

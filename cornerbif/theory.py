@@ -341,7 +341,7 @@ def _letter_matrices(omega1, kappa1, r, variant):
 
 def _admissible_point(ch, a, b, omega1, kappa1, r, margin):
     """Strict check that x = (a, b) lies in the region named by ch (see word_orbit)."""
-    from .models.map2d.maps import LETTERS, region
+    from .models.map2d.maps import LETTERS, region  # start-up: loads numba
 
     k = region(float(a), float(b), float(omega1), float(kappa1), float(r))
     if k < 0 or LETTERS[k] != ch:

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..model import FigureKind
+from ..plot_style import save, title_lines
 
 if TYPE_CHECKING:
     from ..plot_data import PlotData
@@ -21,10 +22,9 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
     single-impact orbit below kappa_C (eq 13), the double-impact orbit above
     kappa_CC (eq 19).
     """
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
+    # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
     from .. import theory
-    from ..plot_base import LABELS
-    from ..plot_style import title_lines
+    from ..plot_base import LABELS  # start-up: loads numba
     sys_ = data.scene.get("system", {})
     r, beta = sys_.get("r", 0.8), sys_.get("beta", 1.0)
     lo, hi = plot_cfg.get("xlim", [1.99, 2.01])
@@ -72,9 +72,8 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
 
 class CornerCurves(FigureKind):
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
-        # drawing loads h5py and matplotlib; checking a scene loads neither
+        # start-up: drawing loads h5py and matplotlib; checking a scene loads neither
         from ..plot_base import partial_notes
-        from ..plot_style import save
         fig = figure_corner_curves(plt, datas[0], plot_cfg, title)
         partial_notes(fig, datas)
         return save(fig, out)

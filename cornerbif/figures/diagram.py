@@ -10,7 +10,7 @@ class Diagram(FigureKind):
     shares = False          # the fractions kind: the shares of the starts, not a diagram
 
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
-        # drawing loads h5py, matplotlib and numba; checking a scene loads none
+        # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
         from ..plot_diagram import figure_diagram
         return figure_diagram(plt, datas, out, y, title, plot_cfg, color_by, branches,
                               shares=self.shares)

@@ -33,6 +33,6 @@ class NormalFormKind(FigureKind):
         return problems
 
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
-        # drawing loads h5py, matplotlib and numba; checking a scene loads none
+        # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
         from .. import plot_normal_form
         return plot_normal_form.figure(datas, out, plot_cfg, title)

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import registry
 from ..model import FigureKind
+from ..plot_style import save, title_lines
 
 if TYPE_CHECKING:
     from ..plot_data import PlotData
@@ -32,9 +33,8 @@ def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
     t_k = k P marked, (b) a magnification around the corner t_0 = P with the two slopes of
     the wedge of eq (7), z ~ kappa + theta2 (t - t_0) after it and kappa + theta1 (t_0 - t)
     before it (theta1 = theta2 = beta omega for z = kappa + beta |sin omega t|)."""
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
+    # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
     from ..plot_base import obstacle_kind
-    from ..plot_style import title_lines
     cycles = float(plot_cfg.get("cycles", 2))
     sys_ = data.scene.get("system", {})
     w = float(sys_.get("omega", 2.0))
@@ -89,9 +89,8 @@ class ObstacleFigure(FigureKind):
                 + (f", obstacle {w.obstacle!r}" if w.spec.obstacles else "") + ")"]
 
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
-        # drawing loads h5py and matplotlib; checking a scene loads neither
+        # start-up: drawing loads h5py and matplotlib; checking a scene loads neither
         from ..plot_base import partial_notes
-        from ..plot_style import save
         fig = figure_obstacle(plt, datas[0], plot_cfg, title)
         partial_notes(fig, datas)
         return save(fig, out)

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import registry
 from ..model import FigureKind, cut
+from ..plot_style import save, title_lines
 
 if TYPE_CHECKING:
     from ..plot_data import PlotData
@@ -25,7 +26,7 @@ def timeseries_choice(data: PlotData, plot_cfg: dict):
     attractor at that point (``PlotData.attractors``), in rank order.  At most
     ``max_panels`` (default 4) panels.
     """
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
+    # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
     from ..plot_base import Undrawable
     point = tuple(plot_cfg.get("point", [0] * len(data.axes)))
     shape = data.done.shape
@@ -107,16 +108,15 @@ def draw_timeseries(ax, data, point, ic, cycles=2.0, color="k", label=None):
 
 def _word_text(word):
     """'bbbbbbbbbbbg' -> beta^11 gamma in the paper's letters (for titles)."""
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
+    # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
     from ..plot_base import word_label
     return word_label(word) if word else "no cycle"
 
 
 def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
     """One panel per chosen attractor, stacked (paper Figs 1b, 5, 6d, 17)."""
-    # drawing loads h5py, matplotlib and numba; checking a scene loads none
+    # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
     from ..plot_base import ATTRACTOR_COLORS, obstacle_kind
-    from ..plot_style import title_lines
     point, chosen, lab = timeseries_choice(data, plot_cfg)
     n = len(chosen)
     fig, axs = plt.subplots(n, 1, figsize=(7, 1.2 + 2.0 * n), dpi=150, squeeze=False)
@@ -162,9 +162,8 @@ class TimeSeries(FigureKind):
         return problems
 
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
-        # drawing loads h5py and matplotlib; checking a scene loads neither
+        # start-up: drawing loads h5py and matplotlib; checking a scene loads neither
         from ..plot_base import partial_notes
-        from ..plot_style import save
         fig, _ = figure_timeseries(plt, datas[0], plot_cfg, title)
         partial_notes(fig, datas)
         return save(fig, out)

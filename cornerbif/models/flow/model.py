@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ... import obstacles
-from ...model import Coord, Field, Model
+from ...model import IC_PREFIX, Coord, Field, Model
 from ...observables import (
     ANALYSIS_KERNELS,
     ANALYSIS_SECONDS,
@@ -157,14 +157,14 @@ class FlowModel(Model):
 
     def wall_at_start(self, params):
         if P.wide_rows(params):     # a kind with its own kernel (a cam): z(0) = kappa + beta g(0)
-            # the kernels load with numba here, on first use (numba-free validation)
+            # start-up: the kernels load numba here, at first use (validation loads none)
             from .kernel import obstacle_heights
             return obstacle_heights(np.ascontiguousarray(params),
                                     np.zeros((params.shape[0], 1)))[:, 0]
         return params[:, P.KAPPA]
 
     def wall_at(self, params, t0):
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from .kernel import obstacle_heights
         return obstacle_heights(np.ascontiguousarray(params),
                                 np.ascontiguousarray(t0, dtype=float))
@@ -174,7 +174,6 @@ class FlowModel(Model):
 
     def pack_points(self, scene, index_list):
         # the swept parameters as columns, packed at once (``params.pack_many``)
-        from ...model import IC_PREFIX
         idx = np.asarray(index_list, np.int64).reshape(len(index_list), -1)
         values = dict(scene.system)
         for i, a in enumerate(scene.axes):
@@ -199,7 +198,7 @@ class FlowModel(Model):
         return ints
 
     def kernel(self):
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from .kernel import run_batch
         return run_batch
 
@@ -207,10 +206,10 @@ class FlowModel(Model):
         """What a first run of ``scene`` compiles, for ``what`` ("sweep", "stability",
         "continuation"; ``engine.cold_compiles``): (name, seconds, jitted functions) per
         kernel, the seconds from COMPILE_SECONDS."""
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import dispatchers
-        from .kernel import obstacle_heights, run_batch, run_batch_profile
-        from .tangent import batch_stability
+        from .kernel import obstacle_heights, run_batch, run_batch_profile  # start-up: loads numba
+        from .tangent import batch_stability  # start-up: loads numba
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", ANALYSIS_SECONDS,
@@ -281,22 +280,22 @@ class FlowModel(Model):
         return seconds, low, high, reasons
 
     def time_series(self, scene, values, t, u, v_out, t_start, t_stop):
-        from . import timeseries as TR  # jitted flights: loaded when drawn
+        from . import timeseries as TR  # start-up: loads numba (jitted flights), imported when drawn
         p, d = TR.pack(values, scene.obstacle, scene.section_period, scene.profile)
         s, us, zs = TR.rebuild(p, d, t, u, v_out, t_start, t_stop)
         return {"t": s, "u": us, "z": zs, "meet": TR.meet_error(p, d, t, u, v_out), "p": p,
                 "d": d}
 
     def word_seed(self, values, scene, param, word, simulate):
-        from .orbit import seed_from_word
+        from .orbit import seed_from_word  # start-up: loads numba
         return seed_from_word(values, scene.obstacle, param, word, simulate, scene.tol)
 
     def orbit_from_doc(self, doc):
-        from .orbit import FlowOrbit
+        from .orbit import FlowOrbit  # start-up: loads numba
         return FlowOrbit.from_doc(doc)
 
     def orbit_seed(self, values, scene, param, word, run):
-        from .orbit import seed_from_run
+        from .orbit import seed_from_run  # start-up: loads numba
         return seed_from_run(values, scene.obstacle, param, run["t"], run["v_out"],
                              run["corner_offset"], run["ipc"], scene.tol)
 
@@ -338,9 +337,9 @@ def _stability(params, out, ipc, control=0):
     """The Floquet multipliers of each run's cycle and its Lyapunov spectrum over the
     recorded window (cornerbif.stability), under a sweep's ``control`` (its address; 0:
     none): told to stop, ``KernelStopped``."""
-    # the kernels load with numba here, on first use (numba-free validation)
+    # start-up: the kernels load numba here, at first use (validation loads none)
     from ..._jit import raise_if_stopped
-    from ...stability import new_outputs
+    from ...stability import new_outputs  # start-up: loads numba
     res = new_outputs(params.shape[0])
     batch_stability(params, out["t"], out["u"], out["v_in"], out["v_out"],
                     out["corner_offset"], ipc, *res.values(), control)
@@ -352,7 +351,7 @@ def batch_stability(*args):
     """``models.flow.tangent.batch_stability``, imported at its first call (numba-free validation):
     the stability pass of a block (``_stability``), a name of this module that a test may
     replace."""
-    from .tangent import batch_stability as kernel
+    from .tangent import batch_stability as kernel  # start-up: loads numba
     return kernel(*args)
 
 
@@ -360,11 +359,11 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     """The flow kernel and the cycle analysis on n items; outputs not in ``fill`` start
     unfilled.  Returns (out, status, final, period, impacts per cycle, symbols, first
     recorded impact)."""
-    # the kernels load with numba here, on first use (numba-free validation)
+    # start-up: the kernels load numba here, at first use (validation loads none)
     from ..._jit import raise_if_stopped
-    from ...analysis import detect_cycles
-    from ...numerics.fill import full
-    from .kernel import run_batch, run_batch_profile
+    from ...analysis import detect_cycles  # start-up: loads numba
+    from ...numerics.fill import full  # start-up: loads numba
+    from .kernel import run_batch, run_batch_profile  # start-up: loads numba
     n = params.shape[0]
     rec = scene.record
     out = {k: full((n, rec), np.nan) if k in fill else np.empty((n, rec))

@@ -372,8 +372,8 @@ def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6)
     Newton finds the flow's orbit.  OrbitError when the run does not spell it.
     ``simulate``: ``cornerbif.simulate``, which runs the kernel."""
 
-    from ...analysis import parse_word
-    from ...theory import word_orbit
+    from ...analysis import parse_word  # start-up: loads numba
+    from ...theory import word_orbit  # start-up: loads numba
     if not OBSTACLES[obstacle].word_seeds:
         which = ", ".join(o.name for o in OBSTACLES.values() if o.word_seeds)
         raise OrbitError(f"a word seeds an orbit on the obstacle {which} only, not "
@@ -441,7 +441,7 @@ def across_corner(problem, q, X, lam):
 def word_of(problem, X, lam, cycles=4):
     """The orbit's word in the engine's symbols (``analysis.detect_cycle`` on ``cycles``
     repetitions of its impacts: clusters by nearest corner, a, b, g)."""
-    from ...analysis import detect_cycles, words
+    from ...analysis import detect_cycles, words  # start-up: loads numba
     imp = problem.impacts(X, lam)
     N = problem.n
     p, d = problem.packed(lam)

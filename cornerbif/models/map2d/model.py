@@ -64,16 +64,16 @@ class Map2dModel(Model):
         return np.array([scene.transient, scene.record, 0], np.int64)
 
     def kernel(self):
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from .maps import iterate_batch
         return iterate_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import dispatchers
-        from .maps import detect_map_cycles, iterate_batch
-        from .tangent import batch_map_stability
+        from .maps import detect_map_cycles, iterate_batch  # start-up: loads numba
+        from .tangent import batch_map_stability  # start-up: loads numba
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the map2d kernels", COMPILE_SECONDS["map2d"],
@@ -92,15 +92,15 @@ class Map2dModel(Model):
         return seconds, seconds / 1.5, seconds * 1.5, []
 
     def orbit_from_doc(self, doc):
-        from .orbit import MapOrbit
+        from .orbit import MapOrbit  # start-up: loads numba
         return MapOrbit.from_doc(doc)
 
     def orbit_seed(self, values, scene, param, word, run):
-        from .orbit import map_seed
+        from .orbit import map_seed  # start-up: loads numba
         return map_seed(values, param, word)
 
     def word_seed(self, values, scene, param, word, simulate):
-        from .orbit import map_seed
+        from .orbit import map_seed  # start-up: loads numba
         return map_seed(values, param, word)
 
     def run_items(self, params, ics, ints, scene):
@@ -109,10 +109,10 @@ class Map2dModel(Model):
         The iterates x_n = (a_n, b_n) go to the section slots (su, sv), as the flow's
         section values (u, v)(nT); a run is OK unless an iterate is not finite.
         """
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import raise_if_stopped
-        from ...stability import new_outputs
-        from .maps import detect_map_cycles, iterate_batch
+        from ...stability import new_outputs  # start-up: loads numba
+        from .maps import detect_map_cycles, iterate_batch  # start-up: loads numba
         n = params.shape[0]
         rec = scene.record
         a = np.empty((n, rec))
@@ -147,7 +147,7 @@ def batch_map_stability(*args):
     """``models.map2d.tangent.batch_map_stability``, imported at its first call (numba-free
     validation): the stability pass of a block (``run_items``), a name of this module that
     a test may replace."""
-    from .tangent import batch_map_stability as kernel
+    from .tangent import batch_map_stability as kernel  # start-up: loads numba
     return kernel(*args)
 
 

@@ -8,7 +8,7 @@ from ...model import NormalFormSide
 
 def map_regions(a, b, omega1, kappa1, r):
     """Letter of the map (56) acting on each x = (a, b): 'a', 'b', 'g' (or 'x' for NaN)."""
-    from .maps import region  # jitted: imported when drawn (validation loads no numba)
+    from .maps import region  # start-up: loads numba (jitted), imported when drawn
     code = np.array([region(float(x), float(y), omega1, kappa1, r)
                      for x, y in zip(np.ravel(a), np.ravel(b))], dtype=np.int64)
     return np.array(["abgx"[c] if c >= 0 else "x" for c in code]).reshape(np.shape(a))

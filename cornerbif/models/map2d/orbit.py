@@ -47,7 +47,7 @@ class MapOrbit:
         return vals["omega"] - 2.0, vals["kappa"], vals["r"]
 
     def _matrices(self, lam):
-        from ...theory import map_matrices
+        from ...theory import map_matrices  # start-up: loads numba
         w1, k1, r = self._args(lam)
         return [map_matrices(ch, w1, k1, r) for ch in self.letters]
 
@@ -101,7 +101,7 @@ class MapOrbit:
         return self, X
 
     def word(self, X, lam):
-        from ...analysis import smallest_rotation
+        from ...analysis import smallest_rotation  # start-up: loads numba
         codes = np.frombuffer(self.letters.encode(), np.uint8).copy()
         k = smallest_rotation(codes, 0, len(codes))
         return self.letters[k:] + self.letters[:k]
@@ -147,8 +147,8 @@ class MapOrbit:
 
 def map_seed(values, param, word):
     """A MapOrbit and its exact orbit (``theory.word_orbit``) for a word."""
-    from ...analysis import parse_word
-    from ...theory import word_orbit
+    from ...analysis import parse_word  # start-up: loads numba
+    from ...theory import word_orbit  # start-up: loads numba
     letters = parse_word(word)
     prob = MapOrbit(dict(values), param, letters)
     w1, k1, r = prob._args(values[param])

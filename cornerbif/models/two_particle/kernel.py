@@ -1313,7 +1313,7 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
     final (z, y, u, v), period, impacts_per_cycle, symbols (``analysis``: the
     w-z impacts are the corners).
     """
-    from ...analysis import detect_cycles, words
+    from ...analysis import detect_cycles, words  # start-up: loads numba
 
     # the declared defaults (models.two_particle.packed.PARAMS), omega0 aside
     defaults = {k: p.default for k, p in P.PARAMS.items() if k != "omega0"}

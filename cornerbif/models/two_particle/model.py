@@ -15,7 +15,16 @@ import math
 import numpy as np
 
 from ...model import Coord, Field, Model
-from ...observables import IMPACT_CYCLE, IMPACT_FIELDS, SECTION_FIELDS, STABILITY_FIELDS, U, V
+from ...observables import (
+    ANALYSIS_KERNELS,
+    ANALYSIS_SECONDS,
+    IMPACT_CYCLE,
+    IMPACT_FIELDS,
+    SECTION_FIELDS,
+    STABILITY_FIELDS,
+    U,
+    V,
+)
 from . import params as TP
 
 # The kernels (models/two_particle/kernel.py, the cycle analysis, the stability pass) are imported
@@ -121,17 +130,16 @@ class TwoParticleModel(Model):
         return ints
 
     def kernel(self):
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from . import kernel as K
         return K.run_batch
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles (as ``FlowModel.compiles``)."""
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import dispatchers
-        from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS
-        from . import kernel as K
-        from .tangent import batch_two_particle_stability
+        from . import kernel as K  # start-up: loads numba
+        from .tangent import batch_two_particle_stability  # start-up: loads numba
         out = []
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", ANALYSIS_SECONDS, dispatchers(*ANALYSIS_KERNELS)))
@@ -169,11 +177,11 @@ class TwoParticleModel(Model):
         return seconds, seconds / f, seconds * f, reasons
 
     def orbit_from_doc(self, doc):
-        from .orbit import TwoParticleOrbit
+        from .orbit import TwoParticleOrbit  # start-up: loads numba
         return TwoParticleOrbit.from_doc(doc)
 
     def orbit_seed(self, values, scene, param, word, run):
-        from .orbit import two_particle_seed
+        from .orbit import two_particle_seed  # start-up: loads numba
         n = int(np.isfinite(run["sz"]).sum())
         x = [run[k][n - 1] for k in ("sz", "sy", "su", "sv")]
         return two_particle_seed(values, param, x, run["ipc"])
@@ -185,12 +193,12 @@ class TwoParticleModel(Model):
         w-z impact, this system's corner); ``su, sv, sz, sy`` the sections; ``wz_*``
         the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
         """
-        # the kernels load with numba here, on first use (numba-free validation)
+        # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import raise_if_stopped
-        from ...analysis import detect_cycles
-        from ...numerics.fill import full
-        from . import kernel as K
-        from .tangent import two_particle_outputs
+        from ...analysis import detect_cycles  # start-up: loads numba
+        from ...numerics.fill import full  # start-up: loads numba
+        from . import kernel as K  # start-up: loads numba
+        from .tangent import two_particle_outputs  # start-up: loads numba
         n = params.shape[0]
         rec = scene.record
         cap = wall_capacity(rec)
