@@ -93,11 +93,11 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                                         | {k: float(flat[k][i]) for k in names}, scene)
                        for i in range(n)]) if n else np.zeros((0, 0))
     ics = np.stack([np.broadcast_to(a, shape).ravel() for a in x0], -1)
-    out, st, final, period, ipc, sym = spec.run_items(np.ascontiguousarray(params),
-                                                      np.ascontiguousarray(ics),
-                                                      spec.int_settings(scene), scene)
-    res = {k: v.reshape(shape + v.shape[1:]) for k, v in out.items()}
-    res.update(status=st.reshape(shape), final=final.reshape(shape + (len(spec.coords),)),
-               period=period.reshape(shape), impacts_per_cycle=ipc.reshape(shape),
-               symbols=words(sym).reshape(shape))
+    run = spec.run_items(np.ascontiguousarray(params), np.ascontiguousarray(ics),
+                         spec.int_settings(scene), scene)
+    res = {k: v.reshape(shape + v.shape[1:]) for k, v in run.fields.items()}
+    res.update(status=run.status.reshape(shape),
+               final=run.final.reshape(shape + (len(spec.coords),)),
+               period=run.period.reshape(shape), impacts_per_cycle=run.ipc.reshape(shape),
+               symbols=words(run.symbols).reshape(shape))
     return res

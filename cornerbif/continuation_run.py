@@ -183,12 +183,13 @@ def find_seeds(scene, control=None):
     ics = engine.draw_initial(run_scene, np.zeros(1, np.int64),
                               spec.wall_at_start(params[:1]), params[:1]).reshape(scene.n_ic, -1)
     ints = engine.with_control(run_scene, spec.int_settings(run_scene), control)
-    out, _, _, period, ipc, sym = spec.run_items(params, np.ascontiguousarray(ics), ints,
-                                                 run_scene)
-    w = words(sym)
-    series = ([(out["u"][None], "impacts"), (out["v_in"][None], "impacts")]
-              if np.isfinite(out["u"]).any() else
-              [(out["su"][None], "section"), (out["sv"][None], "section")])
+    run = spec.run_items(params, np.ascontiguousarray(ics), ints, run_scene)
+    out, period, ipc = run.fields, run.period, run.ipc
+    w = words(run.symbols)
+    # the series that tell one attractor from another with the same word: the model's own
+    cy = spec.cycle
+    per = "impacts" if cy.per == "impacts" else "section"
+    series = [(out[cy.a][None], per), (out[cy.b][None], per)]
     labels, count = distinct_attractors(period[None], ipc[None], w[None], series,
                                         100.0 * scene.period_tol)
     found = []

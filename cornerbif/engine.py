@@ -113,7 +113,7 @@ def with_control(scene: Scene, ints: np.ndarray, control) -> np.ndarray:
 
 def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
     """The model's kernel and cycle analysis on n items (rows of params / ics):
-    (out, status, final, period, impacts per cycle, symbols) (``Model.run_items``)."""
+    ``Model.run_items``'s ``RunResult``."""
     return registry.get(scene.model).run_items(params, ics, ints, scene)
 
 
@@ -264,8 +264,9 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
         ics[..., ns:] = np.where(ok[..., None], 0.0, ics[..., ns:])
     n = len(idx) * scene.n_ic
     prm = np.repeat(params, scene.n_ic, axis=0)
-    out, st, final, period, ipc, sym = spec.run_items(prm, ics.reshape(n, ics.shape[-1]),
-                                                      ints, scene)
+    run = spec.run_items(prm, ics.reshape(n, ics.shape[-1]), ints, scene)
+    out, st, final, period, ipc, sym = (run.fields, run.status, run.final, run.period, run.ipc,
+                                        run.symbols)
     shape = tuple(sub) + (scene.n_ic,)
     block = {}
     for i, c in enumerate(spec.start_names):
@@ -276,7 +277,10 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
                   "impacts_per_cycle": ipc.reshape(shape),
                   "symbols": symbol_bytes(sym, scene.record).reshape(shape)})
     for fld in spec.fields(scene.keep):
-        block[fld.name] = out[fld.source].reshape(shape + fld.trailing(scene.record))
+        trail = fld.trailing(scene.record)
+        # a series may run longer than the file keeps (the w-z table): its first rows
+        kept = out[fld.source][(slice(None),) + tuple(slice(0, k) for k in trail)]
+        block[fld.name] = kept.reshape(shape + trail)
     if spec.cycle is not None:
         sig, pt = cycle_signatures(spec.cycle, out, period, ipc)
         block["cycle/signature"] = sig.reshape(shape + sig.shape[1:])

@@ -28,7 +28,7 @@ import math
 import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -421,9 +421,8 @@ class Model:
         """The kernel's integer settings (transient, record, budgets)."""
         raise NotImplementedError
 
-    def run_items(self, params, ics, ints, scene):
-        """Kernel and cycle analysis on n items: (out, status, final, period,
-        impacts per cycle, symbols), ``out`` keyed by the Fields' ``source``."""
+    def run_items(self, params, ics, ints, scene) -> RunResult:
+        """Kernel and cycle analysis on n items (``RunResult``)."""
         raise NotImplementedError
 
     def kernel(self):
@@ -453,6 +452,25 @@ class Model:
         """The periodic-orbit problem that the problem's ``to_doc`` wrote (a partial file's
         resume state)."""
         raise NotImplementedError
+
+
+# ------------------------------------------------------------------ a run's result
+class RunResult(NamedTuple):
+    """What ``Model.run_items`` returns for n items.
+
+    ``fields``: the run's recorded series, keyed by the ``source`` of the model's ``Field``s
+    (and of its ``CycleSeries``), each an array of n rows: a model keeps only what it
+    declares; ``status`` (n,) the ``status`` codes; ``final`` (n, state size) the state at
+    the last section crossed, in the model's ``state`` order; ``period`` (n,) and ``ipc`` (n,)
+    the cycle's period and its impacts per cycle (``analysis.detect_cycles``); ``symbols``
+    (n, record) the cycle's letters."""
+
+    fields: dict
+    status: np.ndarray
+    final: np.ndarray
+    period: np.ndarray
+    ipc: np.ndarray
+    symbols: np.ndarray
 
 
 # ------------------------------------------------------------------ orbit problems

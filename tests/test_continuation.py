@@ -288,7 +288,6 @@ def test_two_particle_period_one_branch_ends_at_omega0_C():
     import fd_reference_two_particle as FR
 
     from cornerbif.models.two_particle import packed as TPM
-    from cornerbif.models.two_particle.kernel import simulate_two_particle
     vals = {k: p.default for k, p in TPM.PARAMS.items()} | {"omega0": 2.0}
     x0 = [0.18982259867467574, 16.49606490380678, 1.7221809107866082, 149.66189899401783]
     prob, X = TO.two_particle_seed(vals, "omega0", x0, 1)
@@ -300,11 +299,12 @@ def test_two_particle_period_one_branch_ends_at_omega0_C():
     ev = br.events[-1]
     assert ev.kind == "corner" and "no admissible orbit" in ev.detail
 
-    r = simulate_two_particle(1.0, 0.0, 10.0, 0.0, transient=1000, record=60, omega0=1.9999)
+    r = cornerbif.simulate(1.0, 0.0, 10.0, 0.0, transient=1000, record=60, omega0=1.9999,
+                           model="two_particle")
     xs = r["final"][0]
 
     def is_b(w):
-        q = simulate_two_particle(*xs, transient=1500, record=80, omega0=w)
+        q = cornerbif.simulate(*xs, transient=1500, record=80, omega0=w, model="two_particle")
         return q["symbols"][0] == "b"
 
     lo, hi = 1.99975, 1.99976

@@ -63,9 +63,8 @@ def test_monodromy_determinant_is_the_closed_form(name):
     p, _, P, x0, kinds = ATTRACTORS[name]
     res = cornerbif.simulate(*x0, model="two_particle", transient=4, record=60,
                              keep=["impacts", "wall_impacts", "stability"], **p)
-    from cornerbif.models.two_particle import kernel as K
     from cornerbif.models.two_particle import packed as TP
-    r = K.simulate_two_particle(*x0, transient=4, record=60, **p)
+    r = cornerbif.simulate(*x0, model="two_particle", transient=4, record=60, **p)
     zu = np.stack([r[k].reshape(-1) for k in ("t", "u", "v_in", "v_out", "y_in", "y_out",
                                               "corner_offset")], -1)[None]
     wz = np.stack([r[k].reshape(-1) for k in ("wz_t", "wz_z", "wz_y_in", "wz_y_out")],
@@ -144,8 +143,7 @@ def test_a_two_particle_sweep_stores_four_multipliers_and_exponents(tmp_path):
 
 
 def _tables(p, x0, record=12):
-    from cornerbif.models.two_particle import kernel as K
-    r = K.simulate_two_particle(*x0, transient=0, record=record, **p)
+    r = cornerbif.simulate(*x0, model="two_particle", transient=0, record=record, **p)
     zu = np.stack([r[k].reshape(-1) for k in ("t", "u", "v_in", "v_out", "y_in", "y_out",
                                               "corner_offset")], -1)
     wz = np.stack([r[k].reshape(-1) for k in ("wz_t", "wz_z", "wz_y_in", "wz_y_out")], -1)

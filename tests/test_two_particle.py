@@ -11,11 +11,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+import cornerbif
 from cornerbif import simulate
 from cornerbif import status as S
 from cornerbif.models.two_particle import kernel as K
 from cornerbif.models.two_particle import packed as P
-from cornerbif.models.two_particle.kernel import simulate_two_particle
 from cornerbif.models.two_particle.packed import mass_ratio_impact
 from cornerbif.numerics.impact import restitution
 
@@ -68,7 +68,7 @@ def test_huge_mass_ratio_reduces_to_law5_along_a_run():
     up to ~170 against y <= 18) plus rounding (section 6.1:
     (74) -> (5) as mu -> inf).  The run also tracks the mu = inf run."""
     kw = dict(FIG19, mu=1e12, omega0=2.0)
-    a = simulate_two_particle(5.0, 0.0, 8.0, 0.0, transient=0, record=60, **kw)
+    a = cornerbif.simulate(5.0, 0.0, 8.0, 0.0, transient=0, record=60, **kw, model="two_particle")
     assert a["status"][0] == S.OK
     yi, yo, vi, vo = a["y_in"][0], a["y_out"][0], a["v_in"][0], a["v_out"][0]
     term = 1.8 * np.abs(vi - yi) / (1 + 1e12)
@@ -76,7 +76,8 @@ def test_huge_mass_ratio_reduces_to_law5_along_a_run():
     eps = np.finfo(float).eps
     assert (np.abs(vo - law5) <= term + 8 * eps * np.abs(vi)).all()
     assert (np.abs(yo - yi) <= term + 4 * eps * np.abs(yi)).all()
-    b = simulate_two_particle(5.0, 0.0, 8.0, 0.0, transient=0, record=60, **dict(kw, mu=math.inf))
+    b = cornerbif.simulate(5.0, 0.0, 8.0, 0.0, transient=0, record=60, **dict(kw, mu=math.inf),
+                           model="two_particle")
     assert (b["y_out"] == b["y_in"]).all()                 # z untouched by u when mu = inf
     assert np.abs(a["t"] - b["t"]).max() < 1e-8
     assert np.abs(a["v_in"] - b["v_in"]).max() < 1e-7
@@ -91,9 +92,9 @@ def test_rectified_sine_heavy_particle_matches_flow(omega, u0, v0, r):
     elastically at every zero).  With mu = inf, u (omega2 = k = 1) then sees exactly
     the obstacle of eq (8) with kappa = 0, beta = 1, so its impacts must equal the
     ``flow`` kernel's to ~1e-9 (both locate events to tol = 1e-12)."""
-    a = simulate_two_particle(0.0, omega, u0, v0, transient=0, record=20, omega0=omega,
+    a = cornerbif.simulate(0.0, omega, u0, v0, transient=0, record=20, omega0=omega,
                               omega1=omega, omega2=1.0, mu=math.inf, r1=1.0, r2=r,
-                              kappa=0.0, beta=0.0)
+                              kappa=0.0, beta=0.0, model="two_particle")
     b = simulate(u0, v0, transient=0, record=20, obstacle="rectified_sine", omega=omega,
                  kappa=0.0, beta=1.0, r=r)
     assert a["status"][0] == S.OK and b["status"][0] == S.OK
@@ -130,7 +131,7 @@ def test_every_zu_impact_conserves_momentum_and_reverses_relative_velocity():
     recorded z-u impact M y + m v is conserved (finite mu) and v+ - y+ = -r2 (v- - y-),
     to rounding (law 74)."""
     prm, z0, y0, u0, v0 = _random_points(120, 11)
-    a = simulate_two_particle(z0, y0, u0, v0, transient=0, record=150, **prm)
+    a = cornerbif.simulate(z0, y0, u0, v0, transient=0, record=150, **prm, model="two_particle")
     mu = prm["mu"][:, None] * np.ones_like(a["t"])
     r2 = prm["r2"][:, None]
     yi, yo, vi, vo = a["y_in"], a["y_out"], a["v_in"], a["v_out"]
@@ -153,8 +154,8 @@ def test_order_is_never_violated():
     phase bookkeeping is exercised) of random runs: w <= z <= u to 1e-9 (positions
     are exact between events; snapping moves them by at most tol * speed)."""
     prm, z0, y0, u0, v0 = _random_points(80, 5)
-    a = simulate_two_particle(z0, y0, u0, v0, transient=0, record=600, section_period=0.05,
-                              **prm)
+    a = cornerbif.simulate(z0, y0, u0, v0, transient=0, record=600, section_period=0.05,
+                              **prm, model="two_particle")
     w = prm["kappa"][:, None] + prm["beta"][:, None] * np.sin(prm["omega0"][:, None] * a["st"])
     assert np.isfinite(a["st"]).sum() > 20000
     assert np.nanmin(a["sz"] - w) > -1e-9
@@ -209,7 +210,7 @@ def test_no_impact_is_missed_against_a_dense_replay(p):
     and each event lies where its gap closes (1e-8): no impact was skipped.  The first
     scene is Fig. 19's complex regime, with z-u impacts within 1e-4 of w-z impacts."""
     ic = (3.0, 1.0, 6.0, -2.0)
-    a = simulate_two_particle(*ic, transient=0, record=150, record_wz=2000, **p)
+    a = cornerbif.simulate(*ic, transient=0, record=500, **p, model="two_particle")
     assert a["status"][0] == S.OK
     worst = _replay(p, ic, a, np.nanmax(a["t"][0]))
     assert worst > -1e-9
@@ -219,7 +220,8 @@ def test_no_impact_is_missed_against_a_dense_replay(p):
 def _first_events(z0, y0, u0, v0, **kw):
     p = dict(FIG19, omega0=2.0)
     p.update(kw)
-    return simulate_two_particle(z0, y0, u0, v0, transient=0, record=3, max_events=2000, **p)
+    return cornerbif.simulate(z0, y0, u0, v0, transient=0, record=3, max_events=2000, **p,
+                              model="two_particle")
 
 
 def test_exact_triple_impact_resolves_wz_then_zu():
@@ -272,7 +274,7 @@ def test_constructed_midflight_triple_impact():
     z0, y0 = K.harm(wT, yT, p["omega1"], -T)
     u0, v0 = K.harm(wT, vT, p["omega2"], -T)
     assert 0.0 <= z0 <= u0
-    a = simulate_two_particle(z0, y0, u0, v0, transient=0, record=3, max_events=2000, **p)
+    a = cornerbif.simulate(z0, y0, u0, v0, transient=0, record=3, max_events=2000, **p, model="two_particle")
     assert a["status"][0] == S.OK
     assert abs(a["wz_t"][0, 0] - T) < 1e-9 and abs(a["t"][0, 0] - T) < 1e-9
     assert a["t"][0, 0] == a["wz_t"][0, 0]
@@ -287,9 +289,9 @@ def test_results_do_not_depend_on_the_thread_count():
     old = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        a = simulate_two_particle(z0, y0, u0, v0, transient=20, record=40, **prm)
+        a = cornerbif.simulate(z0, y0, u0, v0, transient=20, record=40, **prm, model="two_particle")
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-        b = simulate_two_particle(z0, y0, u0, v0, transient=20, record=40, **prm)
+        b = cornerbif.simulate(z0, y0, u0, v0, transient=20, record=40, **prm, model="two_particle")
     finally:
         numba.set_num_threads(old)
     for k in a:
@@ -308,9 +310,9 @@ def test_fig19_corner_bifurcation_near_omega_C():
     omega0 = 1.9997525 (extrapolated; the paper's 1.99975 to its 5 decimals), and
     words b^k g below (k = 8 at 1.9997; k >= 10 at 1.99974, where several coexist)."""
     ws = np.array([1.9997, 1.99974, 1.99976, 1.99978, 1.9998, 1.99985])
-    a = simulate_two_particle(np.array([5.0, 3.0])[None], 0.0, np.array([8.0, 12.0])[None],
+    a = cornerbif.simulate(np.array([5.0, 3.0])[None], 0.0, np.array([8.0, 12.0])[None],
                               np.array([0.0, 4.0])[None], transient=6000, record=300,
-                              omega0=ws[:, None], **FIG19)
+                              omega0=ws[:, None], **FIG19, model="two_particle")
     assert (a["status"] == S.OK).all()
     assert (a["symbols"][0] == "bbbbbbbbg").all()        # the only attractor seen from 16 starts
     for word in a["symbols"][1]:                          # b^k g, k >= 10 (attractors coexist here)
@@ -327,7 +329,8 @@ def test_bad_starts_and_parameters_get_a_status_or_an_error():
     """Start below the wall or u below z: BELOW_OBSTACLE; NaN state: NONFINITE; NaN or
     out-of-range parameters are rejected by ``pack`` before any kernel runs."""
     kw = dict(FIG19, omega0=2.0)
-    a = simulate_two_particle([-0.1, 1.0, np.nan], 0.0, [1.0, 0.5, 1.0], 0.0, record=5, **kw)
+    a = cornerbif.simulate([-0.1, 1.0, np.nan], 0.0, [1.0, 0.5, 1.0], 0.0, record=5, **kw,
+                           model="two_particle")
     assert list(a["status"]) == [S.BELOW_OBSTACLE, S.BELOW_OBSTACLE, S.NONFINITE]
     for bad in (dict(mu=np.nan), dict(r1=1.5), dict(omega1=0.0), dict(mu=0.0)):
         with pytest.raises(ValueError):
@@ -340,7 +343,8 @@ def test_chattering_ends_in_sticking_and_a_status():
     stick (z on w, then u on z) and never leave: the run must end STUCK within its
     budgets, with the final section state on the wall (z = u = w, y = v = w')."""
     p = dict(omega0=0.5, omega1=1.0, omega2=1.0, mu=10.0, r1=0.5, r2=0.5, kappa=1.0, beta=0.1)
-    a = simulate_two_particle(2.0, 0.0, 3.0, 0.0, transient=0, record=1000, max_periods=200, **p)
+    a = cornerbif.simulate(2.0, 0.0, 3.0, 0.0, transient=0, record=1000, max_periods=200, **p,
+                           model="two_particle")
     assert a["status"][0] == S.STUCK
     z, y, u, v = a["final"][0]
     t = 200 * 2 * math.pi / 0.5
@@ -357,8 +361,8 @@ def test_stuck_pair_is_released_where_the_contact_force_changes_sign():
     sample step of z = 0 (the next sample has z < 0)."""
     p = dict(omega0=1.0, omega1=1.0, omega2=2.0, mu=math.inf, r1=0.8, r2=0.5, kappa=-10.0,
              beta=0.0)
-    a = simulate_two_particle(1.0, 0.0, 1.5, 0.0, transient=0, record=2000, max_periods=2000,
-                              section_period=0.05, **p)
+    a = cornerbif.simulate(1.0, 0.0, 1.5, 0.0, transient=0, record=2000, max_periods=2000,
+                              section_period=0.05, **p, model="two_particle")
     assert a["status"][0] in (S.OK, S.NO_IMPACT)       # NO_IMPACT: the time budget ran out
     su, sz = a["su"][0], a["sz"][0]
     stuck = su == sz
@@ -374,15 +378,15 @@ def test_section_choice_does_not_change_the_impacts():
     """The section only observes: a section period of 0.37 (not a multiple of the wall
     period) gives the same z-u impacts as the default 2 pi/omega0, to 1e-9."""
     kw = dict(FIG19, omega0=1.9995)
-    a = simulate_two_particle(3.0, 1.0, 6.0, -2.0, transient=0, record=100, **kw)
-    b = simulate_two_particle(3.0, 1.0, 6.0, -2.0, transient=0, record=100, section_period=0.37,
-                              **kw)
+    a = cornerbif.simulate(3.0, 1.0, 6.0, -2.0, transient=0, record=100, **kw, model="two_particle")
+    b = cornerbif.simulate(3.0, 1.0, 6.0, -2.0, transient=0, record=100, section_period=0.37,
+                              **kw, model="two_particle")
     assert np.abs(a["t"] - b["t"]).max() < 1e-9
     assert np.abs(a["v_out"] - b["v_out"]).max() < 1e-9
 
 
 def test_kernels_compile_one_signature():
     """Each hot kernel compiled exactly one signature (no odd dtype slipped through)."""
-    simulate_two_particle(3.0, 1.0, 6.0, -2.0, record=5, omega0=2.0)
+    cornerbif.simulate(3.0, 1.0, 6.0, -2.0, record=5, omega0=2.0, model="two_particle")
     assert len(K.run_batch.signatures) == 1
     assert len(K.run_one.signatures) <= 1

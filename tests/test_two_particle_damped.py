@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+import cornerbif
 from cornerbif import config, simulate
 from cornerbif import status as S
 from cornerbif.models.two_particle import packed as P
-from cornerbif.models.two_particle.kernel import simulate_two_particle
 
 DAMP = dict(sigma1=0.1, sigma2=0.05, F1=0.4, Omega1=1.7, phi1=0.3, F2=0.6, Omega2=2.3, phi2=-1.0)
 BASE = dict(omega0=2.0, omega1=1.3, omega2=0.9, mu=5.0, r1=0.7, r2=0.6, kappa=-0.5, beta=0.8)
@@ -45,7 +45,7 @@ def test_damped_forced_flight_matches_solve_ivp(extra):
     before the first event equal solve_ivp (rtol = atol = 1e-12) to 1e-9."""
     p = dict(BASE, kappa=-100.0, beta=0.0, **extra)
     ic = (1.0, 0.5, 30.0, -1.0)
-    a = simulate_two_particle(*ic, transient=0, record=80, section_period=0.05, **p)
+    a = cornerbif.simulate(*ic, transient=0, record=80, section_period=0.05, **p, model="two_particle")
     t_ev = min(np.nanmin(a["t"][0], initial=np.inf), np.nanmin(a["wz_t"][0], initial=np.inf))
     st = a["st"][0]
     ok = np.isfinite(st) & (st < t_ev)
@@ -67,9 +67,9 @@ def test_damped_forced_u_on_rectified_sine_matches_flow(omega, u0, v0, r, extra)
     damping + forcing on u: u sees eq (8) with kappa = 0, beta = 1, so its impacts must
     equal the ``flow`` kernel's with the same sigma, F, Omega, phi (k = omega2 = 1), to
     1e-9 (both locate events to tol = 1e-12)."""
-    a = simulate_two_particle(0.0, omega, u0, v0, transient=0, record=20, omega0=omega,
+    a = cornerbif.simulate(0.0, omega, u0, v0, transient=0, record=20, omega0=omega,
                               omega1=omega, omega2=1.0, mu=math.inf, r1=1.0, r2=r,
-                              kappa=0.0, beta=0.0, **extra)
+                              kappa=0.0, beta=0.0, **extra, model="two_particle")
     fl = {{"sigma2": "sigma", "F2": "F", "Omega2": "Omega", "phi2": "phi"}[k]: v
           for k, v in extra.items()}
     b = simulate(u0, v0, transient=0, record=20, obstacle="rectified_sine", omega=omega,
@@ -125,8 +125,8 @@ def test_no_impact_is_missed_with_damping_and_forcing(extra):
     on a 1e-3 grid and each event lies where its gap closes (1e-8): no impact skipped."""
     p = dict(BASE, **extra)
     ic = (3.0, 1.0, 6.0, -2.0)
-    a = simulate_two_particle(*ic, transient=0, record=150, record_wz=2000, chatter=1e-12,
-                              **p)
+    a = cornerbif.simulate(*ic, transient=0, record=500, chatter=1e-12,
+                              **p, model="two_particle")
     t_end = np.nanmax(a["t"][0])
     worst, n = _replay(p, ic, a, t_end)
     assert n > 100
@@ -148,9 +148,9 @@ def test_grazing_family_with_damping_against_the_slow_search():
     assert 0.2 < tmin < t1 - 0.2                      # an interior minimum: a grazing approach
     for d in (1e-3, 1e-5, 1e-7, 1e-9, -1e-9, -1e-7, -1e-5, -1e-3):
         kap = gmin - d
-        a = simulate_two_particle(z0, y0, 1e3, 0.0, transient=0, record=1, omega0=2.0,
+        a = cornerbif.simulate(z0, y0, 1e3, 0.0, transient=0, record=1, omega0=2.0,
                                   omega1=1.3, omega2=0.05, mu=math.inf, kappa=kap, beta=0.8,
-                                  max_periods=2, **zk)
+                                  max_periods=2, **zk, model="two_particle")
         first = a["wz_t"][0, 0] if np.isfinite(a["wz_t"][0, 0]) else np.inf
         if d > 0:
             assert first > t1, (d, first)
@@ -182,7 +182,7 @@ def test_momentum_and_restitution_at_every_zu_impact_with_damping():
                F1=rng.uniform(-1, 1, n), Omega1=rng.uniform(0.5, 3, n),
                F2=rng.uniform(-1, 1, n), Omega2=rng.uniform(0.5, 3, n))
     z0 = prm["kappa"] + 1.0
-    a = simulate_two_particle(z0, 0.0, z0 + 3.0, 1.0, transient=0, record=60, **prm)
+    a = cornerbif.simulate(z0, 0.0, z0 + 3.0, 1.0, transient=0, record=60, **prm, model="two_particle")
     ok = np.isfinite(a["t"])
     assert ok.sum() > 1000
     mu = prm["mu"][:, None] * np.ones_like(a["t"])
@@ -204,8 +204,8 @@ def test_energy_decays_with_damping_and_is_kept_without():
                 beta=0.0)
     out = []
     for sig in (0.0, 0.02):
-        a = simulate_two_particle(0.5, 1.0, 2.0, -1.0, transient=0, record=400,
-                                  section_period=0.1, sigma1=sig, sigma2=sig, **base)
+        a = cornerbif.simulate(0.5, 1.0, 2.0, -1.0, transient=0, record=400,
+                                  section_period=0.1, sigma1=sig, sigma2=sig, **base, model="two_particle")
         z, y, u, v = a["sz"][0], a["sy"][0], a["su"][0], a["sv"][0]
         E = 3.0 * (y ** 2 + 1.21 * z ** 2) / 2 + (v ** 2 + 0.81 * u ** 2) / 2
         assert np.isfinite(E).all() and np.isfinite(a["t"][0, :10]).all()
@@ -221,8 +221,8 @@ def test_damped_chattering_ends_stuck_on_the_wall():
     with x = w), so both particles chatter down, stick and stay: STUCK, z = u = w, y = v."""
     p = dict(omega0=0.5, omega1=1.0, omega2=1.0, mu=10.0, r1=0.5, r2=0.5, kappa=1.0, beta=0.1,
              sigma1=0.1, sigma2=0.1)
-    a = simulate_two_particle(2.0, 0.0, 3.0, 0.0, transient=0, record=1000, max_periods=200,
-                              **p)
+    a = cornerbif.simulate(2.0, 0.0, 3.0, 0.0, transient=0, record=1000, max_periods=200,
+                              **p, model="two_particle")
     assert a["status"][0] == S.STUCK
     z, y, u, v = a["final"][0]
     w = 1.0 + 0.1 * math.sin(0.5 * 200 * 2 * math.pi / 0.5)
@@ -239,8 +239,8 @@ def test_forced_pair_is_released_where_the_contact_force_changes_sign():
     W = 0.3
     p = dict(omega0=1.0, omega1=1.0, omega2=1.0, mu=math.inf, r1=0.8, r2=0.3, kappa=-10.0,
              beta=0.0, F2=1.0, Omega2=W)
-    a = simulate_two_particle(1.0, 0.0, 1.2, 0.0, transient=0, record=3000, max_periods=3000,
-                              section_period=0.05, **p)
+    a = cornerbif.simulate(1.0, 0.0, 1.2, 0.0, transient=0, record=3000, max_periods=3000,
+                              section_period=0.05, **p, model="two_particle")
     st, su, sz = a["st"][0], a["su"][0], a["sz"][0]
     stuck = su == sz
     assert stuck.sum() > 50
@@ -261,9 +261,9 @@ def test_thread_count_does_not_change_damped_runs():
     old = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        a = simulate_two_particle(1.0, 0.0, 4.0, 0.0, transient=10, record=30, **prm)
+        a = cornerbif.simulate(1.0, 0.0, 4.0, 0.0, transient=10, record=30, **prm, model="two_particle")
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-        b = simulate_two_particle(1.0, 0.0, 4.0, 0.0, transient=10, record=30, **prm)
+        b = cornerbif.simulate(1.0, 0.0, 4.0, 0.0, transient=10, record=30, **prm, model="two_particle")
     finally:
         numba.set_num_threads(old)
     for k in a:

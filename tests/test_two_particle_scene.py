@@ -4,9 +4,9 @@ import h5py
 import numpy as np
 from click.testing import CliRunner
 
+import cornerbif
 from cornerbif import config
 from cornerbif.cli import main
-from cornerbif.models.two_particle.kernel import simulate_two_particle
 
 SCENE = """
 [scene]
@@ -60,12 +60,13 @@ def test_corner_bifurcation_located_to_1e_minus_7():
     """mu = 1000, r1 = r2 = 0.8, omega1 = 1.001, omega2 = 1 (Fig. 19): the simple orbit 'b'
     (one u-z impact just after each w-z impact) ends at omega0_C; the paper reads 1.99975 off
     its diagram.  Bisection on omega0, following the orbit from omega0 = 1.9999, to 1e-9."""
-    r = simulate_two_particle(1.0, 0.0, 10.0, 0.0, transient=1000, record=60, omega0=1.9999)
+    r = cornerbif.simulate(1.0, 0.0, 10.0, 0.0, transient=1000, record=60, omega0=1.9999,
+                           model="two_particle")
     assert r["symbols"][0] == "b"
     x0 = r["final"][0]
 
     def is_b(w):
-        q = simulate_two_particle(*x0, transient=1500, record=80, omega0=w)
+        q = cornerbif.simulate(*x0, transient=1500, record=80, omega0=w, model="two_particle")
         return q["symbols"][0] == "b"
 
     lo, hi = 1.9997, 1.9999
@@ -79,7 +80,7 @@ def test_corner_bifurcation_located_to_1e_minus_7():
     assert abs(hi - 1.99975) < 1e-5          # the paper's printed value, to its precision
     assert hi - lo < 1e-7
     # below it the period-adding structure: a beta^N gamma orbit just below omega0_C
-    q = simulate_two_particle(*x0, transient=3000, record=200, omega0=lo - 2e-6)
+    q = cornerbif.simulate(*x0, transient=3000, record=200, omega0=lo - 2e-6, model="two_particle")
     w = q["symbols"][0]
     assert w and w.endswith("g") and set(w[:-1]) == {"b"} and len(w) > 5, w
 
@@ -87,7 +88,8 @@ def test_corner_bifurcation_located_to_1e_minus_7():
 def test_equal_masses_mu_1():
     """mu = 1 (equal masses, the far end of the mass range): every z-u impact conserves
     momentum y + v and reverses the relative velocity by r2 (eq 74), and the run ends OK."""
-    r = simulate_two_particle(1.0, 0.0, 6.0, -2.0, transient=50, record=80, omega0=2.0, mu=1.0)
+    r = cornerbif.simulate(1.0, 0.0, 6.0, -2.0, transient=50, record=80, omega0=2.0, mu=1.0,
+                           model="two_particle")
     assert r["status"][0] == 0
     ok = np.isfinite(r["t"][0])
     yi, yo, vi, vo = (r[k][0][ok] for k in ("y_in", "y_out", "v_in", "v_out"))

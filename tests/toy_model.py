@@ -10,7 +10,7 @@ import numpy as np
 
 from cornerbif import status as S
 from cornerbif._jit import pjit
-from cornerbif.model import Coord, Field, Model, Param, anything, positive
+from cornerbif.model import Coord, Field, Model, Param, RunResult, anything, positive
 
 
 @pjit
@@ -49,7 +49,7 @@ class ToyModel(Model):
         sym = np.zeros((n, rec), np.uint8)
         sym[converged, 0] = ord("x")
         final = np.stack([u[:, -1], v[:, -1]], 1)
-        return {"su": u, "sv": v}, st, final, period, period.copy(), sym
+        return RunResult({"su": u, "sv": v}, st, final, period, period.copy(), sym)
 
 
 MODEL = ToyModel(

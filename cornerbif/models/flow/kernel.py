@@ -447,6 +447,30 @@ def release(p, d, j, tau_rel, L, tol, underdamped):
 
 
 @jit
+def corner_ring(n, t_start):
+    """The early stop's ring of the states at the last ``n`` corners (u, v, impact count,
+    stuck): empty, or, for a start inside the period, of states no corner can match (the
+    corners before the start are never stored; ``cycle_watch`` reads corners 1 .. j)."""
+    ring_u = np.empty(n)
+    ring_v = np.empty(n)
+    if t_start != 0.0:
+        ring_u[:] = math.inf
+        ring_v[:] = math.inf
+    return ring_u, ring_v, np.empty(n, np.int64), np.empty(n, np.bool_)
+
+
+@jit
+def piece_starts(p, d, wd):
+    """The obstacle at the start of pieces 0 and 1 (z, z': it depends on the parity of j
+    only) and the free rotation over each whole piece (cos, sin of w_d L_0, w_d L_1)."""
+    zs0, zps0, _, _ = z_state(p, 0, 0.0)
+    zs1, zps1, _, _ = z_state(p, 1, 0.0)
+    return (zs0, zps0, zs1, zps1, math.cos(wd * piece_length(d, 0)),
+            math.sin(wd * piece_length(d, 0)), math.cos(wd * piece_length(d, 1)),
+            math.sin(wd * piece_length(d, 1)))
+
+
+@jit
 def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
             final, info):
     """Integrate one item from (t, u, v) = (t_start, u0, v0), t_start >= 0 (the obstacle's
@@ -498,16 +522,7 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
     stop_tol = p[P.STOP_TOL]
     watch = stop_tol > 0.0 and p[P.F_AMP] == 0.0 and transient > 0
     qmax = 2 * record + 2
-    nring = 2 * qmax + 1 if watch else 1
-    ring_u = np.empty(nring)
-    ring_v = np.empty(nring)
-    ring_n = np.empty(nring, np.int64)
-    ring_s = np.empty(nring, np.bool_)
-    if t_start != 0.0:
-        # a start inside the period: the corners before it are never stored, so no lag may
-        # match them (cycle_watch reads corners 1 .. j)
-        ring_u[:] = math.inf
-        ring_v[:] = math.inf
+    ring_u, ring_v, ring_n, ring_s = corner_ring(2 * qmax + 1 if watch else 1, t_start)
     lag_step = cycle_lag(p)
     j_end = NO_END
     last_j = np.int64(0)
@@ -555,12 +570,7 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
     # flight from corner to corner (time as piece and local time: docs/kernels.md)
     # (a profile of more than two pieces goes round its own cycle: cycle2 False)
     cycle2 = cycle_np(d) == 2
-    zs0, zps0, _, _ = z_state(p, 0, 0.0)
-    zs1, zps1, _, _ = z_state(p, 1, 0.0)
-    c_l0 = math.cos(wd * piece_length(d, 0))
-    s_l0 = math.sin(wd * piece_length(d, 0))
-    c_l1 = math.cos(wd * piece_length(d, 1))
-    s_l1 = math.sin(wd * piece_length(d, 1))
+    zs0, zps0, zs1, zps1, c_l0, s_l0, c_l1, s_l1 = piece_starts(p, d, wd)
     z_ref = z0             # obstacle height and slope at (j, tau_ref)
     zp_ref = zp0
 

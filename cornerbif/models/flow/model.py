@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ... import obstacles
-from ...model import IC_PREFIX, Coord, Field, Model
+from ...model import IC_PREFIX, Coord, Field, Model, RunResult
 from ...observables import (
     ANALYSIS_KERNELS,
     ANALYSIS_SECONDS,
@@ -330,7 +330,7 @@ class FlowModel(Model):
             out["corner"] = np.where(has, kind.corner_places(params, ids, has), -1).astype(np.int8)
         if not cornered.all():
             out["corner_offset"][~cornered] = np.nan
-        return out, st, final, period, ipc, sym
+        return RunResult(out, st, final, period, ipc, sym)
 
 
 def _stability(params, out, ipc, control=0):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ... import status as S
-from ...model import Coord, CycleSeries, Field, Model, Param, anything, positive
+from ...model import Coord, CycleSeries, Field, Model, Param, RunResult, anything, positive
 from ...observables import SECTION_FIELDS, STABILITY_FIELDS, U
 from .normal_form import SIDE
 
@@ -104,11 +104,9 @@ class Map2dModel(Model):
         return map_seed(values, param, word)
 
     def run_items(self, params, ics, ints, scene):
-        """Iterate the local maps (56) on n items; outputs shaped like the flow's.
-
-        The iterates x_n = (a_n, b_n) go to the section slots (su, sv), as the flow's
-        section values (u, v)(nT); a run is OK unless an iterate is not finite.
-        """
+        """Iterate the local maps (56) on n items: the iterates x_n = (a_n, b_n) are the
+        section's series (su, sv), as the flow's section values (u, v)(nT); a run is OK
+        unless an iterate is not finite."""
         # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import raise_if_stopped
         from ...stability import new_outputs  # start-up: loads numba
@@ -128,9 +126,7 @@ class Map2dModel(Model):
         ipc = ((sym == ord("a")) * 2 + (sym == ord("b")) + (sym == ord("g"))).sum(axis=1)
         ok = np.isfinite(b).all(axis=1) & np.isfinite(a).all(axis=1)
         st = np.where(ok, S.OK, S.NONFINITE).astype(np.int8)
-        nan = np.full((n, rec), np.nan)
-        out = {"t": nan, "u": nan, "v_in": nan, "v_out": nan, "corner_offset": nan,
-               "su": a, "sv": b}
+        out = {"su": a, "sv": b}
         final = np.stack([a[:, -1], b[:, -1]], axis=1)
         sym_full = np.zeros((n, rec), np.uint8)
         sym_full[:, :sym.shape[1]] = sym
@@ -140,7 +136,7 @@ class Map2dModel(Model):
                                 control)
             raise_if_stopped(control)
             out.update(stab)
-        return out, st, final, period, ipc, sym_full
+        return RunResult(out, st, final, period, ipc, sym_full)
 
 
 def batch_map_stability(*args):

@@ -4,7 +4,7 @@ A wall w = kappa + beta sin(omega0 t) (eq 72), a heavy particle z and a light on
 optionally damped and forced as eq 4), w <= z <= u; w-z impacts by law (5), z-u impacts by
 the mass-ratio law (74).  ``run_one`` integrates one item (modes FREE, WALL, PAIR, ALL;
 the certified Sturm search of ``first_root``), ``run_batch`` fans out over items and
-``simulate_two_particle`` checks, packs and allocates.  Time and flights, the event
+``run_tables`` checks, packs and allocates (the model's ``run_items`` for a scene).  Time and flights, the event
 location, simultaneous impacts, chattering and sticking, the corner offsets and the output
 layout are described in docs/kernels.md.
 """
@@ -879,6 +879,28 @@ def pair_or_free(c, p, Q, tau, u_stick, z, y_out, v_out, ua, va):
 
 
 @jit
+def stuck_sections(p, c, n, Sper, recording, n_sec, record, o_sec, final):
+    """The stack stuck for good after section n (``stack_floor``): z = u = w, y = v = w' at
+    every section the run would cross, stored while ``recording`` up to ``record`` rows of
+    ``o_sec`` (``n_sec`` filled), and the state at the next one in ``final``."""
+    m = n + 1
+    w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
+    final[0] = w
+    final[1] = wp
+    final[2] = w
+    final[3] = wp
+    while recording and n_sec < record:
+        w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
+        o_sec[n_sec, SEC_T] = m * Sper
+        o_sec[n_sec, SEC_Z] = w
+        o_sec[n_sec, SEC_Y] = wp
+        o_sec[n_sec, SEC_U] = w
+        o_sec[n_sec, SEC_V] = wp
+        n_sec += 1
+        m += 1
+
+
+@jit
 def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     """Integrate one item from (t, z, y, u, v) = (0, z0, y0, u0, v0); fill its rows.
 
@@ -966,22 +988,7 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         rest = Sper - tau_ref
         if mode == ALL and stack_forever and not done:
             # ---- the stack stuck for good (``stack_floor``): z = u = w, y = v = w' ----------
-            # every section the run would cross holds the wall's state there
-            m = n + 1
-            w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
-            final[0] = w
-            final[1] = wp
-            final[2] = w
-            final[3] = wp
-            while n_zu >= transient and n_sec < record:
-                w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
-                o_sec[n_sec, SEC_T] = m * Sper
-                o_sec[n_sec, SEC_Z] = w
-                o_sec[n_sec, SEC_Y] = wp
-                o_sec[n_sec, SEC_U] = w
-                o_sec[n_sec, SEC_V] = wp
-                n_sec += 1
-                m += 1
+            stuck_sections(p, c, n, Sper, n_zu >= transient, n_sec, record, o_sec, final)
             _close(o_zu, o_corner, pend_lo, pend_hi)
             return S.STUCK
         # ---- escape and finiteness of the reference state ---------------------------
@@ -1296,10 +1303,13 @@ def run_batch(params, ints, ics, o_zu, o_corner, o_wz, o_sec, o_status, o_final)
 
 
 # --------------------------------------------------------------------- Python layer
-def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6,
-                          escape=1e6, period_tol=1e-6, section_period=None, max_events=None,
-                          max_periods=None, record_wz=None, **params):
-    """Run the two-particle model (section 6) for one or many initial states at t = 0.
+def run_tables(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6, escape=1e6,
+               period_tol=1e-6, section_period=None, max_events=None, max_periods=None,
+               record_wz=None, **params):
+    """The kernel alone, without a scene, for one or many initial states at t = 0: what the
+    orbit problem's seed runs (``orbit.two_particle_seed``).  From Python the model runs
+    through ``cornerbif.simulate(z0, y0, u0, v0, model="two_particle", ...)``, which checks
+    a scene and returns the same arrays.
 
     ``params`` are omega0, omega1, omega2, mu, r1, r2, kappa, beta (defaults: the
     paper's Fig. 19 values omega1 = 1.001, omega2 = 1, mu = 1000, r1 = r2 = 0.8,
@@ -1319,9 +1329,9 @@ def simulate_two_particle(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, ch
     defaults = {k: p.default for k, p in P.PARAMS.items() if k != "omega0"}
     unknown = set(params) - set(P.NAMES)
     if unknown:
-        raise TypeError(f"simulate_two_particle() got unknown parameter(s) {sorted(unknown)}")
+        raise TypeError(f"run_tables() got unknown parameter(s) {sorted(unknown)}")
     if "omega0" not in params:
-        raise TypeError("simulate_two_particle() needs omega0")
+        raise TypeError("run_tables() needs omega0")
     vals = dict(defaults)
     vals.update(params)
     arrays = {k: np.atleast_1d(np.asarray(v, float)) for k, v in vals.items()}

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ...model import Coord, Field, Model
+from ...model import Coord, Field, Model, RunResult
 from ...observables import (
     ANALYSIS_KERNELS,
     ANALYSIS_SECONDS,
@@ -187,11 +187,13 @@ class TwoParticleModel(Model):
         return two_particle_seed(values, param, x, run["ipc"])
 
     def run_items(self, params, ics, ints, scene):
-        """The two-particle kernel (section 6) on n items; outputs shaped like the flow's.
+        """The two-particle kernel (section 6) on n items.
 
-        ``t, u, v_in, v_out, corner_offset`` are the u-z impacts (offset to the nearest
-        w-z impact, this system's corner); ``su, sv, sz, sy`` the sections; ``wz_*``
-        the w-z impacts; ``final`` is (n, 4) = (z, y, u, v).
+        ``t, u, v_in, v_out, y_in, y_out, corner_offset, corner`` are the u-z impacts (the
+        offset to the nearest w-z impact, this system's corner, and its number); ``st, sz,
+        sy, su, sv`` the sections; ``wz_t, wz_z, wz_y_in, wz_y_out`` the w-z impacts (the
+        kernel's whole table, ``wall_capacity(record)`` rows); ``final`` is (n, 4) =
+        (z, y, u, v).
         """
         # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import raise_if_stopped
@@ -217,9 +219,12 @@ class TwoParticleModel(Model):
                "corner_offset": np.ascontiguousarray(o_zu[:, :, K.ZU_OFF]),
                "su": o_sec[:, :, K.SEC_U].copy(), "sv": o_sec[:, :, K.SEC_V].copy(),
                "sz": o_sec[:, :, K.SEC_Z].copy(), "sy": o_sec[:, :, K.SEC_Y].copy(),
-               "wz_t": o_wz[:, :rec, K.WZ_T].copy(), "wz_z": o_wz[:, :rec, K.WZ_Z].copy(),
-               "wz_y_in": o_wz[:, :rec, K.WZ_YIN].copy(),
-               "wz_y_out": o_wz[:, :rec, K.WZ_YOUT].copy()}
+               # the whole w-z table (a file keeps its first ``record`` rows), the z-u
+               # impacts' y and corner, the section times: views, no copies
+               "wz_t": o_wz[:, :, K.WZ_T], "wz_z": o_wz[:, :, K.WZ_Z],
+               "wz_y_in": o_wz[:, :, K.WZ_YIN], "wz_y_out": o_wz[:, :, K.WZ_YOUT],
+               "y_in": o_zu[:, :, K.ZU_YIN], "y_out": o_zu[:, :, K.ZU_YOUT],
+               "corner": corner, "st": o_sec[:, :, K.SEC_T]}
         period = np.zeros(n, np.int64)
         ipc = np.zeros(n, np.int64)
         sym = np.zeros((n, rec), np.uint8)
@@ -231,7 +236,7 @@ class TwoParticleModel(Model):
                                         ints[TP.I_CONTROL])
             stab.pop("monodromy")
             out.update(stab)
-        return out, st, final, period, ipc, sym
+        return RunResult(out, st, final, period, ipc, sym)
 
 
 def wall_capacity(record: int) -> int:
@@ -250,6 +255,8 @@ MODEL = TwoParticleModel(
     doc="a wall, a heavy and a light particle (section 6, eqs 72-74)",
     params=TP.PARAMS,
     state=(Z, Y, U_ABOVE_Z, V),
+    # the Poincare section's period (default 2 pi / omega0)
+    system_extra={"section_period": None},
     observables={"impacts": IMPACT_FIELDS, "section": SECTION_FIELDS + SECTION_ZY,
                  "wall_impacts": WALL_IMPACT_FIELDS, "stability": STABILITY},
     opt_in=("stability",),

@@ -24,7 +24,7 @@ from ...numerics.saltation import flight_matrix
 from ...stability import OK, sorted_eigenvalues
 from . import kernel as TK
 from . import packed as TPM
-from .kernel import simulate_two_particle
+from .kernel import run_tables
 from .tangent import two_particle_steps
 
 
@@ -254,7 +254,7 @@ def two_particle_seed(values, param, x_section, ipc):
                 raise OrbitError(f"{F} != 0 with {W}/omega0 = {ratio!r} not a whole number: "
                                  "the seed's section state (t = n 2 pi/omega0) would not be "
                                  "a state at t = 0, nor the forcing periodic with the wall")
-    r = simulate_two_particle(*x_section, transient=0, record=ipc + 2, **kw)
+    r = run_tables(*x_section, transient=0, record=ipc + 2, **kw)
     zu_t = np.ravel(r["t"])
     n = int(np.isfinite(zu_t).sum())
     if n < ipc + 1:
