@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import importlib
 
+from .plugins import plugins
+
 # each module defines MODEL, a cornerbif.model.Model instance
 MODEL_MODULES = (
     "cornerbif.models.flow.model",
@@ -23,9 +25,10 @@ _MODELS = {}
 
 
 def models() -> dict:
-    """Every registered model, name -> Model, in registration order."""
+    """Every registered model, name -> Model, in registration order: this package's
+    (``MODEL_MODULES``), then the installed plug-ins' (``plugins``)."""
     if not _MODELS:
-        for path in MODEL_MODULES:
+        for path in MODEL_MODULES + plugins("cornerbif.models"):
             m = importlib.import_module(path).MODEL
             _MODELS[m.name] = m
     return _MODELS

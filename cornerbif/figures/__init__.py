@@ -3,12 +3,14 @@
 files (``draw``).  A kind module's top level loads neither matplotlib nor h5py nor a kernel.
 
 This is the figure kinds' registry: a new kind is its own module and one line in
-``FIGURE_MODULES``.
+``FIGURE_MODULES`` (or, from another package, in its entry points: ``plugins``).
 """
 
 from __future__ import annotations
 
 import importlib
+
+from ..plugins import plugins
 
 FIGURE_MODULES = (
     "cornerbif.figures.diagram",
@@ -27,7 +29,7 @@ _KINDS = {}
 def registered() -> dict:
     """Every registered figure kind, name -> FigureKind, in registration order."""
     if not _KINDS:
-        for path in FIGURE_MODULES:
+        for path in FIGURE_MODULES + plugins("cornerbif.figures"):
             k = importlib.import_module(path).FIGURE
             _KINDS[k.name] = k
     return _KINDS

@@ -4,12 +4,14 @@ and its Python side; ``dispatch``, the jitted switch over their codes, the only 
 reads a code.
 
 This is the obstacles' registry: a new kind is its own module and one line in
-``OBSTACLE_MODULES``.
+``OBSTACLE_MODULES`` (or, from another package, in its entry points: ``plugins``).
 """
 
 from __future__ import annotations
 
 import importlib
+
+from ..plugins import plugins
 
 OBSTACLE_MODULES = (
     "cornerbif.obstacles.sine",
@@ -27,7 +29,7 @@ def registered() -> dict:
     """Every registered obstacle kind, name -> Obstacle, in registration order (each code
     unique)."""
     if not _KINDS:
-        for path in OBSTACLE_MODULES:
+        for path in OBSTACLE_MODULES + plugins("cornerbif.obstacles"):
             o = importlib.import_module(path).OBSTACLE
             _KINDS[o.name] = o
     return _KINDS

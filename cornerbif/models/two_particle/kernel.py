@@ -4,9 +4,9 @@ A wall w = kappa + beta sin(omega0 t) (eq 72), a heavy particle z and a light on
 optionally damped and forced as eq 4), w <= z <= u; w-z impacts by law (5), z-u impacts by
 the mass-ratio law (74).  ``run_one`` integrates one item (modes FREE, WALL, PAIR, ALL;
 the certified Sturm search of ``first_root``), ``run_batch`` fans out over items and
-``run_tables`` checks, packs and allocates (the model's ``run_items`` for a scene).  Time and flights, the event
-location, simultaneous impacts, chattering and sticking, the corner offsets and the output
-layout are described in docs/kernels.md.
+``run_tables`` checks, packs and allocates (for a scene: the model's ``run_items``).  Time
+and flights, the event location, simultaneous impacts, chattering and sticking, the corner
+offsets and the output layout are described in docs/kernels.md.
 """
 
 import math
