@@ -9,7 +9,7 @@ then the entry cold, then the entry again warm; the compile time is cold less wa
 start and the tiny run's work cancel).  The numba functions the cold run compiled are the
 cache index files it left (``*.nbi``), listed by module and name: what
 ``engine.announce_compiles`` checks for each entry.  The numbers in the models' declarations
-(``COMPILE_SECONDS`` in ``cornerbif/models/*_model.py``) come from this table; users see them
+(``COMPILE_SECONDS`` in ``cornerbif/models/*/model.py``) come from this table; users see them
 rounded, as the time a compile took on the machine that ran this (``engine.compile_words``).
 """
 

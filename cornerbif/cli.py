@@ -542,7 +542,7 @@ def _sweep_lines(file):
 
 
 def _continuation_lines(c):
-    """``info`` of a continuation file (``plot.read_continuation``), in lines: its scene,
+    """``info`` of a continuation file (``plot_data.read_continuation``), in lines: its scene,
     parameter and seeds; each branch's word, range, points, stable points and why each end
     stopped; the events; the curves."""
 

@@ -354,7 +354,7 @@ NAMED_AT_MOST = 3
 def open_checked(path, fmt: str = outputs.SWEEP_FORMAT, version: int = FORMAT_VERSION):
     """Open ``path`` read-only, only if it is a file of root attribute ``format`` = ``fmt``
     and a format version of at most ``version`` (the readers' one opener: ``check_readable``
-    for a sweep, ``plot.read_continuation`` for a continuation).
+    for a sweep, ``plot_data.read_continuation`` for a continuation).
 
     Refused with ``FileFormatError`` saying why, before anything is read: a missing path, a
     directory, a FIFO or a device (never opened: reading one may block or never end), an

@@ -214,7 +214,7 @@ def profile_sturm_floor(p, m):
     """f_min / k^2 of the Sturm comparison on profile piece m (k > 0): f = -k^2 z - z''
     = -k^2 kappa - beta (k^2 g + omega^2 g'') >= -k^2 kappa - beta H, H the piece's bound of
     k^2 g + omega^2 g'' packed for this point's k and omega (``profile.sturm_bound``); the
-    floor -kappa - beta H / k^2 is packed with it (PC_FLOOR, ``params.pack_profile``)."""
+    floor -kappa - beta H / k^2 is packed with it (PC_FLOOR, ``obstacles.profile.pack_profile``)."""
     return profile_slot(p, P.PROFILE0 + m * P.PIECE_STRIDE + P.PC_FLOOR)
 
 

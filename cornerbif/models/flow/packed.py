@@ -1,7 +1,8 @@
 """The ``flow`` model's packed parameter vector as the kernels see it.
 
-The declarations (``PARAMS``, ``OBSTACLES``), the slots of the packed vector and ``pack``
-are in ``models/flow/params.py``, pure Python, so that checking a scene loads no numba;
+The declarations (``PARAMS``, ``OBSTACLES``) and ``pack`` are in ``models/flow/params.py``,
+the slots of the packed vector in ``models/flow/slots.py``, pure Python, so that checking a
+scene loads no numba;
 they are re-exported here, where the kernels read them as ``P.KAPPA``, ``P.pack``, ...
 beside the jitted views of a packed row below.
 """

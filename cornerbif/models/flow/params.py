@@ -1,9 +1,11 @@
 """The ``flow`` model's parameters: their declarations and the packed vector.
 
-``PARAMS`` declares each parameter (default, allowed range, doc, equation) and
-``OBSTACLES`` each obstacle; config reads them through the registry
-(``models/flow/model.py``).  Inside the kernels the parameters live in one float64
-vector indexed by the constants below, so every kernel compiles exactly once.
+``PARAMS`` declares each parameter (default, allowed range, doc, equation; the obstacle
+kinds' own parameters included) and ``OBSTACLES`` is the registered obstacle kinds
+(``cornerbif/obstacles``); config reads them through the model (``models/flow/model.py``).
+Inside the kernels the parameters live in one float64 vector indexed by the slots of
+``slots.py``, so every kernel compiles exactly once; ``pack`` fills it, each obstacle kind
+writing its own slots.
 
 Pure Python (no numba): checking a scene reads these declarations without loading a
 kernel.  ``models/flow/packed.py`` adds the jitted views of a packed row the kernels call
