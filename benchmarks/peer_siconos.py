@@ -52,7 +52,7 @@ family, siconos version.
   The same helper measures cornerbif's ``flow`` throughput on the same scene (more
   w values), one thread, before and after the Siconos runs (the ratio uses the mean;
   ``--smoke`` measures only after).
-* ``grazing``: the family of ``tests/test_flow_physics.py``: w = 1.999, kappa = -5,
+* ``grazing``: the family of ``tests/models/test_flow_physics.py``: w = 1.999, kappa = -5,
   beta = 1, a flight u = R cos(t - psi) whose lowest point lies eps above (eps > 0) or
   below (eps < 0) the top of the second hump, |eps| = 1e-3 ... 1e-9.  eps < 0 must give
   an impact near the top, eps > 0 none (until t_top + 1); the exhaustive search confirms
@@ -283,7 +283,7 @@ def fig4c_starts(n_omega, n_starts, seed=0):
 
 
 def grazing_starts(exponents):
-    """The family of tests/test_flow_physics.py: lowest point of u = R cos(t - psi) at
+    """The family of tests/models/test_flow_physics.py: lowest point of u = R cos(t - psi) at
     eps above (eps > 0) or below (eps < 0) the top of the second hump, t_top = 1.5 pi/w."""
     w, kap, beta = GRAZE["omega"], GRAZE["kappa"], GRAZE["beta"]
     tg = 1.5 * math.pi / w

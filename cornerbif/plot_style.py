@@ -1,7 +1,7 @@
 """The look of every figure: one style, marker sizes from the point count, robust y-ranges.
 
 What is logic here (the y-window, the marker size) is tested without pixels
-(tests/test_plot_style.py); the style is matplotlib's rcParams, which a user replaces by
+(tests/figures/test_plot_style.py); the style is matplotlib's rcParams, which a user replaces by
 their own style sheet (``[plot] style`` or ``cornerbif plot --style``).
 """
 

@@ -581,7 +581,7 @@ def pack_profile(p, profile):
 
 # --- a profile's bounds, read from its packed row as obstacles/dispatch.py's jitted functions
 # read them, in Python: ``scale_problem`` checks a scene with these, loading no numba
-# (tests/test_validate_imports.py checks that both give the same numbers)
+# (tests/scenes/test_validate_imports.py checks that both give the same numbers)
 def row_bound(row, *slots):
     """The largest |row[o + slot]| over the pieces o of a profile's packed row (``pack``)
     and the ``slots`` given: ``obstacle._profile_max(row, slot)`` for one slot,

@@ -124,7 +124,7 @@ slope is -2 before and +2 after the corner):
    -2 pi omega1 (1 + r) (the printed (pi omega1/2)(1+r)(r^2+r-2)/(1-r) has the
    same sign).  Details and tests are in :mod:`cornerbif.theory`.
 
-Observed dynamics (omega1 = -0.001, r = 0.8; tests/test_maps2d.py)
+Observed dynamics (omega1 = -0.001, r = 0.8; tests/models/test_maps2d.py)
 ------------------------------------------------------------------
 The map reproduces the words the paper reports for the flow: (beta^11 gamma) at
 kappa = -0.0127, (beta^12 gamma beta^11 gamma) at -0.0128 (Fig. 17) and the
