@@ -2,6 +2,7 @@
 and a model from outside the package registered with one line (docs/architecture.md)."""
 
 import math
+import os
 
 import h5py
 import numpy as np
@@ -136,17 +137,22 @@ def test_bad_values_name_key_value_and_range(name):
 
 @pytest.fixture
 def toy_registered(monkeypatch):
-    """Register tests/toy_model.py: the one line a new model adds to the registry."""
-    monkeypatch.setattr(registry, "MODEL_MODULES", registry.MODEL_MODULES + ("toy_model",))
+    """Register the plug-in model of tests/plugins (a contracting rotation) in this process:
+    the one line a new model adds to the registry (tests/architecture/test_extension_recipes.py
+    registers it by its entry point instead, in a fresh process)."""
+    monkeypatch.syspath_prepend(os.path.join(os.path.dirname(os.path.dirname(
+        os.path.abspath(__file__))), "plugins"))
+    monkeypatch.setattr(registry, "MODEL_MODULES",
+                        registry.MODEL_MODULES + ("cornerbif_toys.rotation",))
     monkeypatch.setattr(registry, "_MODELS", {})
     monkeypatch.setattr(config, "MODELS", registry.names())
     monkeypatch.setitem(config.TABLES, "initial", config.TABLES["initial"])
-    yield registry.get("toy_rotation")
+    yield registry.get("toy_rotation_plugin")
 
 
 def test_a_model_from_outside_the_package_sweeps_to_a_file(toy_registered, tmp_path):
     scene = tmp_path / "toy.toml"
-    scene.write_text('[scene]\nname = "toy"\nmodel = "toy_rotation"\n[system]\nr = 0.5\n'
+    scene.write_text('[scene]\nname = "toy"\nmodel = "toy_rotation_plugin"\n[system]\nr = 0.5\n'
                      '[sweep]\nomega = { start = 0.5, stop = 1.5, num = 3 }\n'
                      '[initial]\ncount = 2\n[run]\ntransient = 60\nrecord = 4\n')
     r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(tmp_path / "toy.h5")])

@@ -151,14 +151,6 @@ def test_plot_outputs_are_checked(tmp_path):
     refused(run("plot", tmp_path / "g.h5", "-o", tmp_path / "g.h5"), "must be .png")
 
 
-def crafted_refused(path, needle):
-    for cmd in ("info", "plot"):
-        fig = str(path) + ".png"
-        r = run(cmd, path, *(["-o", fig] if cmd == "plot" else []))
-        refused(r, needle)
-        assert not os.path.exists(fig)
-
-
 # ------------------------------------------------------------------ the room on the disk
 def test_the_room_on_the_disk_is_read_in_one_place(tmp_path, monkeypatch):
     """The free space and this process's file-size limit are read by ``io.free_space`` and

@@ -2,15 +2,12 @@
 traceback; two axes naming one parameter are refused."""
 
 import os
-import sys
 
 import pytest
-from click.testing import CliRunner
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from cornerbif import config, registry
-from cornerbif.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -57,47 +54,6 @@ def test_arbitrary_dicts_give_a_scene_or_a_scene_error(raw):
         assert isinstance(sc, config.Scene)
         # a valid scene's text reloads to the same scene
         assert config.loads(sc.text).hash == sc.hash
-
-
-# ---------------------------------------------------------------- bad files for plot and info
-def _good_file(tmp_path, name="good.h5"):
-    out = tmp_path / name
-    r = CliRunner().invoke(main, ["sweep", FIG06A, "-o", str(out), "--set", "sweep.kappa.num=3",
-                                  "--set", "initial.count=2", "--set", "run.transient=10",
-                                  "--set", "run.record=10"])
-    assert r.exit_code == 0, r.output
-    return out
-
-
-def _refused(path, needle):
-    for cmd in ("plot", "info"):
-        fig = str(path) + ".png"
-        r = CliRunner().invoke(main, [cmd, str(path)] + (["-o", fig] if cmd == "plot" else []))
-        assert r.exit_code == 2, (cmd, r.output)
-        assert needle in r.output, (cmd, r.output)
-        assert "Traceback" not in r.output
-        assert not os.path.exists(fig)
-
-
-# ---------------------------------------------------------------- interrupted and concurrent runs
-def _sweep_args(out, extra=()):
-    return [sys.executable, "-m", "cornerbif.cli", "sweep", FIG06A, "-o", str(out), "--no-progress",
-            "--set", "sweep.kappa.num=240", "--set", "initial.count=4", "--block-points", "8",
-            *extra]
-
-
-KILL_IN_TABLE = """
-import os, signal, sys
-import cornerbif.attractors as A
-def killed(g, scene):                    # the table half written, then SIGKILL
-    g.create_group("attractors").create_dataset("id", data=[0, 1, 2])
-    g.flush()
-    os.kill(os.getpid(), signal.SIGKILL)
-A.tabulate = killed
-from cornerbif.cli import main
-sys.argv = ["cornerbif"] + sys.argv[1:]
-main()
-"""
 
 
 def test_two_axes_naming_one_parameter_is_refused():
