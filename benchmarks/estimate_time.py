@@ -137,7 +137,8 @@ n = np.isfinite(t).sum(1)
 span = np.nanmax(np.where(np.isfinite(t), t, -np.inf), 1)
 span = np.where(np.isfinite(span), span, 0.0)
 if sc.model == "flow":
-    L = P.obstacle_period(sc.obstacle, v, sc.profile) / P.pieces_per_period(sc.obstacle, sc.profile)
+    L = P.obstacle_period(sc.extra["obstacle"], v, sc.obstacle_table) / P.pieces_per_period(
+        sc.extra["obstacle"], sc.obstacle_table)
 else:
     L = 2 * np.pi / v
 print(json.dumps({{"per_run": best / len(prm), "impacts": float(n.mean()),

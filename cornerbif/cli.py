@@ -284,7 +284,7 @@ def _describe(scene, out, threads):
         n_points *= n
     n_items = n_points * scene.n_ic
     lines = [f"scene {scene.name}: model {scene.model}"
-             + (f", obstacle {scene.obstacle}" if scene.spec.obstacles else "")]
+             + (f", obstacle {scene.extra['obstacle']}" if scene.spec.obstacles else "")]
     for a in scene.axes:
         lo, hi = min(a.values), max(a.values)
         lines.append(f"  axis {a.name}: {len(a.values)} values from {lo:.10g} to {hi:.10g}")

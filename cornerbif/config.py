@@ -243,11 +243,11 @@ class Scene:
     ----------
     name, title : the ``[scene]`` table (name also names the default output file).
     model : the registered model's name (``cornerbif.registry``).
-    obstacle : ``system.obstacle`` for models with obstacles (``flow``), else the
-        default obstacle name (unused).
     system : dict of the fixed numeric parameters (every declared parameter; a
         derived default such as theta1 may be None).
-    section_period : Poincare section period (None: the model's default).
+    extra : the model's declared non-numeric ``[system]`` keys as read (``Model.system_extra``:
+        the flow's ``obstacle`` and ``section_period``, the two particles' ``section_period``;
+        None where the scene gives none).
     axes : tuple of ``Axis``, none, one (a diagram) or two (a parameter plane).
     follow : "none", "up" or "down": carry each attractor along the first axis.
     n_ic, seed : starts per grid point and the seed of their counter-based draw.
@@ -261,16 +261,14 @@ class Scene:
     preset : the ``run.preset`` the run settings were resolved from.
     stop : ``run.stop`` resolved: "period" (early stop) or "none".
     cont : the ``[continue]`` table resolved (``cornerbif continue``), empty without one.
-    profile : the checked cam profile of ``obstacle = "profile"`` (``obstacles.profile.Profile``),
-        else None.
+    obstacle_table : what the obstacle kind read from its own ``[system]`` tables (a cam's
+        checked ``obstacles.profile.Profile``), else None.
     """
 
     name: str
     title: str
     model: str
-    obstacle: str
     system: dict
-    section_period: float | None
     axes: tuple
     follow: str
     n_ic: int
@@ -290,7 +288,8 @@ class Scene:
     preset: str = DEFAULT_PRESET
     stop: str = "none"
     cont: dict = field(default_factory=dict)
-    profile: object = None
+    extra: dict = field(default_factory=dict)
+    obstacle_table: object = None
 
     @property
     def shape(self) -> tuple:
@@ -663,10 +662,10 @@ class CheckContext:
         self.system = w.system
         self.axes = w.axes
         self.ranges = w.ranges
-        self.obstacle = w.obstacle
+        self.extra = w.extra
         self.problems = list(w.problems)
         self.drawn = w.drawn
-        self.profile = getattr(w, "profile", None)
+        self.obstacle_table = getattr(w, "obstacle_table", None)
 
     def swept(self, name):
         return next((a for a in self.axes if a.name == name), None)
@@ -761,7 +760,7 @@ def _read_system(w):
             section_period = float(section_period)
     # an obstacle kind's own tables (a cam's [system.profile]): read by the kind, refused
     # under another
-    w.profile, w.obstacle_tables = None, {}
+    w.obstacle_table, w.obstacle_tables = None, {}
     kind = spec.obstacles.get(obstacle) if spec.obstacles else None
     for other in (spec.obstacles or {}).values():
         for key in other.tables:
@@ -771,6 +770,8 @@ def _read_system(w):
     if kind is not None:
         kind.read_tables(sy, w)
     w.obstacle, w.system, w.section_period = obstacle, system, section_period
+    w.extra = {k: v for k, v in (("obstacle", obstacle), ("section_period", section_period))
+               if k in spec.system_extra}
 
 
 def _applies(w, decl, obstacle, key) -> bool:
@@ -950,7 +951,7 @@ def _read_sweep(w):
     if ob is not None and any(t not in w.obstacle_tables for t in ob.tables):
         ob = None                       # a table not read: its problem is reported already
     if sp is not None and ob is not None and w.system.get("omega"):
-        per = ob.period(w.system["omega"], w.profile)
+        per = ob.period(w.system["omega"], w.obstacle_table)
         m = sp / per
         if not m < 2**52:
             w.problems.append(f"system.section_period: {sp!r} is {m:.3g} obstacle periods "
@@ -961,6 +962,13 @@ def _read_sweep(w):
     if ob is not None:
         ob.check_scales(w, axes)
     w.axes, w.follow = axes, follow
+
+
+def recorded_obstacle(scene) -> str:
+    """The obstacle a file records (its root attribute ``obstacle``): the scene's, or, for a
+    model without obstacles, the default kind's name (format version 1 names one in every
+    file)."""
+    return scene.extra.get("obstacle", obstacles.DEFAULT)
 
 
 def _fixed(rng) -> bool:
@@ -1581,11 +1589,10 @@ def _scene(w) -> Scene:
         as_run["plot"] = w.plot
     if w.cont:
         as_run["continue"] = w.cont
-    return Scene(name=w.name, title=w.title, model=w.model, obstacle=w.obstacle,
-                 system=w.system, section_period=w.section_period, axes=tuple(w.axes),
+    return Scene(name=w.name, title=w.title, model=w.model, system=w.system, axes=tuple(w.axes),
                  follow=w.follow, n_ic=w.n_ic, seed=w.seed, initial=w.ranges,
                  transient=run["transient"], record=run["record"], tol=run["tol"],
                  chatter=run["chatter"], escape=run["escape"], period_tol=run["period_tol"],
                  max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
                  plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"],
-                 cont=w.cont, profile=getattr(w, "profile", None))
+                 cont=w.cont, extra=w.extra, obstacle_table=getattr(w, "obstacle_table", None))

@@ -23,7 +23,7 @@ import numpy as np
 from . import engine, outputs, registry
 from ._version import __version__
 from .api import simulate
-from .config import same_run, scene_difference, sweep_items
+from .config import recorded_obstacle, same_run, scene_difference, sweep_items
 from .continuation import (
     ENDING_WORDS,
     MAX_BRANCHES,
@@ -139,7 +139,7 @@ def _seed_runs(scene, f):
     theirs = theirs_doc.get("system", {})
     ours = {k: v for k, v in scene.system.items() if v is not None}
     if "obstacle" in scene.spec.system_extra:
-        ours["obstacle"] = scene.obstacle
+        ours["obstacle"] = recorded_obstacle(scene)
     for k in sorted(set(ours) | set(theirs)):
         if k != name and k != "section_period" and theirs.get(k) != ours.get(k):
             raise _seed_file_error(scene, f"was swept with system.{k} = {theirs.get(k)!r}, "
@@ -454,7 +454,7 @@ def _branch_record(br, scene) -> dict:
     """What the file keeps of a branch (docs/continuation.md, "The file"): its datasets,
     its attributes and its events' rows."""
     c = scene.cont
-    section = scene.section_period
+    section = scene.extra.get("section_period")
     pts = br.points
     mu = np.array([pt.mu for pt in pts])
     rows = [pt.problem.store(pt.X, pt.lam, section) for pt in pts]
@@ -500,7 +500,7 @@ def _image(scene, head, branches, curves, state=None) -> bytes:
     c = scene.cont
     with h5py.File("continuation.h5", "w", driver="core", backing_store=False) as f:
         f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, scene=scene.text,
-                       model=scene.model, obstacle=scene.obstacle, parameter=c["parameter"],
+                       model=scene.model, obstacle=recorded_obstacle(scene), parameter=c["parameter"],
                        cornerbif_version=__version__, created=head["created"],
                        seeds=head["seeds"], command=head.get("command", ""))
         for b, rec in enumerate(branches):

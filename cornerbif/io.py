@@ -53,7 +53,7 @@ import numpy as np
 from . import attractors, engine, outputs, registry
 from . import status as S
 from ._version import FORMAT_VERSION, __version__
-from .config import SceneError, loads, same_run
+from .config import SceneError, loads, recorded_obstacle, same_run
 from .config import scene_difference as what
 from .errors import SweepError, WriteFailed
 from .model import cut, shown
@@ -89,7 +89,7 @@ def create(path, scene, n_ic, command="", versions=None):
     f.attrs["completed"] = ""
     f.attrs["command"] = command
     f.attrs["model"] = scene.model
-    f.attrs["obstacle"] = scene.obstacle
+    f.attrs["obstacle"] = recorded_obstacle(scene)
     for k, v in (versions or {}).items():
         f.attrs[f"{k}_version"] = v
     f.attrs["status_codes"] = json.dumps({str(k): v for k, v in S.NAMES.items()})

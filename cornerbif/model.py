@@ -159,7 +159,7 @@ class Obstacle:
         """Every piece starts at a corner (one smooth piece per period, with corners)."""
         return self.corners and self.pieces == 1
 
-    # ``table`` below is what ``read_tables`` read from the scene (``Scene.profile`` for a
+    # ``table`` below is what ``read_tables`` read from the scene (``Scene.obstacle_table``: a
     # cam), None for a kind without tables
     def period(self, omega: float, table=None) -> float:
         """The period of z(t) at frequency omega."""
@@ -379,7 +379,7 @@ class Model:
 
     def obstacle_of(self, scene):
         """The scene's Obstacle declaration (None for a model without obstacles)."""
-        return self.obstacles.get(scene.obstacle) if self.obstacles else None
+        return self.obstacles.get(scene.extra.get("obstacle")) if self.obstacles else None
 
     def has_normal_form(self, obstacle: str | None) -> bool:
         """Whether the (a0, b1)-plane figures of sections 4-5 apply to this model and

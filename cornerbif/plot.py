@@ -19,6 +19,7 @@ import tomllib
 import numpy as np
 
 from . import figures, plot_style, registry
+from .config import recorded_obstacle
 from .model import cut
 from .plot_base import BRANCH_Y, COLOR_BY, Undrawable, branch_keys, cfg_for_y, flow_and_map
 from .plot_data import DRAW_LIMIT, Y_DATASETS, PlotData, is_continuation, read_continuation
@@ -186,7 +187,7 @@ def check_scenes_drawable(sweeps, conts=(), plot_cfg=None):
             return None
     wills = [_Will(n, sc) for n, sc in sweeps]
     cs = [{"path": str(n), "parameter": sc.cont["parameter"], "scene": sc.text, "branches": [],
-           "attrs": {"model": sc.model, "obstacle": sc.obstacle}} for n, sc in conts]
+           "attrs": {"model": sc.model, "obstacle": recorded_obstacle(sc)}} for n, sc in conts]
     check_together(wills, cs, plot_cfg=plot_cfg)
 
 

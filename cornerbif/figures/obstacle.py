@@ -24,8 +24,8 @@ def obstacle_curve(data: PlotData):
 
     def z(t):
         return model.wall_at(row, np.asarray(t, float)[None, :])[0]
-    kind = model.obstacles[scene.obstacle]
-    return z, kind.period(scene.system["omega"], scene.profile), scene
+    kind = model.obstacles[scene.extra["obstacle"]]
+    return z, kind.period(scene.system["omega"], scene.obstacle_table), scene
 
 
 def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):

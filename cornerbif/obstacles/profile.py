@@ -617,7 +617,7 @@ class CamProfile(Obstacle):
         return self.period(omega, table)
 
     def read_tables(self, system, w):
-        """``[system.profile]`` read and checked (``read``) into ``w.profile``; what was read,
+        """``[system.profile]`` read and checked (``read``) into ``w.obstacle_table``; what was read,
         as the scene records it, into ``w.obstacle_tables``."""
         table = system.get("profile")
         if table is None:
@@ -625,11 +625,11 @@ class CamProfile(Obstacle):
                               "[system.profile] table (period, pieces; docs/cams.md)")
             return
         try:
-            w.profile = read(table)
+            w.obstacle_table = read(table)
         except ProfileError as e:
             w.problems += e.problems
             return
-        record = {"period": float(table.get("period", w.profile.period)),
+        record = {"period": float(table.get("period", w.obstacle_table.period)),
                   "pieces": table["pieces"]}
         if "corners" in table:
             record["corners"] = table["corners"]
@@ -651,7 +651,7 @@ class CamProfile(Obstacle):
                     if omega <= 0.0:
                         continue
                     sigma = max(values("sigma"))
-                    found = scale_problem(w.profile, omega, beta, k, kappa, sigma)
+                    found = scale_problem(w.obstacle_table, omega, beta, k, kappa, sigma)
                     if found:
                         name, why = found
                         value = {"omega": omega, "beta": beta, "k": k, "sigma": sigma}[name]
@@ -666,7 +666,7 @@ class CamProfile(Obstacle):
 
     def top(self, ctx):
         """kappa + beta max g."""
-        prof = getattr(ctx, "profile", None)
+        prof = getattr(ctx, "obstacle_table", None)
         if prof is None:
             return None
         th = np.linspace(0.0, prof.period, 4097)
@@ -674,7 +674,7 @@ class CamProfile(Obstacle):
             prof.lift(th).max())
 
     def height_at_zero(self, ctx, kappa):
-        prof = getattr(ctx, "profile", None)
+        prof = getattr(ctx, "obstacle_table", None)
         if prof is None:
             return kappa, "kappa"
         g0 = float(prof.lift(0.0))

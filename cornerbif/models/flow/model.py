@@ -141,12 +141,12 @@ class FlowModel(Model):
                             "(the start time t0)")
         moving_start = t0[1] > 0.0 or (swept_t is not None and max(swept_t.values) > 0.0)
         if ctx.drawn and rng and moving_start and not ctx.problems and not ctx.swept("initial.u"):
-            top = OBSTACLES[ctx.obstacle].top(ctx)
+            top = OBSTACLES[ctx.extra["obstacle"]].top(ctx)
             if top is not None and rng[1] <= top:
                 problems.append(f"initial.u: {list(rng)} does not reach above the obstacle's "
                                 f"top z = {top!r} over the start times (initial.t): a start "
                                 "at such a t0 would lie below it; raise the upper end")
-        z0, what = OBSTACLES[ctx.obstacle].height_at_zero(ctx, max(kap)) if kap else (None, "")
+        z0, what = OBSTACLES[ctx.extra["obstacle"]].height_at_zero(ctx, max(kap)) if kap else (None, "")
         if ctx.drawn and rng and kap and rng[1] <= z0:
             problems.append(f"initial.u: {list(rng)} lies on or below the obstacle at t = 0 "
                             f"(z(0) = {what} up to {z0!r}); the upper end must exceed it")
@@ -183,8 +183,8 @@ class FlowModel(Model):
 
     def _pack(self, values, n, scene):
         stop_tol = STOP_TOL_FACTOR * scene.period_tol if scene.stop == "period" else 0.0
-        return P.pack_many(values, n, scene.obstacle, scene.tol, scene.chatter, scene.escape,
-                           scene.section_period, stop_tol, scene.profile)
+        return P.pack_many(values, n, scene.extra["obstacle"], scene.tol, scene.chatter, scene.escape,
+                           scene.extra["section_period"], stop_tol, scene.obstacle_table)
 
     def int_settings(self, scene):
         ints = np.zeros(P.NINT, np.int64)
@@ -214,7 +214,7 @@ class FlowModel(Model):
         if "sweep" in what or "continuation" in what:
             out.append(("the cycle analysis", ANALYSIS_SECONDS,
                         dispatchers(*ANALYSIS_KERNELS)))
-            if OBSTACLES[scene.obstacle].own_kernel:
+            if OBSTACLES[scene.extra["obstacle"]].own_kernel:
                 out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["own_kernel"],
                             [run_batch_profile, obstacle_heights]))
             else:
@@ -247,8 +247,8 @@ class FlowModel(Model):
         w, k, r = float(values["omega"]), float(values["k"]), float(values["r"])
         sigma, F = float(values["sigma"]), float(values["F"])
         Om = float(values["Omega"])
-        kind = OBSTACLES[scene.obstacle]
-        piece = kind.period(w, scene.profile) / kind.pieces_per_period(scene.profile)
+        kind = OBSTACLES[scene.extra["obstacle"]]
+        piece = kind.period(w, scene.obstacle_table) / kind.pieces_per_period(scene.obstacle_table)
         if kind.own_kernel:
             path = "own_kernel"
         else:
@@ -260,7 +260,7 @@ class FlowModel(Model):
             flight = piece
             reasons.append("a free particle (k = 0, F = 0) has no flight time of its own")
         n = scene.transient + scene.record
-        esc = escape_impacts(kind.speed(values, scene.profile), r, k, scene.escape)
+        esc = escape_impacts(kind.speed(values, scene.obstacle_table), r, k, scene.escape)
         if esc < n:
             n = esc
             reasons.append(f"runs escape (run.escape = {scene.escape:g}) after about {esc} "
@@ -281,14 +281,14 @@ class FlowModel(Model):
 
     def time_series(self, scene, values, t, u, v_out, t_start, t_stop):
         from . import timeseries as TR  # start-up: loads numba (jitted flights), imported when drawn
-        p, d = TR.pack(values, scene.obstacle, scene.section_period, scene.profile)
+        p, d = TR.pack(values, scene.extra["obstacle"], scene.extra["section_period"], scene.obstacle_table)
         s, us, zs = TR.rebuild(p, d, t, u, v_out, t_start, t_stop)
         return {"t": s, "u": us, "z": zs, "meet": TR.meet_error(p, d, t, u, v_out), "p": p,
                 "d": d}
 
     def word_seed(self, values, scene, param, word, simulate):
         from .orbit import seed_from_word  # start-up: loads numba
-        return seed_from_word(values, scene.obstacle, param, word, simulate, scene.tol)
+        return seed_from_word(values, scene.extra["obstacle"], param, word, simulate, scene.tol)
 
     def orbit_from_doc(self, doc):
         from .orbit import FlowOrbit  # start-up: loads numba
@@ -296,7 +296,7 @@ class FlowModel(Model):
 
     def orbit_seed(self, values, scene, param, word, run):
         from .orbit import seed_from_run  # start-up: loads numba
-        return seed_from_run(values, scene.obstacle, param, run["t"], run["v_out"],
+        return seed_from_run(values, scene.extra["obstacle"], param, run["t"], run["v_out"],
                              run["corner_offset"], run["ipc"], scene.tol)
 
     def run_items(self, params, ics, ints, scene):
@@ -304,8 +304,8 @@ class FlowModel(Model):
         # of the recorded window; what is neither is left unfilled (a summary-only chart then
         # touches only the few rows' entries its early-stopped runs write)
         fill = {"t"} | {f.source for f in self.fields(scene.keep)}
-        kind = OBSTACLES[scene.obstacle]
-        cornered = np.full(params.shape[0], kind.has_corners(scene.profile))
+        kind = OBSTACLES[scene.extra["obstacle"]]
+        cornered = np.full(params.shape[0], kind.has_corners(scene.obstacle_table))
         res = _run_flow(params, ics, ints, scene, fill, cornered)
         out, st, final, period, ipc, sym, rec0 = res
         # early stop: a run stopped on a cycle the analysis does not confirm (e.g. a

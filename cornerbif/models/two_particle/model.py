@@ -119,7 +119,7 @@ class TwoParticleModel(Model):
         return params[:, TP.KAPPA]             # the wall at t = 0: w(0) = kappa
 
     def pack_values(self, values: dict, scene) -> np.ndarray:
-        return TP.pack(values, scene.tol, scene.chatter, scene.escape, scene.section_period)
+        return TP.pack(values, scene.tol, scene.chatter, scene.escape, scene.extra["section_period"])
 
     def int_settings(self, scene):
         ints = np.zeros(TP.NINT, np.int64)
@@ -163,7 +163,7 @@ class TwoParticleModel(Model):
         section period and 2 pi / min(omega1, omega2), docs/guarantees.md "Budgets")."""
         w0 = float(values["omega0"])
         slow = min(float(values["omega1"]), float(values["omega2"]))
-        section = scene.section_period or 2.0 * math.pi / w0
+        section = scene.extra["section_period"] or 2.0 * math.pi / w0
         n = scene.transient + scene.record
         flight = math.pi / slow
         budget = scene.max_periods * max(section, 2.0 * math.pi / slow) / section

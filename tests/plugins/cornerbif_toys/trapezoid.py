@@ -26,7 +26,7 @@ class Trapezoid(cam.CamProfile):
     def read_tables(self, system, w):
         duty = system.get("duty", 0.5)
         if isinstance(duty, float) and 0.0 < duty < 1.0:
-            w.profile = trapezoid(duty)
+            w.obstacle_table = trapezoid(duty)
 
     def pack_rows(self, rows, values, table=None):
         duty = np.broadcast_to(np.asarray(values.get("duty", 0.5), float), rows.shape[0])
