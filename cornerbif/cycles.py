@@ -31,7 +31,7 @@ _PLAIN = re.compile(r"[abgx]+")
 # one cycle of a periodic orbit that ``cornerbif continue`` solves with dense matrices of
 # about 2 unknowns per letter (two per impact, alpha has two impacts): Newton and the
 # tangent's SVD cost the cube of the length, and an SVD of 2000 unknowns already takes
-# 14 s here (numpy, 2 cores, 2026-11), so a branch of such a word takes hours and a longer
+# 14 s on 2 cores (numpy), so a branch of such a word takes hours and a longer
 # one does not finish.  The paper's longest cycles (the period-adding cascade near
 # omega = 2) have about 75 clusters.  A word is refused from its repeat counts, before it
 # is expanded (a count of 1e20 is never multiplied out).

@@ -98,7 +98,7 @@ def estimate_memory(scene: Scene) -> int:
 
 # writing the file (shuffle and deflate of whole chunks by ISA-L, cornerbif.chunkwrite): about
 # 1.3 GB of uncompressed data a second of the writer thread's CPU on this machine (93 MB of a
-# Fig. 4(c)-like sweep in 73 ms, 2026-11-24); the estimate keeps 400 MB/s, an upper bound
+# Fig. 4(c)-like sweep in 73 ms); the estimate keeps 400 MB/s, an upper bound
 # for slower disks and the per-block costs of small blocks
 WRITE_BYTES_PER_SECOND = 400e6
 
@@ -196,7 +196,7 @@ def duration(seconds: float) -> str:
 
 # what a file takes on disk against ``estimate_bytes`` (its size before compression): on the
 # 47 shipped scenes' files, from 0.023 (basin_maps) to 0.49 (fig01b, a one-point file),
-# median 0.15 (2026-11-27; the sweeps of configs/*.toml, file size / estimate_bytes)
+# median 0.15 (the sweeps of configs/*.toml: file size / estimate_bytes)
 RATIO_MEASURED = (0.02, 0.15, 0.5)
 # deflate's limit: a stream never holds more than about 1032 bytes per byte stored, so no file
 # is smaller than this share of its data (the one refusal that is sure to be true)

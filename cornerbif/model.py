@@ -242,6 +242,14 @@ class NormalFormSide:
         words that say how it was found)."""
         raise NotImplementedError
 
+    def step(self, a: float, b: float, omega1: float, kappa1: float, r: float) -> tuple:
+        """One step of the maps from x = (a, b) (the maps' side): (a', b', region code)."""
+        raise NotImplementedError
+
+    def region(self, a: float, b: float, omega1: float, kappa1: float, r: float) -> int:
+        """The code of the map acting on x = (a, b) (the maps' side)."""
+        raise NotImplementedError
+
     def point_regions(self, a, b, omega1: float, kappa1: float, r: float):
         """The letter of the map acting on each recorded section point (a, b), or None where
         the model has no regions of its own (a flow has only its word)."""

@@ -33,9 +33,8 @@ import math
 
 import numpy as np
 
-from . import theory
+from . import registry, theory
 from .analysis import run_length
-from .models.map2d import maps as maps2d
 from .plot_style import emptiest_corner, legend, save, title_lines
 
 KINDS = ("regions", "return_map", "orbit")
@@ -99,11 +98,18 @@ def return_values(data):
     return a0[order], A0[order]
 
 
+def maps():
+    """The maps' side of the normal form (the registered model whose ``normal_form`` is the
+    maps): a figure asks it for the maps' steps and regions."""
+    return next(m.normal_form for m in registry.models().values()
+                if m.normal_form is not None and m.normal_form.maps)
+
+
 def map_return_line(omega1, kappa1, r, b1, a0):
     """A0 of the linear maps (34), (37), (52) at x0 = (a0, b1), region by (56)."""
     A0 = np.empty_like(a0)
     for i, a in enumerate(a0):
-        A0[i] = maps2d.step(float(a), float(b1), omega1, kappa1, r)[0]
+        A0[i] = maps().step(a, b1, omega1, kappa1, r)[0]
     return A0
 
 
@@ -154,7 +160,7 @@ def draw_orbit_frame(ax, datas):
     """Sigma_1, Sigma_2, x_beta* (64) and its image x** under gamma or alpha (section 5.4)."""
     omega, omega1, kappa1, r = _system(datas[0])
     xs = theory.fixed_point("beta", omega1, kappa1, r)
-    xss = np.array(maps2d.step(float(xs[0]), float(xs[1]) - 1e-12, omega1, kappa1, r)[:2])
+    xss = np.array(maps().step(xs[0], xs[1] - 1e-12, omega1, kappa1, r)[:2])
     pts = [d.data["section/u"].ravel() for d in datas] + [[xs[0], xss[0]]]
     allpts = np.concatenate([np.asarray(p, float) for p in pts])
     allpts = allpts[np.isfinite(allpts)]
@@ -166,8 +172,7 @@ def draw_orbit_frame(ax, datas):
     blim = (bs.min() - bpad, bs.max() + bpad)
     draw_sigma(ax, omega1, kappa1, r, alim, blim)
     ax.plot([xs[0]], [xs[1]], "k*", ms=9, label=r"$x_\beta^*$ (64)")
-    which = r"\gamma" if maps2d.region(float(xs[0]), float(xs[1]) - 1e-12, omega1, kappa1, r) == 2 \
-        else r"\alpha"
+    which = r"\gamma" if maps().region(xs[0], xs[1] - 1e-12, omega1, kappa1, r) == 2 else r"\alpha"
     ax.plot([xss[0]], [xss[1]], "kP", ms=8, mfc="none",
             label=rf"$x^{{**}} = {which}(x_\beta^*)$")
     ax.set_xlim(*alim)

@@ -15,6 +15,16 @@ def map_regions(a, b, omega1, kappa1, r):
 
 
 class MapsSide(NormalFormSide):
+    def step(self, a, b, omega1, kappa1, r):
+        """One step of the maps (56) from x = (a, b): (a', b', the region's code)."""
+        from .maps import step  # start-up: loads numba
+        return step(float(a), float(b), omega1, kappa1, r)
+
+    def region(self, a, b, omega1, kappa1, r):
+        """The code of the map (56) acting on x = (a, b): 0 alpha, 1 beta, 2 gamma."""
+        from .maps import region  # start-up: loads numba
+        return region(float(a), float(b), omega1, kappa1, r)
+
     def start_regions(self, data, omega, omega1, kappa1, r):
         a0, b0 = data.initial["u"].ravel(), data.initial["v"].ravel()
         return map_regions(a0, b0, omega1, kappa1, r), "the map's rule (56)"
