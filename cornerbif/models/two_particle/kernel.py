@@ -879,28 +879,6 @@ def pair_or_free(c, p, Q, tau, u_stick, z, y_out, v_out, ua, va):
 
 
 @jit
-def stuck_sections(p, c, n, Sper, recording, n_sec, record, o_sec, final):
-    """The stack stuck for good after section n (``stack_floor``): z = u = w, y = v = w' at
-    every section the run would cross, stored while ``recording`` up to ``record`` rows of
-    ``o_sec`` (``n_sec`` filled), and the state at the next one in ``final``."""
-    m = n + 1
-    w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
-    final[0] = w
-    final[1] = wp
-    final[2] = w
-    final[3] = wp
-    while recording and n_sec < record:
-        w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
-        o_sec[n_sec, SEC_T] = m * Sper
-        o_sec[n_sec, SEC_Z] = w
-        o_sec[n_sec, SEC_Y] = wp
-        o_sec[n_sec, SEC_U] = w
-        o_sec[n_sec, SEC_V] = wp
-        n_sec += 1
-        m += 1
-
-
-@jit
 def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     """Integrate one item from (t, z, y, u, v) = (0, z0, y0, u0, v0); fill its rows.
 
@@ -942,44 +920,27 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
     for k in range(4):
         final[k] = math.nan
 
-    if not (z0 == z0 and y0 == y0 and u0 == u0 and v0 == v0):
-        return S.NONFINITE
-    if abs(z0) == math.inf or abs(y0) == math.inf or abs(u0) == math.inf or abs(v0) == math.inf:
+    if not (z0 == z0 and y0 == y0 and u0 == u0 and v0 == v0) or (
+            abs(z0) == math.inf or abs(y0) == math.inf or abs(u0) == math.inf
+            or abs(v0) == math.inf):
         return S.NONFINITE
     wstart, _, _, _ = wall(p, 0.0, 0.0)
     if z0 < wstart or u0 < z0:
         return S.BELOW_OBSTACLE
 
     n = np.int64(0)
-    ph = 0.0
-    tau_ref = 0.0
+    ph, tau_ref = 0.0, 0.0
     mode = FREE
-    za = z0
-    ya = y0
-    ua = u0
-    va = v0
-    s1s = 0.0
-    s2s = 0.0
-    n_zu = 0
-    n_wz = 0
-    n_wz_rec = 0
-    n_sec = 0
-    events = 0
-    periods = 0
-    extra = 0
+    za, ya, ua, va = z0, y0, u0, v0          # the reference state
+    s1s, s2s = 0.0, 0.0
+    n_zu, n_wz, n_wz_rec, n_sec = 0, 0, 0, 0
+    events, periods, extra = 0, 0, 0
     done = False
-    has_w = False
-    n_w = np.int64(0)
-    tau_w = 0.0
-    pend_lo = 0
-    pend_hi = 0
+    has_w, n_w, tau_w = False, np.int64(0), 0.0
+    pend_lo, pend_hi = 0, 0
     win_target = 0        # pending free-gap window search: 1 -> s1s, 2 -> s2s
     win_kind = K_WF
-    win_a0 = 0.0
-    win_a1 = 0.0
-    win_a2 = 0.0
-    win_a3 = 0.0
-    win_end = 0.0
+    win_a0, win_a1, win_a2, win_a3, win_end = 0.0, 0.0, 0.0, 0.0, 0.0
 
     while True:
         passes += 1
@@ -988,7 +949,17 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
         rest = Sper - tau_ref
         if mode == ALL and stack_forever and not done:
             # ---- the stack stuck for good (``stack_floor``): z = u = w, y = v = w' ----------
-            stuck_sections(p, c, n, Sper, n_zu >= transient, n_sec, record, o_sec, final)
+            # every section the run would cross holds the wall's state there
+            m = n + 1
+            w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
+            final[0], final[1], final[2], final[3] = w, wp, w, wp
+            while n_zu >= transient and n_sec < record:
+                w, wp, _, _ = wall(p, 0.0, section_phase(c, m))
+                o_sec[n_sec, SEC_T] = m * Sper
+                o_sec[n_sec, SEC_Z], o_sec[n_sec, SEC_Y] = w, wp
+                o_sec[n_sec, SEC_U], o_sec[n_sec, SEC_V] = w, wp
+                n_sec += 1
+                m += 1
             _close(o_zu, o_corner, pend_lo, pend_hi)
             return S.STUCK
         # ---- escape and finiteness of the reference state ---------------------------
