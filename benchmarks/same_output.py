@@ -55,7 +55,10 @@ Measured 2026-11-27 (HEAD afb6a1f against the work tree, 2 cores, load about 1):
 51 of 51 sweeps and 4 of 4 continuations equal in 375 s; ``--gallery`` 51 of 51 sweeps,
 45 of 45 PNGs byte for byte, 51 of 51 gallery data files and the record equal in 314 s.
 ``--continue --gallery`` against a copy of the work tree with the restructuring of issue 29
-in progress: all of them equal in 214 s.
+in progress: all of them equal in 214 s; 7623f9a against 52ddaf5 (the house rebuilt: model
+folders with their tangents and orbit problems, obstacle and figure kinds, run results keyed
+by the models' fields): 51 of 51 sweeps, 4 of 4 continuations, 45 of 45 PNGs byte for byte,
+51 of 51 gallery data files and the record equal in 168 s.
 Against a copy with continuation.NEWTON_TOL 1e-10 (``--continue --no-sweep``) 3 of the 4
 continuations differ (134 s); with the corner marker's colour changed in plot.py
 (``--gallery --no-sweep``) the 3 PNGs that draw a corner collision differ (143 s).
