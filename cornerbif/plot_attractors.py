@@ -15,9 +15,10 @@ import zlib
 
 import numpy as np
 
+from . import plot_style
 from .analysis import run_length
 from .attractors import CODES, ESCAPES, FAILED, NO_CYCLE, NOT_RUN, STICKS, read_table
-from .plot_style import Rows, raster_runs, row_slabs
+from .plot_style import Rows, row_slabs
 
 # tab20 without its two greys: dark and light of nine hues
 PALETTE = ("#1f77b4", "#aec7e8", "#ff7f0e", "#ffbb78", "#2ca02c", "#98df8a", "#d62728",
@@ -285,8 +286,9 @@ def _raster_by_label(ax, x, yv, ids, row_layer, cols, ms, window, xlim=None):
     if xlim is None:
         span = float(x.max() - x.min()) or 1.0
         xlim = (float(x.min()) - 0.05 * span, float(x.max()) + 0.05 * span)
-    raster_runs(ax, x, yv, layer, cols, xlim, window, ms, mpl.rcParams["savefig.dpi"]
-                if isinstance(mpl.rcParams["savefig.dpi"], (int, float)) else 300)
+    dpi = mpl.rcParams["savefig.dpi"]
+    plot_style.raster_runs(ax, x, yv, layer, cols, xlim, window, ms,
+                           dpi if isinstance(dpi, (int, float)) else 300)
 
 
 def _legend_handles(counts, none, names, top, colors, tex):
