@@ -114,7 +114,6 @@ sys.path.insert(0, {root!r}); sys.path.insert(0, {bench!r})
 import numpy as np, numba
 import run as R
 from cornerbif import engine
-from cornerbif.models import params as P
 numba.set_num_threads(1)
 name, axis, v, extra = {name!r}, {axis!r}, {v!r}, {extra!r}
 over = {{"initial.count": 8, "run.transient": 0, "run.record": 300, **extra}}
@@ -137,8 +136,8 @@ n = np.isfinite(t).sum(1)
 span = np.nanmax(np.where(np.isfinite(t), t, -np.inf), 1)
 span = np.where(np.isfinite(span), span, 0.0)
 if sc.model == "flow":
-    L = P.obstacle_period(sc.extra["obstacle"], v, sc.obstacle_table) / P.pieces_per_period(
-        sc.extra["obstacle"], sc.obstacle_table)
+    kind = sc.spec.obstacles[sc.extra["obstacle"]]
+    L = kind.period(v, sc.obstacle_table) / kind.pieces_per_period(sc.obstacle_table)
 else:
     L = 2 * np.pi / v
 print(json.dumps({{"per_run": best / len(prm), "impacts": float(n.mean()),

@@ -212,14 +212,8 @@ def find_seeds(scene, control=None):
 # by Python, which reads back to the same bits), so --resume continues exactly what an
 # uninterrupted run would have.
 
-def _problem_doc(prob) -> dict:
-    """An orbit problem as plain data (the resume state), ``_problem_from``'s inverse: its
-    own ``to_doc``, whose ``type`` names its model."""
-    return prob.to_doc()
-
-
 def _problem_from(doc):
-    """The orbit problem of ``_problem_doc``'s data, rebuilt by its model."""
+    """The orbit problem its ``to_doc`` wrote (the resume state), rebuilt by its model."""
     name = str(doc["type"])
     if name not in registry.models():
         raise ValueError(f"unknown orbit problem {name!r}")
@@ -233,7 +227,7 @@ def _array(x):
 def _item_doc(item) -> dict:
     """A branch still to continue (``follow_step``'s (problem, X, param, tangent, origin))."""
     prob, X, lam, T0, origin = item
-    return {"problem": _problem_doc(prob), "X": _array(X), "lam": float(lam),
+    return {"problem": prob.to_doc(), "X": _array(X), "lam": float(lam),
             "T0": None if T0 is None else _array(T0), "origin": str(origin)}
 
 
@@ -245,7 +239,7 @@ def _item_from(doc):
 def _event_doc(b, e) -> dict:
     """A located corner collision or fold of branch b whose curve is still to continue."""
     return {"branch": int(b), "kind": e.kind, "lam": float(e.lam), "X": _array(e.X),
-            "detail": e.detail, "problem": _problem_doc(e.problem)}
+            "detail": e.detail, "problem": e.problem.to_doc()}
 
 
 def _seed_stage(scene, log):
@@ -305,7 +299,7 @@ def _seeds(scene, log, control):
                 ValueError) as e:
             log(f"seed {word!r}: {e}")
             continue
-        seeds.append({"word": word, "problem": _problem_doc(prob), "X": _array(X)})
+        seeds.append({"word": word, "problem": prob.to_doc(), "X": _array(X)})
     return {"version": STATE_VERSION, "start": float(start),
             "seeds_found": [f[0] for f in found], "seeds": seeds, "seed": 0,
             "phase": "main", "queues": {"down": [], "up": []}, "counts": {"down": 0, "up": 0},

@@ -117,13 +117,6 @@ def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scen
     return registry.get(scene.model).run_items(params, ics, ints, scene)
 
 
-def kernel_cache_cold(scene: Scene) -> bool:
-    """Whether the scene's kernel has nothing in numba's on-disk cache yet: its first call
-    then compiles (``cornerbif sweep`` says so before it starts)."""
-    from ._jit import cache_is_cold  # start-up: loads numba
-    return cache_is_cold(registry.get(scene.model).kernel())
-
-
 def cold_compiles(scene: Scene, what=("sweep",)) -> list:
     """The kernels of ``scene`` that compile on their first call here (``_jit.cache_is_cold``),
     as (name, seconds) with the model's measured cold compile time (``Model.compiles``,

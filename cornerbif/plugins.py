@@ -5,6 +5,7 @@ packages register in the entry-point groups ``cornerbif.models``, ``cornerbif.ob
 
 from __future__ import annotations
 
+import functools
 from importlib.metadata import entry_points
 
 
@@ -17,4 +18,10 @@ def plugins(group: str) -> tuple:
         [project.entry-points."cornerbif.models"]
         my_model = "my_package.my_model"
     """
-    return tuple(e.value for e in entry_points(group=group))
+    return tuple(e.value for e in _installed().select(group=group))
+
+
+@functools.cache
+def _installed():
+    """The installed packages' entry points, read once (the three registries ask in turn)."""
+    return entry_points()

@@ -29,12 +29,13 @@ def test_obstacle_pieces_match_the_declaration(name):
     p = _row(name)
     L0, L1, per = OB.piece_lengths(p)
     assert L0 > 0.0 and L1 > 0.0 and per == pytest.approx(L0 + L1, rel=1e-15)
-    # the early stop's lag is the obstacle's pieces per period (models/flow/packed.py)
-    assert OB.cycle_lag(p) == P.pieces_per_period(name)
+    # the early stop's lag is the obstacle's pieces per period (its kind's declaration)
+    kind = P.OBSTACLES[name]
+    assert OB.cycle_lag(p) == kind.pieces_per_period()
     # the pieces of one forcing period add up to it
-    n = P.pieces_per_period(name)
+    n = kind.pieces_per_period()
     total = sum(OB.piece_length(OB.derived_tuple(derive(p)), j) for j in range(n))
-    assert total == pytest.approx(P.obstacle_period(name, p[P.OMEGA]), rel=1e-14)
+    assert total == pytest.approx(kind.period(p[P.OMEGA]), rel=1e-14)
     assert OB.sinusoidal(p) == (name != "triangle")
 
 

@@ -58,17 +58,6 @@ PARAMS = {p.name: p for p in (
     Param("phi", 0.0, "any finite number", anything, "forcing phase", "eq 4"),
 ) + tuple(p for o in OBSTACLES.values() for p in o.params)}
 
-def obstacle_period(obstacle: str, omega: float, profile=None) -> float:
-    """Forcing period P of the obstacle kind (``Obstacle.period``; ``profile``: the kind's
-    table, a cam's ``Profile``)."""
-    return OBSTACLES[obstacle].period(omega, profile)
-
-
-def pieces_per_period(obstacle: str, profile=None) -> int:
-    """Smooth pieces per forcing period (``Obstacle.pieces_per_period``)."""
-    return OBSTACLES[obstacle].pieces_per_period(profile)
-
-
 def pack(values: dict, obstacle: str, tol: float, chatter: float, escape: float,
          section_period: float | None, stop_tol: float = 0.0, profile=None) -> np.ndarray:
     """Pack named parameters of one grid point into the kernel's float64 vector

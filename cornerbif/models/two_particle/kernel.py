@@ -1275,12 +1275,11 @@ def run_batch(params, ints, ics, o_zu, o_corner, o_wz, o_sec, o_status, o_final)
 
 # --------------------------------------------------------------------- Python layer
 def run_tables(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6, escape=1e6,
-               period_tol=1e-6, section_period=None, max_events=None, max_periods=None,
-               record_wz=None, **params):
+               section_period=None, max_events=None, max_periods=None, **params):
     """The kernel alone, without a scene, for one or many initial states at t = 0: what the
     orbit problem's seed runs (``orbit.two_particle_seed``).  From Python the model runs
     through ``cornerbif.simulate(z0, y0, u0, v0, model="two_particle", ...)``, which checks
-    a scene and returns the same arrays.
+    a scene, and analyses the runs' cycles too.
 
     ``params`` are omega0, omega1, omega2, mu, r1, r2, kappa, beta (defaults: the
     paper's Fig. 19 values omega1 = 1.001, omega2 = 1, mu = 1000, r1 = r2 = 0.8,
@@ -1288,14 +1287,10 @@ def run_tables(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6,
     particle sigma1, sigma2, F1, Omega1, phi1, F2, Omega2, phi2 (default 0, Omega 1), each a
     scalar or an array broadcast against the initial states.  Returns a dict of arrays with shape
     ``shape + (record,)`` for the z-u impacts (t, u, v_in, v_out, y_in, y_out,
-    corner_offset, corner), ``shape + (record_wz,)`` for the w-z impacts
-    (wz_t, wz_z, wz_y_in, wz_y_out; ``record_wz`` defaults to 4 record + 8),
-    ``shape + (record,)`` for the sections (st, sz, sy, su, sv), and status,
-    final (z, y, u, v), period, impacts_per_cycle, symbols (``analysis``: the
-    w-z impacts are the corners).
+    corner_offset, corner), ``shape + (4 record + 8,)`` for the w-z impacts (wz_t, wz_z,
+    wz_y_in, wz_y_out; the model's ``wall_capacity``), ``shape + (record,)`` for the sections
+    (st, sz, sy, su, sv), and status and final (z, y, u, v).
     """
-    from ...analysis import detect_cycles, words  # start-up: loads numba
-
     # the declared defaults (models.two_particle.packed.PARAMS), omega0 aside
     defaults = {k: p.default for k, p in P.PARAMS.items() if k != "omega0"}
     unknown = set(params) - set(P.NAMES)
@@ -1321,7 +1316,7 @@ def run_tables(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6,
     ints[P.I_RECORD] = record
     ints[P.I_MAX_EVENTS] = max_events if max_events is not None else 40 * need + 1000
     ints[P.I_MAX_PERIODS] = max_periods if max_periods is not None else 50 * need + 1000
-    cap = record_wz if record_wz is not None else 4 * record + 8
+    cap = 4 * record + 8
     o_zu = np.full((n, record, NZU), np.nan)
     o_corner = np.full((n, record), -1, np.int64)
     o_wz = np.full((n, cap, NWZ), np.nan)
@@ -1329,15 +1324,6 @@ def run_tables(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6,
     st = np.zeros(n, np.int8)
     final = np.full((n, 4), np.nan)
     run_batch(prm, ints, ics, o_zu, o_corner, o_wz, o_sec, st, final)
-    period = np.zeros(n, np.int64)
-    ipc = np.zeros(n, np.int64)
-    sym = np.zeros((n, max(record, 1)), np.uint8)
-    t = np.ascontiguousarray(o_zu[:, :, ZU_T])
-    vin = np.ascontiguousarray(o_zu[:, :, ZU_VIN])
-    off = np.ascontiguousarray(o_zu[:, :, ZU_OFF])
-    # a NaN offset (no w-z impact at all) ends the analysed window
-    t = np.where(np.isnan(off), np.nan, t)
-    detect_cycles(t, vin, off, o_corner, np.ones(n, np.bool_), period_tol, period, ipc, sym)
 
     def rs(a, k=None):
         if k is None:
@@ -1353,6 +1339,4 @@ def run_tables(z0, y0, u0, v0, transient=0, record=100, tol=1e-12, chatter=1e-6,
         "st": rs(o_sec, SEC_T), "sz": rs(o_sec, SEC_Z), "sy": rs(o_sec, SEC_Y),
         "su": rs(o_sec, SEC_U), "sv": rs(o_sec, SEC_V),
         "status": st.reshape(shape), "final": final.reshape(shape + (4,)),
-        "period": period.reshape(shape), "impacts_per_cycle": ipc.reshape(shape),
-        "symbols": words(sym).reshape(shape),
     }
