@@ -5,37 +5,95 @@ process starts without compiling, ``error_model="numpy"`` so a division by
 zero gives inf/nan instead of raising inside a kernel, and no fastmath at all
 (NaN marks "no point" in every output array, and the event location relies on
 IEEE rounding).
+
+What a first run waits for is compiling (benchmarks/compile_time.py), so the policy also keeps
+that short, without costing the warm kernels anything (``benchmarks/ab.py``):
+
+- ``jit`` and ``jit_inline`` functions are compiled for the kernels that call them, with no
+  CPython or C wrapper (numba builds one per function and signature by default: for the
+  parameter tuples' 34 floats that was about 60 % of a small function's compile).  A call
+  from Python goes to a twin compiled with the wrapper on first use and cached beside it
+  (``InnerDispatcher``), so tests and the orbit solvers call them as before;
+- ``jit_inline`` asks LLVM to inline (``forceinline``: the ``alwaysinline`` attribute), not
+  numba's IR inliner (``inline="always"``), which deep-copied the callee's IR at every call
+  site: 35 % of the flow kernel's cold compile (measured in the commit that made this
+  change; docs in benchmarks/README.md "First compiles").
 """
 
 import ctypes
 import importlib
+import types as pytypes
 
 import numba
 import numpy as np
 from llvmlite import ir
 from numba.core import types
+from numba.core.registry import CPUDispatcher
 from numba.extending import intrinsic
 
-jit = numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True)
+OPTIONS = dict(error_model="numpy", fastmath=False, nogil=True)
 
 
-def pjit(fn):
-    """Parallel kernel: ``prange`` over independent items only."""
-    return numba.njit(cache=True, error_model="numpy", fastmath=False, parallel=True, nogil=True)(fn)
+class InnerDispatcher(CPUDispatcher):
+    """A jitted function compiled for its jitted callers only (no CPython wrapper).  Called
+    from Python, it hands the call to ``python_entry``: a twin of the same function compiled
+    with the wrapper, cached under the name ``<function>_py``."""
+
+    @property
+    def python_entry(self):
+        twin = self.__dict__.get("_python_entry")
+        if twin is None:
+            f = self.py_func
+            copy = pytypes.FunctionType(f.__code__, f.__globals__, f.__name__, f.__defaults__,
+                                        f.__closure__)
+            copy.__qualname__ = f.__qualname__ + "_py"
+            copy.__module__ = f.__module__
+            copy.__doc__ = f.__doc__
+            twin = numba.njit(cache=True, **OPTIONS)(copy)
+            self.__dict__["_python_entry"] = twin
+        return twin
+
+    def __call__(self, *args, **kws):
+        return self.python_entry(*args, **kws)
+
+
+def _inner(fn, forceinline):
+    disp = InnerDispatcher(py_func=fn, locals={},
+                           targetoptions=dict(OPTIONS, no_cpython_wrapper=True,
+                                              no_cfunc_wrapper=True, forceinline=forceinline))
+    disp.enable_caching()
+    return disp
+
+
+def jit(fn):
+    """A function of the kernels (called from jitted code; from Python through its twin)."""
+    # forceinline stated either way: numba passes it on to the callees a caller compiles
+    return _inner(fn, False)
 
 
 def jit_inline(fn):
-    """A small function of the hot path inlined into its callers at numba's IR level:
+    """A small function of the hot path that LLVM inlines into its callers (``forceinline``):
     arguments such as the parameter tuples are then not copied at every call."""
-    return numba.njit(cache=True, error_model="numpy", fastmath=False, nogil=True,
-                      inline="always")(fn)
+    return _inner(fn, True)
+
+
+def pjit(fn):
+    """Parallel kernel: ``prange`` over independent items only; called from Python."""
+    return numba.njit(cache=True, parallel=True, **OPTIONS)(fn)
 
 
 def cache_is_cold(dispatcher) -> bool:
     """Whether this kernel's first call in this process compiles (tens of seconds for the
     event loops): nothing compiled here yet, and numba's on-disk cache holds no entry for it
     that is fresh (its index is dropped when the source file changed) and built for this
-    machine.  False when it cannot tell."""
+    machine.  An ``InnerDispatcher`` is cold when neither it nor its Python twin is cached
+    (either means the kernels that call it were compiled).  False when it cannot tell."""
+    if isinstance(dispatcher, InnerDispatcher):
+        return _cold(dispatcher) and _cold(dispatcher.python_entry)
+    return _cold(dispatcher)
+
+
+def _cold(dispatcher) -> bool:
     try:
         if dispatcher.signatures:
             return False

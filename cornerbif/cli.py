@@ -22,12 +22,13 @@ import warnings
 import click
 import numpy as np
 
-from . import config, engine, outputs, plot_style
+from . import config, engine, outputs, plot_style, registry
 from . import continuation_run as C
+from . import warm as warmup
 from .config import PLOT_COLOR_BY, PLOT_Y, SceneError, undrawable
 from .errors import EXIT_FAULT, EXIT_INPUT, EXIT_INTERRUPTED, SweepError, SweepInterrupted, WriteFailed
 from .estimate import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
-from .model import cut
+from .model import cut, did_you_mean
 from .plot_style import TITLE_MAX, bounded, quiet
 
 
@@ -736,6 +737,39 @@ def validate(scene_path, sets, toml):
     if toml:
         click.echo(scene.text)
 
+
+
+@main.command()
+@click.argument("models", nargs=-1, metavar="[MODEL ...]")
+@click.option("--all", "all_models", is_flag=True, help="Every model (plug-ins included).")
+@click.option("--jobs", type=click.IntRange(min=1), default=None,
+              help="Groups compiled side by side, each in a process (default: the cores, at most "
+                   "the groups).")
+def warm(models, all_models, jobs):
+    """Compile ahead of time what a first run compiles (default: the flow model; once per
+    install, then cached), for those who prefer to pay once."""
+    names = list(registry.models())
+    if all_models and models:
+        _fail("give model names or --all, not both")
+    for m in models:
+        if m not in names:
+            _fail(f"warm: unknown model {m!r}{did_you_mean(m, names)} (models: {', '.join(names)})")
+    chosen = list(names) if all_models else list(dict.fromkeys(models)) or [registry.DEFAULT_MODEL]
+    todo = warmup.groups(chosen)
+    for m in chosen:
+        if not registry.get(m).warmups:
+            click.echo(f"{m}: declares no warm-up scenes (Model.warmups): nothing compiled for it",
+                       err=True)
+    if not todo:
+        return
+    n = jobs or max(1, min(len(todo), _numba_threads()))
+    click.echo(f"warming {', '.join(todo)} ({n} at a time) ...", err=True)
+    try:
+        seconds = warmup.warm(chosen, n, lambda m: click.echo(m, err=True))
+    except RuntimeError as e:
+        _fail(str(e), EXIT_FAULT)
+    click.echo(f"ready: {', '.join(todo)} in {seconds:.1f} s (numba's cache; later runs start "
+               "without compiling)")
 
 if __name__ == "__main__":
     main()

@@ -333,7 +333,9 @@ class Model:
     phase at the start: a start coordinate beside the state, ``[initial] t`` and
     ``[sweep] initial.t``, the kernel's last start column; not carried by ``follow``),
     ``axis_labels`` (a figure's labels of its own axes and diagram values where they are not
-    the flow's: the maps' start (a_0, b_1) and section (a_n, b_n)).
+    the flow's: the maps' start (a_0, b_1) and section (a_n, b_n)), ``warmups`` (``Warmup``s:
+    tiny scenes whose runs compile what a first run of the model compiles, for ``cornerbif
+    warm``).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -363,6 +365,7 @@ class Model:
     cycle: CycleSeries | None = None
     start_time: Coord | None = None
     axis_labels: dict = field(default_factory=dict)
+    warmups: tuple = ()
 
     # --- declared facts, derived ------------------------------------------------------
     @property
@@ -460,6 +463,19 @@ class Model:
         """The periodic-orbit problem that the problem's ``to_doc`` wrote (a partial file's
         resume state)."""
         raise NotImplementedError
+
+
+class Warmup(NamedTuple):
+    """A tiny scene that ``cornerbif warm`` runs to compile a model's kernels ahead of a first
+    run (``cornerbif.warm``): ``group`` (warm-ups of one group run in order in one process,
+    groups side by side), ``label`` (what it compiles, as said to the user), ``command``
+    ("sweep" or "continue") and ``scene`` (its TOML text: a few runs, the kernels' real
+    argument types)."""
+
+    group: str
+    label: str
+    command: str
+    scene: str
 
 
 # ------------------------------------------------------------------ a run's result

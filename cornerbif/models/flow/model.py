@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ... import obstacles
-from ...model import IC_PREFIX, Coord, Field, Model, RunResult
+from ...model import IC_PREFIX, Coord, Field, Model, RunResult, Warmup
 from ...observables import (
     ANALYSIS_KERNELS,
     ANALYSIS_SECONDS,
@@ -385,6 +385,65 @@ def _run_flow(params, ics, ints, scene, fill, cornered):
     return out, st, final, period, ipc, sym, rec0
 
 
+# ``cornerbif warm``: what a first sweep (with stability and start times), a first
+# continuation and a first cam sweep compile, each from a few short runs
+_WARM_SYSTEM = """
+[system]
+obstacle = "rectified_sine"
+omega = 1.999
+kappa = -0.02
+beta = 1.0
+r = 0.8
+[initial]
+count = 2
+seed = 1
+u = [0.0, 20.0]
+v = [-0.02, 0.02]
+"""
+WARMUPS = (
+    Warmup("flow", "the flow kernel, its stability and start times", "sweep",
+           '[scene]\nname = "warm_flow"\nmodel = "flow"\n' + _WARM_SYSTEM
+           + 't = [0.0, 1.0]\n[sweep]\nkappa = { start = -0.02, stop = -0.019, num = 2 }\n'
+           '[run]\ntransient = 10\nrecord = 8\n'
+           '[output]\nkeep = ["impacts", "section", "stability"]\n'),
+    Warmup("flow", "the flow continuation", "continue",
+           '[scene]\nname = "warm_flow_continuation"\nmodel = "flow"\n' + _WARM_SYSTEM
+           + '[run]\ntransient = 1500\nrecord = 120\n'
+           '[continue]\nparameter = "kappa"\nrange = [-0.02, -0.0199]\nstart = -0.02\n'
+           'seed = "b"\n'),
+    Warmup("flow: cam profile", "the flow kernel for a cam profile", "sweep", """
+[scene]
+name = "warm_cam"
+model = "flow"
+[system]
+obstacle = "profile"
+omega = 1.0
+kappa = 0.0
+beta = 1.0
+r = 0.5
+k = 1.0
+F = -2.0
+Omega = 0.0
+[system.profile]
+period = 6.283185307179586
+pieces = [{ law = "dwell", span = 1.5707963267948966 },
+          { law = "cycloidal", span = 1.5707963267948966, rise = 1.0 },
+          { law = "dwell", span = 1.5707963267948966 },
+          { law = "cycloidal", span = 1.5707963267948966, rise = -1.0 }]
+[sweep]
+omega = { start = 0.5, stop = 1.0, num = 2 }
+[initial]
+count = 1
+u = [0.0, 3.0]
+v = [-1.0, 1.0]
+t = [0.0, 1.0]
+[run]
+transient = 10
+record = 8
+"""),
+)
+
+
 MODEL = FlowModel(
     name="flow",
     doc="one particle and a moving obstacle with corners (sections 2-3, eqs 4-9)",
@@ -409,4 +468,5 @@ MODEL = FlowModel(
     bytes_per_event=7 * 8 + 8 + 1,
     # benchmarks/run.py, Fig. 4(c), one core (benchmarks/results/results.json)
     events_per_second=6.0e6,
+    warmups=WARMUPS,
 )

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ... import status as S
-from ...model import Coord, CycleSeries, Field, Model, Param, RunResult, anything, positive
+from ...model import Coord, CycleSeries, Field, Model, Param, RunResult, Warmup, anything, positive
 from ...observables import SECTION_FIELDS, STABILITY_FIELDS, U
 from .normal_form import SIDE
 
@@ -147,6 +147,32 @@ def batch_map_stability(*args):
     return kernel(*args)
 
 
+# ``cornerbif warm``: what a first sweep (with stability) compiles
+WARMUPS = (
+    Warmup("map2d", "the map2d kernels and their stability", "sweep", """
+[scene]
+name = "warm_map2d"
+model = "map2d"
+[system]
+omega = 1.999
+kappa = -0.01
+r = 0.8
+[sweep]
+kappa = { start = -0.0141, stop = -0.0139, num = 2 }
+[initial]
+count = 2
+seed = 1
+u = [0.0, 20.0]
+v = [-0.02, 0.02]
+[run]
+transient = 10
+record = 8
+[output]
+keep = ["section", "stability"]
+"""),
+)
+
+
 MODEL = Map2dModel(
     name="map2d",
     doc="the local maps alpha, beta, gamma near (omega, kappa) = (2, 0) (sections 4-5, "
@@ -170,4 +196,5 @@ MODEL = Map2dModel(
     bytes_per_event=3 * 8 + 2,
     # map steps, benchmarks/run.py, one core (benchmarks/results/results.json)
     events_per_second=4.0e8,
+    warmups=WARMUPS,
 )

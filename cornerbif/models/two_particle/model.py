@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ...model import Coord, Field, Model, RunResult
+from ...model import Coord, Field, Model, RunResult, Warmup
 from ...observables import (
     ANALYSIS_KERNELS,
     ANALYSIS_SECONDS,
@@ -250,6 +250,38 @@ def wall_capacity(record: int) -> int:
 # sections (NSEC = 5), the 13 extracted copies, the masked t and the word
 BYTES_PER_EVENT = (7 + 1 + 4 * 4 + 5 + 13 + 1) * 8 + 1
 
+# ``cornerbif warm``: what a first sweep (with stability) and a first continuation compile
+_WARM_SCENE = """
+[system]
+omega0 = 2.0
+omega1 = 1.001
+omega2 = 1.0
+mu = 1000.0
+r1 = 0.8
+r2 = 0.8
+kappa = 0.0
+beta = 1.0
+[initial]
+count = 2
+seed = 1
+z = [0.0, 2.0]
+y = [-2.0, 2.0]
+u = [0.0, 20.0]
+v = [-20.0, 20.0]
+"""
+WARMUPS = (
+    Warmup("two_particle", "the two-particle kernel and its stability", "sweep",
+           '[scene]\nname = "warm_two_particle"\nmodel = "two_particle"\n' + _WARM_SCENE
+           + '[sweep]\nomega0 = { start = 1.999, stop = 2.0, num = 2 }\n'
+           '[run]\ntransient = 10\nrecord = 8\n'
+           '[output]\nkeep = ["impacts", "section", "stability"]\n'),
+    Warmup("two_particle", "the two-particle continuation", "continue",
+           '[scene]\nname = "warm_two_particle_continuation"\nmodel = "two_particle"\n'
+           + _WARM_SCENE + '[run]\ntransient = 500\nrecord = 100\n'
+           '[continue]\nparameter = "omega0"\nrange = [1.9999, 2.0001]\nstart = 2.0\n'),
+)
+
+
 MODEL = TwoParticleModel(
     name="two_particle",
     doc="a wall, a heavy and a light particle (section 6, eqs 72-74)",
@@ -267,4 +299,5 @@ MODEL = TwoParticleModel(
     bytes_per_event=BYTES_PER_EVENT,
     # u-z impacts, benchmarks/run.py, Fig. 19(a), one core (benchmarks/results/results.json)
     events_per_second=7.0e5,
+    warmups=WARMUPS,
 )

@@ -1,0 +1,86 @@
+"""``cornerbif warm``: what it compiles is what a first run compiles.
+
+The check is independent of the warm-up scenes' own claims: after ``cornerbif warm flow`` in an
+empty numba cache, a *different* process asks numba's cache, kernel by kernel, whether the
+shipped quick-start scene, a cam scene and a continuation scene would compile anything
+(``engine.cold_compiles``, which reads numba's cache index), and then runs the quick start and
+counts numba's compile events (none may happen)."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from cornerbif import config, registry, warm
+from cornerbif.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+@pytest.mark.parametrize("model", ["flow", "two_particle", "map2d"])
+def test_every_warm_up_scene_is_a_valid_scene_of_its_model(model):
+    ws = registry.get(model).warmups
+    assert ws, f"{model} declares no warm-up"
+    for w in ws:
+        scene = config.loads(w.scene)
+        assert scene.model == model
+        assert w.command in ("sweep", "continue")
+        assert (w.command == "continue") == bool(scene.cont)
+
+
+def test_warm_refuses_bad_input_before_any_work():
+    r = CliRunner().invoke(main, ["warm", "flwo"])
+    assert r.exit_code == 2 and "unknown model 'flwo'" in r.output and "flow" in r.output
+    r = CliRunner().invoke(main, ["warm", "flow", "--all"])
+    assert r.exit_code == 2 and "not both" in r.output
+
+
+def test_groups_run_longest_first_by_the_declared_compile_times():
+    todo = warm.groups(["flow", "map2d"])
+    secs = {g: warm.expected_seconds(ws) for g, ws in todo.items()}
+    assert secs["flow"] > secs["map2d"] > 0
+
+
+CHECK = r"""
+import json, sys
+from numba.core import event
+from cornerbif import config, engine
+from cornerbif.cli import main
+cold = {}
+for name, what in [("fig06a", ("sweep",)), ("cam_cycloidal", ("sweep",)),
+                   ("cont_beta", ("continuation",))]:
+    scene = config.load(f"configs/{name}.toml")
+    cold[name] = [n for n, _ in engine.cold_compiles(scene, what)]
+compiled = []
+class L(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+    def on_end(self, ev):
+        pass
+event.register("numba:compile", L())
+try:
+    main(["sweep", "configs/fig06a.toml", "-o", sys.argv[1], "--no-progress",
+          "--set", "sweep.omega.num=3", "--set", "initial.count=2"])
+except SystemExit:
+    pass
+print(json.dumps({"cold": cold, "compiled": compiled}))
+"""
+
+
+@pytest.mark.slow
+def test_after_warm_a_first_run_compiles_nothing(tmp_path):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    r = subprocess.run([sys.executable, "-c", "from cornerbif._entry import main; main()", "warm",
+                        "flow"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "compiling the flow kernel" in r.stderr       # the cache was empty: announced
+    assert "ready: flow" in r.stdout
+    r = subprocess.run([sys.executable, "-c", CHECK, str(tmp_path / "q.h5")], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    import json
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["cold"] == {"fig06a": [], "cam_cycloidal": [], "cont_beta": []}
+    assert out["compiled"] == []
