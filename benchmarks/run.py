@@ -219,6 +219,60 @@ def bench_startup(tmp):
     return {"cold_seconds": cold, "cached_seconds": cached, "import_seconds": imp}
 
 
+# the first use of each kernel, as a user meets it (issue 30): label, command (run from the
+# repository), and in --smoke the --set that shrinks it
+COLD_ENTRIES = [
+    ("quick start: `cornerbif sweep configs/fig06a.toml`",
+     ["sweep", "configs/fig06a.toml", "-o", "{tmp}/q.h5", "--overwrite", "--no-progress"]),
+    ("cam profile: `cornerbif sweep configs/cam_cycloidal.toml`",
+     ["sweep", "configs/cam_cycloidal.toml", "-o", "{tmp}/c.h5", "--overwrite", "--no-progress"]),
+    ("two_particle with stability: `cornerbif sweep configs/fig19a.toml` (61 points, stability)",
+     ["sweep", "configs/fig19a.toml", "-o", "{tmp}/t.h5", "--overwrite", "--no-progress",
+      "--set", "sweep.omega0.num=61",
+      "--set", 'output.keep=["impacts", "section", "stability"]']),
+    ("flow continuation: `cornerbif continue configs/cont_beta.toml`",
+     ["continue", "configs/cont_beta.toml", "-o", "{tmp}/cb.h5", "--overwrite"]),
+    ("two_particle continuation: `cornerbif continue configs/cont_fig19.toml`",
+     ["continue", "configs/cont_fig19.toml", "-o", "{tmp}/cf.h5", "--overwrite"]),
+]
+
+
+def bench_cold_start(smoke, rounds=None):
+    """Each kernel's first use against its warm run, in one run: per round and entry, the
+    command in a fresh numba cache (cold: it compiles, as after an install) and then again in
+    that cache (warm); the ratio cold / warm is formed within the round.  --smoke: the quick
+    start alone, 3 grid points."""
+    rounds = rounds or (1 if smoke else 2)
+    entries = COLD_ENTRIES[:1] if smoke else COLD_ENTRIES
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, cmd in entries:
+            rows = []
+            for r in range(rounds):
+                env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, f"cache-{len(out)}-{r}"))
+                args = [a.replace("{tmp}", tmp) for a in cmd]
+                if smoke:
+                    args += ["--set", "sweep.kappa.num=3"]
+                cold = _cli(args, env)
+                warm = _cli(args, env)
+                rows.append({"cold_seconds": cold, "warm_seconds": warm, "ratio": cold / warm})
+                print(f"  {label}: cold {cold:.1f} s, warm {warm:.2f} s, ratio {cold / warm:.1f}",
+                      flush=True)
+            out[label] = {"rounds": rows, "median": {k: float(np.median([x[k] for x in rows]))
+                                                     for k in rows[0]}}
+    return out
+
+
+def _cli(args, env):
+    """Wall seconds of one ``cornerbif`` command run from the repository."""
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", "from cornerbif._entry import main; main()", *args],
+                       env=env, cwd=ROOT, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(p.stderr[-2000:])
+    return time.perf_counter() - t0
+
+
 def bench_memory(tmp, base):
     """Peak RSS of `cornerbif sweep` as the grid grows 1x, 10x, 100x."""
     out = {}
@@ -294,7 +348,7 @@ def bench_stability(smoke, rounds=None):
 
 
 SECTIONS = ("speed", "end_to_end", "stability", "siconos", "tolerance", "transient", "map_vs_flow",
-            "chatter", "profile")
+            "chatter", "profile", "cold_start")
 
 
 def bench_siconos(smoke, tmp):
@@ -363,6 +417,9 @@ def main(argv=None):
     if "stability" in only:
         print("stability (cost of keeping it) ...", flush=True)
         res["stability"] = bench_stability(smoke)
+    if "cold_start" in only:
+        print("cold start (each kernel's first use against its warm run) ...", flush=True)
+        res["cold_start"] = bench_cold_start(smoke)
     import trade
     with tempfile.TemporaryDirectory() as tmp:
         if "speed" in only:
@@ -467,6 +524,8 @@ def render(r):
         L += render_end_to_end(r["end_to_end"])
     if "stability" in r:
         L += render_stability(r["stability"])
+    if "cold_start" in r:
+        L += render_cold_start(r["cold_start"])
     L += render_siconos(r)
     if "tolerance" in r:
         L += ["## Event tolerance against impact-time error and throughput", "",
@@ -482,6 +541,18 @@ def render(r):
         if sec in r:
             L += getattr(trade, f"render_{sec}")(r[sec], r)
     return "\n".join(L)
+
+
+def render_cold_start(c):
+    L = ["## First use of each kernel (cold) against its warm run", "",
+         "Each round: the command in a fresh numba cache (it compiles), then again (warm); "
+         "medians over the rounds (`python benchmarks/run.py --only cold_start`).", "",
+         "| first use | cold | warm | cold / warm |", "|---|---|---|---|"]
+    for label, e in c.items():
+        m = e["median"]
+        L.append(f"| {label} | {m['cold_seconds']:.1f} s | {m['warm_seconds']:.2f} s | "
+                 f"{m['ratio']:.1f} |")
+    return L + [""]
 
 
 def render_targets(r):

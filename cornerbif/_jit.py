@@ -23,6 +23,7 @@ that short, without costing the warm kernels anything (``benchmarks/ab.py``):
 import ctypes
 import importlib
 import types as pytypes
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -56,8 +57,17 @@ class InnerDispatcher(CPUDispatcher):
     def __call__(self, *args, **kws):
         return self.python_entry(*args, **kws)
 
+    def get_call_template(self, args, kws):
+        # one compile per argument types, not one more per constant a caller passes (numba
+        # types a constant argument as a literal and compiles a specialisation for it: the
+        # flow kernel compiled 17 such duplicates, 1 s of its first compile)
+        return super().get_call_template(tuple(types.unliteral(a) for a in args),
+                                         {k: types.unliteral(v) for k, v in kws.items()})
+
 
 def _inner(fn, forceinline):
+    if numba.config.DISABLE_JIT:        # NUMBA_DISABLE_JIT=1: plain Python, as numba.njit does
+        return fn
     disp = InnerDispatcher(py_func=fn, locals={},
                            targetoptions=dict(OPTIONS, no_cpython_wrapper=True,
                                               no_cfunc_wrapper=True, forceinline=forceinline))
@@ -77,9 +87,59 @@ def jit_inline(fn):
     return _inner(fn, True)
 
 
-def pjit(fn):
-    """Parallel kernel: ``prange`` over independent items only; called from Python."""
-    return numba.njit(cache=True, parallel=True, **OPTIONS)(fn)
+class ItemKernel:
+    """A kernel over independent items, called from Python: ``fn(k0, k1, *args)`` handles items
+    k0 <= k < k1 (a ``range``, each item writing only its own rows) and the call
+    ``kernel(*args)`` runs all n of them, split into one contiguous range per numba thread
+    of the calling thread (``numba.get_num_threads()``, which ``numba.set_num_threads``
+    sets), each range in a Python thread (the kernels release the GIL: ``nogil``).
+
+    Why not numba's ``prange``: a ``parallel=True`` kernel compiles through numba's parfor
+    passes and a gufunc of its own, which cost the flow kernel 2 s of its first compile
+    (benchmarks/README.md, "First compiles"); the split here is the one ``prange`` made
+    (equal contiguous ranges), so the results and the threads' work are the same.
+
+    ``count(*args)`` gives n (default: the first argument's rows); ``_direct`` is the jitted
+    range kernel, for a call on one thread."""
+
+    def __init__(self, fn, count=None):
+        self._direct = numba.njit(cache=True, **OPTIONS)(fn)
+        self.count = count or (lambda *args, **kws: args[0].shape[0])
+        self.__name__ = fn.__name__
+        self.__qualname__ = fn.__qualname__
+        self.__module__ = fn.__module__
+        self.__doc__ = fn.__doc__
+        self.__wrapped__ = fn
+
+    @property
+    def signatures(self):
+        return self._direct.signatures
+
+    def __call__(self, *args, **kws):
+        n = int(self.count(*args, **kws))
+        threads = max(1, min(numba.get_num_threads(), n))
+        if threads == 1:
+            return self._direct(0, n, *args, **kws)
+        bounds = [n * j // threads for j in range(threads + 1)]
+        with ThreadPoolExecutor(threads, thread_name_prefix="cornerbif-kernel") as pool:
+            runs = [pool.submit(self._direct, bounds[j], bounds[j + 1], *args, **kws)
+                    for j in range(threads)]
+            for run in runs:
+                run.result()
+        return None
+
+
+def items_kernel(fn=None, *, count=None):
+    """Decorator of an ``ItemKernel`` (``fn(k0, k1, *args)``; ``count``: see there)."""
+    if fn is None:
+        return lambda f: items_kernel(f, count=count)
+    if numba.config.DISABLE_JIT:
+        def plain(*args, **kws):
+            c = count or (lambda *a, **k: a[0].shape[0])
+            return fn(0, int(c(*args, **kws)), *args, **kws)
+        plain.__wrapped__ = fn
+        return plain
+    return ItemKernel(fn, count)
 
 
 def cache_is_cold(dispatcher) -> bool:
@@ -90,6 +150,8 @@ def cache_is_cold(dispatcher) -> bool:
     (either means the kernels that call it were compiled).  False when it cannot tell."""
     if isinstance(dispatcher, InnerDispatcher):
         return _cold(dispatcher) and _cold(dispatcher.python_entry)
+    if isinstance(dispatcher, ItemKernel):
+        dispatcher = dispatcher._direct
     return _cold(dispatcher)
 
 

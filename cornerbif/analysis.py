@@ -21,9 +21,8 @@ word (``winding_number``, the package's one: it also reads the run-length words 
 """
 
 import numpy as np
-from numba import prange
 
-from ._jit import jit, pjit
+from ._jit import items_kernel, jit
 from .cycles import (  # noqa: F401 (the Python side, loaded without numba: imported from here as before)
     MAX_WORD_LETTERS,
     MAX_WORD_TEXT,
@@ -125,10 +124,10 @@ def detect_cycle(t, vin, off, corner, cornered, period_tol, sym_out):
     return 0, 0
 
 
-@pjit
-def detect_cycles(t, vin, off, corner, cornered, period_tol, o_period, o_ipc, o_sym):
+@items_kernel
+def detect_cycles(k0, k1, t, vin, off, corner, cornered, period_tol, o_period, o_ipc, o_sym):
     """``detect_cycle`` over all items in parallel."""
-    for i in prange(t.shape[0]):
+    for i in range(k0, k1):
         p, ipc = detect_cycle(t[i], vin[i], off[i], corner[i], cornered[i], period_tol, o_sym[i])
         o_period[i] = p
         o_ipc[i] = ipc
@@ -180,8 +179,8 @@ def cycle_signature_one(end, a, b, count, sig_out, point_out):
     point_out[1] = b[best]
 
 
-@pjit
-def cycle_signatures(end, a, b, count, sig_out, point_out):
+@items_kernel
+def cycle_signatures(k0, k1, end, a, b, count, sig_out, point_out):
     """``cycle_signature_one`` over all items in parallel."""
-    for i in prange(end.shape[0]):
+    for i in range(k0, k1):
         cycle_signature_one(end[i], a[i], b[i], count[i], sig_out[i], point_out[i])

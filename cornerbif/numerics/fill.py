@@ -6,17 +6,16 @@ the filling spread over the threads (the values are the same).
 """
 
 import numpy as np
-from numba import prange
 
-from .._jit import pjit
+from .._jit import items_kernel
 
 SPAN = 1 << 16      # elements one thread fills at a time
 
 
-@pjit
-def _fill(flat, value):
+@items_kernel(count=lambda flat, value: (flat.shape[0] + SPAN - 1) // SPAN)
+def _fill(k0, k1, flat, value):
     n = flat.shape[0]
-    for c in prange((n + SPAN - 1) // SPAN):
+    for c in range(k0, k1):
         flat[c * SPAN:min(n, (c + 1) * SPAN)] = value
 
 

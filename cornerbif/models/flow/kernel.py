@@ -11,10 +11,9 @@ a status from ``cornerbif.status``; nothing raises.
 import math
 
 import numpy as np
-from numba import prange
 
 from ... import status as S
-from ..._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
+from ..._jit import POLL_EVERY, STOPPED, count_done, items_kernel, jit, jit_inline, stop_requested
 from ...numerics.impact import restitution
 from ...numerics.oscillator import (
     SMALL_ANGLE,
@@ -868,8 +867,8 @@ def run_one(p, d, ints, u0, v0, t_start, o_t, o_u, o_vin, o_vout, o_off, o_corne
                 tau_s = tau_acc if tau_acc < L else L
 
 
-@pjit
-def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
+@items_kernel
+def run_batch(k0, k1, params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
               o_status, o_final, o_rec0):
     """Run every item i = (parameter row params[i], initial state ics[i]) in parallel.
 
@@ -881,12 +880,12 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
     counted: it did not finish).
     """
     n = params.shape[0]
-    # prange hands each thread a contiguous range; neighbouring items (neighbouring
+    # each thread gets a contiguous range (``_jit.ItemKernel``); neighbouring items (neighbouring
     # parameter values) cost alike, so spread them with a fixed permutation (a
     # multiplicative stride coprime to n) to balance the threads.  Each item still
     # writes only its own rows: results do not depend on the order.
     stride = 7919 if n % 7919 != 0 else 1
-    for k in prange(n):
+    for k in range(k0, k1):
         i = (k * stride) % n
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
         # values, not arrays: no reference counting in the kernel's calls
@@ -898,9 +897,9 @@ def run_batch(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
             count_done(ints[P.I_CONTROL])
 
 
-@pjit
-def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su, o_sv,
-                      o_status, o_final, o_rec0):
+@items_kernel
+def run_batch_profile(k0, k1, params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corner, o_su,
+                      o_sv, o_status, o_final, o_rec0):
     """``run_batch`` for rows of ``obstacle = "profile"`` (NPARAM_PROFILE wide): the same
     ``run_one`` on a profile's tuples, which refer to their row of ``params`` (alive for
     the whole call; obstacles/dispatch.py, "the two tuple types").  A kernel of its own, so
@@ -910,7 +909,7 @@ def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corne
                          "contiguous floats")
     n = params.shape[0]
     stride = 7919 if n % 7919 != 0 else 1
-    for k in prange(n):
+    for k in range(k0, k1):
         i = (k * stride) % n
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
         row = params[i]
@@ -922,14 +921,19 @@ def run_batch_profile(params, ints, ics, o_t, o_u, o_vin, o_vout, o_off, o_corne
             count_done(ints[P.I_CONTROL])
 
 
-@pjit
-def obstacle_heights(params, t0):
-    """z(t0) per packed row i and start time t0[i, m] (the floor a start drawn at t0 must
-    clear)."""
-    out = np.empty(t0.shape)
-    for i in prange(params.shape[0]):
+@items_kernel
+def fill_obstacle_heights(k0, k1, params, t0, out):
+    """out[i, m] = z(t0[i, m]) per packed row i (``obstacle_heights``)."""
+    for i in range(k0, k1):
         d = derive(params[i])
         for m in range(t0.shape[1]):
             j, tau = piece_at(d, t0[i, m])
             out[i, m], _, _, _ = z_state(params[i], j, tau)
+
+
+def obstacle_heights(params, t0):
+    """z(t0) per packed row i and start time t0[i, m] (the floor a start drawn at t0 must
+    clear)."""
+    out = np.empty(t0.shape)
+    fill_obstacle_heights(params, t0, out)
     return out

@@ -208,7 +208,7 @@ class FlowModel(Model):
         kernel, the seconds from COMPILE_SECONDS."""
         # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import dispatchers
-        from .kernel import obstacle_heights, run_batch, run_batch_profile  # start-up: loads numba
+        from .kernel import fill_obstacle_heights, run_batch, run_batch_profile  # start-up: loads numba
         from .tangent import batch_stability  # start-up: loads numba
         out = []
         if "sweep" in what or "continuation" in what:
@@ -216,13 +216,13 @@ class FlowModel(Model):
                         dispatchers(*ANALYSIS_KERNELS)))
             if OBSTACLES[scene.extra["obstacle"]].own_kernel:
                 out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["own_kernel"],
-                            [run_batch_profile, obstacle_heights]))
+                            [run_batch_profile, fill_obstacle_heights]))
             else:
                 out.append(("the flow kernel", COMPILE_SECONDS["flow"], [run_batch]))
                 if scene.initial.get("t", (0.0, 0.0))[1] > 0.0 or "initial.t" in [
                         a.name for a in scene.axes]:
                     out.append(("the obstacle's heights at the start times",
-                                COMPILE_SECONDS["t0"], [obstacle_heights]))
+                                COMPILE_SECONDS["t0"], [fill_obstacle_heights]))
         if "stability" in what or ("sweep" in what and "stability" in scene.keep):
             out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
                         [batch_stability]))

@@ -14,9 +14,8 @@ run.
 import math
 
 import numpy as np
-from numba import prange
 
-from ..._jit import jit, pjit, stop_requested
+from ..._jit import items_kernel, jit, stop_requested
 from ...numerics.oscillator import acceleration, derive
 from ...numerics.saltation import GRAZING_TOL, flight_matrix, flight_misses, impact_saltation
 from ...obstacles.dispatch import obstacle_at_offset
@@ -167,8 +166,8 @@ def run_lyapunov(p, t, u, v_in, v_out, offset, ipc, warmup_share):
     return sum1 / dur, (sumdet - sum1) / dur, dur, OK
 
 
-@pjit
-def batch_stability(params, t, u, v_in, v_out, offset, ipc, o_re, o_im, o_dur, o_status,
+@items_kernel
+def batch_stability(k0, k1, params, t, u, v_in, v_out, offset, ipc, o_re, o_im, o_dur, o_status,
                     o_lam, o_win, o_lstatus, control=0):
     """``run_cycle_multipliers`` and ``run_lyapunov`` for every item (row) in parallel.
 
@@ -176,7 +175,7 @@ def batch_stability(params, t, u, v_in, v_out, offset, ipc, o_re, o_im, o_dur, o
     whose stop flag is read before each row (a row costs at most its record, run.record <=
     100000 impacts: tens of milliseconds); told to stop, the rows not begun are skipped and
     the outputs are incomplete (the caller raises ``KernelStopped``: ``raise_if_stopped``)."""
-    for i in prange(params.shape[0]):
+    for i in range(k0, k1):
         if stop_requested(control):
             continue
         store(i, run_cycle_multipliers(params[i], t[i], u[i], v_in[i], v_out[i], offset[i],

@@ -136,7 +136,7 @@ alpha enters at -0.0075 and W is not monotone on the rest of [kappa_C, kappa_CC]
 Kernels
 -------
 ``region`` and ``step`` are the scalar reference; ``iterate_one`` (serial) and
-``iterate_batch`` (``prange`` over parameter points) iterate many steps with the
+``iterate_batch`` (threads over parameter points, ``_jit.ItemKernel``) iterate many steps with the
 same arithmetic, bit for bit; ``detect_map_cycle`` / ``detect_map_cycles`` find
 the period and the word of the recorded tail.  :func:`iterate` and
 :func:`find_cycles` are the public, checking and allocating wrappers.
@@ -150,9 +150,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
 
-from ..._jit import count_done, jit, pjit, stop_requested
+from ..._jit import count_done, items_kernel, jit, stop_requested
 from ...analysis import smallest_rotation
 
 #: region / symbol codes (out_region values); NONE marks NaN input
@@ -292,8 +291,8 @@ def iterate_one(omega1, kappa1, r, a, b, transient, record, out_a, out_b, out_re
     return True
 
 
-@pjit
-def iterate_batch(params, x0, transient, record, out_a, out_b, out_region, control=0):
+@items_kernel
+def iterate_batch(k0, k1, params, x0, transient, record, out_a, out_b, out_region, control=0):
     """Iterate every row of ``params`` = [omega1, kappa1, r] from x0 = [a, b].
 
     Parameters
@@ -311,7 +310,7 @@ def iterate_batch(params, x0, transient, record, out_a, out_b, out_region, contr
         finished row is counted, and its stop flag cuts every row short (outputs
         incomplete; a row cut short is not counted).
     """
-    for i in prange(params.shape[0]):
+    for i in range(k0, k1):
         if iterate_one(params[i, P_OMEGA1], params[i, P_KAPPA1], params[i, P_R], x0[i, 0],
                        x0[i, 1], transient, record, out_a[i], out_b[i], out_region[i], control):
             count_done(control)
@@ -356,10 +355,10 @@ def detect_map_cycle(regions, a, b, tol, sym_out):
     return 0
 
 
-@pjit
-def detect_map_cycles(regions, a, b, tol, o_period, o_sym):
+@items_kernel
+def detect_map_cycles(k0, k1, regions, a, b, tol, o_period, o_sym):
     """``detect_map_cycle`` over all rows in parallel (o_period int64, o_sym uint8 (n, w))."""
-    for i in prange(regions.shape[0]):
+    for i in range(k0, k1):
         o_period[i] = detect_map_cycle(regions[i], a[i], b[i], tol, o_sym[i])
 
 

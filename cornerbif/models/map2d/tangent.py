@@ -5,9 +5,7 @@ exponents (``map_lyapunov``), for every item by ``batch_map_stability``.
 
 import math
 
-from numba import prange
-
-from ..._jit import jit, pjit, stop_requested
+from ..._jit import items_kernel, jit, stop_requested
 from ...stability import NO_CYCLE, NO_WINDOW, OK, log_or_minus_inf, multipliers, store
 
 
@@ -63,12 +61,12 @@ def map_lyapunov(r, regions):
     return lam, lam, float(n), OK
 
 
-@pjit
-def batch_map_stability(params, regions, period, o_re, o_im, o_dur, o_status, o_lam, o_win,
+@items_kernel
+def batch_map_stability(k0, k1, params, regions, period, o_re, o_im, o_dur, o_status, o_lam, o_win,
                         o_lstatus, control=0):
     """``map_cycle_multipliers`` and ``map_lyapunov`` for every item (row of ``params`` =
     [omega1, kappa1, r]); ``control`` as for ``batch_stability``."""
-    for i in prange(params.shape[0]):
+    for i in range(k0, k1):
         if stop_requested(control):
             continue
         store(i, map_cycle_multipliers(params[i, 0], params[i, 2], regions[i], period[i]),

@@ -12,10 +12,9 @@ offsets and the output layout are described in docs/kernels.md.
 import math
 
 import numpy as np
-from numba import prange
 
 from ... import status as S
-from ..._jit import POLL_EVERY, STOPPED, count_done, jit, jit_inline, pjit, stop_requested
+from ..._jit import POLL_EVERY, STOPPED, count_done, items_kernel, jit, jit_inline, stop_requested
 from ...numerics.impact import restitution
 from ...numerics.oscillator import deriv_bound, homogeneous, particular
 from ...numerics.oscillator import derive as osc_derive
@@ -1256,16 +1255,15 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
             continue
 
 
-@pjit
-def run_batch(params, ints, ics, o_zu, o_corner, o_wz, o_sec, o_status, o_final):
+@items_kernel
+def run_batch(k0, k1, params, ints, ics, o_zu, o_corner, o_wz, o_sec, o_status, o_final):
     """Run every item i = (parameter row params[i], initial state ics[i] = (z, y, u, v)).
 
     Each item writes only its own rows; results do not depend on the thread count.  Under
     a sweep's control (``ints[I_CONTROL]``) each finished item is counted (a run told to stop
     returns ``STOPPED`` and is not).
     """
-    n = params.shape[0]
-    for i in prange(n):
+    for i in range(k0, k1):
         st = run_one(params[i], ints, ics[i, 0], ics[i, 1], ics[i, 2], ics[i, 3], o_zu[i],
                      o_corner[i], o_wz[i], o_sec[i], o_final[i])
         o_status[i] = st

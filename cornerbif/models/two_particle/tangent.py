@@ -7,9 +7,8 @@ spectrum (``two_particle_outputs``).
 import math
 
 import numpy as np
-from numba import prange
 
-from ..._jit import jit, pjit, raise_if_stopped, stop_requested
+from ..._jit import items_kernel, jit, raise_if_stopped, stop_requested
 from ...numerics.oscillator import acceleration
 from ...numerics.saltation import flight_matrix, flight_misses, grazes, impact_saltation
 from ...stability import (
@@ -232,13 +231,13 @@ def two_particle_lyapunov(p, zu, wz, ipc, warmup_share, out):
     return win, OK
 
 
-@pjit
-def batch_two_particle_stability(params, zu, wz, ipc, o_J, o_dur, o_status, o_lam, o_win,
+@items_kernel
+def batch_two_particle_stability(k0, k1, params, zu, wz, ipc, o_J, o_dur, o_status, o_lam, o_win,
                                  o_lstatus, control=0):
     """Monodromies and Lyapunov spectra of every run (row) in parallel; the multipliers are
     the monodromies' eigenvalues (``two_particle_multipliers``); ``control`` as for
     ``batch_stability``."""
-    for i in prange(params.shape[0]):
+    for i in range(k0, k1):
         if stop_requested(control):
             continue
         o_dur[i], o_status[i] = two_particle_monodromy(params[i], zu[i], wz[i], ipc[i], o_J[i])
