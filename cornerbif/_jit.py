@@ -22,8 +22,10 @@ that short, without costing the warm kernels anything (``benchmarks/ab.py``):
 
 import ctypes
 import importlib
+import os
+import threading
 import types as pytypes
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numba
 import numpy as np
@@ -92,7 +94,8 @@ class ItemKernel:
     k0 <= k < k1 (a ``range``, each item writing only its own rows) and the call
     ``kernel(*args)`` runs all n of them, split into one contiguous range per numba thread
     of the calling thread (``numba.get_num_threads()``, which ``numba.set_num_threads``
-    sets), each range in a Python thread (the kernels release the GIL: ``nogil``).
+    sets): the calling thread runs the first, the threads of ``_pool`` the others (the kernels
+    release the GIL: ``nogil``).
 
     Why not numba's ``prange``: a ``parallel=True`` kernel compiles through numba's parfor
     passes and a gufunc of its own, which cost the flow kernel 2 s of its first compile
@@ -121,12 +124,33 @@ class ItemKernel:
         if threads == 1:
             return self._direct(0, n, *args, **kws)
         bounds = [n * j // threads for j in range(threads + 1)]
-        with ThreadPoolExecutor(threads, thread_name_prefix="cornerbif-kernel") as pool:
-            runs = [pool.submit(self._direct, bounds[j], bounds[j + 1], *args, **kws)
-                    for j in range(threads)]
-            for run in runs:
-                run.result()
+        pool = _pool()
+        runs = [pool.submit(self._direct, bounds[j], bounds[j + 1], *args, **kws)
+                for j in range(1, threads)]
+        try:
+            self._direct(bounds[0], bounds[1], *args, **kws)     # the calling thread's range
+        finally:
+            wait(runs)                  # no thread left writing when this call returns
+        for run in runs:
+            run.result()
         return None
+
+
+_POOL: dict = {}
+_POOL_LOCK = threading.Lock()
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The kernels' threads besides the calling one, started once per process (as numba's own
+    workers are; threads started for each call cost 5 % of a two-thread sweep, measured with
+    ``benchmarks/ab.py --speedup``): one fewer than numba may use.  A forked child, which
+    inherits the pool but not its threads, starts its own."""
+    with _POOL_LOCK:
+        pool = _POOL.get(os.getpid())
+        if pool is None:
+            pool = _POOL[os.getpid()] = ThreadPoolExecutor(
+                max(1, numba.config.NUMBA_NUM_THREADS - 1), thread_name_prefix="cornerbif-kernel")
+        return pool
 
 
 def items_kernel(fn=None, *, count=None):
