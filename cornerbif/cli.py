@@ -8,6 +8,7 @@ error into its message and its code (docs/guarantees.md, "Exit codes").
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shlex
@@ -200,12 +201,14 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
                        "thread(s) (cornerbif sweep --dry-run gives the estimates; Ctrl-C keeps "
                        "every finished point, --resume completes it)", err=True)
         engine.announce_compiles(scene, lambda m: click.echo(m, err=True), ("sweep",))
-    path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
-                     progress=progress, command=_command_line(scene_path, out, sets, threads,
-                                                              resume, overwrite, block_points,
-                                                              scheduler),
-                     block_points=block_points, scheduler=scheduler, inputs=(scene_path,),
-                     echo=lambda m: click.echo(m, err=True))
+    with engine.compiling_aside(scene, ("sweep",)) if plan != "done" and scheduler is None \
+            else contextlib.nullcontext():
+        path = run_sweep(scene, out, threads=threads, resume=resume, overwrite=overwrite,
+                         progress=progress, command=_command_line(scene_path, out, sets, threads,
+                                                                  resume, overwrite, block_points,
+                                                                  scheduler),
+                         block_points=block_points, scheduler=scheduler, inputs=(scene_path,),
+                         echo=lambda m: click.echo(m, err=True))
     if path is None:
         return            # --resume of a finished output: said so, nothing to do
     click.echo(f"wrote {path}")
@@ -445,8 +448,9 @@ def continue_(scene_path, out, sets, resume, overwrite):
     for s in sets:
         command += ["--set", s]
     command += ["--resume"] * resume + ["--overwrite"] * overwrite
-    C.run_to_file(scene, out, resume=resume, overwrite=overwrite, log=click.echo, inputs=inputs,
-                  command=" ".join(shlex.quote(str(p)) for p in command))
+    with engine.compiling_aside(scene, ("continuation",)):
+        C.run_to_file(scene, out, resume=resume, overwrite=overwrite, log=click.echo,
+                      inputs=inputs, command=" ".join(shlex.quote(str(p)) for p in command))
 
 
 @main.command()

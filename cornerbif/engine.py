@@ -11,10 +11,16 @@ on block size, thread count or resume history.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import subprocess
+import sys
+
 import numpy as np
 
 from . import registry
 from .config import Scene
+from .observables import ANALYSIS_KERNELS
 
 BLOCK_BYTES = 24 * 2**20     # working memory per block (kernel outputs); the local backend
                              # holds two (one computing, one being written)
@@ -140,6 +146,47 @@ def announce_compiles(scene: Scene, echo, what=("sweep",)) -> float:
         echo(compile_words(name, seconds))
         total += seconds
     return total
+
+
+@contextlib.contextmanager
+def compiling_aside(scene: Scene, what=("sweep",)):
+    """While the body runs, compile the cycle analysis (``observables.ANALYSIS_KERNELS``) in a
+    second process when it and another kernel of ``scene`` compile first (``cold_compiles``)
+    and there is a second core: numba compiles one function at a time in a process, so the
+    analysis, which a sweep needs only after the model's kernel has run, is compiled beside
+    that kernel's compile and loaded from numba's cache when it is reached (a kernel found in
+    the cache is not compiled again).  Nothing else is shared; the child writes only numba's
+    cache, and is stopped at the end of the body if it is still running."""
+    from ._jit import cache_is_cold, dispatchers  # start-up: loads numba
+    child = None
+    if ((os.cpu_count() or 1) > 1 and any(cache_is_cold(k) for k in dispatchers(*ANALYSIS_KERNELS))
+            and len(cold_compiles(scene, what)) > 1):
+        child = subprocess.Popen([sys.executable, "-c", "from cornerbif.engine import "
+                                  "compile_analysis; compile_analysis()"],
+                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.DEVNULL)
+    try:
+        yield child
+    finally:
+        if child is not None and child.poll() is None:
+            child.terminate()
+            child.wait()
+
+
+def compile_analysis():
+    """Compile the cycle analysis and the file's chunk writer (``observables.ANALYSIS_KERNELS``)
+    for the argument types a sweep passes them (``Model.run_items``, ``cycle_signatures``,
+    ``chunkwrite``), on a tiny block: what ``compiling_aside`` runs in its second process."""
+    from .analysis import SIGNATURE, cycle_signatures, detect_cycles  # start-up: loads numba
+    from .chunkwrite import shuffle  # start-up: loads numba
+    from .numerics.fill import full  # start-up: loads numba
+    n, rec = 2, 8
+    t = full((n, rec), np.nan)
+    period, ipc = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    detect_cycles(t, t, t, np.zeros((n, rec), np.int64), np.ones(n, np.bool_), 1e-6, period,
+                  ipc, np.zeros((n, rec), np.uint8))
+    cycle_signatures(t, t, t, ipc, np.empty((n, len(SIGNATURE))), np.empty((n, 2)))
+    shuffle(t)
 
 
 def compile_words(name: str, seconds: float) -> str:
