@@ -190,6 +190,16 @@ def _cold(dispatcher) -> bool:
         return False
 
 
+def compile_listed(functions):
+    """Compile each ``(module.function, argument types)`` (as ``compile_plan.PLANS`` lists
+    them; the types as numba prints them) into numba's cache, skipping what the cache holds."""
+    names = dict(vars(types), bool=types.boolean)
+    for name, args in functions:
+        disp, = dispatchers(name)
+        sig = eval(args[:-1] + ",)", {"__builtins__": {}}, names)   # noqa: S307 - our own file
+        disp.compile(sig)
+
+
 def dispatchers(*names):
     """The jitted functions named ``module.function`` under the package (e.g.
     ``"models.flow.kernel.run_batch"``), for ``cache_is_cold``: imported when asked for."""

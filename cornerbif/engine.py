@@ -19,6 +19,7 @@ import sys
 import numpy as np
 
 from . import registry
+from .compile_plan import PLANS
 from .config import Scene
 from .observables import ANALYSIS_KERNELS
 
@@ -150,19 +151,25 @@ def announce_compiles(scene: Scene, echo, what=("sweep",)) -> float:
 
 @contextlib.contextmanager
 def compiling_aside(scene: Scene, what=("sweep",)):
-    """While the body runs, compile the cycle analysis (``observables.ANALYSIS_KERNELS``) in a
-    second process when it and another kernel of ``scene`` compile first (``cold_compiles``)
-    and there is a second core: numba compiles one function at a time in a process, so the
-    analysis, which a sweep needs only after the model's kernel has run, is compiled beside
-    that kernel's compile and loaded from numba's cache when it is reached (a kernel found in
-    the cache is not compiled again).  Nothing else is shared; the child writes only numba's
-    cache, and is stopped at the end of the body if it is still running."""
+    """While the body runs, compile in a second process (when there is a second core) what of
+    ``scene``'s first compile can be compiled beside the kernel: the helpers that
+    ``compile_plan.PLANS`` lists for each kernel that compiles first (``cold_compiles``), and
+    the cycle analysis (``observables.ANALYSIS_KERNELS``) when it and another kernel compile
+    first.  numba compiles one function at a time in a process; a function the second process
+    has put in numba's cache is loaded, not compiled, when this one reaches it (one it has
+    not yet: compiled here as before).  Nothing else is shared; the child writes only numba's
+    cache, and is stopped at the end of the body if it is still running.  The environment
+    variable CORNERBIF_COMPILE_BESIDE=0 turns it off."""
     from ._jit import cache_is_cold, dispatchers  # start-up: loads numba
     child = None
-    if ((os.cpu_count() or 1) > 1 and any(cache_is_cold(k) for k in dispatchers(*ANALYSIS_KERNELS))
-            and len(cold_compiles(scene, what)) > 1):
-        child = subprocess.Popen([sys.executable, "-c", "from cornerbif.engine import "
-                                  "compile_analysis; compile_analysis()"],
+    cold = [name for name, _ in cold_compiles(scene, what)]
+    planned = [name for name in cold if name in PLANS]
+    analysis = any(cache_is_cold(k) for k in dispatchers(*ANALYSIS_KERNELS)) and len(cold) > 1
+    if ((os.cpu_count() or 1) > 1 and (planned or analysis)
+            and os.environ.get("CORNERBIF_COMPILE_BESIDE", "1") != "0"):
+        child = subprocess.Popen([sys.executable, "-c", "import sys; from cornerbif.engine import "
+                                  "compile_beside; compile_beside(sys.argv[1:])", *planned,
+                                  *["the cycle analysis"] * analysis],
                                  stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                  stderr=subprocess.DEVNULL)
     try:
@@ -171,6 +178,17 @@ def compiling_aside(scene: Scene, what=("sweep",)):
         if child is not None and child.poll() is None:
             child.terminate()
             child.wait()
+
+
+def compile_beside(names):
+    """What ``compiling_aside``'s second process compiles: for each kernel name its helpers in
+    ``compile_plan.PLANS``, and "the cycle analysis" (``compile_analysis``)."""
+    from ._jit import compile_listed  # start-up: loads numba
+    for name in names:
+        if name in PLANS:
+            compile_listed(PLANS[name])
+    if "the cycle analysis" in names:
+        compile_analysis()
 
 
 def compile_analysis():

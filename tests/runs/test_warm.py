@@ -56,13 +56,15 @@ for name, what in [("fig06a", ("sweep",)), ("cam_cycloidal", ("sweep",)),
 compiled = []
 class L(event.Listener):
     def on_start(self, ev):
-        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+        f = ev.data["dispatcher"].py_func
+        compiled.append(f.__module__ + "." + f.__qualname__)
     def on_end(self, ev):
         pass
 event.register("numba:compile", L())
+scene, axis = (sys.argv[2], sys.argv[3]) if len(sys.argv) > 3 else ("fig06a", "kappa")
 try:
-    main(["sweep", "configs/fig06a.toml", "-o", sys.argv[1], "--no-progress",
-          "--set", "sweep.kappa.num=3", "--set", "initial.count=2"])
+    main(["sweep", f"configs/{scene}.toml", "-o", sys.argv[1], "--no-progress",
+          "--set", f"sweep.{axis}.num=3", "--set", "initial.count=2"])
 except SystemExit as e:
     assert e.code in (0, None), e.code
 print(json.dumps({"cold": cold, "compiled": compiled}))
@@ -91,7 +93,7 @@ def test_the_analysis_compiled_aside_is_the_one_a_sweep_loads(tmp_path):
     """``engine.compiling_aside`` compiles the cycle analysis in a second process: only worth
     it if that process compiles the very signatures a sweep calls, which numba then loads
     from its cache instead of compiling (counted here by numba's compile events)."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), CORNERBIF_COMPILE_BESIDE="0")
     r = subprocess.run([sys.executable, "-c", "from cornerbif.engine import compile_analysis; "
                         "compile_analysis()"], cwd=ROOT, env=env, capture_output=True, text=True,
                        timeout=900)
@@ -101,6 +103,35 @@ def test_the_analysis_compiled_aside_is_the_one_a_sweep_loads(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     import json
     compiled = json.loads(r.stdout.strip().splitlines()[-1])["compiled"]
-    assert "run_batch" in compiled                       # the flow kernel was cold: compiled
-    for name in ("detect_cycles", "detect_cycle", "cycle_signatures", "_shuffle_bytes_py"):
-        assert name not in compiled, name
+    assert "cornerbif.models.flow.kernel.run_batch" in compiled    # cold: compiled here
+    for name in ("analysis.detect_cycles", "analysis.detect_cycle", "analysis.cycle_signatures",
+                 "chunkwrite._shuffle_bytes_py"):
+        assert "cornerbif." + name not in compiled, name
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kernel, scene, axis", [
+    ("the flow kernel", "fig06a", "kappa"),
+    ("the flow kernel for a cam profile", "cam_cycloidal", "omega"),
+    ("the two-particle kernel", "fig19a", "omega0")])
+def test_the_compile_plan_is_what_a_first_sweep_compiles(tmp_path, kernel, scene, axis):
+    """``compile_plan.PLANS`` lists helpers with the argument types a first run compiles them
+    for (benchmarks/compile_plan.py recorded them).  After a second process compiled a
+    kernel's plan, a first sweep must load every planned helper from numba's cache: a helper
+    whose arguments changed since would be compiled again here (run
+    benchmarks/compile_plan.py), and its plan entry would be wasted work."""
+    from cornerbif.compile_plan import PLANS
+    planned = {"cornerbif." + name for name, _ in PLANS[kernel]}
+    assert len(planned) >= 5
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), CORNERBIF_COMPILE_BESIDE="0")
+    r = subprocess.run([sys.executable, "-c", "import sys; from cornerbif.engine import "
+                        "compile_beside; compile_beside(sys.argv[1:])", kernel], cwd=ROOT,
+                       env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    r = subprocess.run([sys.executable, "-c", CHECK, str(tmp_path / "q.h5"), scene, axis],
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    import json
+    compiled = set(json.loads(r.stdout.strip().splitlines()[-1])["compiled"])
+    assert any(c.endswith(".run_one") for c in compiled)   # not planned: compiled here
+    assert not planned & compiled, sorted(planned & compiled)
