@@ -42,12 +42,26 @@ def sweep(scene, axis, *sets):
     return cmd
 
 
-# (the name ``Model.compiles`` gives the kernel, its command, a command run first, untimed)
+def cont(scene):
+    return ["continue", f"configs/{scene}.toml", "-o", "{tmp}/cont.h5", "--overwrite"]
+
+
+STAB = 'output.keep=["impacts", "section", "stability"]'
+# (the name ``Model.compiles`` gives the kernel, its command, a command run first, untimed,
+# what the second process takes: "half" of the heaviest function's callees, or "all" that the
+# command compiles beyond the command run first: a kernel of its own)
 ENTRIES = [
-    ("the flow kernel", sweep("fig04c", "omega"), None),
+    ("the flow kernel", sweep("fig04c", "omega"), None, "half"),
     ("the flow kernel for a cam profile", sweep("cam_cycloidal", "omega"),
-     sweep("fig04c", "omega")),
-    ("the two-particle kernel", sweep("fig19a", "omega0"), sweep("fig04c", "omega")),
+     sweep("fig04c", "omega"), "half"),
+    ("the two-particle kernel", sweep("fig19a", "omega0"), sweep("fig04c", "omega"), "half"),
+    ("the flow stability kernel", sweep("fig04c", "omega", STAB), sweep("fig04c", "omega"),
+     "all"),
+    ("the two-particle stability kernel", sweep("fig19a", "omega0", STAB),
+     sweep("fig19a", "omega0"), "all"),
+    ("the flow continuation's functions", cont("cont_beta"), sweep("fig04c", "omega"), "all"),
+    ("the two-particle continuation's functions", cont("cont_fig19"),
+     sweep("fig19a", "omega0"), "all"),
 ]
 
 RECORD = r"""
@@ -90,6 +104,15 @@ def record(cmd, before):
         return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+def plan_all(rows):
+    """Every function the command compiled at the top (each with its callees)."""
+    short = lambda n: n.removeprefix("cornerbif.")     # noqa: E731
+    top = [r for r in rows if r["parent"] < 0 and r["name"].startswith("cornerbif.")]
+    return {"under": "the command", "seconds": round(sum(r["seconds"] for r in top), 2),
+            "of": round(sum(r["seconds"] for r in rows if r["parent"] < 0), 2),
+            "functions": [(short(r["name"]), r["args"]) for r in top]}
+
+
 def plan(rows):
     """The late half of the callees of the function whose callees cost most, descending while
     one callee takes most of them."""
@@ -127,14 +150,17 @@ def render(plans):
              'chosen); tests/runs/test_warm.py checks them against a real first run."""', "",
              "PLANS = {"]
     for label, p in plans.items():
-        lines.append(f"    # {len(p['functions'])} callees of {p['under']}: {p['seconds']} s of "
-                     f"its callees' {p['of']} s when recorded")
+        lines.append(f"    # {len(p['functions'])} functions of {p['under']}: {p['seconds']} s of "
+                     f"{p['of']} s when recorded")
         lines.append(f"    {label!r}: (")
         for name, args in p["functions"]:
             lines.append(f"        ({name!r},")
             lines.append(f"         {args!r}),")
         lines.append("    ),")
     lines.append("}")
+    half = [label for label, _, _, mode in ENTRIES if mode == "half"]
+    lines += ["", "# the plans that are part of a kernel (the rest are kernels of their own)",
+              f"HALF_PLANS = {tuple(half)!r}"]
     return "\n".join(lines) + "\n"
 
 
@@ -143,8 +169,9 @@ def main():
     ap.add_argument("--check", action="store_true")
     a = ap.parse_args()
     plans = {}
-    for label, cmd, before in ENTRIES:
-        plans[label] = plan(record(cmd, before))
+    for label, cmd, before, mode in ENTRIES:
+        rows = record(cmd, before)
+        plans[label] = plan(rows) if mode == "half" else plan_all(rows)
         print(f"{label}: {len(plans[label]['functions'])} callees of {plans[label]['under']}, "
               f"{plans[label]['seconds']} s of {plans[label]['of']} s", flush=True)
     if a.check:

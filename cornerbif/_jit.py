@@ -195,7 +195,13 @@ def compile_listed(functions):
     them; the types as numba prints them) into numba's cache, skipping what the cache holds."""
     names = dict(vars(types), bool=types.boolean)
     for name, args in functions:
-        disp, = dispatchers(name)
+        module, _, fn = name.rpartition(".")
+        twin = fn.endswith("_py") and fn not in vars(importlib.import_module(f"{__package__}.{module}"))
+        disp, = dispatchers(f"{module}.{fn.removesuffix('_py')}" if twin else name)
+        if twin:
+            disp = disp.python_entry           # a function called from Python: its twin
+        elif isinstance(disp, ItemKernel):
+            disp = disp._direct
         sig = eval(args[:-1] + ",)", {"__builtins__": {}}, names)   # noqa: S307 - our own file
         disp.compile(sig)
 

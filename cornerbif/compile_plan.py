@@ -6,7 +6,7 @@ first.  Written by ``python benchmarks/compile_plan.py`` (which says how they ar
 chosen); tests/runs/test_warm.py checks them against a real first run."""
 
 PLANS = {
-    # 18 callees of models.flow.kernel.run_one: 1.9 s of its callees' 3.49 s when recorded
+    # 18 functions of models.flow.kernel.run_one: 2.42 s of 4.53 s when recorded
     'the flow kernel': (
         ('models.flow.kernel.first_impact_free',
          '(UniTuple(float64, 18), UniTuple(float64, 16), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -45,7 +45,7 @@ PLANS = {
         ('obstacles.dispatch.cycle_lag',
          '(UniTuple(float64, 18))'),
     ),
-    # 11 callees of models.flow.kernel.run_one: 2.32 s of its callees' 4.25 s when recorded
+    # 11 functions of models.flow.kernel.run_one: 2.69 s of 4.9 s when recorded
     'the flow kernel for a cam profile': (
         ('models.flow.kernel.first_impact_free',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -70,7 +70,7 @@ PLANS = {
         ('models.flow.kernel.phase_grid',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
     ),
-    # 15 callees of models.two_particle.kernel.run_one: 3.65 s of its callees' 7.06 s when recorded
+    # 15 functions of models.two_particle.kernel.run_one: 2.81 s of 5.67 s when recorded
     'the two-particle kernel': (
         ('models.two_particle.kernel.pair_or_free',
          "(UniTuple(float64, 17), UniTuple(float64, 20), Array(float64, 2, 'C', False, aligned=True), float64, bool, float64, float64, float64, float64, float64)"),
@@ -82,8 +82,8 @@ PLANS = {
          "(int64, UniTuple(float64, 20), UniTuple(float64, 17), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, float64, float64, float64, float64)"),
         ('models.two_particle.kernel.state_at',
          "(int64, bool, UniTuple(float64, 20), UniTuple(float64, 17), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, float64, float64)"),
-        ('models.two_particle.kernel.first_root_g',
-         "(int64, UniTuple(float64, 20), UniTuple(float64, 17), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, float64, float64, float64, float64)"),
+        ('models.two_particle.kernel.first_root',
+         '(int64, UniTuple(float64, 7), float64, float64, float64, float64, float64, float64, float64, float64, float64)'),
         ('models.two_particle.kernel._close',
          "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)"),
         ('models.two_particle.kernel.section_phase',
@@ -96,11 +96,62 @@ PLANS = {
          '(UniTuple(float64, 20), int64)'),
         ('models.two_particle.kernel.search_constants',
          '(UniTuple(float64, 20), UniTuple(float64, 17))'),
+        ('models.two_particle.kernel.oscillators',
+         '(UniTuple(float64, 20), UniTuple(float64, 17))'),
         ('models.two_particle.kernel.constants_tuple',
-         "(Array(float64, 1, 'C', False, aligned=True))"),
-        ('models.two_particle.kernel.derive',
          "(Array(float64, 1, 'C', False, aligned=True))"),
         ('models.two_particle.packed.as_tuple',
          "(Array(float64, 1, 'C', False, aligned=True))"),
     ),
+    # 1 functions of the command: 2.94 s of 2.94 s when recorded
+    'the flow stability kernel': (
+        ('models.flow.tangent.batch_stability',
+         "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
+    ),
+    # 1 functions of the command: 6.62 s of 6.62 s when recorded
+    'the two-particle stability kernel': (
+        ('models.two_particle.tangent.batch_two_particle_stability',
+         "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
+    ),
+    # 9 functions of the command: 2.74 s of 2.74 s when recorded
+    "the flow continuation's functions": (
+        ('numerics.oscillator.derive_py',
+         "(Array(float64, 1, 'C', False, aligned=True))"),
+        ('obstacles.dispatch.piece_start_py',
+         "(Array(float64, 1, 'C', False, aligned=True), int64)"),
+        ('obstacles.dispatch.z_state_py',
+         "(Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
+        ('numerics.saltation.flight_matrix_py',
+         '(float64, float64, float64)'),
+        ('numerics.oscillator.particular_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)"),
+        ('obstacles.dispatch.corner_of_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
+        ('numerics.oscillator.acceleration_py',
+         "(Array(float64, 1, 'C', False, aligned=True), float64, float64, float64)"),
+        ('numerics.saltation.impact_saltation_py',
+         '(float64, float64, float64, float64, float64)'),
+        ('stability.multipliers_py',
+         '(float64, float64, float64, float64)'),
+    ),
+    # 7 functions of the command: 3.82 s of 3.82 s when recorded
+    "the two-particle continuation's functions": (
+        ('models.two_particle.kernel.derive_py',
+         "(Array(float64, 1, 'C', False, aligned=True))"),
+        ('models.two_particle.kernel.oscillators_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
+        ('numerics.saltation.flight_matrix_py',
+         '(float64, float64, float64)'),
+        ('numerics.oscillator.particular_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)"),
+        ('models.two_particle.packed.mass_ratio_impact_py',
+         '(float64, float64, float64, float64)'),
+        ('models.two_particle.kernel.wall_py',
+         "(Array(float64, 1, 'C', False, aligned=True), float64, float64)"),
+        ('models.two_particle.tangent.two_particle_steps_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, int64)"),
+    ),
 }
+
+# the plans that are part of a kernel (the rest are kernels of their own)
+HALF_PLANS = ('the flow kernel', 'the flow kernel for a cam profile', 'the two-particle kernel')

@@ -19,7 +19,7 @@ import sys
 import numpy as np
 
 from . import registry
-from .compile_plan import PLANS
+from .compile_plan import HALF_PLANS, PLANS
 from .config import Scene
 from .observables import ANALYSIS_KERNELS
 
@@ -163,7 +163,8 @@ def compiling_aside(scene: Scene, what=("sweep",)):
     from ._jit import cache_is_cold, dispatchers  # start-up: loads numba
     child = None
     cold = [name for name, _ in cold_compiles(scene, what)]
-    planned = [name for name in cold if name in PLANS]
+    # a kernel's helpers first (this process reaches them soon), then whole kernels of their own
+    planned = sorted((name for name in cold if name in PLANS), key=lambda n: n not in HALF_PLANS)
     analysis = any(cache_is_cold(k) for k in dispatchers(*ANALYSIS_KERNELS)) and len(cold) > 1
     if ((os.cpu_count() or 1) > 1 and (planned or analysis)
             and os.environ.get("CORNERBIF_COMPILE_BESIDE", "1") != "0"):

@@ -135,3 +135,35 @@ def test_the_compile_plan_is_what_a_first_sweep_compiles(tmp_path, kernel, scene
     compiled = set(json.loads(r.stdout.strip().splitlines()[-1])["compiled"])
     assert any(c.endswith(".run_one") for c in compiled)   # not planned: compiled here
     assert not planned & compiled, sorted(planned & compiled)
+
+
+ALL_PLAN = r"""
+import sys
+from cornerbif import config, engine
+from cornerbif.engine import compile_beside
+scene_path, what, sets, kernel = sys.argv[1], sys.argv[2], sys.argv[3:-1], sys.argv[-1]
+compile_beside([kernel])
+scene = config.load(scene_path, sets)
+cold = [name for name, _ in engine.cold_compiles(scene, (what,))]
+assert kernel not in cold, cold
+print("ok", cold)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kernel, scene, what, sets", [
+    ("the flow stability kernel", "fig04c", "sweep",
+     ['output.keep=["impacts", "section", "stability"]']),
+    ("the two-particle stability kernel", "fig19a", "sweep",
+     ['output.keep=["impacts", "section", "stability"]']),
+    ("the flow continuation's functions", "cont_beta", "continuation", []),
+    ("the two-particle continuation's functions", "cont_fig19", "continuation", [])])
+def test_a_kernel_compiled_beside_is_the_one_a_first_run_would_compile(tmp_path, kernel, scene,
+                                                                        what, sets):
+    """A kernel that ``compile_plan.PLANS`` gives whole to the second process: after that
+    process ran, numba's cache holds every function the announcement of a first run checks
+    for it (``engine.cold_compiles`` reads the cache index), so the first run loads it."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), CORNERBIF_COMPILE_BESIDE="0")
+    r = subprocess.run([sys.executable, "-c", ALL_PLAN, f"configs/{scene}.toml", what, *sets,
+                        kernel], cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]

@@ -164,7 +164,9 @@ def oscillators(p, c):
     Q[RPB, FP.F_OMEGA] = p[P.OMF2]
     forcing_phases(p, Q, np.int64(0))
     for r in range(NROW):
-        D[r] = osc_derive(Q[r])
+        d = osc_derive(Q[r])
+        for k in range(NDERIVED):      # element by element: a row assignment compiles numba's
+            D[r, k] = d[k]             # shape-mismatch message (3 s of the first compile)
     return Q, D
 
 

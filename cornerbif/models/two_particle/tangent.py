@@ -23,6 +23,7 @@ from ...stability import (
     gram_schmidt,
     lyapunov_window,
     recorded_count,
+    sort_nan_last,
     sorted_eigenvalues,
 )
 from . import kernel as TK
@@ -160,7 +161,10 @@ def two_particle_steps(p, zu, wz, i0, i1):
             F = np.zeros((4, 4))
             _block(F, 0, z11, z12, z21, z22)
             _block(F, 2, u11, u12, u21, u22)
-            G[m] = S @ F
+            SF = S @ F
+            for a in range(4):         # element by element: an array assignment compiles
+                for b in range(4):     # numba's shape-mismatch message (3 s of a first compile)
+                    G[m, a, b] = SF[a, b]
             tz, zz, yz = te, x, zu[i, TK.ZU_YOUT]
             tu, uu, vu = te, x, zu[i, TK.ZU_VOUT]
             i += 1
@@ -191,7 +195,9 @@ def two_particle_monodromy(p, zu, wz, ipc, out):
     J = np.eye(4)
     for m in range(G.shape[0]):
         J = G[m] @ J
-    out[:, :] = J
+    for a in range(4):                 # element by element (as in two_particle_steps)
+        for b in range(4):
+            out[a, b] = J[a, b]
     return dur, OK
 
 
@@ -225,7 +231,7 @@ def two_particle_lyapunov(p, zu, wz, ipc, warmup_share, out):
     for m in range(G.shape[0]):
         Qb = G[m] @ Qb
         gram_schmidt(Qb, logs)
-    logs.sort()
+    sort_nan_last(logs)
     for a in range(4):
         out[a] = logs[3 - a] / win      # largest first
     return win, OK
