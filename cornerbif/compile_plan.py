@@ -6,7 +6,7 @@ first.  Written by ``python benchmarks/compile_plan.py`` (which says how they ar
 chosen); tests/runs/test_warm.py checks them against a real first run."""
 
 PLANS = {
-    # 18 functions of models.flow.kernel.run_one: 2.42 s of 4.53 s when recorded
+    # 18 functions of models.flow.kernel.run_one: 2.01 s of 3.67 s when recorded
     'the flow kernel': (
         ('models.flow.kernel.first_impact_free',
          '(UniTuple(float64, 18), UniTuple(float64, 16), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -45,7 +45,7 @@ PLANS = {
         ('obstacles.dispatch.cycle_lag',
          '(UniTuple(float64, 18))'),
     ),
-    # 11 functions of models.flow.kernel.run_one: 2.69 s of 4.9 s when recorded
+    # 13 functions of models.flow.kernel.run_one: 2.72 s of 4.99 s when recorded
     'the flow kernel for a cam profile': (
         ('models.flow.kernel.first_impact_free',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -61,16 +61,20 @@ PLANS = {
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), float64, float64)'),
         ('models.flow.kernel.store_impact',
          "(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, int64, float64, float64, float64, float64, float64, Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
+        ('numerics.impact.restitution',
+         '(float64, float64, float64)'),
         ('models.flow.kernel.release',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, float64, float64, float64, bool)'),
         ('models.flow.kernel.first_root',
          '(int64, Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
+        ('_jit.stop_requested',
+         '(int64)'),
         ('models.flow.kernel.piece_starts',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), float64)'),
-        ('models.flow.kernel.phase_grid',
-         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
+        ('obstacles.dispatch.sinusoidal',
+         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
     ),
-    # 15 functions of models.two_particle.kernel.run_one: 2.81 s of 5.67 s when recorded
+    # 16 functions of models.two_particle.kernel.run_one: 2.89 s of 5.57 s when recorded
     'the two-particle kernel': (
         ('models.two_particle.kernel.pair_or_free',
          "(UniTuple(float64, 17), UniTuple(float64, 20), Array(float64, 2, 'C', False, aligned=True), float64, bool, float64, float64, float64, float64, float64)"),
@@ -78,16 +82,20 @@ PLANS = {
          '(float64, float64, float64, float64)'),
         ('models.two_particle.kernel.forces_at',
          "(UniTuple(float64, 17), UniTuple(float64, 20), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64)"),
+        ('numerics.impact.restitution',
+         '(float64, float64, float64)'),
         ('models.two_particle.kernel.release',
          "(int64, UniTuple(float64, 20), UniTuple(float64, 17), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, float64, float64, float64, float64)"),
         ('models.two_particle.kernel.state_at',
          "(int64, bool, UniTuple(float64, 20), UniTuple(float64, 17), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, float64, float64)"),
-        ('models.two_particle.kernel.first_root',
-         '(int64, UniTuple(float64, 7), float64, float64, float64, float64, float64, float64, float64, float64, float64)'),
+        ('models.two_particle.kernel.first_root_g',
+         "(int64, UniTuple(float64, 20), UniTuple(float64, 17), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, float64, float64, float64, float64, float64, float64, float64, float64)"),
         ('models.two_particle.kernel._close',
          "(Array(float64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), int64, int64)"),
         ('models.two_particle.kernel.section_phase',
          '(UniTuple(float64, 17), int64)'),
+        ('_jit.stop_requested',
+         '(int64)'),
         ('models.two_particle.kernel.wall',
          '(UniTuple(float64, 20), float64, float64)'),
         ('models.two_particle.kernel.stack_floor',
@@ -96,24 +104,22 @@ PLANS = {
          '(UniTuple(float64, 20), int64)'),
         ('models.two_particle.kernel.search_constants',
          '(UniTuple(float64, 20), UniTuple(float64, 17))'),
-        ('models.two_particle.kernel.oscillators',
-         '(UniTuple(float64, 20), UniTuple(float64, 17))'),
         ('models.two_particle.kernel.constants_tuple',
          "(Array(float64, 1, 'C', False, aligned=True))"),
         ('models.two_particle.packed.as_tuple',
          "(Array(float64, 1, 'C', False, aligned=True))"),
     ),
-    # 1 functions of the command: 2.94 s of 2.94 s when recorded
+    # 1 functions of the command: 2.72 s of 2.72 s when recorded
     'the flow stability kernel': (
         ('models.flow.tangent.batch_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 1 functions of the command: 6.62 s of 6.62 s when recorded
+    # 1 functions of the command: 5.16 s of 5.16 s when recorded
     'the two-particle stability kernel': (
         ('models.two_particle.tangent.batch_two_particle_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 9 functions of the command: 2.74 s of 2.74 s when recorded
+    # 9 functions of the command: 2.28 s of 2.28 s when recorded
     "the flow continuation's functions": (
         ('numerics.oscillator.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),
@@ -134,7 +140,7 @@ PLANS = {
         ('stability.multipliers_py',
          '(float64, float64, float64, float64)'),
     ),
-    # 7 functions of the command: 3.82 s of 3.82 s when recorded
+    # 7 functions of the command: 3.24 s of 3.24 s when recorded
     "the two-particle continuation's functions": (
         ('models.two_particle.kernel.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),
