@@ -56,4 +56,4 @@ V = Coord("v", (-20.0, 20.0), 1, None, "initial velocity v(0)", "v at the last s
 ANALYSIS_KERNELS = ("analysis.detect_cycles", "analysis.cycle_signatures",
                     "chunkwrite._shuffle_bytes", "numerics.fill._fill")
 # their cold compile, in seconds, measured by ``python benchmarks/compile_time.py``
-ANALYSIS_SECONDS = 2.3
+ANALYSIS_SECONDS = 1.7

@@ -109,8 +109,8 @@ def escape_impacts(speed, r, k, escape):
 # --- what a first run compiles (``engine.announce_compiles``) ------------------------------
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``)
-COMPILE_SECONDS = {"flow": 25.1, "own_kernel": 28.8, "t0": 1.4, "stability": 4.0,
-                   "continuation": 1.5}
+COMPILE_SECONDS = {"flow": 5.8, "own_kernel": 6.9, "t0": 0.9, "stability": 2.8,
+                   "continuation": 2.3}
 
 
 # what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the

@@ -43,7 +43,7 @@ I_CONTROL = 2           # int_settings: the address of the sweep's control (``_j
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``); ``cornerbif continue`` compiles
 # nothing more for this model (the maps' orbits are solved in numpy, cornerbif.theory)
-COMPILE_SECONDS = {"map2d": 1.5, "stability": 1.0}
+COMPILE_SECONDS = {"map2d": 0.8, "stability": 0.6}
 
 
 class Map2dModel(Model):
