@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
-from . import registry
+from . import engine, registry
 from .config import SceneError, from_dict
 
 RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
@@ -93,6 +95,9 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                                         | {k: float(flat[k][i]) for k in names}, scene)
                        for i in range(n)]) if n else np.zeros((0, 0))
     ics = np.stack([np.broadcast_to(a, shape).ravel() for a in x0], -1)
+    # a first call compiles the model's kernels: said on stderr, as the commands say it
+    engine.announce_compiles(scene, lambda m: print(m, file=sys.stderr, flush=True),
+                             ("simulate",))
     run = spec.run_items(np.ascontiguousarray(params), np.ascontiguousarray(ics),
                          spec.int_settings(scene), scene)
     res = {k: v.reshape(shape + v.shape[1:]) for k, v in run.fields.items()}

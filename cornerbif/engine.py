@@ -129,7 +129,8 @@ def cold_compiles(scene: Scene, what=("sweep",)) -> list:
     as (name, seconds) with the model's measured cold compile time (``Model.compiles``,
     benchmarks/compile_time.py).  ``what``: "sweep" (the sweep's kernels, with the stability
     kernels when ``[output] keep`` has "stability"), "stability" (those whatever keep says),
-    "continuation" (what ``cornerbif continue`` compiles)."""
+    "continuation" (what ``cornerbif continue`` compiles), "simulate" (what
+    ``cornerbif.simulate`` compiles: the sweep's kernels but the file's)."""
     from ._jit import cache_is_cold  # start-up: loads numba
     compiles = getattr(registry.get(scene.model), "compiles", None)
     if compiles is None:

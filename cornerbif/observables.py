@@ -55,5 +55,7 @@ V = Coord("v", (-20.0, 20.0), 1, None, "initial velocity v(0)", "v at the last s
 # models calls them
 ANALYSIS_KERNELS = ("analysis.detect_cycles", "analysis.cycle_signatures",
                     "chunkwrite._shuffle_bytes", "numerics.fill._fill")
+# the part of it that ``Model.run_items`` calls (``cornerbif.simulate``: no file)
+RUN_ANALYSIS_KERNELS = ("analysis.detect_cycles", "numerics.fill._fill")
 # their cold compile, in seconds, measured by ``python benchmarks/compile_time.py``
 ANALYSIS_SECONDS = 1.7

@@ -167,3 +167,22 @@ def test_a_kernel_compiled_beside_is_the_one_a_first_run_would_compile(tmp_path,
     r = subprocess.run([sys.executable, "-c", ALL_PLAN, f"configs/{scene}.toml", what, *sets,
                         kernel], cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model, kwargs, kernel", [
+    ("map2d", "omega=1.999, kappa=-0.01, r=0.8", "the map2d kernels"),
+    ("flow", "omega=1.999, kappa=-0.01, beta=1.0, r=0.8", "the flow kernel")])
+def test_simulate_says_its_first_compile(tmp_path, model, kwargs, kernel):
+    """``cornerbif.simulate`` from Python says a first compile on stderr, as the commands do;
+    once cached it says nothing (it announces only what it calls: no file writer)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    code = (f"import cornerbif; r = cornerbif.simulate(1.0, 0.01, model={model!r}, {kwargs}, "
+            "transient=10, record=8); print(r['status'])")
+    first = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True,
+                           text=True, timeout=900)
+    assert first.returncode == 0, first.stderr[-2000:]
+    assert f"compiling {kernel}" in first.stderr
+    again = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True,
+                           text=True, timeout=900)
+    assert again.returncode == 0 and "compiling" not in again.stderr, again.stderr[-2000:]

@@ -19,6 +19,7 @@ from ...observables import (
     ANALYSIS_SECONDS,
     IMPACT_CYCLE,
     IMPACT_FIELDS,
+    RUN_ANALYSIS_KERNELS,
     SECTION_FIELDS,
     STABILITY_FIELDS,
     U,
@@ -204,16 +205,17 @@ class FlowModel(Model):
 
     def compiles(self, scene, what):
         """What a first run of ``scene`` compiles, for ``what`` ("sweep", "stability",
-        "continuation"; ``engine.cold_compiles``): (name, seconds, jitted functions) per
+        "continuation", "simulate"; ``engine.cold_compiles``): (name, seconds, jitted functions) per
         kernel, the seconds from COMPILE_SECONDS."""
         # start-up: the kernels load numba here, at first use (validation loads none)
         from ..._jit import dispatchers
         from .kernel import fill_obstacle_heights, run_batch, run_batch_profile  # start-up: loads numba
         from .tangent import batch_stability  # start-up: loads numba
         out = []
-        if "sweep" in what or "continuation" in what:
+        files = "sweep" in what or "continuation" in what     # "simulate": no file
+        if files or "simulate" in what:
             out.append(("the cycle analysis", ANALYSIS_SECONDS,
-                        dispatchers(*ANALYSIS_KERNELS)))
+                        dispatchers(*(ANALYSIS_KERNELS if files else RUN_ANALYSIS_KERNELS))))
             if OBSTACLES[scene.extra["obstacle"]].own_kernel:
                 out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["own_kernel"],
                             [run_batch_profile, fill_obstacle_heights]))
@@ -223,7 +225,8 @@ class FlowModel(Model):
                         a.name for a in scene.axes]:
                     out.append(("the obstacle's heights at the start times",
                                 COMPILE_SECONDS["t0"], [fill_obstacle_heights]))
-        if "stability" in what or ("sweep" in what and "stability" in scene.keep):
+        if "stability" in what or (("sweep" in what or "simulate" in what)
+                                   and "stability" in scene.keep):
             out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
                         [batch_stability]))
         if "continuation" in what:

@@ -75,11 +75,14 @@ class Map2dModel(Model):
         from .maps import detect_map_cycles, iterate_batch  # start-up: loads numba
         from .tangent import batch_map_stability  # start-up: loads numba
         out = []
-        if "sweep" in what or "continuation" in what:
+        files = "sweep" in what or "continuation" in what     # "simulate": no file
+        if files or "simulate" in what:
             out.append(("the map2d kernels", COMPILE_SECONDS["map2d"],
                         [iterate_batch, detect_map_cycles]
-                        + dispatchers("analysis.cycle_signatures", "chunkwrite._shuffle_bytes")))
-        if "stability" in what or ("sweep" in what and "stability" in scene.keep):
+                        + (dispatchers("analysis.cycle_signatures", "chunkwrite._shuffle_bytes")
+                           if files else [])))
+        if "stability" in what or (("sweep" in what or "simulate" in what)
+                                   and "stability" in scene.keep):
             out.append(("the map2d stability kernel", COMPILE_SECONDS["stability"],
                         [batch_map_stability]))
         return out

@@ -20,6 +20,7 @@ from ...observables import (
     ANALYSIS_SECONDS,
     IMPACT_CYCLE,
     IMPACT_FIELDS,
+    RUN_ANALYSIS_KERNELS,
     SECTION_FIELDS,
     STABILITY_FIELDS,
     U,
@@ -141,11 +142,14 @@ class TwoParticleModel(Model):
         from . import kernel as K  # start-up: loads numba
         from .tangent import batch_two_particle_stability  # start-up: loads numba
         out = []
-        if "sweep" in what or "continuation" in what:
-            out.append(("the cycle analysis", ANALYSIS_SECONDS, dispatchers(*ANALYSIS_KERNELS)))
+        files = "sweep" in what or "continuation" in what     # "simulate": no file
+        if files or "simulate" in what:
+            out.append(("the cycle analysis", ANALYSIS_SECONDS,
+                        dispatchers(*(ANALYSIS_KERNELS if files else RUN_ANALYSIS_KERNELS))))
             out.append(("the two-particle kernel", COMPILE_SECONDS["two_particle"],
                         [K.run_batch]))
-        if "stability" in what or ("sweep" in what and "stability" in scene.keep):
+        if "stability" in what or (("sweep" in what or "simulate" in what)
+                                   and "stability" in scene.keep):
             out.append(("the two-particle stability kernel", COMPILE_SECONDS["stability"],
                         [batch_two_particle_stability]))
         if "continuation" in what:
