@@ -104,9 +104,13 @@ def record(cmd, before):
         return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+def short(name):
+    """A function's name under the package, as ``_jit.dispatchers`` takes it."""
+    return name.removeprefix("cornerbif.")
+
+
 def plan_all(rows):
     """Every function the command compiled at the top (each with its callees)."""
-    short = lambda n: n.removeprefix("cornerbif.")     # noqa: E731
     top = [r for r in rows if r["parent"] < 0 and r["name"].startswith("cornerbif.")]
     return {"under": "the command", "seconds": round(sum(r["seconds"] for r in top), 2),
             "of": round(sum(r["seconds"] for r in rows if r["parent"] < 0), 2),
@@ -135,7 +139,6 @@ def plan(rows):
             continue
         chosen.append(k)
         acc += rows[k]["seconds"]
-    short = lambda n: n.removeprefix("cornerbif.")     # noqa: E731
     return {"under": short(rows[heavy]["name"]), "seconds": round(acc, 2),
             "of": round(total, 2),
             "functions": [(short(rows[k]["name"]), rows[k]["args"]) for k in chosen]}

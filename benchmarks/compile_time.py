@@ -48,20 +48,9 @@ def cont(scene, *sets):
 
 
 STAB = 'output.keep=["impacts", "stability"]'
-# the cycle analysis and the file's chunk writer alone (every sweep calls them)
-ANALYSIS = ["python", """
-import numpy as np
-from cornerbif.analysis import cycle_signatures, detect_cycles
-from cornerbif.chunkwrite import _shuffle_bytes
-from cornerbif.numerics.fill import full
-n, rec = 2, 8
-t = full((n, rec), 1.0)
-p, ipc, sym = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros((n, rec), np.uint8)
-detect_cycles(t, t, t, np.zeros((n, rec), np.int64), np.ones(n, np.bool_), 1e-6, p, ipc, sym)
-cycle_signatures(t, t, t, ipc, np.empty((n, 6)), np.empty((n, 2)))
-raw = t.reshape(-1).view(np.uint8)
-_shuffle_bytes(raw, 8, np.empty(raw.size, np.uint8))
-"""]
+# the cycle analysis and the file's chunk writer alone (every sweep calls them), with the
+# argument types a sweep passes (``engine.compile_analysis``, the second process's work)
+ANALYSIS = ["python", "from cornerbif.engine import compile_analysis; compile_analysis()"]
 # (label, command, warm prerequisite or None)
 ENTRIES = [
     ("cycle analysis", ANALYSIS, None),

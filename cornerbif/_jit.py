@@ -107,7 +107,7 @@ class ItemKernel:
 
     def __init__(self, fn, count=None):
         self._direct = numba.njit(cache=True, **OPTIONS)(fn)
-        self.count = count or (lambda *args, **kws: args[0].shape[0])
+        self.count = count or first_rows
         self.__name__ = fn.__name__
         self.__qualname__ = fn.__qualname__
         self.__module__ = fn.__module__
@@ -153,14 +153,18 @@ def _pool() -> ThreadPoolExecutor:
         return pool
 
 
+def first_rows(*args, **kws) -> int:
+    """The items of an ``ItemKernel`` call by default: its first argument's rows."""
+    return args[0].shape[0]
+
+
 def items_kernel(fn=None, *, count=None):
     """Decorator of an ``ItemKernel`` (``fn(k0, k1, *args)``; ``count``: see there)."""
     if fn is None:
         return lambda f: items_kernel(f, count=count)
     if numba.config.DISABLE_JIT:
         def plain(*args, **kws):
-            c = count or (lambda *a, **k: a[0].shape[0])
-            return fn(0, int(c(*args, **kws)), *args, **kws)
+            return fn(0, int((count or first_rows)(*args, **kws)), *args, **kws)
         plain.__wrapped__ = fn
         return plain
     return ItemKernel(fn, count)
