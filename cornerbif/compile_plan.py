@@ -6,7 +6,7 @@ first.  Written by ``python benchmarks/compile_plan.py`` (which says how they ar
 chosen); tests/runs/test_warm.py checks them against a real first run."""
 
 PLANS = {
-    # 18 functions of models.flow.kernel.run_one: 2.01 s of 3.67 s when recorded
+    # 18 functions of models.flow.kernel.run_one: 1.69 s of 3.09 s when recorded
     'the flow kernel': (
         ('models.flow.kernel.first_impact_free',
          '(UniTuple(float64, 18), UniTuple(float64, 16), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -45,7 +45,7 @@ PLANS = {
         ('obstacles.dispatch.cycle_lag',
          '(UniTuple(float64, 18))'),
     ),
-    # 13 functions of models.flow.kernel.run_one: 2.72 s of 4.99 s when recorded
+    # 15 functions of models.flow.kernel.run_one: 2.18 s of 4.0 s when recorded
     'the flow kernel for a cam profile': (
         ('models.flow.kernel.first_impact_free',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -73,8 +73,12 @@ PLANS = {
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), float64)'),
         ('obstacles.dispatch.sinusoidal',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
+        ('obstacles.dispatch.zpppp_max',
+         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
+        ('numerics.oscillator.particular',
+         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), float64)'),
     ),
-    # 16 functions of models.two_particle.kernel.run_one: 2.89 s of 5.57 s when recorded
+    # 16 functions of models.two_particle.kernel.run_one: 2.51 s of 4.73 s when recorded
     'the two-particle kernel': (
         ('models.two_particle.kernel.pair_or_free',
          "(UniTuple(float64, 17), UniTuple(float64, 20), Array(float64, 2, 'C', False, aligned=True), float64, bool, float64, float64, float64, float64, float64)"),
@@ -109,17 +113,17 @@ PLANS = {
         ('models.two_particle.packed.as_tuple',
          "(Array(float64, 1, 'C', False, aligned=True))"),
     ),
-    # 1 functions of the command: 2.72 s of 2.72 s when recorded
+    # 1 functions of the command: 2.4 s of 2.4 s when recorded
     'the flow stability kernel': (
         ('models.flow.tangent.batch_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 1 functions of the command: 5.16 s of 5.16 s when recorded
+    # 1 functions of the command: 4.49 s of 4.49 s when recorded
     'the two-particle stability kernel': (
         ('models.two_particle.tangent.batch_two_particle_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 9 functions of the command: 2.28 s of 2.28 s when recorded
+    # 9 functions of the command: 1.78 s of 1.78 s when recorded
     "the flow continuation's functions": (
         ('numerics.oscillator.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),
@@ -140,7 +144,7 @@ PLANS = {
         ('stability.multipliers_py',
          '(float64, float64, float64, float64)'),
     ),
-    # 7 functions of the command: 3.24 s of 3.24 s when recorded
+    # 7 functions of the command: 2.71 s of 2.71 s when recorded
     "the two-particle continuation's functions": (
         ('models.two_particle.kernel.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),

@@ -193,6 +193,11 @@ class Obstacle:
         g(0) = 0."""
         return kappa, "kappa"
 
+    def start_heights(self, rows: np.ndarray) -> np.ndarray | None:
+        """z(0) per packed row of this kind, computed without a kernel, where g(0) may differ
+        from 0 (a cam); None: z(0) = kappa."""
+        return None
+
     def marks(self, ax, axes: tuple, values: dict, system: dict) -> list:
         """What a diagram of this kind's scene marks on its swept axis beyond the normal form's
         corner points (matplotlib artists on ``ax``; ``axes`` the file's swept names,

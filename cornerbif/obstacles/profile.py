@@ -579,6 +579,27 @@ def pack_profile(p, profile):
         start += pc.span
 
 
+def heights_at_zero(rows):
+    """z(0) = kappa + beta g(0) per packed profile row (``pack_profile``), in numpy: the
+    kernels' ``dispatch._profile_state`` on piece 0 at tau = 0, operation for operation, so
+    equal to their ``z_state`` bit for bit (tests/obstacles/test_profiles.py).  A sweep's
+    first call then needs no jitted heights kernel before its kernel (benchmarks/README.md,
+    "First compiles")."""
+    rows = np.asarray(rows, dtype=float)
+    c = rows[:, P.PROFILE0 + P.PC_C0:P.PROFILE0 + P.PC_C0 + 8]
+    deg = rows[:, P.PROFILE0 + P.PC_DEG].astype(np.int64)
+    x = rows[:, P.OMEGA] * 0.0                      # x = omega tau at tau = 0
+    n_rows = np.arange(rows.shape[0])
+    g = c[n_rows, deg]
+    for i in range(6, -1, -1):                      # Horner from each piece's degree down
+        g = np.where(i < deg, g * x + c[:, i], g)
+    a = rows[:, P.PROFILE0 + P.PC_A]
+    b = rows[:, P.PROFILE0 + P.PC_B]
+    nx = rows[:, P.PROFILE0 + P.PC_N] * x
+    g = np.where((a != 0.0) | (b != 0.0), g + (a * np.sin(nx) + b * np.cos(nx)), g)
+    return rows[:, P.KAPPA] + rows[:, P.BETA] * g
+
+
 # --- a profile's bounds, read from its packed row as obstacles/dispatch.py's jitted functions
 # read them, in Python: ``scale_problem`` checks a scene with these, loading no numba
 # (tests/scenes/test_validate_imports.py checks that both give the same numbers)
@@ -680,6 +701,9 @@ class CamProfile(Obstacle):
         g0 = float(prof.lift(0.0))
         return (kappa + max(b * g0 for b in ctx.values_list("beta")),
                 f"kappa + beta g(0), g(0) = {g0!r},")
+
+    def start_heights(self, rows):
+        return heights_at_zero(rows)
 
     def has_corners(self, table=None):
         return table.has_corners

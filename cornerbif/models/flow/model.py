@@ -29,6 +29,8 @@ from . import params as P
 from .normal_form import SIDE
 from .params import OBSTACLES
 
+KIND_OF_CODE = {float(o.code): o for o in OBSTACLES.values()}   # a packed row's OBSTACLE slot
+
 # run.stop = "period": the kernel stops once the state at the corners repeats to this share of
 # run.period_tol (relative), tighter than the analysis so that the orbit has converged well
 # beyond what the period test reads (see models.flow.kernel.cycle_watch)
@@ -157,12 +159,10 @@ class FlowModel(Model):
         return resonance_problem(lambda n: {values.get(n)}, lambda n: f"system.{n}")
 
     def wall_at_start(self, params):
-        if P.wide_rows(params):     # a kind with its own kernel (a cam): z(0) = kappa + beta g(0)
-            # start-up: the kernels load numba here, at first use (validation loads none)
-            from .kernel import obstacle_heights
-            return obstacle_heights(np.ascontiguousarray(params),
-                                    np.zeros((params.shape[0], 1)))[:, 0]
-        return params[:, P.KAPPA]
+        # z(0) = kappa + beta g(0): kappa but where the kind says (a cam's g(0), in numpy, bit
+        # for bit the kernels' z_state), so that no heights kernel compiles before the kernel
+        z0 = KIND_OF_CODE[params[0, P.OBSTACLE]].start_heights(params) if len(params) else None
+        return params[:, P.KAPPA] if z0 is None else z0
 
     def wall_at(self, params, t0):
         # start-up: the kernels load numba here, at first use (validation loads none)
@@ -218,13 +218,13 @@ class FlowModel(Model):
                         dispatchers(*(ANALYSIS_KERNELS if files else RUN_ANALYSIS_KERNELS))))
             if OBSTACLES[scene.extra["obstacle"]].own_kernel:
                 out.append(("the flow kernel for a cam profile", COMPILE_SECONDS["own_kernel"],
-                            [run_batch_profile, fill_obstacle_heights]))
+                            [run_batch_profile]))
             else:
                 out.append(("the flow kernel", COMPILE_SECONDS["flow"], [run_batch]))
-                if scene.initial.get("t", (0.0, 0.0))[1] > 0.0 or "initial.t" in [
-                        a.name for a in scene.axes]:
-                    out.append(("the obstacle's heights at the start times",
-                                COMPILE_SECONDS["t0"], [fill_obstacle_heights]))
+            if scene.initial.get("t", (0.0, 0.0))[1] > 0.0 or "initial.t" in [
+                    a.name for a in scene.axes]:
+                out.append(("the obstacle's heights at the start times",
+                            COMPILE_SECONDS["t0"], [fill_obstacle_heights]))
         if "stability" in what or (("sweep" in what or "simulate" in what)
                                    and "stability" in scene.keep):
             out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
