@@ -28,12 +28,19 @@ from dataclasses import dataclass
 import numpy as np
 
 NEWTON_TOL = 1e-12     # |residual| (scaled) at which Newton stops
+NEWTON_STEP_TOL = 1e-14   # |update| (scaled) at rounding: Newton stops (with the residual)
+MAX_TURN = 0.4         # rad: a step whose tangent turns more is retried at half the length
+MAX_JUMP = 0.5         # a corrector landing further from its predictor (x the step) likewise
 NEWTON_MAX = 30
 GAP_SAMPLES = 48       # samples per flight in the grazing monitor
 
 
 class OrbitError(RuntimeError):
     """Newton did not converge to an orbit of the itinerary."""
+
+
+class StepRejected(OrbitError):
+    """A corrected step that the continuation must not take (``_advance``): retried shorter."""
 
 
 def central_d_param(residual, X, lam):
@@ -63,20 +70,32 @@ def cached(cache, key, build, limit=64):
     return cache[key]
 
 
+def converged(residual, step, prev, scale):
+    """Newton's stop, on the residual and the update together: the residual is below
+    NEWTON_TOL and the update is at rounding (NEWTON_STEP_TOL) or no longer shrinks (it is
+    rounding noise, amplified by the condition number).  A small residual alone is not
+    enough where the Jacobian is ill-conditioned: near the saddle's degenerate end of
+    docs/continuation.md one more update still moved v+ by 6e-10."""
+    return residual <= NEWTON_TOL * scale and (step <= NEWTON_STEP_TOL * scale
+                                               or step >= 0.5 * prev)
+
+
 def newton(problem, X, lam):
-    """Newton on R(X, lam) = 0 at fixed lam; OrbitError if it does not converge."""
+    """Newton on R(X, lam) = 0 at fixed lam, stopped by ``converged``; OrbitError if it
+    does not converge."""
     X = np.array(X, float)
+    prev = math.inf
     for _ in range(NEWTON_MAX):
         R = problem.residual(X, lam)
         if not np.all(np.isfinite(R)):
             raise OrbitError("the residual is not finite")
         scale = 1.0 + np.abs(X).max()
-        if np.abs(R).max() <= NEWTON_TOL * scale:
-            return X
         dX = np.linalg.solve(problem.jacobian(X, lam), -R)
+        step = np.abs(dX).max()
+        if converged(np.abs(R).max(), step, prev, scale):
+            return X + dX if step <= NEWTON_STEP_TOL * scale else X
         X = X + dX
-        if np.abs(dX).max() <= 1e-15 * scale:
-            return X
+        prev = step
     R = problem.residual(X, lam)
     if np.abs(R).max() <= 1e-9 * (1.0 + np.abs(X).max()):
         return X
@@ -94,6 +113,20 @@ class Point:
     problem: object = None     # the itinerary X refers to (pieces change on a smooth obstacle)
     admissible: bool = True    # the admissibility check's outcome (``admissible``)
     margin: float = math.nan   # its smallest margin (``_margins``; >= -ADMISSIBLE_TOL: passes)
+
+    @property
+    def condition(self) -> float:
+        """The condition number of dR/dX at the point (its largest singular value over its
+        smallest): it grows without bound at a fold and near a degenerate end, where the
+        point's last digits are uncertain in proportion (Newton at fixed parameter)."""
+        prob, X = self.problem, self.X
+        if prob is None:
+            return math.nan
+        try:
+            sv = np.linalg.svd(prob.jacobian(X, self.lam), compute_uv=False)
+        except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError):
+            return math.nan
+        return float(sv[0] / sv[-1]) if sv[-1] > 0.0 else math.inf
 
 
 @dataclass
@@ -155,11 +188,24 @@ def _tangent(problem, X, lam, prev=None, W=None):
     return T / math.sqrt(_wdot(W, T, T))
 
 
+def _turn(T, Tn, W):
+    """The angle (rad) between two tangents of unit weighted length."""
+    return math.acos(max(-1.0, min(1.0, _wdot(W, T, Tn))))
+
+
+def _fold_test(problem, Y, T, W, n):
+    """The parameter component of the branch's tangent at Y, oriented along T: it changes
+    sign where the branch turns back in the parameter (a fold), however many times det(J - I)
+    changes sign within the same step (a fold next to a pole of the multipliers)."""
+    return _tangent(problem, Y[:n], Y[n], T, W)[n]
+
+
 def _correct(problem, Y0, T, s, base, W):
     """Newton on (R(Y) = 0, <T, Y - base>_W = s) from the predictor Y0."""
     Y = Y0.copy()
     n = len(Y) - 1
     row = W * W * T
+    prev = math.inf
     for _ in range(NEWTON_MAX):
         X, lam = Y[:n], Y[n]
         R = problem.residual(X, lam)
@@ -167,14 +213,15 @@ def _correct(problem, Y0, T, s, base, W):
         F = np.append(R, h)
         if not np.all(np.isfinite(F)):
             raise OrbitError("not finite")
-        if np.abs(F).max() <= NEWTON_TOL * (1.0 + np.abs(Y).max()):
-            return Y
+        scale = 1.0 + np.abs(Y).max()
         A = np.vstack([np.hstack([problem.jacobian(X, lam),
                                   problem.d_param(X, lam)[:, None]]), row])
         dY = np.linalg.solve(A, -F)
+        step = np.abs(dY).max()
+        if converged(np.abs(F).max(), step, prev, scale):
+            return Y + dY if step <= NEWTON_STEP_TOL * scale else Y
         Y = Y + dY
-        if np.abs(dY).max() <= 1e-15 * (1.0 + np.abs(Y).max()):
-            return Y
+        prev = step
     raise OrbitError("the corrector did not converge")
 
 
@@ -254,7 +301,6 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     if (lam0 <= lo and T[n] < 0) or (lam0 >= hi and T[n] > 0):
         found.append(Event("end", lam0, Y[:n].copy(), "the end of the range", problem))
         return points, found
-    failure = ""
     for step in range(max_steps + 1):
         if step == max_steps:
             found.append(Event("end", Y[n], Y[:n].copy(),
@@ -263,21 +309,25 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
         try:
             Yn = _correct(problem, Y + h * T, T, h, Y, W)
             jump = Yn - (Y + h * T)
-            if math.sqrt(_wdot(W, jump, jump)) > h:
-                raise OrbitError("the corrector jumped away from the predictor")
+            if math.sqrt(_wdot(W, jump, jump)) > MAX_JUMP * h:
+                raise OrbitError("the corrector landed away from the predictor")
+            Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
+            if _turn(T, Tn, W) > MAX_TURN:
+                raise OrbitError(f"the tangent turned by {_turn(T, Tn, W):.3g} rad in one step")
         except (OrbitError, np.linalg.LinAlgError) as e:
-            failure = str(e) or type(e).__name__
-            h *= 0.5
-            if h < h_min:
-                found.append(Event("end", Y[n], Y[:n].copy(),
-                                   f"the step fell below ds_min ({ds_min:.3g}; the last "
-                                   f"attempt: {failure})", problem))
+            h = _shorter(h, h_min, ds_min, str(e) or type(e).__name__, problem, Y, n, found)
+            if h is None:
                 break
             continue
         before, kept = len(found), len(points)
         try:
-            problem, Y, T, mon, h, stop = _advance(problem, Y, Yn, T, mon, h, h_max, lo, hi,
-                                                   events, found, points, n, W)
+            problem, Y, T, mon, h, stop = _advance(problem, Y, Yn, T, Tn, mon, h, h_max, lo,
+                                                   hi, events, found, points, n, W)
+        except StepRejected as e:
+            h = _shorter(h, h_min, ds_min, str(e), problem, Y, n, found)
+            if h is None:
+                break
+            continue
         except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError) as e:
             # a step that cannot be completed (the monitors, an event's location or the next
             # tangent failed): the branch ends at its last complete point, saying so
@@ -295,11 +345,22 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     return points, found
 
 
-def _advance(problem, Y, Yn, T, mon, h, h_max, lo, hi, events, found, points, n, W):
-    """One accepted step of ``continue_branch`` from Y to the corrected Yn: the range's end,
-    the events between, the admissibility of Yn, the next tangent and step.  Returns
-    (problem, Y, T, monitors, h, stop): the problem is another where an impact changed
-    piece on a smooth obstacle (``reindex``)."""
+def _shorter(h, h_min, ds_min, failure, problem, Y, n, found):
+    """The step halved after a failed or rejected attempt (``failure`` says why), or None,
+    with the branch's end appended to ``found``, where it falls below ds_min."""
+    h *= 0.5
+    if h >= h_min:
+        return h
+    found.append(Event("end", Y[n], Y[:n].copy(), f"the step fell below ds_min ({ds_min:.3g}; "
+                       f"the last attempt: {failure})", problem))
+    return None
+
+
+def _advance(problem, Y, Yn, T, Tn, mon, h, h_max, lo, hi, events, found, points, n, W):
+    """One accepted step of ``continue_branch`` from Y to the corrected Yn (``Tn`` the tangent
+    there, oriented along T): the range's end, the events between, the admissibility of Yn,
+    the next tangent and step.  Returns (problem, Y, T, monitors, h, stop): the problem is
+    another where an impact changed piece on a smooth obstacle (``reindex``)."""
     out = Yn[n] > hi or Yn[n] < lo
     if out:
         edge = hi if Yn[n] > hi else lo
@@ -307,9 +368,13 @@ def _advance(problem, Y, Yn, T, mon, h, h_max, lo, hi, events, found, points, n,
         def sfun(Yv, edge=edge):
             return Yv[n] - edge
         Yn = _locate(problem, Y, T, 0.0, h, sfun(Y), sfun(Yn), sfun, W)
+        if abs(Yn[n] - edge) > 1e-9 * max(1.0, abs(edge)):
+            raise StepRejected(f"the range's end {edge!r} was not located within the step")
+        # a branch never leaves its range: it ends exactly at the range's end, solved there
+        Yn[:n], Yn[n] = newton(problem, Yn[:n], edge), edge
     mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
     before = len(found)
-    ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W)
+    ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W, Tn)
     if ended:
         e = found[-1]
         m_e, mu_e = _monitors(problem, e.X, e.lam)
@@ -339,10 +404,13 @@ def _advance(problem, Y, Yn, T, mon, h, h_max, lo, hi, events, found, points, n,
     if out:
         found.append(Event("end", Yn[n], Yn[:n].copy(), "the end of the range", problem))
         return problem, Yn, T, mon_n, h, True
-    problem, Yn[:n] = problem.reindex(Yn[:n], Yn[n])
-    Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
+    again, Xr = problem.reindex(Yn[:n], Yn[n])
+    if again is not problem or not np.array_equal(Xr, Yn[:n]):
+        # an impact changed piece: the tangent of the problem it now belongs to
+        problem, Yn[:n] = again, Xr
+        Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
     # adapt: grow where the tangent turns little
-    turn = math.acos(max(-1.0, min(1.0, _wdot(W, T, Tn))))
+    turn = _turn(T, Tn, W)
     h = min(h_max, h * (1.5 if turn < 0.05 else 1.0 if turn < 0.2 else 0.5))
     return problem, Yn, Tn, mon_n, h, False
 
@@ -522,17 +590,27 @@ ENDING_WORDS = {"corner": "a corner collision: impact {q} reaches its corner",
                                  "obstacle's velocity"}
 
 
-def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W):
+def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W, Tb=None):
     """Locate every sign change of a watched test function between two points; append
     the events in arclength order.  Returns True when one of them ends the branch (its
     located point becomes the branch's last).  The ending kinds (``ENDING``) are watched
     whether ``kinds`` lists them or not: past them the solution is no orbit of the flow.
     One that ``kinds`` leaves out ends the branch as an event of kind "end" saying what it
-    was (it is then neither reported as its kind nor switched across)."""
+    was (it is then neither reported as its kind nor switched across).  A fold is the sign
+    change of the tangent's parameter component (T at Ya, ``Tb`` at Yb; ``_fold_test``),
+    else of det(J - I) (a branch point, where the branch does not turn)."""
     hits = []
     s_b = _wdot(W, T, Yb - Ya)
     watched = tuple(kinds)
+    turned = Tb is not None and "fold" in watched and (T[n] > 0) != (Tb[n] > 0)
+    if turned:
+        def turn_fun(Y):
+            return _fold_test(problem, Y, T, W, n)
+        Y = _locate(problem, Ya, T, 0.0, s_b, T[n], Tb[n], turn_fun, W)
+        hits.append((_wdot(W, T, Y - Ya), "fold", 0, Y))
     for kind in watched + tuple(k for k in ENDING if k not in watched):
+        if kind == "fold" and turned:
+            continue
         a, b = ma[kind], mb[kind]
         for q in range(len(a)):
             if (abs(a[q]) > 1e-12 and (a[q] > 0) != (b[q] > 0) and np.isfinite(a[q])

@@ -461,6 +461,8 @@ def _branch_record(br, scene) -> dict:
         data["stable"] = (np.abs(mu).max(axis=1) < 1.0).astype(np.uint8)
     data["admissible"] = np.array([pt.admissible for pt in pts], np.uint8)
     data["admissibility_margin"] = np.array([pt.margin for pt in pts], float)
+    with np.errstate(all="ignore"):
+        data["condition_number"] = np.array([pt.condition for pt in pts], float)
     attrs = dict(word=br.word, origin=br.origin, points_per_cycle=pts[0].problem.n,
                  itinerary=pts[0].problem.itinerary(),
                  stops=[stop_reason(e, c["parameter"], c["switch"]) for e in br.ends()])
@@ -468,10 +470,25 @@ def _branch_record(br, scene) -> dict:
     for e in br.events:
         got = e.problem.store(e.X, e.lam, section)
         # each event's state, as the branch stores it (the smallest over the cycle's
-        # impacts where there are several)
+        # impacts where there are several), and the orbit located there, whole
         events.append((e.kind, float(e.lam), e.detail,
-                       {k: float(np.min(v)) for k, v in got.items()}))
+                       {k: float(np.min(v)) for k, v in got.items()}, event_orbit(e, got)))
     return {"data": data, "attrs": attrs, "events": events}
+
+
+def event_orbit(e, got) -> dict:
+    """The orbit located at an event, as the file keeps it (``events/orbits/NNNN``): its
+    unknowns X, its word, its Floquet multipliers and ``store``'s arrays (every impact, the
+    section state, the cycle's duration)."""
+    with np.errstate(all="ignore"):     # a degenerate end (a zero-velocity impact): inf, NaN
+        try:
+            mu = np.asarray(e.problem.floquet(e.X, e.lam)[0], complex)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            mu = np.full(2, complex(math.nan, math.nan))
+    out = {k: np.atleast_1d(np.asarray(v, float)) for k, v in got.items()}
+    out.update(X=np.asarray(e.X, float).copy(), multiplier_re=mu.real.copy(),
+               multiplier_im=mu.imag.copy(), word=e.problem.word(e.X, e.lam))
+    return out
 
 
 def _curve_record(curve, scene) -> dict:
@@ -511,6 +528,13 @@ def _image(scene, head, branches, curves, state=None) -> bytes:
         ev["detail"] = np.array([r[3] for r in rows], dtype=h5py.string_dtype())
         for key in sorted({k for r in rows for k in r[4]}):
             ev[key] = np.array([r[4].get(key, math.nan) for r in rows], float)
+        for i, r in enumerate(rows):
+            g = ev.create_group(f"orbits/{i:04d}")
+            for key, v in r[5].items():
+                if key == "word":
+                    g.attrs["word"] = v
+                else:
+                    g[key] = v
         for k, rec in enumerate(curves):
             g = f.create_group(f"curves/{k:03d}")
             g["param"] = rec["param"]
@@ -536,13 +560,16 @@ def _load(path):
         attrs = {k: _plain(v) for k, v in f.attrs.items()}
         names = sorted(f["branches"]) if "branches" in f else []
         ev = f["events"]
-        extra = [k for k in ev if k not in ("branch", "kind", "param", "detail")]
-        cols = {k: ev[k][...] for k in ev}
+        extra = [k for k in ev if k not in ("branch", "kind", "param", "detail", "orbits")]
+        cols = {k: ev[k][...] for k in ev if k != "orbits"}
         events = [[] for _ in names]
         for i in range(cols["param"].shape[0]):
+            g = ev.get(f"orbits/{i:04d}")
+            orbit = ({k: g[k][...] for k in g} | {"word": _plain(g.attrs["word"])}
+                     if g is not None else {})
             events[int(cols["branch"][i])].append(
                 (_plain(cols["kind"][i]), float(cols["param"][i]), _plain(cols["detail"][i]),
-                 {k: float(cols[k][i]) for k in extra}))
+                 {k: float(cols[k][i]) for k in extra}, orbit))
         branches = []
         for name, evs in zip(names, events):
             g = f["branches"][name]
@@ -605,9 +632,9 @@ def read(path):
            "attrs": attrs, "branches": [], "events": [], "curves": []}
     for b, rec in enumerate(branches):
         out["branches"].append(dict(rec["data"]) | rec["attrs"])
-        for kind, lam, detail, extra in rec["events"]:
+        for kind, lam, detail, extra, orbit in rec["events"]:
             out["events"].append({"branch": b, "kind": kind, "param": lam, "detail": detail}
-                                 | extra)
+                                 | extra | {"orbit": orbit})
     for rec in curves:
         out["curves"].append({"param": rec["param"], "event_param": rec["event_param"]}
                              | rec["attrs"])

@@ -660,21 +660,27 @@ def test_every_branch_end_says_why_it_stopped(tmp_path, monkeypatch):
     prob, X = _beta_problem()
     _, evs = C.continue_branch(prob, X, -0.02, (-0.02, 0.002), 1.0, ds=1e-4, max_steps=3)
     assert "the step budget (3 steps) ran out" in CR.stop_reason(evs[-1], "kappa")
-    real = C._tangent
-    calls = [0]
+    def failing_once(name, nth):
+        real, calls = getattr(C, name), [0]
 
-    def failing(*a, **k):
-        calls[0] += 1
-        if calls[0] == 5:
-            raise np.linalg.LinAlgError("SVD did not converge")
-        return real(*a, **k)
-    monkeypatch.setattr(C, "_tangent", failing)
+        def failing(*a, **k):
+            calls[0] += 1
+            if calls[0] == nth:
+                raise np.linalg.LinAlgError("SVD did not converge")
+            return real(*a, **k)
+        monkeypatch.setattr(C, name, failing)
+
+    failing_once("_monitors", 6)
     pts, evs = C.continue_branch(prob, X, -0.02, (-0.02, 0.002), 1.0, ds=1e-4)
-    # the 5th tangent is the one after the 5th point (the first is the start's): that
-    # point is complete and kept, and the branch ends there
+    # the 6th monitors are those of the 6th point (the first is the start's): the 5th point
+    # is complete and kept, and the branch ends there
     assert len(pts) == 5 and evs[-1].lam == pts[-1].lam
     assert "the continuation failed after this point (SVD did not converge)" in evs[-1].detail
-    monkeypatch.setattr(C, "_tangent", real)
+    monkeypatch.undo()
+    failing_once("_tangent", 5)         # a tangent that fails once: the step is retried
+    pts_t, evs_t = C.continue_branch(prob, X, -0.02, (-0.02, 0.002), 1.0, ds=1e-4)
+    assert evs_t[-1].kind == "corner" and len(pts_t) > 5
+    monkeypatch.undo()
 
     def no_corrector(*a, **k):
         raise C.OrbitError("the corrector did not converge")
