@@ -16,10 +16,9 @@ from ...continuation import (
     admissible,
     cached,
     central_d_param,
-    central_jacobian,
     newton,
 )
-from ...numerics.oscillator import particular
+from ...numerics.oscillator import acceleration, particular
 from ...numerics.saltation import flight_matrix
 from ...stability import OK, sorted_eigenvalues
 from . import kernel as TK
@@ -37,8 +36,8 @@ class TwoParticleOrbit:
     (``numerics.saltation.flight_matrix`` and the oscillator rows of ``models.two_particle.kernel``).
     Per event five equations: its gap vanishes at t_k for the state the flight brings,
     and the state after it is the impact law of that state.  The cycle closes after m wall
-    periods.  The Jacobian is by central differences (the chain is short: 5 unknowns per
-    event).  A corner collision is two consecutive events meeting in time (a w-z and a
+    periods.  The Jacobian is in closed form (``jacobian``: flight matrices, the free
+    flights' field and the impact laws' derivatives).  A corner collision is two consecutive events meeting in time (a w-z and a
     z-u impact: this system's corner); across it the two swap.
     """
 
@@ -115,8 +114,62 @@ class TwoParticleOrbit:
             R[5 * k + 1:5 * k + 5] = X[5 * k + 1:5 * k + 5] - xp
         return R
 
+    def _field(self, lam, t, x):
+        """The vector field of both free flights at (t, x): (y, z'', v, u'') (eq 4 for each
+        particle's oscillator row)."""
+        p, Q, _ = self.packed(lam)
+        return np.array([x[1], acceleration(Q[TK.RZ], t, x[0], x[1]),
+                         x[3], acceleration(Q[TK.RU], t, x[2], x[3])])
+
+    def _flight_matrix(self, lam, dt):
+        """d x(t1) / d x(t0) of both free flights over dt (block diagonal)."""
+        p, _, _ = self.packed(lam)
+        Phi = np.zeros((4, 4))
+        for off, s, k in ((0, p[TPM.SIGMA1], p[TPM.OMEGA1]), (2, p[TPM.SIGMA2], p[TPM.OMEGA2])):
+            Phi[off:off + 2, off:off + 2] = np.array(flight_matrix(s, k, dt)).reshape(2, 2)
+        return Phi
+
+    def _law_derivatives(self, lam, kind, t):
+        """(dgap/dx-, dgap/dt, dx+/dx-, dx+/dt) of an event of ``kind`` at t (``_law``): the
+        w-z impact's law (5) on the wall w(t) of eq (72), or law (74), linear in (y, v)."""
+        p, _, _ = self.packed(lam)
+        Lx = np.eye(4)
+        Lt = np.zeros(4)
+        if kind == "W":
+            _, wp, wpp, _ = TK.wall(p, t, 0.0)
+            Lx[1, 1] = -p[TPM.R1]
+            Lt[1] = (1.0 + p[TPM.R1]) * wpp
+            return np.array([1.0, 0.0, 0.0, 0.0]), -wp, Lx, Lt
+        for c, (y, v) in ((1, (1.0, 0.0)), (3, (0.0, 1.0))):
+            Lx[1, c], Lx[3, c] = TPM.mass_ratio_impact(y, v, p[TPM.MU], p[TPM.R2])
+        return np.array([-1.0, 0.0, 1.0, 0.0]), 0.0, Lx, Lt
+
     def jacobian(self, X, lam):
-        return central_jacobian(self.residual, X, lam)
+        """dR/dX in closed form (``residual``): event k's arrival x- = Phi (x_j - x_p(t_j)) +
+        x_p(t_k) from event j = k - 1 gives dx-/dx_j = Phi, dx-/dt_j = -Phi F(t_j, x_j) and
+        dx-/dt_k = F(t_k, x-) (F the free flights' field, Phi their flight matrices); the gap
+        and the impact law are differentiated at (t_k, x-) (``_law_derivatives``)."""
+        N = self.n
+        Jm = np.zeros((5 * N, 5 * N))
+        for k in range(N):
+            j = (k - 1) % N
+            tk, xm = self._arrival(X, lam, k)
+            tj, xj = X[5 * j], X[5 * j + 1:5 * j + 5]
+            Phi = self._flight_matrix(lam, tk - tj)
+            d_tj = -Phi @ self._field(lam, tj, xj)
+            d_tk = self._field(lam, tk, xm)
+            gx, gt, Lx, Lt = self._law_derivatives(lam, self.kinds[k], tk)
+            rows = slice(5 * k + 1, 5 * k + 5)
+            # the gap row
+            Jm[5 * k, 5 * j + 1:5 * j + 5] += gx @ Phi
+            Jm[5 * k, 5 * j] += gx @ d_tj
+            Jm[5 * k, 5 * k] += gx @ d_tk + gt
+            # the law rows: x_k - L(t_k, x-)
+            Jm[rows, 5 * j + 1:5 * j + 5] -= Lx @ Phi
+            Jm[rows, 5 * j] -= Lx @ d_tj
+            Jm[rows, 5 * k] -= Lx @ d_tk + Lt
+            Jm[rows, 5 * k + 1:5 * k + 5] += np.eye(4)
+        return Jm
 
     def d_param(self, X, lam):
         return central_d_param(self.residual, X, lam)
