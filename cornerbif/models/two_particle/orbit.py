@@ -37,8 +37,9 @@ class TwoParticleOrbit:
     Per event five equations: its gap vanishes at t_k for the state the flight brings,
     and the state after it is the impact law of that state.  The cycle closes after m wall
     periods.  The Jacobian is in closed form (``jacobian``: flight matrices, the free
-    flights' field and the impact laws' derivatives).  A corner collision is two consecutive events meeting in time (a w-z and a
-    z-u impact: this system's corner); across it the two swap.
+    flights' field and the impact laws' derivatives).  A corner collision is two
+    consecutive events meeting in time (a w-z and a z-u impact: this system's corner);
+    across it the two swap.
     """
 
     values: dict
