@@ -1325,7 +1325,10 @@ def _read_continue(w):
         pr.append(f"continue.parameter: {name!r} is also swept ([sweep] {name}); continue "
                   "from one point: remove the axis")
     out = {"parameter": name}
-    forced = [k for k in numeric if k.startswith("F") and w.system.get(k) not in (0, 0.0, None)]
+    # a forcing F with its frequency Omega = 0 is a constant force (a follower's preload):
+    # periodic with any wall
+    forced = [k for k in numeric if k.startswith("F") and w.system.get(k) not in (0, 0.0, None)
+              and w.system.get("Omega" + k[1:]) not in (0, 0.0)]
     if forced and name.lower().startswith("omega"):
         pr.append(f"continue.parameter: {name!r} with forcing {forced[0]} = "
                   f"{_fmt(w.system[forced[0]])}: a periodic orbit needs the forcing's period "

@@ -193,6 +193,11 @@ class Obstacle:
         g(0) = 0."""
         return kappa, "kappa"
 
+    def corner_at_start(self, row: np.ndarray, j: int) -> bool:
+        """Whether piece j of a packed row starts at a corner (its slope jumps there): every
+        joint of a kind with corners, none of one without."""
+        return self.corners
+
     def start_heights(self, rows: np.ndarray) -> np.ndarray | None:
         """z(0) per packed row of this kind, computed without a kernel, where g(0) may differ
         from 0 (a cam); None: z(0) = kappa."""

@@ -705,6 +705,11 @@ class CamProfile(Obstacle):
     def start_heights(self, rows):
         return heights_at_zero(rows)
 
+    def corner_at_start(self, row, j):
+        """The joint's own flag (``pack_profile``: PC_CORNER of piece j mod the pieces)."""
+        n = int(row[P.PROFILE_NP])
+        return bool(row[P.PROFILE0 + (int(j) % n) * P.PIECE_STRIDE + P.PC_CORNER] != 0.0)
+
     def has_corners(self, table=None):
         return table.has_corners
 
@@ -748,7 +753,7 @@ class CamProfile(Obstacle):
 
 
 # period, pieces and corners are the scene's profile's (docs/cams.md); the flow's orbit problem
-# takes two pieces per obstacle period, so a cam has no continuation yet
+# reads them from the packed row (its pieces, ``corner_at_start``)
 OBSTACLE = CamProfile("profile", 3, "kappa + beta g(omega t), g a cam profile of polynomial and "
                       "sinusoidal pieces ([system.profile])", period_pi=2, pieces=1, corners=True,
-                      continuation=False, tables=("profile",), own_kernel=True)
+                      tables=("profile",), own_kernel=True)

@@ -231,11 +231,14 @@ def test_stability_of_a_profile_is_the_rectified_sines():
         assert np.allclose(a[k], b[k], rtol=0, atol=1e-9), k
 
 
-def test_a_profile_scene_refuses_continuation():
-    r = CliRunner().invoke(main, ["validate", "configs/cam_rectified.toml", "--set",
+def test_a_profile_scene_continues():
+    """A cam profile has an orbit solver (tests/continuation/test_cam_continuation.py): its
+    [continue] table validates (continuing omega with its constant force, Omega = 0, runs
+    in test_cam_continuation.py)."""
+    r = CliRunner().invoke(main, ["validate", "configs/cam_constant_velocity.toml", "--set",
                                   "continue.parameter=\"kappa\"", "--set",
-                                  "continue.range=[-0.02, 0.0]"])
-    assert r.exit_code == 2 and "continue: obstacle 'profile' has no orbit solver" in r.output
+                                  "continue.range=[-0.5, 0.5]"])
+    assert r.exit_code == 0, r.output
 
 
 def test_the_jump_speed_is_where_the_follower_leaves():

@@ -9,6 +9,7 @@ obstacles' jitted pieces in ``obstacles/dispatch.py``; the kernel is ``models/fl
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 
@@ -120,6 +121,16 @@ COMPILE_SECONDS = {"flow": 5.8, "own_kernel": 6.9, "t0": 0.9, "stability": 2.8,
 # functions the continuation calls from Python, each cached on its own)
 CONTINUATION_KERNELS = ("numerics.saltation.flight_matrix", "numerics.saltation.impact_saltation",
                         "stability.multipliers", "numerics.oscillator.acceleration")
+
+
+def kind_tables(scene) -> dict:
+    """The obstacle kind's own [system] tables as the scene records them (a cam's
+    ``profile``: plain data, which an orbit problem keeps to rebuild its rows)."""
+    tables = OBSTACLES[scene.extra["obstacle"]].tables
+    if not tables:
+        return {}
+    system = tomllib.loads(scene.text).get("system", {})
+    return {key: system[key] for key in tables if key in system}
 
 
 class FlowModel(Model):
@@ -300,7 +311,7 @@ class FlowModel(Model):
     def orbit_seed(self, values, scene, param, word, run):
         from .orbit import seed_from_run  # start-up: loads numba
         return seed_from_run(values, scene.extra["obstacle"], param, run["t"], run["v_out"],
-                             run["corner_offset"], run["ipc"], scene.tol)
+                             run["corner_offset"], run["ipc"], scene.tol, kind_tables(scene))
 
     def run_items(self, params, ics, ints, scene):
         # NaN marks "no impact" in what is stored and in t, where the analysis reads the end

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import ClassVar
 
 import numpy as np
@@ -28,7 +29,7 @@ import numpy as np
 from ...continuation import GAP_SAMPLES, OrbitError, admissible, cached, central_d_param, newton
 from ...numerics.oscillator import acceleration, derive, particular
 from ...numerics.saltation import flight_matrix, impact_saltation
-from ...obstacles.dispatch import corner_of, piece_start, z_state
+from ...obstacles.dispatch import corner_of, cycle_np, piece_at, piece_start, z_state
 from ...stability import multipliers
 from . import packed as P
 from .params import OBSTACLES
@@ -49,7 +50,29 @@ class FlowOrbit:
     pieces: np.ndarray
     m: int
     tol: float = 1e-12
+    tables: dict = field(default_factory=dict)   # the kind's own [system] tables (a cam's)
     _cache: dict = field(default_factory=dict, repr=False)
+
+    def table(self):
+        """What the obstacle kind reads from its own tables (``Obstacle.read_tables``: a cam's
+        ``Profile``), None for a kind without tables."""
+        def build():
+            w = SimpleNamespace(problems=[], obstacle_table=None, obstacle_tables={})
+            OBSTACLES[self.obstacle].read_tables(self.tables, w)
+            if w.problems:
+                raise OrbitError("; ".join(w.problems))
+            return w.obstacle_table
+        return cached(self._cache, "table", build) if self.tables else None
+
+    def cycle_pieces(self, lam) -> int:
+        """Pieces of one cycle of the derived constants (2, or a cam's pieces per period):
+        ``m`` counts these cycles."""
+        return cycle_np(self.packed(lam)[1])
+
+    def corner_at_start(self, j, lam) -> bool:
+        """Whether piece j starts at a corner (a joint where the slope jumps); a joint that
+        is no corner is crossed by ``reindex``, as the smooth wall's piece ends are."""
+        return OBSTACLES[self.obstacle].corner_at_start(self.packed(lam)[0], j)
 
     @property
     def n(self) -> int:
@@ -69,29 +92,39 @@ class FlowOrbit:
         return dataclasses.replace(self, values=values, param=param, pieces=self.pieces.copy(),
                                    _cache={})
 
+    def with_pieces(self, pieces):
+        """The problem of another itinerary of the same system, sharing the packed rows."""
+        new = dataclasses.replace(self, pieces=pieces)
+        new._cache = self._cache
+        return new
+
     def to_doc(self) -> dict:
         """The problem as plain data (a partial file's resume state), ``from_doc``'s inverse."""
-        return {"values": dict(self.values), "param": self.param, "type": "flow",
-                "obstacle": self.obstacle, "pieces": [int(j) for j in self.pieces],
-                "m": int(self.m), "tol": float(self.tol)}
+        doc = {"values": dict(self.values), "param": self.param, "type": "flow",
+               "obstacle": self.obstacle, "pieces": [int(j) for j in self.pieces],
+               "m": int(self.m), "tol": float(self.tol)}
+        if self.tables:
+            doc["tables"] = self.tables
+        return doc
 
     @classmethod
     def from_doc(cls, doc):
         return cls(dict(doc["values"]), str(doc["obstacle"]), str(doc["param"]),
-                   np.array(doc["pieces"], np.int64), int(doc["m"]), float(doc["tol"]))
+                   np.array(doc["pieces"], np.int64), int(doc["m"]), float(doc["tol"]),
+                   dict(doc.get("tables", {})))
 
     def packed(self, lam):
         """(p, d): the packed parameter row at param = lam and its derived constants."""
         def build():
             vals = dict(self.values)
             vals[self.param] = float(lam)
-            p = P.pack(vals, self.obstacle, self.tol, 1e-6, 1e6, None, 0.0)
+            p = P.pack(vals, self.obstacle, self.tol, 1e-6, 1e6, None, 0.0, self.table())
             return p, derive(p)
         return cached(self._cache, float(lam), build)
 
     def duration(self, lam) -> float:
         p, d = self.packed(lam)
-        return self.m * (piece_start(d, 2) - piece_start(d, 0))
+        return self.m * (piece_start(d, cycle_np(d)) - piece_start(d, 0))
 
     def times(self, X, lam):
         """Absolute impact times t_i = start of piece j_i + tau_i."""
@@ -211,39 +244,37 @@ class FlowOrbit:
         (tau_i for the corner at the piece's start, L_j - tau_i for the one at its end,
         whichever is nearer): negative once the impact has crossed it."""
         p, d = self.packed(lam)
-        out = np.empty(self.n)
-        if not OBSTACLES[self.obstacle].corners:
-            out[:] = np.inf          # piece ends are no corners: reindex() crosses them
-            return out
+        out = np.full(self.n, np.inf)    # a joint that is no corner: reindex() crosses it
         for i, j in enumerate(self.pieces):
             L = piece_start(d, int(j) + 1) - piece_start(d, int(j))
             tau = X[2 * i]
-            out[i] = tau if tau < 0.5 * L else L - tau
+            start, end = self.corner_at_start(int(j), lam), self.corner_at_start(int(j) + 1, lam)
+            if start and (tau < 0.5 * L or not end):
+                out[i] = tau
+            elif end:
+                out[i] = L - tau
         return out
 
     def reindex(self, X, lam):
         """On an obstacle without corners (``sine``), an impact that left its piece is put
         on the piece it now lies on (a piece end there is bookkeeping, not a corner):
         (problem, X), a new problem where a piece changed."""
-        if OBSTACLES[self.obstacle].corners:
-            return self, X
         p, d = self.packed(lam)
         X = X.copy()
         pieces = self.pieces.copy()
         for i in range(self.n):
             j = int(pieces[i])
-            while X[2 * i] < 0.0:
+            while X[2 * i] < 0.0 and not self.corner_at_start(j, lam):
                 X[2 * i] += piece_start(d, j) - piece_start(d, j - 1)
                 j -= 1
-            while X[2 * i] >= piece_start(d, j + 1) - piece_start(d, j):
+            while (X[2 * i] >= piece_start(d, j + 1) - piece_start(d, j)
+                   and not self.corner_at_start(j + 1, lam)):
                 X[2 * i] -= piece_start(d, j + 1) - piece_start(d, j)
                 j += 1
             pieces[i] = j
         if np.array_equal(pieces, self.pieces):
             return self, X
-        new = FlowOrbit(self.values, self.obstacle, self.param, pieces, self.m, self.tol)
-        new._cache = self._cache
-        return new, X
+        return self.with_pieces(pieces), X
 
     def smallest_gap(self, X, lam):
         """The smallest gap u - z over the interior of every flight (sampled, then refined
@@ -253,8 +284,6 @@ class FlowOrbit:
         imp = self.impacts(X, lam)
         N = self.n
         D = self.duration(lam)
-        per = piece_start(d, 2) - piece_start(d, 0)
-        L0 = piece_start(d, 1) - piece_start(d, 0)
         best = math.inf
         for i in range(N):
             n = (i + 1) % N
@@ -262,7 +291,7 @@ class FlowOrbit:
             t1 = imp["t"][n] + (D if n == 0 else 0.0)
             s = np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]
             g = np.array([self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
-                                    t0 + x * (t1 - t0), per, L0) for x in s])
+                                    t0 + x * (t1 - t0)) for x in s])
             q = int(np.argmin(g))
             gq = g[q]
             if 0 < q < len(s) - 1:
@@ -271,17 +300,14 @@ class FlowOrbit:
                 if den > 0:
                     x = s[q] + 0.5 * (a - c) / den * (s[1] - s[0])
                     gq = min(gq, self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
-                                           t0 + x * (t1 - t0), per, L0))
+                                           t0 + x * (t1 - t0)))
             best = min(best, gq)
         return best
 
-    def _gap(self, p, d, t0, u0, v0, t, per, L0):
+    def _gap(self, p, d, t0, u0, v0, t):
         uf, _, _ = self._flight(p, d, t0, u0, v0, t)
-        q = math.floor(t / per)
-        x = t - q * per
-        j = 2 * int(q) + (1 if x >= L0 else 0)
-        z = z_state(p, j, t - piece_start(d, j))[0]
-        return uf - z
+        j, tau = piece_at(d, t)
+        return uf - z_state(p, j, tau)[0]
 
     # --- what every orbit problem provides (FlowOrbit, MapOrbit) -----------------------
     def word(self, X, lam):
@@ -320,18 +346,20 @@ class FlowOrbit:
                 "cycle_duration": self.duration(lam)}
 
 
-def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-12):
+def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-12,
+                  tables=None):
     """A FlowOrbit and its solved X from one run's record (``cornerbif.simulate`` or a
-    sweep file: its last complete cycle of ``ipc`` impacts)."""
+    sweep file: its last complete cycle of ``ipc`` impacts); ``tables``: the kind's own
+    [system] tables (a cam's ``profile``)."""
     n = int(np.isfinite(t).sum())
     if ipc <= 0 or n < ipc + 1:
         raise OrbitError("the run has no cycle to seed from")
     first = n - 1 - ipc
-    prob = FlowOrbit(dict(values), obstacle, param, np.zeros(ipc, np.int64), 1, tol)
+    prob = FlowOrbit(dict(values), obstacle, param, np.zeros(ipc, np.int64), 1, tol,
+                     dict(tables or {}))
     lam = float(values[param])
     p, d = prob.packed(lam)
-    per = piece_start(d, 2) - piece_start(d, 0)
-    L0 = piece_start(d, 1) - piece_start(d, 0)
+    per = piece_start(d, cycle_np(d)) - piece_start(d, 0)
     dur = t[first + ipc] - t[first]
     m = int(round(dur / per))
     if p[P.F_AMP] != 0.0:
@@ -345,16 +373,18 @@ def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-
     X = np.empty(2 * ipc)
     for q in range(ipc):
         tt = t[first + 1 + q] - t0
-        k = math.floor(tt / per)
-        x = tt - k * per
-        j = 2 * k + (1 if x >= L0 else 0)
-        tau = tt - piece_start(d, j)
+        j, tau = piece_at(d, tt)
+        j = int(j)
         # an impact recorded at a corner lies on the side its offset says
         L = piece_start(d, j + 1) - piece_start(d, j)
         off = corner_offset[first + 1 + q]
-        if off == off and off < 0 and tau < 0.5 * L and OBSTACLES[obstacle].corner_each_piece:
+        # (the offset is to the nearest corner: the piece's start where every piece starts at
+        # one, or where a cam's joint is one; the triangle's offsets are to its valleys)
+        kind = OBSTACLES[obstacle]
+        if off == off and off < 0 and tau < 0.5 * L and (
+                kind.corner_each_piece or (kind.tables and prob.corner_at_start(j, lam))):
             j -= 1
-            tau += L
+            tau += piece_start(d, j + 1) - piece_start(d, j)
         pieces[q] = j
         X[2 * q] = tau
         X[2 * q + 1] = v_out[first + 1 + q]
@@ -433,9 +463,7 @@ def across_corner(problem, q, X, lam):
     else:
         pieces[q] = j + 1
         X[2 * q] -= L
-    new = FlowOrbit(problem.values, problem.obstacle, problem.param, pieces, problem.m,
-                    problem.tol)
-    return new, X
+    return problem.with_pieces(pieces), X
 
 
 def word_of(problem, X, lam, cycles=4):
@@ -446,9 +474,10 @@ def word_of(problem, X, lam, cycles=4):
     N = problem.n
     p, d = problem.packed(lam)
     D = problem.duration(lam)
-    per_corners = round(D / (piece_start(d, 1) - piece_start(d, 0)))
-    if not OBSTACLES[problem.obstacle].corner_each_piece:
-        per_corners = problem.m
+    # how far one cycle moves the corner ids (corner_of's numbering, whatever the kind)
+    shift = problem.m * cycle_np(d)
+    j0, tau0 = int(problem.pieces[0]), X[0]
+    per_corners = corner_of(p, d, j0 + shift, tau0)[0] - corner_of(p, d, j0, tau0)[0]
     reps = cycles * N + 2
     t = np.full((1, reps), np.nan)
     vin = np.full((1, reps), np.nan)
@@ -463,7 +492,7 @@ def word_of(problem, X, lam, cycles=4):
     per = np.zeros(1, np.int64)
     ipc = np.zeros(1, np.int64)
     sym = np.zeros((1, reps), np.uint8)
-    cornered = np.array([OBSTACLES[problem.obstacle].corners])
+    cornered = np.array([OBSTACLES[problem.obstacle].has_corners(problem.table())])
     detect_cycles(t, vin, off, corner, cornered, 1e-9, per, ipc, sym)
     return str(words(sym)[0])
 
