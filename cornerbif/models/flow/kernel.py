@@ -937,3 +937,25 @@ def obstacle_heights(params, t0):
     out = np.empty(t0.shape)
     fill_obstacle_heights(params, t0, out)
     return out
+
+
+def first_impact_times(params, ics, pieces):
+    """The time of the first impact after each start, by the kernel's certified event search
+    (``run_one``, one impact recorded, no transient): ``params`` one packed row per start,
+    ``ics`` rows (u, v, t0) above the obstacle; NaN where none comes within ``pieces``
+    obstacle pieces.  The continuation's grazing monitor checks with it that no flight of an
+    orbit meets the obstacle before its next impact (``orbit.FlowOrbit.smallest_gap``)."""
+    params = np.ascontiguousarray(params, dtype=np.float64)
+    ics = np.ascontiguousarray(ics, dtype=np.float64)
+    n = params.shape[0]
+    ints = np.zeros(P.NINT, np.int64)
+    ints[P.I_RECORD] = 1
+    ints[P.I_MAX_EVENTS] = 8
+    ints[P.I_MAX_PIECES] = pieces
+    t = np.full((n, 1), np.nan)
+    scratch = [np.full((n, 1), np.nan) for _ in range(6)]
+    corner = np.zeros((n, 1), np.int64)
+    kernel = run_batch_profile if P.wide_rows(params) else run_batch
+    kernel(params, ints, ics, t, *scratch[:4], corner, *scratch[4:], np.zeros(n, np.int8),
+           np.zeros((n, 2)), np.zeros(n, np.int64))
+    return t[:, 0]

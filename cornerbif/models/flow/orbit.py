@@ -302,7 +302,39 @@ class FlowOrbit:
                     gq = min(gq, self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
                                            t0 + x * (t1 - t0)))
             best = min(best, gq)
-        return best
+        return min(best, self._missed_crossings(p, d, imp, D))
+
+    def _missed_crossings(self, p, d, imp, D):
+        """The samples' guard: from just after each impact the kernel's certified event
+        search (``kernel.first_impact_times``) must meet the obstacle first at the next
+        impact.  Where it meets it earlier, the flight crosses the obstacle between two
+        samples: the smallest gap after that meeting (dense samples up to the next impact,
+        negative) is returned, so that no crossing goes unseen; +inf where none."""
+        from .kernel import first_impact_times  # start-up: loads numba
+        N = self.n
+        starts, ends = [], []
+        for i in range(N):
+            n = (i + 1) % N
+            t0, t1 = imp["t"][i], imp["t"][n] + (D if n == 0 else 0.0)
+            for frac in (1e-6, 1e-4, 1e-2):     # the first start clear of the obstacle
+                ts = t0 + frac * (t1 - t0)
+                g = self._gap(p, d, t0, imp["u"][i], imp["v_out"][i], ts)
+                if g > 0.0:
+                    u, v, _ = self._flight(p, d, t0, imp["u"][i], imp["v_out"][i], ts)
+                    starts.append((u, v, ts))
+                    ends.append((i, t0, t1))
+                    break
+        if not starts:
+            return math.inf
+        met = first_impact_times(np.repeat(p[None], len(starts), axis=0), np.array(starts),
+                                 self.m * cycle_np(d) + 8)
+        worst = math.inf
+        for tm, (i, t0, t1) in zip(met, ends):
+            if math.isfinite(tm) and tm < t1 - 1e-9 * (1.0 + abs(t1)):
+                worst = min(worst, _dip_after(
+                    lambda t, i=i, t0=t0: self._gap(p, d, t0, imp["u"][i], imp["v_out"][i], t),
+                    tm, t1))
+        return worst
 
     def _gap(self, p, d, t0, u0, v0, t):
         uf, _, _ = self._flight(p, d, t0, u0, v0, t)
@@ -344,6 +376,36 @@ class FlowOrbit:
         return {"impact_t": imp["t"], "impact_u": imp["u"], "impact_v_in": imp["v_in"],
                 "impact_v_out": imp["v_out"], "section_u": u, "section_v": v,
                 "cycle_duration": self.duration(lam)}
+
+
+def _dip_after(gap, tm, t1):
+    """The smallest gap of a flight just after it meets the obstacle at tm (where it goes
+    below: gap(tm) = 0, gap' < 0), before t1: steps doubling from tm until the gap rises,
+    then golden-section search of that bracket."""
+    a, b = tm, tm + max(1e-9 * (t1 - tm), 4.0 * math.ulp(tm))
+    fb = gap(b)
+    c = b
+    for _ in range(2100):               # doubling from 4 ulp reaches any t1 well within
+        c = min(t1, tm + 2.0 * (b - tm))
+        fc = gap(c)
+        if c >= t1 or not math.isfinite(fc) or (fb < 0.0 and fc > fb):
+            break                       # below the obstacle and rising again: bracketed
+        a, b, fb = b, c, fc
+    invphi = (math.sqrt(5.0) - 1.0) / 2.0
+    lo, hi = a, c
+    best = fb
+    for _ in range(80):
+        x1 = hi - invphi * (hi - lo)
+        x2 = lo + invphi * (hi - lo)
+        f1, f2 = gap(x1), gap(x2)
+        best = min(best, f1, f2)
+        if f1 < f2:
+            hi = x2
+        else:
+            lo = x1
+        if hi - lo <= 1e-13 * (1.0 + abs(hi)):
+            break
+    return best
 
 
 def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-12,
