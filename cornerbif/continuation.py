@@ -473,6 +473,10 @@ def follow_step(prob, X, lam, T0, origin, lam_range, direction=1.0, switch=True,
         evs = [Event("end", lam, X, f"the continuation failed ({e})", prob)]
     br = Branch(prob, pts, evs, prob.word(pts[0].X, pts[0].lam), origin)
     last = evs[-1] if evs else None
+    if (switch and last is not None and last.kind == "grazing"
+            and hasattr(last.problem, "across_grazing")):
+        more = _across_grazing(last, lam_range)
+        return br, more[:max(room, 0)]
     if not (switch and last is not None and last.kind == "corner"):
         return br, []
     more = []
@@ -520,6 +524,63 @@ def follow_step(prob, X, lam, T0, origin, lam_range, direction=1.0, switch=True,
                         f"continued (at most {MAX_BRANCHES} branches each way from a seed)")
         more = more[:max(room, 0)]
     return br, more
+
+
+def _across_grazing(last, lam_range):
+    """At a located grazing (an Event), the orbit with the impact it gives birth to: the
+    problem with one impact more (``across_grazing``) holds the grazing orbit itself, at a
+    fold of its solutions (the new impact's arrival velocity w- ~ sqrt of the distance to
+    the grazing, one sign on each side).  Corrected onto those solutions on the hyperplane
+    through it normal to their tangent, and continued the way the new impact arrives from
+    above (w- < 0: an orbit of the flow).  Returns the branches to continue (none, with the
+    reason in the event's detail, where neither way is one)."""
+    new, Xs, k = last.problem.across_grazing(last.X, last.lam)
+    n = len(Xs)
+    lo, hi = lam_range
+    W = np.append(1.0 / (1.0 + np.abs(Xs)), 1.0 / (hi - lo))
+
+    def born(Y, _=None):
+        """The new itinerary's equations and the new impact's arrival velocity w- = 0: the
+        grazing itself, a regular solution in (X, param)."""
+        return np.append(new.residual(Y[:n], Y[n]), new.impacts(Y[:n], Y[n])["w"][k])
+    Y = np.append(Xs, last.lam)
+    try:
+        for _ in range(NEWTON_MAX):
+            F = born(Y)
+            dY = np.linalg.solve(central_jacobian(born, Y, 0.0), -F)
+            Y = Y + dY
+            if np.abs(dY).max() <= 1e-13 * (1.0 + np.abs(Y).max()):
+                break
+        else:
+            raise OrbitError("the grazing of the new itinerary was not solved")
+        T = _tangent(new, Y[:n], Y[n], None, W)
+    except (OrbitError, np.linalg.LinAlgError) as e:
+        last.detail += f"; no orbit with the impact it gives birth to ({e})"
+        return []
+    # along the new itinerary's solutions w- of the new impact changes sign at the grazing:
+    # the branch starts a short step (1e-4 of the arclength's scale) the way it turns
+    # negative (the impact arrives from above), where its parameter's direction is clear
+    # (the grazing may be a fold of these solutions)
+    h = 1e-4
+
+    def along(sign):
+        Z = _correct(new, Y + sign * h * T, sign * T, h, Y, W)
+        return Z, float(np.max(new.impacts(Z[:n], Z[n])["w"]))
+    try:
+        Z, w_max = min((along(1.0), along(-1.0)), key=lambda zw: zw[1])
+        Tz = _tangent(new, Z[:n], Z[n], Z - Y, W)
+        ok = w_max < 0.0 and lo <= Z[n] <= hi and admissible(new, Z[:n], Z[n])[0]
+    except (OrbitError, np.linalg.LinAlgError):
+        ok = False
+    if not ok:
+        last.detail += ("; across it, the orbit with the impact it gives birth to is not one "
+                        "of the flow on either side")
+        return []
+    word = new.word(Z[:n], Z[n])
+    last.detail += f"; across it, the orbit with the new impact is continued as {word!r}"
+    return [(new, Z[:n].copy(), float(Z[n]), Tz,
+             f"the grazing at {new.param} = {last.lam!r}: the orbit with the impact it "
+             "gives birth to")]
 
 
 ADMISSIBLE_TOL = 1e-9

@@ -411,8 +411,8 @@ def _curve_line(curve, scene) -> str:
 
 def stop_reason(e, param, switch=True) -> str:
     """Why a branch stopped at ``e``, its last event one way, in words: the range's end,
-    the step budget, the step below ds_min, a failed step, a corner collision (continued
-    across it, or why not), a grazing, a zero-velocity impact, or where its orbit stops
+    the step budget, the step below ds_min, a failed step, a corner collision or a grazing
+    (continued across it, or why not), a zero-velocity impact, or where its orbit stops
     being admissible."""
     if e.kind == "end":
         why = e.detail
@@ -421,7 +421,9 @@ def stop_reason(e, param, switch=True) -> str:
         if not switch:
             why += "; not continued across it (continue.switch = false)"
     elif e.kind in ENDING_WORDS:
-        why = ENDING_WORDS[e.kind] + ": the orbit of this itinerary ends there"
+        why = ENDING_WORDS[e.kind] + ": the orbit of this itinerary ends there" + e.detail
+        if e.kind == "grazing" and not switch:
+            why += "; not continued across it (continue.switch = false)"
     else:
         why = e.kind
     return f"{param} = {e.lam:.12g}: {why}"

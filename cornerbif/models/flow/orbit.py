@@ -282,27 +282,50 @@ class FlowOrbit:
         obstacle (an impact the itinerary does not have), zero at a grazing."""
         p, d = self.packed(lam)
         imp = self.impacts(X, lam)
-        N = self.n
         D = self.duration(lam)
-        best = math.inf
-        for i in range(N):
-            n = (i + 1) % N
+        best = min((g for g, _ in self._flight_minima(p, d, imp, D)), default=math.inf)
+        return min(best, self._missed_crossings(p, d, imp, D))
+
+    def _flight_minima(self, p, d, imp, D):
+        """Per flight, (its smallest sampled gap, refined by a parabola, and its time)."""
+        out = []
+        for i in range(self.n):
+            n = (i + 1) % self.n
             t0 = imp["t"][i]
             t1 = imp["t"][n] + (D if n == 0 else 0.0)
             s = np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]
             g = np.array([self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
                                     t0 + x * (t1 - t0)) for x in s])
             q = int(np.argmin(g))
-            gq = g[q]
+            gq, xq = g[q], s[q]
             if 0 < q < len(s) - 1:
                 a, b, c = g[q - 1], g[q], g[q + 1]
                 den = a - 2 * b + c
                 if den > 0:
                     x = s[q] + 0.5 * (a - c) / den * (s[1] - s[0])
-                    gq = min(gq, self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
-                                           t0 + x * (t1 - t0)))
-            best = min(best, gq)
-        return min(best, self._missed_crossings(p, d, imp, D))
+                    gx = self._gap(p, d, t0, imp["u"][i], imp["v_out"][i], t0 + x * (t1 - t0))
+                    if gx < gq:
+                        gq, xq = gx, x
+            out.append((gq, t0 + xq * (t1 - t0)))
+        return out
+
+    def across_grazing(self, X, lam):
+        """The itinerary with one impact more, where a flight touches the obstacle (a located
+        grazing): the new impact at the flight's smallest gap, on the piece there, leaving
+        with the flight's velocity (w = 0 there, so law 5 leaves it unchanged): (problem,
+        X, the new impact's index), the orbit itself at the grazing, seen as the new
+        itinerary's."""
+        p, d = self.packed(lam)
+        imp = self.impacts(X, lam)
+        D = self.duration(lam)
+        minima = self._flight_minima(p, d, imp, D)
+        i = int(np.argmin([g for g, _ in minima]))
+        tg = minima[i][1]
+        j, tau = piece_at(d, tg)
+        _, v, _ = self._flight(p, d, imp["t"][i], imp["u"][i], imp["v_out"][i], tg)
+        pieces = np.insert(self.pieces, i + 1, int(j))
+        Xn = np.insert(X, 2 * (i + 1), [tau, v])
+        return self.with_pieces(pieces), Xn, i + 1
 
     def _missed_crossings(self, p, d, imp, D):
         """The samples' guard: from just after each impact the kernel's certified event
