@@ -715,6 +715,52 @@ def with_value(base, name, value):
     return cached(base._cache, (name, float(value)), build, limit=256)
 
 
+def rebase(prob, values, param):
+    """The same itinerary's problem at other ``values``, continued in ``param`` (the
+    problem's own ``rebased`` where it has one)."""
+    if hasattr(prob, "rebased"):
+        return prob.rebased(values, param)
+    return dataclasses.replace(prob, values=values, param=param, _cache={})
+
+
+@dataclass
+class EventCurve:
+    """A corner collision of any orbit problem as a curve in two parameters: the orbit's
+    equations and impact ``q``'s corner distance = 0 (``corner_distances``: the flow's time
+    to its corner, the maps' distance to their switching line, the two-particle system's
+    time between the two events that meet), with ``param2`` free (the last unknown of X'),
+    continued in the base problem's parameter; the Jacobian by central differences.  The
+    flow's own curve (``CornerCurve``) holds the impact at its corner exactly instead."""
+
+    base: object
+    q: int
+    param2: str
+
+    @property
+    def n(self) -> int:
+        return self.base.n
+
+    def _problem(self, lam2):
+        return with_value(self.base, self.param2, lam2)
+
+    def residual(self, Xc, lam):
+        prob = self._problem(Xc[-1])
+        X = Xc[:-1]
+        return np.append(prob.residual(X, lam), prob.corner_distances(X, lam)[self.q])
+
+    def jacobian(self, Xc, lam):
+        return central_jacobian(self.residual, Xc, lam)
+
+    def d_param(self, Xc, lam):
+        return central_d_param(self.residual, Xc, lam)
+
+    def orbit(self, Xc, lam):
+        return self._problem(Xc[-1]), Xc[:-1]
+
+    def reindex(self, Xc, lam):
+        return self, Xc
+
+
 @dataclass
 class CornerCurve:
     """The corner collision of impact ``q`` as a curve in two parameters: impact q held
@@ -722,7 +768,7 @@ class CornerCurve:
     continued in the base problem's parameter.  X' is X with tau_q replaced by param2.
     """
 
-    base: object              # an orbit problem with ``curves``
+    base: object              # the flow's orbit problem (``piece_length``)
     q: int
     at_end: bool
     param2: str
@@ -800,21 +846,13 @@ class FoldCurve:
         return self, Xc
 
 
-def _check_curves(prob, kind):
-    """Refuse a two-parameter curve of an orbit problem that does not declare ``curves``."""
-    if not getattr(prob, "curves", False):
-        raise OrbitError(f"{kind} curves are continued for the flow model, not for "
-                         f"{type(prob).__name__}")
-
-
 def fold_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     """Continue a located fold (an Event of kind "fold" in ``event.problem.param``) in
     the plane of that parameter and ``param``: (param values, fold parameter values)."""
     prob = event.problem
-    _check_curves(prob, "fold")
     base_vals = dict(prob.values)
     base_vals[prob.param] = event.lam
-    base = prob.rebased(base_vals, param)
+    base = rebase(prob, base_vals, param)
     curve = FoldCurve(base, prob.param)
     Xc = np.append(event.X, event.lam)
     lam0 = float(prob.values[param])
@@ -830,15 +868,18 @@ def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     ``event.problem.param``) in the plane of that parameter and ``param``: returns the
     curve's points as arrays (param values, event parameter values)."""
     prob = event.problem
-    _check_curves(prob, "corner")
     q = int(event.detail.split(";")[0].split()[-1])
-    at_end = event.X[2 * q] > 0.5 * prob.piece_length(q, event.lam)
     base_vals = dict(prob.values)
     base_vals[prob.param] = event.lam
-    base = prob.rebased(base_vals, param)
-    curve = CornerCurve(base, q, at_end, prob.param)
-    Xc = event.X.copy()
-    Xc[2 * q] = event.lam
+    base = rebase(prob, base_vals, param)
+    if hasattr(prob, "piece_length"):         # the flow: the impact held at its corner
+        at_end = event.X[2 * q] > 0.5 * prob.piece_length(q, event.lam)
+        curve = CornerCurve(base, q, at_end, prob.param)
+        Xc = event.X.copy()
+        Xc[2 * q] = event.lam
+    else:
+        curve = EventCurve(base, q, prob.param)
+        Xc = np.append(event.X, event.lam)
     lam0 = float(prob.values[param])
     Xc = newton(curve, Xc, lam0)
     # the orbit along the curve must stay one of the flow: the other impacts' corners, the
@@ -846,5 +887,6 @@ def corner_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):
     # distance is 0 throughout and never changes sign)
     pts, evs = continue_branch(curve, Xc, lam0, lam_range, direction, ds=ds,
                                events=ENDING, **kw)
-    return (np.array([pt.lam for pt in pts]), np.array([pt.X[2 * q] for pt in pts]),
+    held = -1 if isinstance(curve, EventCurve) else 2 * q
+    return (np.array([pt.lam for pt in pts]), np.array([pt.X[held] for pt in pts]),
             curve, pts, evs)

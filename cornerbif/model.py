@@ -527,8 +527,11 @@ class OrbitProblem(Protocol):
       the corner it reached, and its X);
     * the file: ``store(X, lam, section)`` (a point's record), ``to_doc()`` (plain data with
       ``type`` = the model's name, read back by ``Model.orbit_from_doc``);
-    * two-parameter curves, where ``curves`` is true: ``piece_length(q, lam)`` and
-      ``rebased(values, param)``.
+    * two-parameter curves (``continuation.corner_curve``, ``fold_curve``) need nothing more:
+      a problem that has ``piece_length(q, lam)`` (the flow) holds its impact at the corner
+      exactly, any other adds its corner distance = 0 as an equation (``EventCurve``);
+      ``rebased(values, param)`` where ``dataclasses.replace`` of ``values`` and ``param``
+      is not enough.
     """
 
     param: str

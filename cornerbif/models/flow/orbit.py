@@ -22,7 +22,6 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from types import SimpleNamespace
-from typing import ClassVar
 
 import numpy as np
 
@@ -78,8 +77,6 @@ class FlowOrbit:
     def n(self) -> int:
         return len(self.pieces)
 
-    # two-parameter curves (``continuation.corner_curve``, ``fold_curve``) are continued
-    curves: ClassVar[bool] = True
 
     def piece_length(self, q, lam) -> float:
         """The length L of the obstacle piece impact q lies on (its local time runs 0..L)."""

@@ -6,7 +6,7 @@ multipliers from the maps' linear parts (eq 57), and its seed from the exact cyc
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,6 +26,7 @@ class MapOrbit:
     param: str
     letters: str
     obstacle: str = "map"
+    _cache: dict = field(default_factory=dict, repr=False)
 
     def to_doc(self) -> dict:
         """The problem as plain data (a partial file's resume state), ``from_doc``'s inverse."""
