@@ -814,8 +814,9 @@ class CornerCurve:
 @dataclass
 class FoldCurve:
     """A fold (a multiplier at +1) as a curve in two parameters: the orbit's equations
-    and det(J - I) = 0 (J the monodromy), with ``param2`` free (the last unknown of X'),
-    continued in the base problem's parameter; the Jacobian by central differences."""
+    and det(J - I) = 0 (J the monodromy; scaled, ``residual``), with ``param2`` free (the
+    last unknown of X'), continued in the base problem's parameter; the Jacobian by central
+    differences."""
 
     base: object
     param2: str
@@ -828,10 +829,17 @@ class FoldCurve:
         return with_value(self.base, self.param2, lam2)
 
     def residual(self, Xc, lam):
+        """The orbit's equations and det(J - I) w_1 ... w_N / sqrt((1 + w_1^2) ... ), w_i the
+        impacts' arrival velocities: each saltation matrix has a pole 1/w_i of rank one,
+        so det(J - I) is linear in each 1/w_i and the product cancels it; with the same
+        zeros elsewhere, the curve goes on smoothly to an impact of zero velocity (where
+        the zero-velocity test ends it) instead of meeting a pole."""
         prob = self._problem(Xc[-1])
         X = Xc[:-1]
         _, J = prob.floquet(X, lam)
-        return np.append(prob.residual(X, lam), np.linalg.det(J - np.eye(len(J))))
+        w = np.asarray(prob.impacts(X, lam)["w"], float)
+        scale = float(np.prod(-w / np.sqrt(1.0 + w * w)))
+        return np.append(prob.residual(X, lam), np.linalg.det(J - np.eye(len(J))) * scale)
 
     def jacobian(self, Xc, lam):
         return central_jacobian(self.residual, Xc, lam)

@@ -184,3 +184,18 @@ def test_a_branch_never_leaves_its_range(tmp_path):
     ends = [e for e in res["events"] if e["detail"] == "the end of the range"]
     assert ends and all(e["param"] in (1.5, 2.5) for e in ends)
     assert len(_folds(res)) == 1
+
+
+def test_the_fold_curve_ends_where_the_impact_velocity_vanishes(tmp_path):
+    """The fold of the omega continuation above, continued in kappa over [-1.01, -0.99]:
+    its orbits stay orbits of the flow and the curve ends at the wall's crest with a
+    zero-velocity impact, at (kappa, omega) = (-1, 2) to 1e-12.  Before, it ran on to
+    omega = 2.00045, where the impact arrives from below; the fold equation is now scaled by
+    the impacts' velocities (``FoldCurve.residual``), which cancels the multipliers' pole."""
+    res = _continue(tmp_path, 1.5, 2.5, kappa=-1.00005, param="omega", start=1.999,
+                    extra='curve = "kappa"\ncurve_range = [-1.01, -0.99]')
+    (curve,) = res["curves"]
+    assert curve["ends"].startswith("zero_velocity at kappa = -1;"), curve["ends"]
+    k = int(np.argmax(curve["param"]))
+    assert abs(curve["param"][k] + 1.0) < 1e-12 and abs(curve["event_param"][k] - 2.0) < 1e-12
+    assert np.all(curve["event_param"] <= 2.0 + 1e-12)
