@@ -153,3 +153,33 @@ def test_a_cam_orbit_problem_keeps_its_table_through_the_resume_state():
     again = FO.FlowOrbit.from_doc(prob.to_doc())
     assert again.to_doc()["tables"] == {"profile": CV_CAM}
     assert np.array_equal(again.residual(X, w), prob.residual(X, w))
+
+
+def test_a_word_seeds_an_unstable_cam_orbit():
+    """A seed word on an obstacle with corners other than the rectified sine
+    (``orbit.seed_from_transients``): the kernel's runs from a grid of starts are scanned for
+    a window spelling the word, and Newton solves it.  At omega = 3.1, past its period
+    doubling, the constant-velocity cam's period-one orbit is unstable (multiplier -1.24)
+    and spelled 'a' (its two impacts straddle the corner after the first dwell): no start
+    settles on it, yet the word 'a' seeds it, equal to the orbit continued there from the
+    stable one at omega = 2.5 (1e-10); and through the CLI a scene seeding 'a' continues
+    it."""
+    from cornerbif import continuation as C
+    w = 3.1
+    prob, X = FO.seed_from_word(dict(CV_SYSTEM, omega=w), "profile", "omega", "a",
+                                cornerbif.simulate, tables={"profile": CV_CAM})
+    mu, _ = prob.floquet(X, w)
+    assert prob.word(X, w) == "a" and np.abs(mu).max() > 1.2
+    start, X0 = FO.seed_from_word(dict(CV_SYSTEM, omega=2.5), "profile", "omega", "bb",
+                                  cornerbif.simulate, tables={"profile": CV_CAM})
+    pts, _ = C.continue_branch(start, X0, 2.5, (2.5, w), +1.0)
+    assert pts[-1].lam == w and list(pts[-1].problem.pieces) == list(prob.pieces)
+    assert np.abs(pts[-1].X - X).max() < 1e-10
+
+
+def test_a_cam_scene_seeds_a_word(tmp_path):
+    text = CV_SCENE.replace("start = 2.5", 'start = 3.1\nseed = "a"').replace(
+        "omega = 2.5", "omega = 3.1")
+    res, out = _continue(tmp_path, text, "word")
+    assert "continuing 1 seed(s)" in out and "'a'" in out
+    assert res["branches"] and res["branches"][0]["word"] == "a"

@@ -302,7 +302,8 @@ class FlowModel(Model):
 
     def word_seed(self, values, scene, param, word, simulate):
         from .orbit import seed_from_word  # start-up: loads numba
-        return seed_from_word(values, scene.extra["obstacle"], param, word, simulate, scene.tol)
+        return seed_from_word(values, scene.extra["obstacle"], param, word, simulate, scene.tol,
+                              tables=kind_tables(scene))
 
     def orbit_from_doc(self, doc):
         from .orbit import FlowOrbit  # start-up: loads numba

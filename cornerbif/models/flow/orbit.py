@@ -475,7 +475,7 @@ def seed_from_run(values, obstacle, param, t, v_out, corner_offset, ipc, tol=1e-
     return prob, newton(prob, X, lam)
 
 
-def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6):
+def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6, tables=None):
     """A FlowOrbit of a cluster word (``a``, ``b``, ``g`` letters, e.g. "b^5 g", "ab"),
     stable or not, near (omega, kappa) = (2, 0) on the rectified sine: the kernel is run
     from the 2D maps' orbit of the word (``theory.word_orbit``: (a0, b1) = (u, u')(0) at
@@ -487,9 +487,7 @@ def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6)
     from ...analysis import parse_word  # start-up: loads numba
     from ...theory import word_orbit  # start-up: loads numba
     if not OBSTACLES[obstacle].word_seeds:
-        which = ", ".join(o.name for o in OBSTACLES.values() if o.word_seeds)
-        raise OrbitError(f"a word seeds an orbit on the obstacle {which} only, not "
-                         f"{obstacle!r}")
+        return seed_from_transients(values, obstacle, param, word, simulate, tol, tables)
     letters = parse_word(word)
     x, _ = word_orbit(letters, values["omega"] - 2.0, values["kappa"], values["r"])
     sys_ = {k: v for k, v in values.items() if k in P.INDEX}
@@ -528,6 +526,83 @@ def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6)
             return seed_from_run(values, obstacle, param, tt, vv, oo, ipc, tol)
     raise OrbitError(f"the run from the maps' orbit of {word!r} does not spell it "
                      f"(clusters {''.join(sym)})")
+
+
+def _clusters(t, off):
+    """The record's impacts grouped by the corner they are nearest to (its time t - offset,
+    equal to rounding within a cluster): (first impact, count, letter) per cluster, the
+    letter b (one impact after its corner), g (one before), a (two straddling it) or x."""
+    n = int(np.isfinite(t).sum())
+    corner_t = t[:n] - off[:n]
+    out = []
+    for i in range(n):
+        if out and abs(corner_t[i] - corner_t[out[-1][0]]) <= 1e-9 * (1.0 + abs(corner_t[i])):
+            out[-1][1] += 1
+        else:
+            out.append([i, 1])
+    for c in out:
+        i0, k = c
+        c.append("b" if k == 1 and off[i0] >= 0 else "g" if k == 1 else
+                 "a" if k == 2 and off[i0] < 0 <= off[i0 + 1] else "x")
+    return out
+
+
+def seed_from_transients(values, obstacle, param, word, simulate, tol=1e-12, tables=None,
+                         grid=12, record=400):
+    """A FlowOrbit of a cluster word on any obstacle with corners, stable or not: the kernel
+    is run without transient from a grid of starts (``grid`` heights above the obstacle's top
+    times ``grid`` velocities), and every run's clusters are scanned for a window spelling
+    the word (up to rotation): a run passing near the orbit, an unstable one along its
+    stable manifold, spells it for a while.  Each such window seeds Newton
+    (``seed_from_run``); the first solution whose word is the word and which is admissible
+    is returned.  OrbitError when none is."""
+    from ...analysis import parse_word  # start-up: loads numba
+    if not OBSTACLES[obstacle].corners:
+        raise OrbitError(f"a word seeds an orbit on an obstacle with corners, not {obstacle!r}")
+    letters = parse_word(word)
+    K = len(letters)
+    rotations = {letters[k:] + letters[:k] for k in range(K)}
+    probe = FlowOrbit(dict(values), obstacle, param, np.zeros(1, np.int64), 1, tol,
+                      dict(tables or {}))
+    lam = float(values[param])
+    p, d = probe.packed(lam)
+    per = piece_start(d, cycle_np(d)) - piece_start(d, 0)
+    top = max(z_state(p, *piece_at(d, x))[0] for x in np.linspace(0.0, per, 257)[:-1])
+    scale = max(1.0, abs(top), p[P.BETA] * p[P.OMEGA])
+    u0 = np.repeat(top + scale * np.linspace(0.05, 3.0, grid), grid)
+    v0 = np.tile(scale * np.linspace(-2.0, 2.0, grid), grid)
+    sys_ = {k: v for k, v in values.items() if k in P.INDEX}
+    extra = {"profile": tables["profile"]} if tables and "profile" in tables else {}
+    res = simulate(u0, v0, obstacle=obstacle, transient=0, record=record, **sys_, **extra)
+    tried = 0
+    for r in range(len(u0)):
+        t, off, vout = res["t"][r], res["corner_offset"][r], res["v_out"][r]
+        cl = _clusters(t, off)
+        spelled = "".join(c[2] for c in cl)
+        for s in range(len(cl) - K):
+            if spelled[s:s + K] not in rotations:
+                continue
+            # the window's impacts as one cycle of the fewest whole periods that holds its
+            # corners (the next cycle starts at its first corner that many periods later)
+            first, nxt = cl[s][0], cl[s + K][0]
+            span = (t[nxt - 1] - off[nxt - 1]) - (t[first] - off[first])
+            m = int(math.floor(span / per + 1e-9)) + 1
+            last = nxt - 1
+            tt = np.concatenate([[t[last] - m * per], t[first:nxt]])
+            vv = np.concatenate([[vout[last]], vout[first:nxt]])
+            oo = np.concatenate([[off[last]], off[first:nxt]])
+            tried += 1
+            try:
+                prob, X = seed_from_run(values, obstacle, param, tt, vv, oo, nxt - first, tol,
+                                        tables)
+            except (OrbitError, np.linalg.LinAlgError):
+                continue
+            if prob.word(X, lam) in rotations and prob.admissible(X, lam)[0]:
+                return prob, X
+            if tried >= 4 * len(u0):
+                break
+    raise OrbitError(f"no run from {len(u0)} starts spells {word!r} near its orbit "
+                     f"({tried} windows tried)")
 
 
 def across_corner(problem, q, X, lam):
