@@ -345,6 +345,29 @@ def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-
     return points, found
 
 
+MAX_MULTIPLIER_JUMP = 0.25   # x (1 + the largest |multiplier|): a larger change in one step
+#                            is retried shorter (``_check_multipliers_continuous``)
+
+
+def _check_multipliers_continuous(mu, mu_n, mon, mon_n):
+    """StepRejected where the multipliers jump within one step (each new one farther than
+    MAX_MULTIPLIER_JUMP (1 + the largest |mu|) from every old one): the corrector reached
+    another orbit.  Not where an ending test function changes sign within the step or an
+    impact is slow at either end (the multipliers' pole at a zero-velocity impact)."""
+    mu, mu_n = np.asarray(mu, complex), np.asarray(mu_n, complex)
+    if not (np.all(np.isfinite(mu)) and np.all(np.isfinite(mu_n))):
+        return
+    for kind in ENDING:
+        if np.any((np.asarray(mon[kind]) > 0) != (np.asarray(mon_n[kind]) > 0)):
+            return
+    if min(mon["zero_velocity"][0], mon_n["zero_velocity"][0]) < 1e-2:
+        return
+    scale = 1.0 + max(np.abs(mu).max(), np.abs(mu_n).max())
+    jump = max(np.abs(mu - m).min() for m in mu_n)
+    if jump > MAX_MULTIPLIER_JUMP * scale:
+        raise StepRejected(f"the multipliers jumped by {jump:.3g} in one step")
+
+
 def _shorter(h, h_min, ds_min, failure, problem, Y, n, found):
     """The step halved after a failed or rejected attempt (``failure`` says why), or None,
     with the branch's end appended to ``found``, where it falls below ds_min."""
@@ -373,6 +396,7 @@ def _advance(problem, Y, Yn, T, Tn, mon, h, h_max, lo, hi, events, found, points
         # a branch never leaves its range: it ends exactly at the range's end, solved there
         Yn[:n], Yn[n] = newton(problem, Yn[:n], edge), edge
     mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
+    _check_multipliers_continuous(points[-1].mu, mu_n, mon, mon_n)
     before = len(found)
     ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W, Tn)
     if ended:

@@ -199,3 +199,17 @@ def test_the_fold_curve_ends_where_the_impact_velocity_vanishes(tmp_path):
     k = int(np.argmax(curve["param"]))
     assert abs(curve["param"][k] + 1.0) < 1e-12 and abs(curve["event_param"][k] - 2.0) < 1e-12
     assert np.all(curve["event_param"] <= 2.0 + 1e-12)
+
+
+def test_a_step_whose_multipliers_jump_is_retried():
+    """``_check_multipliers_continuous``: multipliers that move by more than a quarter of
+    (1 + the largest) in one step reject it; a move through a pole (an ending test function
+    changing sign, or a slow impact at either end) and a small move do not."""
+    calm = {k: np.array([1.0]) for k in ("corner", "grazing", "zero_velocity")}
+    C._check_multipliers_continuous([0.8, 0.5], [0.82, 0.49], calm, calm)
+    with pytest.raises(C.StepRejected, match="multipliers jumped"):
+        C._check_multipliers_continuous([0.8, 0.5], [0.8, -0.9], calm, calm)
+    crossing = dict(calm, grazing=np.array([-1.0]))
+    C._check_multipliers_continuous([0.8, 0.5], [0.8, -0.9], calm, crossing)
+    slow = dict(calm, zero_velocity=np.array([1e-3]))
+    C._check_multipliers_continuous([0.8, 0.5], [30.0, 0.01], calm, slow)
