@@ -6,7 +6,7 @@ first.  Written by ``python benchmarks/compile_plan.py`` (which says how they ar
 chosen); tests/runs/test_warm.py checks them against a real first run."""
 
 PLANS = {
-    # 18 functions of models.flow.kernel.run_one: 1.69 s of 3.09 s when recorded
+    # 18 functions of models.flow.kernel.run_one: 2.12 s of 3.87 s when recorded
     'the flow kernel': (
         ('models.flow.kernel.first_impact_free',
          '(UniTuple(float64, 18), UniTuple(float64, 16), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -45,7 +45,7 @@ PLANS = {
         ('obstacles.dispatch.cycle_lag',
          '(UniTuple(float64, 18))'),
     ),
-    # 15 functions of models.flow.kernel.run_one: 2.18 s of 4.0 s when recorded
+    # 13 functions of models.flow.kernel.run_one: 2.66 s of 4.87 s when recorded
     'the flow kernel for a cam profile': (
         ('models.flow.kernel.first_impact_free',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), int64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, bool)'),
@@ -71,14 +71,10 @@ PLANS = {
          '(int64)'),
         ('models.flow.kernel.piece_starts',
          '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), float64)'),
-        ('obstacles.dispatch.sinusoidal',
-         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
-        ('obstacles.dispatch.zpppp_max',
-         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
-        ('numerics.oscillator.particular',
-         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), float64)'),
+        ('models.flow.kernel.phase_grid',
+         '(Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)), Tuple((float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, uint64)))'),
     ),
-    # 16 functions of models.two_particle.kernel.run_one: 2.51 s of 4.73 s when recorded
+    # 16 functions of models.two_particle.kernel.run_one: 3.17 s of 5.87 s when recorded
     'the two-particle kernel': (
         ('models.two_particle.kernel.pair_or_free',
          "(UniTuple(float64, 17), UniTuple(float64, 20), Array(float64, 2, 'C', False, aligned=True), float64, bool, float64, float64, float64, float64, float64)"),
@@ -113,38 +109,40 @@ PLANS = {
         ('models.two_particle.packed.as_tuple',
          "(Array(float64, 1, 'C', False, aligned=True))"),
     ),
-    # 1 functions of the command: 2.4 s of 2.4 s when recorded
+    # 1 functions of the command: 2.87 s of 2.87 s when recorded
     'the flow stability kernel': (
         ('models.flow.tangent.batch_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 1 functions of the command: 4.49 s of 4.49 s when recorded
+    # 1 functions of the command: 5.71 s of 5.71 s when recorded
     'the two-particle stability kernel': (
         ('models.two_particle.tangent.batch_two_particle_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 9 functions of the command: 1.78 s of 1.78 s when recorded
+    # 10 functions of the command: 2.5 s of 2.5 s when recorded
     "the flow continuation's functions": (
         ('numerics.oscillator.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),
         ('obstacles.dispatch.piece_start_py',
          "(Array(float64, 1, 'C', False, aligned=True), int64)"),
+        ('obstacles.dispatch.piece_at_py',
+         "(Array(float64, 1, 'C', False, aligned=True), float64)"),
         ('obstacles.dispatch.z_state_py',
          "(Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
         ('numerics.saltation.flight_matrix_py',
          '(float64, float64, float64)'),
         ('numerics.oscillator.particular_py',
          "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64)"),
-        ('obstacles.dispatch.corner_of_py',
-         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
         ('numerics.oscillator.acceleration_py',
          "(Array(float64, 1, 'C', False, aligned=True), float64, float64, float64)"),
+        ('obstacles.dispatch.corner_of_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
         ('numerics.saltation.impact_saltation_py',
          '(float64, float64, float64, float64, float64)'),
         ('stability.multipliers_py',
          '(float64, float64, float64, float64)'),
     ),
-    # 7 functions of the command: 2.71 s of 2.71 s when recorded
+    # 8 functions of the command: 4.01 s of 4.01 s when recorded
     "the two-particle continuation's functions": (
         ('models.two_particle.kernel.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),
@@ -158,6 +156,8 @@ PLANS = {
          '(float64, float64, float64, float64)'),
         ('models.two_particle.kernel.wall_py',
          "(Array(float64, 1, 'C', False, aligned=True), float64, float64)"),
+        ('numerics.oscillator.acceleration_py',
+         "(Array(float64, 1, 'C', False, aligned=True), float64, float64, float64)"),
         ('models.two_particle.tangent.two_particle_steps_py',
          "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, int64)"),
     ),

@@ -120,7 +120,8 @@ COMPILE_SECONDS = {"flow": 5.8, "own_kernel": 6.9, "t0": 0.9, "stability": 2.8,
 # what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the
 # functions the continuation calls from Python, each cached on its own)
 CONTINUATION_KERNELS = ("numerics.saltation.flight_matrix", "numerics.saltation.impact_saltation",
-                        "stability.multipliers", "numerics.oscillator.acceleration")
+                        "stability.multipliers", "numerics.oscillator.acceleration",
+                        "obstacles.dispatch.piece_at")
 
 
 def kind_tables(scene) -> dict:

@@ -69,7 +69,7 @@ CLOSE_FACTOR = 1.5       # otherwise (benchmarks/estimate_time.py)
 
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``)
-COMPILE_SECONDS = {"two_particle": 5.8, "stability": 5.2, "continuation": 3.5}
+COMPILE_SECONDS = {"two_particle": 5.8, "stability": 5.2, "continuation": 4.0}
 # what ``cornerbif continue`` compiles for this model beyond the sweep's kernels
 CONTINUATION_KERNELS = ("models.two_particle.tangent.two_particle_steps", "numerics.saltation.flight_matrix",
                         "numerics.saltation.impact_saltation", "models.two_particle.tangent.zu_saltation",
