@@ -395,10 +395,16 @@ def _advance(problem, Y, Yn, T, Tn, mon, h, h_max, lo, hi, events, found, points
             raise StepRejected(f"the range's end {edge!r} was not located within the step")
         # a branch never leaves its range: it ends exactly at the range's end, solved there
         Yn[:n], Yn[n] = newton(problem, Yn[:n], edge), edge
+        Tn = _tangent(problem, Yn[:n], Yn[n], T, W)
     mon_n, mu_n = _monitors(problem, Yn[:n], Yn[n])
     _check_multipliers_continuous(points[-1].mu, mu_n, mon, mon_n)
     before = len(found)
     ended = _events_between(problem, Y, Yn, T, mon, mon_n, events, found, n, W, Tn)
+    span = 1e-12 * max(1.0, abs(lo), abs(hi))
+    if any(not lo - span <= e.lam <= hi + span for e in found[before:]):
+        # the step left the range and came back within it: an event outside is never kept
+        del found[before:]
+        raise StepRejected("an event of the step lies outside the range")
     if ended:
         e = found[-1]
         m_e, mu_e = _monitors(problem, e.X, e.lam)
@@ -500,7 +506,14 @@ def follow_step(prob, X, lam, T0, origin, lam_range, direction=1.0, switch=True,
     if (switch and last is not None and last.kind == "grazing"
             and hasattr(last.problem, "across_grazing")):
         more = _across_grazing(last, lam_range)
-        return br, more[:max(room, 0)]
+        if more:
+            if room > 0:
+                last.detail += f"; across it, the orbit with the new impact is continued as {more[1]!r}"
+            else:
+                last.detail += (f"; across it, the orbit with the new impact, {more[1]!r}, is not "
+                                f"continued (at most {MAX_BRANCHES} branches each way from a seed)")
+            return br, [more[0]] if room > 0 else []
+        return br, []
     if not (switch and last is not None and last.kind == "corner"):
         return br, []
     more = []
@@ -557,7 +570,8 @@ def _across_grazing(last, lam_range):
     the grazing, one sign on each side).  Corrected onto those solutions on the hyperplane
     through it normal to their tangent, and continued the way the new impact arrives from
     above (w- < 0: an orbit of the flow).  Returns the branches to continue (none, with the
-    reason in the event's detail, where neither way is one)."""
+    reason in the event's detail, where neither way is one): (the branch to continue,
+    its word), or None."""
     new, Xs, k = last.problem.across_grazing(last.X, last.lam)
     n = len(Xs)
     lo, hi = lam_range
@@ -580,7 +594,7 @@ def _across_grazing(last, lam_range):
         T = _tangent(new, Y[:n], Y[n], None, W)
     except (OrbitError, np.linalg.LinAlgError) as e:
         last.detail += f"; no orbit with the impact it gives birth to ({e})"
-        return []
+        return None
     # along the new itinerary's solutions w- of the new impact changes sign at the grazing:
     # the branch starts a short step (1e-4 of the arclength's scale) the way it turns
     # negative (the impact arrives from above), where its parameter's direction is clear
@@ -599,12 +613,10 @@ def _across_grazing(last, lam_range):
     if not ok:
         last.detail += ("; across it, the orbit with the impact it gives birth to is not one "
                         "of the flow on either side")
-        return []
-    word = new.word(Z[:n], Z[n])
-    last.detail += f"; across it, the orbit with the new impact is continued as {word!r}"
-    return [(new, Z[:n].copy(), float(Z[n]), Tz,
+        return None
+    return ((new, Z[:n].copy(), float(Z[n]), Tz,
              f"the grazing at {new.param} = {last.lam!r}: the orbit with the impact it "
-             "gives birth to")]
+             "gives birth to"), new.word(Z[:n], Z[n]))
 
 
 ADMISSIBLE_TOL = 1e-9
@@ -710,12 +722,18 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W, Tb=None):
     for _, kind, q, Y in hits:
         if kind == "torus" and problem.floquet(Y[:n], Y[n])[0][0].imag == 0.0:
             continue          # det J = 1 with real multipliers: a neutral saddle
-        if kind in ENDING and kind != "corner" and hasattr(problem, "corner_distances"):
+        if kind in ENDING and kind != "corner":
             # a grazing or a zero-velocity impact exactly at a corner is a corner collision
-            # (two impacts straddling a corner merge there: the alpha orbit at kappa_CC)
-            cd = np.abs(problem.corner_distances(Y[:n], Y[n]))
-            if cd.min() <= 1e-9:
-                kind, q = "corner", int(np.argmin(cd))
+            # (two impacts straddling a corner merge there: the alpha orbit at kappa_CC); on
+            # a curve, of its orbit, the impact the curve holds at its corner aside
+            prob_o, Xo = _orbit_of(problem, Y[:n], Y[n])
+            if hasattr(prob_o, "corner_distances"):
+                cd = np.abs(np.asarray(prob_o.corner_distances(Xo, Y[n]), float))
+                held = getattr(problem, "q", None)
+                if held is not None:
+                    cd[held] = math.inf
+                if cd.min() <= 1e-9:
+                    kind, q = "corner", int(np.argmin(cd))
         if kind in ENDING and kind not in watched:
             found.append(Event("end", Y[n], Y[:n].copy(),
                                ENDING_WORDS[kind].format(q=q) + f" (continue.events does "

@@ -531,6 +531,8 @@ def _image(scene, head, branches, curves, state=None) -> bytes:
         for key in sorted({k for r in rows for k in r[4]}):
             ev[key] = np.array([r[4].get(key, math.nan) for r in rows], float)
         for i, r in enumerate(rows):
+            if not r[5]:                # an event read from a file written before orbits
+                continue
             g = ev.create_group(f"orbits/{i:04d}")
             for key, v in r[5].items():
                 if key == "word":
@@ -567,7 +569,7 @@ def _load(path):
         events = [[] for _ in names]
         for i in range(cols["param"].shape[0]):
             g = ev.get(f"orbits/{i:04d}")
-            orbit = ({k: g[k][...] for k in g} | {"word": _plain(g.attrs["word"])}
+            orbit = ({k: g[k][...] for k in g} | {"word": _plain(g.attrs.get("word", ""))}
                      if g is not None else {})
             events[int(cols["branch"][i])].append(
                 (_plain(cols["kind"][i]), float(cols["param"][i]), _plain(cols["detail"][i]),

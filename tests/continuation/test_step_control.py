@@ -213,3 +213,71 @@ def test_a_step_whose_multipliers_jump_is_retried():
     C._check_multipliers_continuous([0.8, 0.5], [0.8, -0.9], calm, crossing)
     slow = dict(calm, zero_velocity=np.array([1e-3]))
     C._check_multipliers_continuous([0.8, 0.5], [30.0, 0.01], calm, slow)
+
+
+def _fold_system():
+    """cont_fold's system (u'' + u = cos 2.5t against the wall u = kappa, r = 0.8): its
+    stable period-one orbit at kappa = 0.5 and its fold at 1.4054798431."""
+    import cornerbif
+    from cornerbif.models.flow import orbit as FO
+    vals = dict(omega=2.5, kappa=0.5, beta=0.0, r=0.8, sigma=0.0, F=1.0, Omega=2.5)
+    res = cornerbif.simulate([1.5], [0.0], obstacle="sine", transient=3000, record=60, **vals)
+    return FO.seed_from_run(vals, "sine", "kappa", res["t"][0], res["v_out"][0],
+                            res["corner_offset"][0], int(res["impacts_per_cycle"][0]))
+
+
+@pytest.mark.parametrize("gap", [1e-5, 1.4e-5])
+def test_no_fold_is_reported_beyond_the_range(gap):
+    """A range ending just before the fold: the step that crosses the range's end also
+    crosses the fold and comes back.  Found in review: the tangent at the point outside the
+    range made a fold be located at the range's end, and a step out and back within the
+    range reported the fold outside it.  Now the branch ends at the range's end, exactly,
+    with no fold."""
+    prob, X = _fold_system()
+    hi = 1.4054798431 - gap
+    pts, evs = C.continue_branch(prob, X, 0.5, (-0.5, hi), +1, ds=0.01)
+    assert [e.kind for e in evs] == ["end"] and evs[-1].detail == "the end of the range"
+    assert pts[-1].lam == hi and all(p.lam <= hi for p in pts)
+
+
+def test_an_event_read_from_an_older_file_has_no_orbit_and_writes_back(tmp_path):
+    """A partial file written before events stored their orbit: its events read back with
+    an empty orbit, and the file written from them (a resume) reads back again.  Found in
+    review: an empty orbit group without its word made the resumed file unreadable."""
+    res = _continue(tmp_path, 1.5, 2.5, kappa=-1.00005, param="omega", start=1.999)
+    path = tmp_path / "s.h5"
+    attrs, branches, curves, _ = CR._load(path)
+    for b in branches:
+        b["events"] = [e[:4] + ({},) for e in b["events"]]
+    from cornerbif import config
+    scene = config.loads((tmp_path / "s.toml").read_text())
+    head = {"created": attrs["created"], "seeds": attrs["seeds"], "completed": attrs["created"]}
+    again = tmp_path / "again.h5"
+    again.write_bytes(CR._image(scene, head, branches, curves))
+    back = CR.read(again)
+    assert [e["kind"] for e in back["events"]] == [e["kind"] for e in res["events"]]
+    assert all(e["orbit"] == {} for e in back["events"])
+
+
+def test_a_grazing_past_the_branch_limit_says_it_is_not_continued():
+    """Found in review: the last grazing of a cascade said its new orbit was continued when
+    the branch limit had dropped it."""
+    prob, X = _fold_system()
+    brs = C.follow(prob, X, 0.5, (-0.5, 1.6), +1, ds=0.01, max_branches=2)
+    assert len(brs) == 2
+    assert "is continued as" in brs[0].events[-1].detail
+    last = brs[1].events[-1]
+    assert last.kind == "grazing" and "is not continued (at most" in last.detail
+
+
+def test_the_hysteresis_alpha_beta_gamma_curve_ends_at_its_corner(tmp_path):
+    """cont_hysteresis: the corner curve of the alpha-beta-gamma orbit ends at omega = 2,
+    where three impacts sit at corners at once: the end is the corner collision (a grazing
+    located at a corner is one), also on a curve (found in review: it was called a
+    grazing)."""
+    out = tmp_path / "h.h5"
+    r = CliRunner().invoke(main, ["continue", "configs/cont_hysteresis.toml", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    ends = [c["ends"] for c in CR.read(out)["curves"]]
+    assert any("corner at omega = 2" in e for e in ends), ends
+    assert not any("grazing at omega = 2" in e for e in ends), ends

@@ -592,6 +592,9 @@ def seed_from_transients(values, obstacle, param, word, simulate, tol=1e-12, tab
             vv = np.concatenate([[vout[last]], vout[first:nxt]])
             oo = np.concatenate([[off[last]], off[first:nxt]])
             tried += 1
+            if tried > 4 * len(u0):     # the work is bounded: four windows a start
+                raise OrbitError(f"no run from {len(u0)} starts spells {word!r} near its "
+                                 f"orbit ({tried - 1} windows tried)")
             try:
                 prob, X = seed_from_run(values, obstacle, param, tt, vv, oo, nxt - first, tol,
                                         tables)
@@ -599,8 +602,6 @@ def seed_from_transients(values, obstacle, param, word, simulate, tol=1e-12, tab
                 continue
             if prob.word(X, lam) in rotations and prob.admissible(X, lam)[0]:
                 return prob, X
-            if tried >= 4 * len(u0):
-                break
     raise OrbitError(f"no run from {len(u0)} starts spells {word!r} near its orbit "
                      f"({tried} windows tried)")
 
