@@ -765,18 +765,11 @@ def rebase(prob, values, param):
     return dataclasses.replace(prob, values=values, param=param, _cache={})
 
 
-@dataclass
-class EventCurve:
-    """A corner collision of any orbit problem as a curve in two parameters: the orbit's
-    equations and impact ``q``'s corner distance = 0 (``corner_distances``: the flow's time
-    to its corner, the maps' distance to their switching line, the two-particle system's
-    time between the two events that meet), with ``param2`` free (the last unknown of X'),
-    continued in the base problem's parameter; the Jacobian by central differences.  The
-    flow's own curve (``CornerCurve``) holds the impact at its corner exactly instead."""
-
-    base: object
-    q: int
-    param2: str
+class _FreeCurve:
+    """What a curve in two parameters whose second parameter ``param2`` is its last unknown
+    shares (``EventCurve``, ``FoldCurve``): the orbit's equations and one condition
+    (``_condition``), continued in the base problem's parameter, the Jacobian by central
+    differences."""
 
     @property
     def n(self) -> int:
@@ -788,7 +781,7 @@ class EventCurve:
     def residual(self, Xc, lam):
         prob = self._problem(Xc[-1])
         X = Xc[:-1]
-        return np.append(prob.residual(X, lam), prob.corner_distances(X, lam)[self.q])
+        return np.append(prob.residual(X, lam), self._condition(prob, X, lam))
 
     def jacobian(self, Xc, lam):
         return central_jacobian(self.residual, Xc, lam)
@@ -801,6 +794,22 @@ class EventCurve:
 
     def reindex(self, Xc, lam):
         return self, Xc
+
+
+@dataclass
+class EventCurve(_FreeCurve):
+    """A corner collision of any orbit problem as a curve in two parameters: the orbit's
+    equations and impact ``q``'s corner distance = 0 (``corner_distances``: the flow's time
+    to its corner, the maps' distance to their switching line, the two-particle system's
+    time between the two events that meet), with ``param2`` free (the last unknown of X').
+    The flow's own curve (``CornerCurve``) holds the impact at its corner exactly instead."""
+
+    base: object
+    q: int
+    param2: str
+
+    def _condition(self, prob, X, lam):
+        return prob.corner_distances(X, lam)[self.q]
 
 
 @dataclass
@@ -854,46 +863,24 @@ class CornerCurve:
 
 
 @dataclass
-class FoldCurve:
+class FoldCurve(_FreeCurve):
     """A fold (a multiplier at +1) as a curve in two parameters: the orbit's equations
-    and det(J - I) = 0 (J the monodromy; scaled, ``residual``), with ``param2`` free (the
-    last unknown of X'), continued in the base problem's parameter; the Jacobian by central
-    differences."""
+    and det(J - I) = 0 (J the monodromy; scaled, ``_condition``), with ``param2`` free (the
+    last unknown of X')."""
 
     base: object
     param2: str
 
-    @property
-    def n(self) -> int:
-        return self.base.n
-
-    def _problem(self, lam2):
-        return with_value(self.base, self.param2, lam2)
-
-    def residual(self, Xc, lam):
-        """The orbit's equations and det(J - I) w_1 ... w_N / sqrt((1 + w_1^2) ... ), w_i the
-        impacts' arrival velocities: each saltation matrix has a pole 1/w_i of rank one,
-        so det(J - I) is linear in each 1/w_i and the product cancels it; with the same
-        zeros elsewhere, the curve goes on smoothly to an impact of zero velocity (where
-        the zero-velocity test ends it) instead of meeting a pole."""
-        prob = self._problem(Xc[-1])
-        X = Xc[:-1]
+    def _condition(self, prob, X, lam):
+        """det(J - I) w_1 ... w_N / sqrt((1 + w_1^2) ... ), w_i the impacts' arrival
+        velocities: each saltation matrix has a pole 1/w_i of rank one, so det(J - I) is
+        linear in each 1/w_i and the product cancels it; with the same zeros elsewhere, the
+        curve goes on smoothly to an impact of zero velocity (where the zero-velocity test
+        ends it) instead of meeting a pole."""
         _, J = prob.floquet(X, lam)
         w = np.asarray(prob.impacts(X, lam)["w"], float)
         scale = float(np.prod(-w / np.sqrt(1.0 + w * w)))
-        return np.append(prob.residual(X, lam), np.linalg.det(J - np.eye(len(J))) * scale)
-
-    def jacobian(self, Xc, lam):
-        return central_jacobian(self.residual, Xc, lam)
-
-    def d_param(self, Xc, lam):
-        return central_d_param(self.residual, Xc, lam)
-
-    def orbit(self, Xc, lam):
-        return self._problem(Xc[-1]), Xc[:-1]
-
-    def reindex(self, Xc, lam):
-        return self, Xc
+        return np.linalg.det(J - np.eye(len(J))) * scale
 
 
 def fold_curve(event, param, lam_range, direction=1.0, ds=1e-3, **kw):

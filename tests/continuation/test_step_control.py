@@ -191,7 +191,7 @@ def test_the_fold_curve_ends_where_the_impact_velocity_vanishes(tmp_path):
     its orbits stay orbits of the flow and the curve ends at the wall's crest with a
     zero-velocity impact, at (kappa, omega) = (-1, 2) to 1e-12.  Before, it ran on to
     omega = 2.00045, where the impact arrives from below; the fold equation is now scaled by
-    the impacts' velocities (``FoldCurve.residual``), which cancels the multipliers' pole."""
+    the impacts' velocities (``FoldCurve._condition``), which cancels the multipliers' pole."""
     res = _continue(tmp_path, 1.5, 2.5, kappa=-1.00005, param="omega", start=1.999,
                     extra='curve = "kappa"\ncurve_range = [-1.01, -0.99]')
     (curve,) = res["curves"]

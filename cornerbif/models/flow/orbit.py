@@ -495,24 +495,8 @@ def seed_from_word(values, obstacle, param, word, simulate, tol=1e-12, cycles=6,
     res = simulate([x[0, 0]], [x[0, 1]], obstacle=obstacle, transient=0,
                              record=rec, **sys_)
     t, off = res["t"][0], res["corner_offset"][0]
-    n = int(np.isfinite(t).sum())
-    L = math.pi / values["omega"]
-    corner = np.rint((t[:n] - off[:n]) / L).astype(int)
-    # clusters: (first impact, count, symbol)
-    clusters = []
-    for i in range(n):
-        if clusters and corner[i] == corner[clusters[-1][0]]:
-            clusters[-1][1] += 1
-        else:
-            clusters.append([i, 1])
-    sym = []
-    for i0, c in clusters:
-        if c == 1:
-            sym.append("b" if off[i0] >= 0 else "g")
-        elif c == 2 and off[i0] < 0 <= off[i0 + 1]:
-            sym.append("a")
-        else:
-            sym.append("x")
+    clusters = _clusters(t, off)
+    sym = [c[2] for c in clusters]
     K = len(letters)
     rotations = {letters[k:] + letters[:k] for k in range(K)}
     for s in range(1, len(clusters) - K):
