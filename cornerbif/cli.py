@@ -26,6 +26,7 @@ import numpy as np
 from . import config, engine, outputs, plot_style, registry
 from . import continuation_run as C
 from . import warm as warmup
+from .branches import explain_file
 from .config import PLOT_COLOR_BY, PLOT_Y, SceneError, undrawable
 from .errors import EXIT_FAULT, EXIT_INPUT, EXIT_INTERRUPTED, SweepError, SweepInterrupted, WriteFailed
 from .estimate import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
@@ -480,6 +481,27 @@ def info(file):
         _fail(f"{file}: cannot be summarised ({cut(f'{type(e).__name__}: {e}', 300)}); the "
               "file holds values cornerbif does not write (damaged or crafted), or this is a "
               "bug in cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
+    for line in lines:
+        click.echo(line)
+
+
+@main.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--recompute", is_flag=True,
+              help="Locate the branches again, though the file holds them.")
+def explain(file, recompute):
+    """Explain a finished sweep's diagram: its attractors linked across the grid into
+    branches (each attractor's orbit solved and followed to the neighbouring grid values),
+    where each branch begins and ends and why (a corner collision, a grazing, a fold, a
+    period doubling, ..., located by continuation), what coexists, and the share of starts
+    each attracts.  The branch table is stored in FILE (/branches, on a copy renamed over
+    it: an interrupt leaves the file as it was) and read back on later calls."""
+    from .io import FileFormatError  # start-up: loads h5py
+    try:
+        with quiet():
+            lines = explain_file(file, recompute, log=lambda m: click.echo(m, err=True))
+    except (FileFormatError, ValueError) as e:
+        _fail(str(e))
     for line in lines:
         click.echo(line)
 

@@ -152,13 +152,36 @@ def _watch(problem, X, lam):
         "corner": problem.corner_distances(X, lam),
         "grazing": np.array([problem.smallest_gap(X, lam)]),
         "zero_velocity": np.array([-imp["w"].max()]),
+        **_multiplier_tests(mu, J),
+    }, mu
+
+
+def _multiplier_tests(mu, J):
+    """The test functions of the Floquet multipliers ``mu`` (of the monodromy ``J``)."""
+    return {
         "fold": np.array([np.linalg.det(J - np.eye(len(J)))]),
         "period_doubling": np.array([np.linalg.det(J + np.eye(len(J)))]),
         # a pair with mu_i mu_j = 1 (the bialternate product's determinant, det J - 1 in
         # two dimensions): a complex pair on the unit circle; a real pair (a neutral
         # saddle) is dropped by _events_between
         "torus": np.array([_pairs_on_circle(mu)]),
-    }, mu
+    }
+
+
+def _monitor(problem, X, lam, kind):
+    """One test function of ``_monitors`` (its ``kind``) alone: what the location of an
+    event evaluates at each of its iterates (the grazing monitor's sampled flights cost
+    ten times the rest, and a corner collision needs none of it)."""
+    if hasattr(problem, "orbit"):
+        problem, X = problem.orbit(X, lam)
+    with np.errstate(invalid="ignore"):
+        if kind == "corner":
+            return problem.corner_distances(X, lam)
+        if kind == "grazing":
+            return np.array([problem.smallest_gap(X, lam)])
+        if kind == "zero_velocity":
+            return np.array([-problem.impacts(X, lam)["w"].max()])
+        return _multiplier_tests(*problem.floquet(X, lam))[kind]
 
 
 def _pairs_on_circle(mu):
@@ -704,22 +727,32 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W, Tb=None):
         def turn_fun(Y):
             return _fold_test(problem, Y, T, W, n)
         Y = _locate(problem, Ya, T, 0.0, s_b, T[n], Tb[n], turn_fun, W)
-        hits.append((_wdot(W, T, Y - Ya), "fold", 0, Y))
-    for kind in watched + tuple(k for k in ENDING if k not in watched):
-        if kind == "fold" and turned:
+        hits.append((_wdot(W, T, Y - Ya), -1, "fold", 0, Y))
+    order = watched + tuple(k for k in ENDING if k not in watched)
+    changes = [(i, kind, q) for i, kind in enumerate(order) if not (kind == "fold" and turned)
+               for q in range(len(ma[kind]))
+               if (abs(ma[kind][q]) > 1e-12 and (ma[kind][q] > 0) != (mb[kind][q] > 0)
+                   and np.isfinite(ma[kind][q]) and np.isfinite(mb[kind][q]))]
+    # the corner collisions first (their test is cheap): a sign change that has not yet
+    # happened at the first of them lies beyond the branch's end and is not located
+    changes.sort(key=lambda c: c[1] != "corner")
+    first_end = None
+    for i, kind, q in changes:
+        a, b = ma[kind][q], mb[kind][q]
+
+        def fun(Y, kind=kind, q=q):
+            return _monitor(problem, Y[:n], Y[n], kind)[q]
+        if first_end is not None and kind != "corner" and (fun(first_end) > 0) == (a > 0):
             continue
-        a, b = ma[kind], mb[kind]
-        for q in range(len(a)):
-            if (abs(a[q]) > 1e-12 and (a[q] > 0) != (b[q] > 0) and np.isfinite(a[q])
-                    and np.isfinite(b[q])):
-                def fun(Y, kind=kind, q=q):
-                    return _monitors(problem, Y[:n], Y[n])[0][kind][q]
-                Y = _locate(problem, Ya, T, 0.0, s_b, a[q], b[q], fun, W)
-                if not abs(fun(Y)) <= 1e-6 * max(1.0, abs(a[q]), abs(b[q])):
-                    continue      # a sign change through a pole (multipliers blowing up)
-                hits.append((_wdot(W, T, Y - Ya), kind, q, Y))
-    hits.sort(key=lambda h: h[0])
-    for _, kind, q, Y in hits:
+        Y = _locate(problem, Ya, T, 0.0, s_b, a, b, fun, W)
+        if not abs(fun(Y)) <= 1e-6 * max(1.0, abs(a), abs(b)):
+            continue      # a sign change through a pole (multipliers blowing up)
+        s = _wdot(W, T, Y - Ya)
+        hits.append((s, i, kind, q, Y))
+        if kind in ENDING and (first_end is None or s < _wdot(W, T, first_end - Ya)):
+            first_end = Y
+    hits.sort(key=lambda h: h[:2])
+    for _, _, kind, q, Y in hits:
         if kind == "torus" and problem.floquet(Y[:n], Y[n])[0][0].imag == 0.0:
             continue          # det J = 1 with real multipliers: a neutral saddle
         if kind in ENDING and kind != "corner":

@@ -522,6 +522,9 @@ class OrbitProblem(Protocol):
       change is a corner collision), ``smallest_gap(X, lam)`` (the smallest gap of a flight to
       the obstacle: grazing), ``impacts(X, lam)`` (a dict of arrays ``t``, ``v_in``, ...),
       ``admissible(X, lam)`` -> (ok, why not);
+    * the attractor table's series (``Model.cycle``) over one cycle of the orbit:
+      ``cycle_series(X, lam)`` -> (a, b), which ``cornerbif.branches`` compares with the
+      table's signatures;
     * the itinerary: ``word(X, lam)``, ``itinerary()``, ``reindex(X, lam)`` (bookkeeping that
       is not an event) and ``across(q, X, lam)`` (the problem with impact q on the far side of
       the corner it reached, and its X);
@@ -553,6 +556,8 @@ class OrbitProblem(Protocol):
     def impacts(self, X: np.ndarray, lam: float) -> dict: ...
 
     def admissible(self, X: np.ndarray, lam: float) -> tuple: ...
+
+    def cycle_series(self, X: np.ndarray, lam: float) -> tuple: ...
 
     def word(self, X: np.ndarray, lam: float) -> str: ...
 

@@ -375,6 +375,12 @@ class FlowOrbit:
     def across(self, q, X, lam):
         return across_corner(self, q, X, lam)
 
+    def cycle_series(self, X, lam):
+        """The attractor table's series over one cycle (``observables.IMPACT_CYCLE``): the
+        impact heights u and the velocities before impact v_in."""
+        imp = self.impacts(X, lam)
+        return imp["u"], imp["v_in"]
+
     def store(self, X, lam, section):
         """What the continuation file keeps of the orbit at one point (docs/continuation.md):
         the cycle's impacts, the section state, the cycle's duration."""

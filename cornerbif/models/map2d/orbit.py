@@ -141,6 +141,11 @@ class MapOrbit:
                 break
         return MapOrbit(self.values, self.param, letters), X
 
+    def cycle_series(self, X, lam):
+        """The attractor table's series over one cycle (the map model's ``cycle``): the
+        iterates a_n and b_n."""
+        return X[0::2].copy(), X[1::2].copy()
+
     def store(self, X, lam, section):
         return {"section_u": X[0::2].copy(), "section_v": X[1::2].copy(),
                 "cycle_duration": float(self.n)}

@@ -356,6 +356,14 @@ class TwoParticleOrbit:
         new._cache = self._cache
         return new, Xn
 
+    def cycle_series(self, X, lam):
+        """The attractor table's series over one cycle (``observables.IMPACT_CYCLE``, of the
+        u-z impacts): their heights u and the velocities before impact v_in."""
+        zu, _ = self.tables(X, lam)
+        n_zu = self.kinds.count("U")
+        zu = zu.reshape(-1, 7)
+        return zu[:n_zu, 1].copy(), zu[:n_zu, 2].copy()
+
     def store(self, X, lam, section):
         zu, _ = self.tables(X, lam)
         n_zu = self.kinds.count("U")

@@ -1,0 +1,577 @@
+"""Branches of attractors across a sweep, and the events where they begin and end (issue 32,
+docs/basins.md "Branches across the sweep").
+
+The attractor table (``cornerbif.attractors``) names the attractors of each parameter point
+on its own.  Here they are linked across the grid: each attractor's orbit is solved from its
+first run's record (the model's ``orbit_seed``: the periodic-orbit problem of its itinerary,
+``cornerbif.continuation``), checked against the table's signature of it, and solved again
+by Newton's method at each neighbouring grid value along every parameter axis.  Where that
+orbit is an attractor of the neighbour's table (the same word, and its signature within the
+table's match tolerance) the two are one branch.  A branch is a connected set of linked
+attractors; ids are ordered by the table's smallest id in each, so they depend only on the
+table (itself the same on any thread count, block size, backend or resume).
+
+For a one-parameter sweep, every end of a branch inside the range is located by continuation
+from its last attractor towards the neighbouring grid value (``continuation.follow_step``,
+events to the secant method's 1e-14 in arclength) and named (``KINDS``):
+
+* the first stability event on the way (fold, period doubling, torus): the attractor loses
+  stability there (for a period doubling, the doubled branch at the neighbour is named);
+* else the event that ends the itinerary: a corner collision (the orbit of the other side's
+  itinerary is named, with its branch where the neighbour has it, or it is said that there
+  is none), a grazing, an impact at zero relative velocity (a loss of admissibility);
+* else: the orbit reaches the neighbour still stable (it is there, but no start reached it:
+  "unsampled"), or the continuation fails (said, with "no periodic orbit on the far side"
+  where no start at the neighbour reached any cycle).
+
+Written to the file (``write``, on a copy renamed over it)::
+
+    /attractors/branch           (n,) int32: each attractor's branch
+    /branches/id, word, period, impacts_per_cycle, attractors   (m,)
+    /branches/min_<axis>, max_<axis>   (m,) the grid values it spans on each parameter axis
+    /branches/max_abs_multiplier (m,) the largest |Floquet multiplier| of its orbits at the
+                                 grid values (NaN where none was solved)
+    /branches/{low,high}_kind, _at, _detail, _point   its ends (one-parameter sweeps):
+                                 the event's kind (KINDS), the located parameter value, a
+                                 sentence, and (a, b) of the orbit there (b largest)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import config
+from .attractors import read_table
+from .basin_stats import share_interval
+from .continuation import OrbitError, follow_step, newton, rebase
+from .outputs import output_lock
+
+# the kinds of a branch's end, as the file stores and ``explain`` names them
+KINDS = {
+    "corner": "a corner collision",
+    "grazing": "a grazing",
+    "fold": "a fold",
+    "period_doubling": "a period doubling",
+    "torus": "a torus",
+    "admissibility": "a loss of admissibility",
+    "range": "the range's end",
+    "no_orbit": "no periodic orbit on the far side",
+    "unsampled": "not reached from the starts",
+    "unlocated": "not located",
+    "": "not located (ends are located along one-parameter sweeps)",
+}
+STABILITY_EVENTS = ("fold", "period_doubling", "torus")
+ENDING_EVENTS = {"corner": "corner", "grazing": "grazing", "zero_velocity": "admissibility"}
+
+
+@dataclass
+class Node:
+    """One attractor of the table: its grid position over the parameter axes, and its orbit
+    (problem, unknowns at the point's value of ``problem.param``) where one was solved."""
+    row: int
+    at: tuple
+    values: dict
+    word: str
+    problem: object = None
+    X: np.ndarray = None
+    why: str = ""
+
+
+@dataclass
+class End:
+    kind: str
+    at: float
+    detail: str
+    point: tuple = (math.nan, math.nan)
+
+
+@dataclass
+class Branches:
+    """The branch table: per attractor its branch, per branch its rows and ends."""
+    axes: list                       # the parameter axes' names
+    branch_of: np.ndarray            # (n attractors,) int32
+    rows: list                       # per branch: its attractor rows, in table order
+    low: list = field(default_factory=list)     # per branch: End (one-parameter sweeps)
+    high: list = field(default_factory=list)
+    max_mu: np.ndarray = None
+
+
+def smallest_rotation(word: str) -> str:
+    """A cyclic word's least rotation (the table's name of a cycle)."""
+    return min((word[i:] + word[:i] for i in range(len(word))), default=word)
+
+
+def signature(a, b) -> np.ndarray:
+    """The attractor table's signature of one cycle's series (``cycles.SIGNATURE``)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.array([a.mean(), b.mean(), a.min(), a.max(), b.min(), b.max()])
+
+
+def cycle_point(a, b) -> tuple:
+    """The table's point of a cycle: (a, b) where b is largest."""
+    k = int(np.argmax(b))
+    return float(a[k]), float(b[k])
+
+
+def _matches(sig, ref, tol) -> bool:
+    return bool(np.all(np.abs(sig - ref) <= tol * (1.0 + np.abs(ref))))
+
+
+class _Links:
+    """Union-find over the table's rows."""
+
+    def __init__(self, n):
+        self.parent = np.arange(n)
+
+    def find(self, i):
+        while self.parent[i] != i:
+            self.parent[i] = self.parent[self.parent[i]]
+            i = self.parent[i]
+        return i
+
+    def join(self, i, j):
+        a, b = self.find(i), self.find(j)
+        if a != b:
+            self.parent[max(a, b)] = min(a, b)
+
+
+def _parameter_axes(scene):
+    starts = {pos for pos, _ in scene.start_axes.values()}
+    return [a for i, a in enumerate(scene.axes) if i not in starts]
+
+
+def _run_record(f, scene, index):
+    """The record of one run (``index``: its full grid index and start) as the model's
+    ``orbit_seed`` reads it, or None where the file does not keep it."""
+    spec = scene.spec
+    run = {"ipc": int(f["impacts_per_cycle"][index])}
+    for fld in spec.fields(tuple(spec.observables)):
+        if fld.name in f and fld.axis is None:
+            run[fld.source] = f[fld.name][index]
+    need = spec.seed_observable
+    if need and not all(fld.source in run for fld in spec.observables[need]):
+        return None
+    return run
+
+
+def nodes(f, scene, tab):
+    """A Node per attractor of the table, its orbit solved from its first run where it can
+    be and checked against the table's signature."""
+    par = _parameter_axes(scene)
+    shape = tuple(a.array.size for a in par)
+    sub = np.unravel_index(tab["parameter_point"], shape) if par else ()
+    ids = tab["ids"]
+    uniq, first = np.unique(ids.ravel(), return_index=True)
+    rep = {int(a): np.unravel_index(i, ids.shape) for a, i in zip(uniq, first) if a >= 0}
+    base = {k: v for k, v in scene.system.items() if v is not None}
+    param = par[0].name if par else ""
+    tol = tab["match_tolerance"]
+    out = []
+    for row in range(len(tab["id"])):
+        at = tuple(int(s[row]) for s in sub)
+        values = base | {a.name: float(a.array[i]) for a, i in zip(par, at)}
+        node = Node(row, at, values, str(tab["word"][row]))
+        out.append(node)
+        run = _run_record(f, scene, rep[row])
+        if run is None:
+            node.why = f"the file does not keep {scene.spec.seed_observable!r}"
+            continue
+        lam = values[param]
+        try:
+            prob, X = scene.spec.orbit_seed(values, scene, param, node.word, run)
+            X = newton(prob, X, lam)
+            sig = signature(*prob.cycle_series(X, lam))
+        except (OrbitError, NotImplementedError, np.linalg.LinAlgError, ArithmeticError,
+                ValueError) as e:
+            node.why = f"its orbit could not be solved from its run ({e})"
+            continue
+        if not _matches(sig, tab["signature"][row], tol):
+            node.why = "the orbit solved from its run is not the table's cycle"
+            continue
+        node.problem, node.X = prob, X
+    return out
+
+
+def _along(node, axis):
+    """The node's problem continued in ``axis`` (rebased at its point's values)."""
+    if node.problem.param == axis:
+        return node.problem
+    return rebase(node.problem, dict(node.values), axis)
+
+
+def solve_at(prob, X, value):
+    """The orbit (``prob``, from the unknowns ``X``) solved by Newton at ``value`` of its
+    parameter: X there, or None where Newton fails or the orbit is not admissible."""
+    try:
+        Xn = newton(prob, X, value)
+        ok, _ = prob.admissible(Xn, value)
+    except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError):
+        return None
+    return Xn if ok else None
+
+
+def _stable(prob, X, value) -> bool:
+    try:
+        mu, _ = prob.floquet(X, value)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return False
+    return bool(np.all(np.abs(mu) < 1.0))
+
+
+def _match(prob, X, value, candidates, tab):
+    """The row among ``candidates`` (nodes at the neighbour) whose cycle is this orbit."""
+    try:
+        sig = signature(*prob.cycle_series(X, value))
+        word = smallest_rotation(prob.word(X, value))
+    except (ArithmeticError, ValueError):
+        return None
+    hits = [c.row for c in candidates if smallest_rotation(c.word) == word
+            and _matches(sig, tab["signature"][c.row], tab["match_tolerance"])]
+    return hits[0] if len(hits) == 1 else None
+
+
+def link(ns, par, tab):
+    """Union the rows whose orbits continue into each other along every parameter axis,
+    both ways: from each attractor, its orbit solved by Newton at the next grid value, and
+    on while it is stable there but no start reached it (an unsampled grid point), until it
+    is an attractor of the table (linked), unstable, or lost.  Returns (_Links, the set of
+    (row, axis, step) that have a partner that way)."""
+    at = {}
+    for n in ns:
+        at.setdefault(n.at, []).append(n)
+    links = _Links(len(ns))
+    linked = set()
+    for k, axis in enumerate(par):
+        for step in (1, -1):
+            for n in ns:
+                if n.problem is None or (n.row, k, step) in linked:
+                    continue
+                prob, X, i = _along(n, axis.name), n.X, n.at[k]
+                while 0 <= i + step < axis.array.size:
+                    i += step
+                    nb = n.at[:k] + (i,) + n.at[k + 1:]
+                    value = float(axis.array[i])
+                    X = solve_at(prob, X, value)
+                    if X is None:
+                        break
+                    m = _match(prob, X, value, at.get(nb, []), tab)
+                    if m is not None:
+                        links.join(n.row, m)
+                        linked.add((n.row, k, step))
+                        linked.add((m, k, -step))
+                        break
+                    if not _stable(prob, X, value):
+                        break
+    return links, linked
+
+
+def build(f, scene, log=None) -> Branches | None:
+    """The branches of the finished sweep file ``f`` (open): None where it has no attractor
+    table or no parameter axis."""
+    tab = read_table(f)
+    par = _parameter_axes(scene)
+    if tab is None or not par:
+        return None
+    ns = nodes(f, scene, tab)
+    if log:
+        solved = sum(n.problem is not None for n in ns)
+        log(f"{solved} of {len(ns)} attractors' orbits solved; linking them across the grid")
+    links, linked = link(ns, par, tab)
+    roots = np.array([links.find(i) for i in range(len(ns))], np.int64)
+    order = {r: b for b, r in enumerate(sorted(set(roots.tolist())))}
+    branch_of = np.array([order[r] for r in roots], np.int32)
+    rows = [[] for _ in order]
+    for i, b in enumerate(branch_of):
+        rows[b].append(i)
+    br = Branches([a.name for a in par], branch_of, rows)
+    br.max_mu = np.array([_max_mu(ns, r) for r in rows])
+    if len(par) == 1:
+        _ends(br, ns, par[0], tab, linked, log)
+    else:
+        br.low = br.high = [End("", math.nan, KINDS[""]) for _ in rows]
+    return br
+
+
+def _max_mu(ns, rows):
+    vals = []
+    for r in rows:
+        n = ns[r]
+        if n.problem is None:
+            continue
+        try:
+            mu, _ = n.problem.floquet(n.X, n.values[n.problem.param])
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            continue
+        vals.append(np.abs(mu).max())
+    return float(max(vals)) if vals else math.nan
+
+
+def _ends(br, ns, axis, tab, linked, log):
+    """Locate and name both ends of every branch of a one-parameter sweep."""
+    x = axis.array
+    no_cycle = tab["outcomes"][:, 0] == 0        # no start reached any cycle there
+    by_point = {}
+    for n in ns:
+        by_point.setdefault(n.at[0], []).append(n)
+    grid = _Grid(x, by_point, no_cycle)
+    for b, rows in enumerate(br.rows):
+        idx = [ns[r].at[0] for r in rows]
+        for side, pick in (("low", int(np.argmin([x[i] for i in idx]))),
+                           ("high", int(np.argmax([x[i] for i in idx])))):
+            n = ns[rows[pick]]
+            i = n.at[0]
+            step = 1 if (x[-1] > x[0]) == (side == "high") else -1
+            if not 0 <= i + step < x.size:
+                end = End("range", float(x[i]), f"the range's end at {axis.name} = "
+                          f"{float(x[i])!r}", _point_of(n))
+            elif n.problem is None:
+                end = End("unlocated", math.nan, f"not located: {n.why}")
+            else:
+                end = locate(n, axis.name, float(x[-1] if step > 0 else x[0]), grid, tab, br)
+            getattr(br, side).append(end)
+        if log and b % 50 == 49:
+            log(f"ends of {b + 1} of {len(br.rows)} branches located")
+
+
+@dataclass
+class _Grid:
+    """A one-parameter sweep's grid values, attractors by grid index, and where no start
+    reached any cycle."""
+    x: np.ndarray
+    by_point: dict
+    no_cycle: np.ndarray
+
+    def beyond(self, lam, direction):
+        """The index of the first grid value past ``lam`` going ``direction``."""
+        past = np.flatnonzero((self.x - lam) * direction > 0)
+        if past.size == 0:
+            return None
+        return int(past[np.argmin(np.abs(self.x[past] - lam))])
+
+
+def _point_of(n):
+    if n.problem is None:
+        return (math.nan, math.nan)
+    lam = n.values[n.problem.param]
+    return cycle_point(*n.problem.cycle_series(n.X, lam))
+
+
+def _event_point(e):
+    try:
+        prob, X = e.problem, e.X
+        if hasattr(prob, "orbit"):
+            prob, X = prob.orbit(X, e.lam)
+        return cycle_point(*prob.cycle_series(X, e.lam))
+    except (ArithmeticError, ValueError, AttributeError, np.linalg.LinAlgError):
+        return (math.nan, math.nan)
+
+
+def locate(n, axis, value, grid, tab, br):
+    """Where and why the branch of node ``n`` ends on the way from its value to ``value``
+    (the range's end that way): continuation from its orbit; the first stability event,
+    else the event that ends its itinerary (module doc).  The attractors of the first grid
+    value past the event name its other side."""
+    prob = _along(n, axis)
+    lam = n.values[axis]
+    rng = (min(lam, value), max(lam, value))
+    direction = 1.0 if value > lam else -1.0
+    spacing = float(np.min(np.abs(np.diff(grid.x))))
+    b, more = follow_step(prob, n.X, lam, None, "start", rng, direction, switch=True,
+                          ds=spacing / 8, ds_min=spacing * 1e-9, ds_max=spacing * 4)
+    evs = b.events
+    stab = [e for e in evs if e.kind in STABILITY_EVENTS]
+    last = evs[-1] if evs else None
+    e = stab[0] if stab else last
+    j = grid.beyond(e.lam, direction) if e is not None else None
+    far = grid.by_point.get(j, []) if j is not None else []
+    far_note = ("; no start at the next grid value reached a cycle (chaos, or a cascade "
+                "finer than the grid)" if j is not None and grid.no_cycle[j] else "")
+    if stab:
+        detail = f"{KINDS[e.kind]} at {axis} = {float(e.lam)!r}"
+        if e.kind == "period_doubling":
+            doubled = [c for c in far if tab["period"][c.row] == 2 * tab["period"][n.row]]
+            detail += (f": the doubled orbit is the next grid value's {doubled[0].word!r}, "
+                       f"branch {br.branch_of[doubled[0].row]}" if doubled else
+                       ": no doubled orbit among the next grid value's attractors")
+        return End(e.kind, float(e.lam), detail + far_note, _event_point(e))
+    if last is not None and last.kind in ENDING_EVENTS:
+        kind = ENDING_EVENTS[last.kind]
+        detail = f"{KINDS[kind]} at {axis} = {float(last.lam)!r}"
+        if kind == "corner":
+            detail += _other_side(more, last, far, br)
+        elif last.detail:
+            detail += f" ({last.detail})"
+        return End(kind, float(last.lam), detail + far_note, _event_point(last))
+    if last is not None and last.kind == "end" and "end of the range" in last.detail:
+        pt = b.points[-1]
+        return End("unsampled", math.nan,
+                   f"its orbit goes on to the range's end ({axis} = {value!r}, |multipliers| "
+                   f"<= {np.abs(pt.mu).max():.3g} there) with no event, but no start beyond "
+                   "the branch's last grid value reached it")
+    why = last.detail if last is not None else "no event"
+    if "stops being one of the flow" in why:
+        return End("admissibility", float(last.lam), f"{KINDS['admissibility']} ({why})"
+                   + far_note, _event_point(last))
+    kind = "no_orbit" if far_note else "unlocated"
+    return End(kind, math.nan, f"the continuation stopped ({why}){far_note}")
+
+
+def _other_side(more, last, far, br):
+    """What a corner collision's other side is: the orbit of the other side's itinerary
+    (``follow_step``'s switch) and, where an attractor of the next grid value has its word,
+    that attractor's branch; or that there is none, and why."""
+    if not more:
+        why = last.detail.split("; ", 1)[1] if "; " in last.detail else "none was found"
+        return f": the orbit is lost, with no orbit on the other side ({why})"
+    prob, X, lam, _, origin = more[0]
+    try:
+        word = smallest_rotation(prob.word(X, lam))
+    except (ArithmeticError, ValueError):
+        return f": {origin}"
+    same = [c for c in far if smallest_rotation(c.word) == word]
+    kind = "turns back (a nonsmooth fold)" if "turns back" in origin else (
+        "jumps to another orbit" if "jump" in origin else "persists")
+    text = f": the orbit {kind} as {word!r}"
+    if same:
+        text += f", an attractor of the next grid value on branch {br.branch_of[same[0].row]}"
+    else:
+        text += ", which is no attractor at the next grid value"
+    return text
+
+
+# ------------------------------------------------------------------ the file
+def write(path, scene, br, tab_rows):
+    """Write the branch table into the finished sweep file ``path`` (on a copy renamed
+    over it, ``io._amend``: an interrupt leaves the file as it was)."""
+    import h5py  # start-up: loads h5py
+
+    from . import io  # start-up: loads h5py
+
+    def change(g):
+        a = g["attractors"]
+        if "branch" in a:
+            del a["branch"]
+        a.create_dataset("branch", data=br.branch_of)
+        if "branches" in g:
+            del g["branches"]
+        out = g.create_group("branches")
+        m = len(br.rows)
+        first = [rows[0] for rows in br.rows]
+        out.create_dataset("id", data=np.arange(m, dtype=np.int32))
+        out.create_dataset("word", data=np.array([tab_rows["word"][r] for r in first],
+                                                 dtype=g["attractors/word"].dtype))
+        for col in ("period", "impacts_per_cycle"):
+            out.create_dataset(col, data=np.array([tab_rows[col][r] for r in first],
+                                                  np.int32))
+        out.create_dataset("attractors", data=np.array([len(r) for r in br.rows], np.int32))
+        for name in br.axes:
+            v = tab_rows[f"at_{name}"]
+            out.create_dataset(f"min_{name}", data=np.array([v[r].min() for r in br.rows]))
+            out.create_dataset(f"max_{name}", data=np.array([v[r].max() for r in br.rows]))
+        out.create_dataset("max_abs_multiplier", data=br.max_mu)
+        for side in ("low", "high"):
+            ends = getattr(br, side)
+            out.create_dataset(f"{side}_kind", data=np.array([e.kind for e in ends], "S16"))
+            out.create_dataset(f"{side}_at", data=np.array([e.at for e in ends], float))
+            out.create_dataset(f"{side}_detail",
+                               data=np.array([e.detail.encode() for e in ends], object),
+                               dtype=h5py.string_dtype())
+            out.create_dataset(f"{side}_point", data=np.array([e.point for e in ends],
+                                                               float).reshape(m, 2))
+        out.attrs["axes"] = ",".join(br.axes)
+    io._amend(path, path, change)
+
+
+def read(path_or_file):
+    """The branch table of a file as a dict of arrays (strings as str), or None."""
+    import h5py  # start-up: loads h5py
+    own = not isinstance(path_or_file, h5py.File)
+    f = h5py.File(path_or_file, "r") if own else path_or_file
+    try:
+        if "branches" not in f:
+            return None
+        g = f["branches"]
+        out = {}
+        for k in g:
+            v = g[k][...]
+            if v.dtype.kind in "SO":
+                v = np.array([s.decode() if isinstance(s, bytes) else str(s) for s in v],
+                             dtype=object)
+            out[k] = v
+        out["axes"] = [a for a in str(g.attrs["axes"]).split(",") if a]
+        out["branch"] = f["attractors/branch"][...]
+        return out
+    finally:
+        if own:
+            f.close()
+
+
+# ------------------------------------------------------------------ explain
+def explain_file(path, recompute=False, log=None) -> list:
+    """``cornerbif explain``: the branches of the finished sweep ``path`` (located and
+    stored in it the first time, or with ``recompute``) as lines of text (``genealogy``)."""
+    from .io import check_readable  # start-up: loads h5py
+    with check_readable(path) as f:
+        if not f.attrs.get("completed"):
+            raise ValueError(f"{path}: the sweep is not finished; complete it first "
+                             "(cornerbif sweep --resume)")
+        has = "branches" in f and "attractors/branch" in f
+        scene = config.loads(str(f.attrs["scene"]))
+        if "attractors" not in f:
+            raise ValueError(f"{path}: the file has no attractor table (model "
+                             f"{scene.model!r} names no cycles, or it was written before tables)")
+    if recompute or not has:
+        with output_lock(path, "cornerbif explain"):
+            with check_readable(path) as f:
+                tab = read_table(f)
+                br = build(f, scene, log)
+            if br is None:
+                raise ValueError(f"{path}: the sweep has no parameter axis to follow "
+                                 "attractors along")
+            write(path, scene, br, tab)
+    with check_readable(path) as f:
+        return genealogy(read(f), read_table(f), scene)
+
+
+def _share(tab, rows):
+    """The share of starts reaching a branch over its points, with its 95 % interval (Wilson:
+    right for rare basins, ``basin_stats.share_interval``)."""
+    n = int(tab["runs_per_point"])
+    points = len(set(int(tab["parameter_point"][r]) for r in rows))
+    runs = int(np.sum(tab["runs"][rows]))
+    lo, hi = share_interval(runs, n * points)
+    return runs / (n * points), float(lo), float(hi)
+
+
+def genealogy(bt, tab, scene) -> list:
+    """The branch table ``bt`` (``read``) as text: per branch, where it is, how it begins and
+    ends and why, what it coexists with, and the share of starts it attracts."""
+    axes = bt["axes"]
+    m = len(bt["id"])
+    rows = [np.flatnonzero(bt["branch"] == b) for b in range(m)]
+    pts = [set(tab["parameter_point"][r].tolist()) for r in rows]
+    out = [f"{scene.name}: {len(tab['id'])} attractors on {m} branches over "
+           + ", ".join(f"{a} in [{tab[f'at_{a}'].min():.6g}, {tab[f'at_{a}'].max():.6g}]"
+                       for a in axes)]
+    for b in range(m):
+        span = ", ".join(f"{a} in [{bt[f'min_{a}'][b]:.10g}, {bt[f'max_{a}'][b]:.10g}]"
+                         for a in axes)
+        f, lo, hi = _share(tab, rows[b])
+        out.append(f"branch {b}: {bt['word'][b]!r} (period {bt['period'][b]}, "
+                   f"{bt['impacts_per_cycle'][b]} impacts per cycle), an attractor at "
+                   f"{len(pts[b])} grid value{'s' if len(pts[b]) > 1 else ''}, {span}; "
+                   f"|multipliers| <= {bt['max_abs_multiplier'][b]:.3g}")
+        for side, name in (("low", "begins" if len(axes) == 1 else "low end"),
+                           ("high", "ends" if len(axes) == 1 else "high end")):
+            out.append(f"  {name}: {bt[f'{side}_detail'][b]}")
+        others = [c for c in range(m) if c != b and pts[b] & pts[c]]
+        if others:
+            out.append("  coexists with branch" + ("es " if len(others) > 1 else " ")
+                       + ", ".join(map(str, others[:20]))
+                       + (f" and {len(others) - 20} more" if len(others) > 20 else ""))
+        out.append(f"  share of starts at its points: {f:.3g} (95 % interval {lo:.3g} to "
+                   f"{hi:.3g})")
+    return out

@@ -1,0 +1,172 @@
+"""Branches across a sweep and their ends (cornerbif.branches, issue 32), against the paper's
+closed forms and the maps' exact plateau ends.
+
+* The flow of Fig. 6(a) (omega = 1.999, r = 0.8): the single-impact orbit ``b`` ends at
+  kappa_C (eq 11) in a corner collision with no orbit on the other side, and the
+  double-impact orbit ``a`` begins at kappa_CC (eq 17) likewise.  Eqs (11) and (17) are
+  exact for the flow (docs/discrepancies.md); the ends are located by continuation, so they
+  must meet them to 1e-10 (the issue's tolerance; they meet them to about 1e-15).
+* The maps (56) at omega = 1.999, r = 0.8: every plateau end that is a corner collision is an
+  end of the word's exact admissible interval (``theory.word_interval``, an independent
+  linear-inequality computation), to 1e-10.
+* The branch ids and the text of ``cornerbif explain`` depend only on the file's attractor
+  table: equal on 1 and 2 threads and on other block sizes.
+
+tests/runs/test_branch_ends_brute.py checks the same ends against a brute-force bisection
+that uses the simulator only.
+"""
+
+import h5py
+import numpy as np
+from click.testing import CliRunner
+
+from cornerbif import branches, config, theory
+from cornerbif.attractors import read_table
+from cornerbif.cli import main
+from cornerbif.sweep import run_sweep
+
+FLOW = """
+[scene]
+name = "branches_flow"
+model = "flow"
+[system]
+obstacle = "rectified_sine"
+omega = 1.999
+kappa = 0.0
+beta = 1.0
+r = 0.8
+[sweep]
+kappa = {{ start = {lo}, stop = {hi}, num = 3 }}
+[initial]
+count = 8
+seed = 1
+u = [0.0, 20.0]
+v = [-20.0, 20.0]
+[run]
+transient = 500
+record = 100
+[output]
+keep = ["impacts"]
+"""
+
+MAPS = """
+[scene]
+name = "branches_maps"
+model = "map2d"
+[system]
+omega = 1.999
+kappa = -0.01
+r = 0.8
+[sweep]
+kappa = { start = -0.0055, stop = -0.003, num = 6 }
+[initial]
+count = 8
+seed = 3
+u = [0.5, 14.0]
+v = [-0.03, 0.03]
+[run]
+transient = 2000
+record = 200
+[output]
+keep = ["section"]
+"""
+
+
+def _swept(tmp_path, text, name, **kw):
+    out = str(tmp_path / f"{name}.h5")
+    run_sweep(config.loads(text), out, **kw)
+    return out
+
+
+def _explained(path):
+    r = CliRunner().invoke(main, ["explain", path], catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    return branches.read(path), r.stdout
+
+
+def _branch_of_word(bt, word):
+    hits = [b for b in range(len(bt["id"])) if bt["word"][b] == word]
+    assert len(hits) == 1, (word, list(bt["word"]))
+    return hits[0]
+
+
+def test_beta_ends_at_kappa_C_with_no_orbit_beyond(tmp_path):
+    """``b`` at kappa = -0.0143, -0.0142 (one branch), gone at -0.0141: its end is located at
+    kappa_C = theta2 (1 + r)/(1 - r) cot(pi/omega) (eq 11) to 1e-10."""
+    path = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141), "beta")
+    bt, text = _explained(path)
+    b = _branch_of_word(bt, "b")
+    assert bt["attractors"][b] == 2                      # linked across the two grid values
+    assert bt["low_kind"][b] == "range"
+    assert bt["high_kind"][b] == "corner"
+    assert abs(bt["high_at"][b] - theory.kappa_C(1.999, 0.8)) <= 1e-10
+    assert "no orbit on the other side" in bt["high_detail"][b]
+    assert "ends: a corner collision at kappa = -0.01413716985" in text
+
+
+def test_alpha_begins_at_kappa_CC_with_no_orbit_beyond(tmp_path):
+    """``a`` at kappa = -0.0022 (reached from the starts), not at -0.0032 (kappa_CC lies
+    between; at -0.0027 its basin may hold none of the 8 starts): its beginning is located
+    at kappa_CC = beta omega (1 + r)^2/(1 + r^2) cot(pi/omega) (eq 17) to 1e-10."""
+    path = _swept(tmp_path, FLOW.format(lo=-0.0032, hi=-0.0022), "alpha")
+    bt, _ = _explained(path)
+    a = _branch_of_word(bt, "a")
+    assert bt["low_kind"][a] == "corner"
+    assert abs(bt["low_at"][a] - theory.kappa_CC(1.999, 0.8)) <= 1e-10
+    assert bt["high_kind"][a] == "range"
+
+
+def test_map_plateau_ends_are_the_exact_word_intervals(tmp_path):
+    """Every corner-collision end of a branch of the maps is an end of its word's exact
+    admissible interval in kappa1 (``theory.word_interval``), to 1e-10; at least the
+    plateaus bbg and abbgb are checked at both ends."""
+    path = _swept(tmp_path, MAPS, "maps")
+    bt, _ = _explained(path)
+    checked = []
+    for b in range(len(bt["id"])):
+        lo, hi = theory.word_interval(bt["word"][b], 1.999 - 2.0, 0.8)
+        for side, exact in (("low", lo), ("high", hi)):
+            if bt[f"{side}_kind"][b] == "corner":
+                assert abs(bt[f"{side}_at"][b] - exact) <= 1e-10, (bt["word"][b], side)
+                checked.append((bt["word"][b], side))
+    assert {("bbg", "low"), ("bbg", "high"), ("abbgb", "low"), ("abbgb", "high")} <= set(checked)
+
+
+def test_branch_ids_and_explain_do_not_depend_on_threads_or_blocks(tmp_path):
+    """The same scene on 1 thread in blocks of one grid point and on 2 threads in one block:
+    equal branch tables and equal ``explain`` text (ids depend on the attractor table only);
+    a second ``explain`` reads the stored table and prints the same."""
+    text = FLOW.format(lo=-0.0143, hi=-0.0141)
+    one = _swept(tmp_path, text, "one", threads=1, block_points=1)
+    two = _swept(tmp_path, text, "two", threads=2)
+    bt1, out1 = _explained(one)
+    bt2, out2 = _explained(two)
+    assert out1 == out2
+    for k in bt1:
+        if k == "axes":
+            assert bt1[k] == bt2[k]
+        else:
+            np.testing.assert_array_equal(bt1[k], bt2[k])
+    again = CliRunner().invoke(main, ["explain", one], catch_exceptions=False)
+    assert again.stdout == out1
+    # every attractor's branch has its word
+    with h5py.File(one) as f:
+        tab = read_table(f)
+    for row, b in enumerate(bt1["branch"]):
+        assert tab["word"][row] == bt1["word"][b]
+
+
+def test_explain_refuses_what_it_cannot_explain(tmp_path):
+    """A path that is no sweep, and an unfinished sweep: exit 2, the path named, nothing
+    written."""
+    junk = tmp_path / "junk.h5"
+    junk.write_text("not hdf5")
+    r = CliRunner().invoke(main, ["explain", str(junk)])
+    assert r.exit_code == 2 and "junk.h5" in r.output and "not an HDF5 file" in r.output
+    path = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141), "done")
+    with h5py.File(path, "r+") as f:
+        del f.attrs["completed"]
+    before = open(path, "rb").read()
+    r = CliRunner().invoke(main, ["explain", path])
+    assert r.exit_code == 2 and "not finished" in r.output
+    assert open(path, "rb").read() == before
