@@ -59,6 +59,20 @@ CODES = {NO_CYCLE: "no cycle within the budget", STICKS: "sticks or chatters",
 # two runs on one cycle agree to the detection tolerance of each (period_tol): their
 # signatures agree to a small multiple of it
 MATCH_FACTOR = 100.0
+# the kinds of a branch's end (``cornerbif.branches``), as the file stores and names them
+BRANCH_END_KINDS = {
+    "corner": "a corner collision",
+    "grazing": "a grazing",
+    "fold": "a fold",
+    "period_doubling": "a period doubling",
+    "torus": "a torus",
+    "admissibility": "a loss of admissibility",
+    "range": "the range's end",
+    "no_orbit": "no periodic orbit on the far side",
+    "unsampled": "not reached from the starts",
+    "unlocated": "not located",
+    "": "not located (ends are located along one-parameter sweeps)",
+}
 SLAB_RUNS = 1 << 17       # runs read at a time
 
 
@@ -332,3 +346,29 @@ def read_table(path_or_file):
         if own:
             f.close()
 
+
+
+def read_branches(path_or_file):
+    """The branch table of a file (``cornerbif explain``, ``cornerbif.branches``) as a dict
+    of arrays (strings as str, ``axes`` the parameter axes, ``branch`` each attractor's), or
+    None when the file has none."""
+    import h5py  # start-up: loads h5py
+    own = not isinstance(path_or_file, h5py.File)
+    f = h5py.File(path_or_file, "r") if own else path_or_file
+    try:
+        if "branches" not in f or "attractors/branch" not in f:
+            return None
+        g = f["branches"]
+        out = {}
+        for k in g:
+            v = g[k][...]
+            if v.dtype.kind in "SO":
+                v = np.array([s.decode() if isinstance(s, bytes) else str(s) for s in v],
+                             dtype=object)
+            out[k] = v
+        out["axes"] = [a for a in str(g.attrs["axes"]).split(",") if a]
+        out["branch"] = f["attractors/branch"][...]
+        return out
+    finally:
+        if own:
+            f.close()

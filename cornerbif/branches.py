@@ -44,25 +44,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import config
-from .attractors import read_table
+from .attractors import BRANCH_END_KINDS as KINDS
+from .attractors import read_branches, read_table
 from .basin_stats import share_interval
 from .continuation import OrbitError, follow_step, newton, rebase
 from .outputs import output_lock
 
-# the kinds of a branch's end, as the file stores and ``explain`` names them
-KINDS = {
-    "corner": "a corner collision",
-    "grazing": "a grazing",
-    "fold": "a fold",
-    "period_doubling": "a period doubling",
-    "torus": "a torus",
-    "admissibility": "a loss of admissibility",
-    "range": "the range's end",
-    "no_orbit": "no periodic orbit on the far side",
-    "unsampled": "not reached from the starts",
-    "unlocated": "not located",
-    "": "not located (ends are located along one-parameter sweeps)",
-}
 STABILITY_EVENTS = ("fold", "period_doubling", "torus")
 ENDING_EVENTS = {"corner": "corner", "grazing": "grazing", "zero_velocity": "admissibility"}
 
@@ -485,30 +472,6 @@ def write(path, scene, br, tab_rows):
     io._amend(path, path, change)
 
 
-def read(path_or_file):
-    """The branch table of a file as a dict of arrays (strings as str), or None."""
-    import h5py  # start-up: loads h5py
-    own = not isinstance(path_or_file, h5py.File)
-    f = h5py.File(path_or_file, "r") if own else path_or_file
-    try:
-        if "branches" not in f:
-            return None
-        g = f["branches"]
-        out = {}
-        for k in g:
-            v = g[k][...]
-            if v.dtype.kind in "SO":
-                v = np.array([s.decode() if isinstance(s, bytes) else str(s) for s in v],
-                             dtype=object)
-            out[k] = v
-        out["axes"] = [a for a in str(g.attrs["axes"]).split(",") if a]
-        out["branch"] = f["attractors/branch"][...]
-        return out
-    finally:
-        if own:
-            f.close()
-
-
 # ------------------------------------------------------------------ explain
 def explain_file(path, recompute=False, log=None) -> list:
     """``cornerbif explain``: the branches of the finished sweep ``path`` (located and
@@ -533,7 +496,7 @@ def explain_file(path, recompute=False, log=None) -> list:
                                  "attractors along")
             write(path, scene, br, tab)
     with check_readable(path) as f:
-        return genealogy(read(f), read_table(f), scene)
+        return genealogy(read_branches(f), read_table(f), scene)
 
 
 def _share(tab, rows):
@@ -547,8 +510,9 @@ def _share(tab, rows):
 
 
 def genealogy(bt, tab, scene) -> list:
-    """The branch table ``bt`` (``read``) as text: per branch, where it is, how it begins and
-    ends and why, what it coexists with, and the share of starts it attracts."""
+    """The branch table ``bt`` (``attractors.read_branches``) as text: per branch, where it
+    is, how it begins and ends and why, what it coexists with, and the share of starts it
+    attracts."""
     axes = bt["axes"]
     m = len(bt["id"])
     rows = [np.flatnonzero(bt["branch"] == b) for b in range(m)]

@@ -349,7 +349,10 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
 @click.option("--style", "style", metavar="STYLE",
               help="A matplotlib style sheet (a name or a .mplstyle file) over the project's "
                    "style (default: [plot] style).")
-def plot(files, out, y, title, color_by, style):
+@click.option("--kind", "kind", metavar="KIND",
+              help="The figure kind, instead of the scene's [plot] kind (e.g. branches: the "
+                   "skeleton of a file explained by cornerbif explain).")
+def plot(files, out, y, title, color_by, style, kind):
     """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down);
     continuation files (``cornerbif continue``) are drawn over the diagram, or alone.
 
@@ -379,7 +382,8 @@ def plot(files, out, y, title, color_by, style):
         # what matplotlib or numpy still say (plot_style.quiet silences what files hold by
         # design) is said after the figure, one line each
         with warnings.catch_warnings(record=True) as said:
-            draw_files(list(files), out, y=y, title=title, color_by=color_by, style=style)
+            draw_files(list(files), out, y=y, title=title, color_by=color_by, style=style,
+                       kind=kind)
     except FileFormatError as e:
         _fail(str(e))
     except KeyboardInterrupt:

@@ -21,6 +21,7 @@ FIGURE_MODULES = (
     "cornerbif.figures.return_map",
     "cornerbif.figures.orbit",
     "cornerbif.figures.fractions",
+    "cornerbif.figures.branches",
 )
 
 _KINDS = {}

@@ -20,8 +20,8 @@ import h5py
 import numpy as np
 from click.testing import CliRunner
 
-from cornerbif import branches, config, theory
-from cornerbif.attractors import read_table
+from cornerbif import config, theory
+from cornerbif.attractors import read_branches, read_table
 from cornerbif.cli import main
 from cornerbif.sweep import run_sweep
 
@@ -81,7 +81,7 @@ def _swept(tmp_path, text, name, **kw):
 def _explained(path):
     r = CliRunner().invoke(main, ["explain", path], catch_exceptions=False)
     assert r.exit_code == 0, r.output
-    return branches.read(path), r.stdout
+    return read_branches(path), r.stdout
 
 
 def _branch_of_word(bt, word):
@@ -170,3 +170,17 @@ def test_explain_refuses_what_it_cannot_explain(tmp_path):
     r = CliRunner().invoke(main, ["explain", path])
     assert r.exit_code == 2 and "not finished" in r.output
     assert open(path, "rb").read() == before
+
+
+def test_skeleton_figure_needs_the_branch_table(tmp_path):
+    """``cornerbif plot --kind branches``: refused (exit 2, saying to run explain) before
+    ``explain``, drawn after it."""
+    path = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141), "skel")
+    png = str(tmp_path / "skel.png")
+    r = CliRunner().invoke(main, ["plot", path, "-o", png, "--kind", "branches"])
+    assert r.exit_code == 2 and "cornerbif explain" in r.output
+    _explained(path)
+    r = CliRunner().invoke(main, ["plot", path, "-o", png, "--kind", "branches"])
+    assert r.exit_code == 0, r.output
+    with open(png, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
