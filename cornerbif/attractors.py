@@ -28,8 +28,15 @@ Written to the file::
                                starts; for a grid of starts, the share of the cells)
     /attractors/multiplier_re, multiplier_im   (n, m) its Floquet multipliers (the first
                                run's, when the file keeps ``stability``)
+    /attractors/lyapunov, lyapunov_low, lyapunov_high   (n,) a chaotic attractor's largest
+                               Lyapunov exponent and its 95 % interval (NaN for a cycle)
     /attractors/outcomes       (points, 6) runs at each parameter point: reaching an
                                attractor, then one column per code -1 .. -5
+
+A run that ends well with no cycle in its record is tested for chaos (``chaos.find``: a
+long rerun, recurrence on a grid, the Lyapunov exponent with its interval): a chaotic
+attractor is a row of the table with word ``chaos.CHAOTIC`` and period 0, its runs take its
+id; the others keep NO_CYCLE, "no cycle within the record".
 
 Ids run over the table ordered by (parameter point, period, word, mean of a, mean of b):
 they depend only on the runs' values, which do not depend on the thread count, the block
@@ -44,7 +51,7 @@ import json
 
 import numpy as np
 
-from . import registry
+from . import chaos, registry
 from . import status as S
 from .cycles import SIGNATURE
 
@@ -53,7 +60,7 @@ STICKS = -2          # sticking or chattering without end (STUCK, MAX_EVENTS)
 ESCAPES = -3         # the amplitude escaped or a state was not finite (ESCAPED, NONFINITE)
 FAILED = -4          # no impact, a start below the obstacle, or the root search's budget
 NOT_RUN = -5         # the point was not computed
-CODES = {NO_CYCLE: "no cycle within the budget", STICKS: "sticks or chatters",
+CODES = {NO_CYCLE: "no cycle within the record", STICKS: "sticks or chatters",
          ESCAPES: "escapes", FAILED: "no impact, below the obstacle, or search budget",
          NOT_RUN: "not run"}
 # two runs on one cycle agree to the detection tolerance of each (period_tol): their
@@ -199,6 +206,7 @@ def tabulate(f, scene):
     outcomes = np.zeros((n_points, 1 + len(CODES)), np.int64)
     total = int(np.prod(G)) * n_ic if G else n_ic
     serial = np.empty(total, np.int64)
+    point_of = np.empty(total, np.int64)
     G0 = G[0] if G else 1
     row = max(1, total // G0)
     step = max(1, SLAB_RUNS // row)
@@ -227,8 +235,30 @@ def tabulate(f, scene):
                                 point.reshape(n, -1)[cyc],
                                 None if mult is None else mult.reshape(n, -1)[cyc])
         serial[pos:pos + n] = ser
+        point_of[pos:pos + n] = pp
         pos += n
-    _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point)
+    lyap = _chaotic(f, scene, reps, serial, point_of, outcomes, stab)
+    _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point, lyap)
+
+
+def _chaotic(f, scene, reps, serial, point_of, outcomes, stab):
+    """The chaotic attractors among the runs with no cycle (``chaos.find``) added to the
+    table: their runs take their serials, their points' outcomes move from NO_CYCLE to
+    attractors.  Returns their exponents by serial: (mean, low, high)."""
+    cand = np.flatnonzero(serial == NO_CYCLE)
+    out = {}
+    for c in chaos.find(f, scene, cand, point_of[cand]):
+        k = int(np.argmax(c.b))
+        sig = np.array([c.a.mean(), c.b.mean(), c.a.min(), c.a.max(), c.b.min(), c.b.max()])
+        mult = (np.full(f["stability/multiplier_re"].shape[-1], complex(np.nan, np.nan))[None]
+                if stab else None)
+        s = int(reps.add_many([(c.point, 0, 0, chaos.CHAOTIC.encode())], sig[None],
+                              np.array([[c.a[k], c.b[k]]]), mult, np.array([c.runs.size]))[0])
+        serial[c.runs] = s
+        outcomes[c.point, 0] += c.runs.size
+        outcomes[c.point, -NO_CYCLE] -= c.runs.size
+        out[s] = (c.lyapunov, c.low, c.high)
+    return out
 
 
 def _serials(reps, pp, period, ipc, words, sig, point, mult):
@@ -266,7 +296,7 @@ def _serials(reps, pp, period, ipc, words, sig, point, mult):
     return out
 
 
-def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
+def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point, lyap):
     R = reps.n
     pts, period, ipc = (np.fromiter((k[i] for k in reps.key), np.int64, R) for i in range(3))
     words = np.array([k[3] for k in reps.key], dtype=f["symbols"].dtype)
@@ -307,6 +337,11 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point):
             "point": reps.point[rank] if R else np.empty((0, 2)),
             "runs": runs, "fraction": frac,
             "standard_error": np.sqrt(frac * (1.0 - frac) / runs_per_point)}
+    lam = np.full((R, 3), np.nan)
+    for s, v in lyap.items():
+        lam[s] = v
+    lam = lam[rank]
+    cols["lyapunov"], cols["lyapunov_low"], cols["lyapunov_high"] = lam[:, 0], lam[:, 1], lam[:, 2]
     if R and reps.mult is not None:
         m = reps.mult[rank]
         cols["multiplier_re"], cols["multiplier_im"] = m.real, m.imag

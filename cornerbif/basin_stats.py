@@ -333,3 +333,38 @@ def _checked_eps(eps_cells, shape):
         raise ValueError(f"eps_cells={eps_cells!r} reaches past the grid: 2 * max(eps_cells) must be "
                          f"below the shortest axis ({shortest} cells)")
     return eps.astype(np.int64)
+
+
+def t_quantile(p: float, dof: int) -> float:
+    """The p-quantile (p >= 0.5) of Student's t distribution with ``dof`` degrees of freedom,
+    by bisection on its upper tail P(T > t) = I_(dof / (dof + t^2))(dof / 2, 1 / 2) / 2
+    (Abramowitz & Stegun 26.7.1 with 26.5.27), ``regularized_beta``."""
+    if not 0.5 <= p < 1.0:
+        raise ValueError(f"p={p!r}: must be in [0.5, 1)")
+    if not (isinstance(dof, (int, np.integer)) and dof >= 1):
+        raise ValueError(f"dof={dof!r}: must be a whole number >= 1")
+    tail = 1.0 - p
+    lo, hi = 0.0, 1.0
+    while 0.5 * regularized_beta(dof / (dof + hi * hi), 0.5 * dof, 0.5) > tail:
+        hi *= 2.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if 0.5 * regularized_beta(dof / (dof + mid * mid), 0.5 * dof, 0.5) > tail:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-14 * hi:
+            break
+    return 0.5 * (lo + hi)
+
+
+def mean_interval(values, confidence: float = 0.95) -> tuple:
+    """The mean of independent estimates ``values`` (at least 2) and its Student-t
+    confidence interval: mean -+ t_((1 + confidence) / 2, n - 1) s / sqrt(n)."""
+    v = np.asarray(values, float)
+    if v.ndim != 1 or v.size < 2 or not np.all(np.isfinite(v)):
+        raise ValueError(f"values: {v.size} values, all finite and at least 2 needed")
+    conf = _checked_confidence(confidence)
+    m = float(v.mean())
+    half = t_quantile(0.5 * (1.0 + conf), v.size - 1) * float(v.std(ddof=1)) / math.sqrt(v.size)
+    return m, m - half, m + half

@@ -47,6 +47,7 @@ from . import config
 from .attractors import BRANCH_END_KINDS as KINDS
 from .attractors import read_branches, read_table
 from .basin_stats import share_interval
+from .chaos import CHAOTIC
 from .continuation import OrbitError, follow_step, newton, rebase
 from .outputs import output_lock
 
@@ -162,6 +163,9 @@ def nodes(f, scene, tab):
         values = base | {a.name: float(a.array[i]) for a, i in zip(par, at)}
         node = Node(row, at, values, str(tab["word"][row]))
         out.append(node)
+        if node.word == CHAOTIC:
+            node.why = "a chaotic attractor (no periodic orbit to solve)"
+            continue
         run = _run_record(f, scene, rep[row])
         if run is None:
             node.why = f"the file does not keep {scene.spec.seed_observable!r}"
@@ -231,6 +235,7 @@ def link(ns, par, tab):
         at.setdefault(n.at, []).append(n)
     links = _Links(len(ns))
     linked = set()
+    _link_chaotic(ns, at, par, tab, links, linked)
     for k, axis in enumerate(par):
         for step in (1, -1):
             for n in ns:
@@ -253,6 +258,44 @@ def link(ns, par, tab):
                     if not _stable(prob, X, value):
                         break
     return links, linked
+
+
+def _box(tab, row):
+    sig = tab["signature"][row]
+    return sig[2], sig[3], sig[4], sig[5]          # min a, max a, min b, max b
+
+
+def _box_overlap(p, q) -> float:
+    """Intersection over union of two boxes (min a, max a, min b, max b)."""
+    w = min(p[1], q[1]) - max(p[0], q[0])
+    h = min(p[3], q[3]) - max(p[2], q[2])
+    if w <= 0 or h <= 0:
+        return 0.0
+    inter = w * h
+    union = (p[1] - p[0]) * (p[3] - p[2]) + (q[1] - q[0]) * (q[3] - q[2]) - inter
+    return inter / union if union > 0 else 0.0
+
+
+CHAOS_LINK = 0.5     # chaotic attractors at neighbouring grid values whose boxes overlap more
+
+
+def _link_chaotic(ns, at, par, tab, links, linked):
+    """Chaotic attractors have no orbit to follow: those at neighbouring grid values whose
+    boxes (the ranges of their cycle series, the table's signature) overlap by more than
+    CHAOS_LINK (intersection over union) are one branch."""
+    for k in range(len(par)):
+        for n in ns:
+            if n.word != CHAOTIC:
+                continue
+            nb = n.at[:k] + (n.at[k] + 1,) + n.at[k + 1:]
+            best = [(m.row, _box_overlap(_box(tab, n.row), _box(tab, m.row)))
+                    for m in at.get(nb, []) if m.word == CHAOTIC]
+            best = [(r, v) for r, v in best if v > CHAOS_LINK]
+            if best:
+                m = max(best, key=lambda rv: rv[1])[0]
+                links.join(n.row, m)
+                linked.add((n.row, k, 1))
+                linked.add((m, k, -1))
 
 
 def build(f, scene, log=None) -> Branches | None:
@@ -314,6 +357,14 @@ def _ends(br, ns, axis, tab, linked, log):
             if not 0 <= i + step < x.size:
                 end = End("range", float(x[i]), f"the range's end at {axis.name} = "
                           f"{float(x[i])!r}", _point_of(n))
+            elif n.word == CHAOTIC:
+                nxt = by_point.get(i + step, [])
+                beyond = ("the next grid value's attractors are cycles: a periodic window or "
+                          "a crisis" if nxt else "the next grid value has no attractor: no "
+                          "cycle within the record, and no chaos")
+                end = End("unlocated", math.nan,
+                          f"a chaotic attractor, gone at {axis.name} = {float(x[i + step])!r} "
+                          f"({beyond}); not located between grid values")
             elif n.problem is None:
                 end = End("unlocated", math.nan, f"not located: {n.why}")
             else:
@@ -524,10 +575,17 @@ def genealogy(bt, tab, scene) -> list:
         span = ", ".join(f"{a} in [{bt[f'min_{a}'][b]:.10g}, {bt[f'max_{a}'][b]:.10g}]"
                          for a in axes)
         f, lo, hi = _share(tab, rows[b])
-        out.append(f"branch {b}: {bt['word'][b]!r} (period {bt['period'][b]}, "
-                   f"{bt['impacts_per_cycle'][b]} impacts per cycle), an attractor at "
-                   f"{len(pts[b])} grid value{'s' if len(pts[b]) > 1 else ''}, {span}; "
-                   f"|multipliers| <= {bt['max_abs_multiplier'][b]:.3g}")
+        if bt["word"][b] == CHAOTIC:
+            lam = tab["lyapunov"][rows[b]]
+            what = (f"chaotic attractor (largest Lyapunov exponent {lam.min():.3g} to "
+                    f"{lam.max():.3g} over its points, each with its 95 % interval above 0)")
+        else:
+            what = (f"{bt['word'][b]!r} (period {bt['period'][b]}, "
+                    f"{bt['impacts_per_cycle'][b]} impacts per cycle)")
+        mu = ("" if bt["word"][b] == CHAOTIC else
+              f"; |multipliers| <= {bt['max_abs_multiplier'][b]:.3g}")
+        out.append(f"branch {b}: {what}, an attractor at "
+                   f"{len(pts[b])} grid value{'s' if len(pts[b]) > 1 else ''}, {span}{mu}")
         for side, name in (("low", "begins" if len(axes) == 1 else "low end"),
                            ("high", "ends" if len(axes) == 1 else "high end")):
             out.append(f"  {name}: {bt[f'{side}_detail'][b]}")

@@ -18,6 +18,7 @@ import numpy as np
 from . import plot_style
 from .analysis import run_length
 from .attractors import CODES, ESCAPES, FAILED, NO_CYCLE, NOT_RUN, STICKS, read_table
+from .chaos import CHAOTIC
 from .plot_style import Rows, row_slabs
 
 # tab20 without its two greys: dark and light of nine hues
@@ -91,6 +92,8 @@ def label_tex(label: str) -> str:
     """A label in the paper's notation: 'bbbg#2' -> '$\\beta^{3}\\gamma$ #2'; a word of more
     than LABEL_LETTERS runs shows its first ones, then '...'."""
     word, _, k = label.partition("#")
+    if word == CHAOTIC:
+        return "chaotic" + (f" #{k[:12]}" if k else "")
     runs = run_length(word, tex=True, empty="?").split(" ")
     w = _greek(" ".join(runs[:LABEL_LETTERS])) + (" ..." if len(runs) > LABEL_LETTERS else "")
     return f"{w} #{k[:12]}" if k else w
