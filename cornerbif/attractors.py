@@ -32,6 +32,8 @@ Written to the file::
                                Lyapunov exponent and its 95 % interval (NaN for a cycle)
     /attractors/outcomes       (points, 6) runs at each parameter point: reaching an
                                attractor, then one column per code -1 .. -5
+    /attractors/no_cycle       (points, 5) of the runs that keep NO_CYCLE, why they are on
+                               no chaotic attractor (``chaos.REASONS``, attribute columns)
 
 A run that ends well with no cycle in its record is tested for chaos (``chaos.find``: a
 long rerun, recurrence on a grid, the Lyapunov exponent with its interval): a chaotic
@@ -244,10 +246,15 @@ def tabulate(f, scene):
 def _chaotic(f, scene, reps, serial, point_of, outcomes, stab):
     """The chaotic attractors among the runs with no cycle (``chaos.find``) added to the
     table: their runs take their serials, their points' outcomes move from NO_CYCLE to
-    attractors.  Returns their exponents by serial: (mean, low, high)."""
+    attractors.  Returns their exponents by serial, (mean, low, high), and under
+    "no_cycle" the counts per point of why the other runs are on none (``chaos.REASONS``)."""
     cand = np.flatnonzero(serial == NO_CYCLE)
     out = {}
-    for c in chaos.find(f, scene, cand, point_of[cand]):
+    found, why = chaos.find(f, scene, cand, point_of[cand])
+    reasons = np.zeros((outcomes.shape[0], len(chaos.REASONS)), np.int64)
+    np.add.at(reasons, (point_of[cand][why >= 0], why[why >= 0]), 1)
+    out["no_cycle"] = reasons
+    for c in found:
         k = int(np.argmax(c.b))
         sig = np.array([c.a.mean(), c.b.mean(), c.a.min(), c.a.max(), c.b.min(), c.b.max()])
         mult = (np.full(f["stability/multiplier_re"].shape[-1], complex(np.nan, np.nan))[None]
@@ -339,7 +346,8 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point, lya
             "standard_error": np.sqrt(frac * (1.0 - frac) / runs_per_point)}
     lam = np.full((R, 3), np.nan)
     for s, v in lyap.items():
-        lam[s] = v
+        if s != "no_cycle":
+            lam[s] = v
     lam = lam[rank]
     cols["lyapunov"], cols["lyapunov_low"], cols["lyapunov_high"] = lam[:, 0], lam[:, 1], lam[:, 2]
     if R and reps.mult is not None:
@@ -357,6 +365,8 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point, lya
     g["point"].attrs["names"] = json.dumps(spec.cycle.names)
     o = g.create_dataset("outcomes", data=outcomes)
     o.attrs["columns"] = json.dumps(["attractor"] + [CODES[-k] for k in range(1, 6)])
+    o = g.create_dataset("no_cycle", data=lyap["no_cycle"])
+    o.attrs["columns"] = json.dumps(list(chaos.REASONS))
 
 
 # ------------------------------------------------------------------ reading

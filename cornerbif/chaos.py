@@ -45,6 +45,13 @@ OVERLAP_CELLS = 16
 OVERLAP_MIN = 0.5
 MIN_ESTIMATES = 3
 GROUP = 256                 # runs rerun at a time (memory: GROUP x WINDOW x the outputs)
+# why a run with no cycle is not on a chaotic attractor (``find``; the table's
+# /attractors/no_cycle counts them per parameter point)
+REASONS = ("its long rerun did not end well (escapes, sticks for good, budget)",
+           "it sticks within the long window (exponent -inf: a long orbit through sticking)",
+           "it grazes within the long window (exponent undefined)",
+           "not recurrent within the long window (a transient)",
+           "its exponent's interval is not above 0 (a longer cycle, a torus)")
 
 
 @dataclasses.dataclass
@@ -108,12 +115,12 @@ def _long_scene(scene, extra_transient=0):
 
 def rerun(scene, grid_index, starts, extra_transient=0):
     """The runs of ``scene`` at grid indices ``grid_index`` (n tuples) from ``starts`` (n,
-    start size), over the long window: (a, b, lambda_1, ok) per run (``ok``: the run ended
-    well and its exponent is finite)."""
+    start size), over the long window: (a, b, lambda_1, ok, ended) per run (``ended``: the
+    run ended well; ``ok``: and its exponent is finite)."""
     spec = registry.get(scene.model)
     long = _long_scene(scene, extra_transient)
     ints = spec.int_settings(long)
-    a_all, b_all, lam, ok = [], [], [], []
+    a_all, b_all, lam, ended = [], [], [], []
     for s in range(0, len(grid_index), GROUP):
         params = spec.pack_points(long, grid_index[s:s + GROUP])
         run = spec.run_items(params, np.ascontiguousarray(starts[s:s + GROUP]), ints, long)
@@ -121,29 +128,38 @@ def rerun(scene, grid_index, starts, extra_transient=0):
         b_all.append(np.asarray(run.fields[spec.cycle.b], float))
         ly = np.asarray(run.fields["lyapunov"], float)[:, 0]
         lam.append(ly)
-        ok.append((run.status == S.OK) & np.isfinite(ly))
-    return (np.concatenate(a_all), np.concatenate(b_all), np.concatenate(lam),
-            np.concatenate(ok))
+        ended.append(run.status == S.OK)
+    lam, ended = np.concatenate(lam), np.concatenate(ended)
+    return (np.concatenate(a_all), np.concatenate(b_all), lam, ended & np.isfinite(lam),
+            ended)
 
 
 def find(f, scene, runs, points):
     """The chaotic attractors among the runs ``runs`` (flat indices into the file's runs,
-    each with NO_CYCLE) at parameter points ``points`` (the same length): a list of Chaotic,
-    ordered by (point, smallest run)."""
+    each with NO_CYCLE) at parameter points ``points`` (the same length): (a list of
+    Chaotic, ordered by (point, smallest run); per run, the index in REASONS of why it is on
+    none, or -1)."""
     spec = registry.get(scene.model)
+    why = np.full(runs.size, -1, np.int64)
     if spec.cycle is None or runs.size == 0 or "lyapunov" not in {
             fld.source for fld in spec.fields(("stability",))}:
-        return []
+        return [], why
     G, n_ic = scene.shape, scene.n_ic
     starts = np.stack([f[f"initial/{c}"][...].reshape(-1) for c in spec.start_names],
                       axis=-1)[runs]
     grid = [tuple(int(i) for i in ix) for ix in
             zip(*np.unravel_index(runs // n_ic, G))] if G else [()] * runs.size
-    a, b, lam, ok = rerun(scene, grid, starts)
+    a, b, lam, ok, ended = rerun(scene, grid, starts)
+    why[:] = 4
+    why[~ended] = 0
+    why[ended & (lam == -np.inf)] = 1
+    why[ended & np.isnan(lam)] = 2
     found = []
     for p in np.unique(points):
         mine = np.flatnonzero((points == p) & ok)
-        mine = [i for i in mine if recurrence(a[i], b[i]) >= RECURRENCE_MIN]
+        rec = {i: recurrence(a[i], b[i]) for i in mine}
+        why[[i for i in mine if rec[i] < RECURRENCE_MIN]] = 3
+        mine = [i for i in mine if rec[i] >= RECURRENCE_MIN]
         for group in _groups(mine, a, b):
             est = lam[group]
             if len(group) < MIN_ESTIMATES:
@@ -157,7 +173,8 @@ def find(f, scene, runs, points):
                 fa = np.concatenate([a[i][np.isfinite(a[i])] for i in group])
                 fb = np.concatenate([b[i][np.isfinite(b[i])] for i in group])
                 found.append(Chaotic(int(p), runs[group], fa, fb, m, lo, hi))
-    return found
+                why[group] = -1
+    return found, why
 
 
 def _groups(mine, a, b):
@@ -184,6 +201,6 @@ def _more_windows(scene, grid_index, start, k):
     (transient + j WINDOW, j = 1 .. k)."""
     out = []
     for j in range(1, k + 1):
-        _, _, lam, ok = rerun(scene, [grid_index], start[None], extra_transient=j * WINDOW)
+        _, _, lam, ok, _ = rerun(scene, [grid_index], start[None], extra_transient=j * WINDOW)
         out.append(lam[0] if ok[0] else np.nan)
     return np.array(out)

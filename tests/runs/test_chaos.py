@@ -111,6 +111,8 @@ def test_runs_too_short_for_their_cycle_are_not_chaos(tmp_path):
     short = _table(tmp_path, "short", lo=2.86, hi=2.88, num=2, transient=500, record=100)
     assert CHAOTIC not in set(short["word"])
     assert np.all(short["outcomes"][:, 1 + (-NO_CYCLE - 1)] == 8)
+    # and the table says why: every one sticks within the long window (REASONS[1])
+    assert np.all(short["no_cycle"][:, 1] == 8), short["no_cycle"]
     long = _table(tmp_path, "long", lo=2.86, hi=2.88, num=2, transient=3000, record=3000)
     assert sorted(zip(long["period"], long["impacts_per_cycle"])) == [(6, 64), (11, 71)]
     assert np.all(long["outcomes"][:, 0] == 8)
