@@ -39,6 +39,7 @@ Written to the file (``write``, on a copy renamed over it)::
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +50,7 @@ from .attractors import read_branches, read_table
 from .basin_stats import share_interval
 from .chaos import CHAOTIC
 from .continuation import OrbitError, follow_step, newton, rebase
+from .errors import SweepError, WriteFailed
 from .outputs import output_lock
 
 STABILITY_EVENTS = ("fold", "period_doubling", "torus")
@@ -85,11 +87,6 @@ class Branches:
     low: list = field(default_factory=list)     # per branch: End (one-parameter sweeps)
     high: list = field(default_factory=list)
     max_mu: np.ndarray = None
-
-
-def smallest_rotation(word: str) -> str:
-    """A cyclic word's least rotation (the table's name of a cycle)."""
-    return min((word[i:] + word[:i] for i in range(len(word))), default=word)
 
 
 def signature(a, b) -> np.ndarray:
@@ -213,15 +210,32 @@ def _stable(prob, X, value) -> bool:
 
 
 def _match(prob, X, value, candidates, tab):
-    """The row among ``candidates`` (nodes at the neighbour) whose cycle is this orbit."""
+    """The row among ``candidates`` (nodes at the neighbour) whose cycle is this orbit: the
+    same number of entries per cycle (impacts per cycle, or the period for a model whose
+    series are per period) and the same signature within the table's match tolerance (the
+    table's words and an orbit problem's itinerary are in different alphabets for some
+    models: two_particle's problem spells its events, U and W)."""
     try:
-        sig = signature(*prob.cycle_series(X, value))
-        word = smallest_rotation(prob.word(X, value))
-    except (ArithmeticError, ValueError):
+        a, b = prob.cycle_series(X, value)
+        sig = signature(a, b)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None
-    hits = [c.row for c in candidates if smallest_rotation(c.word) == word
+    hits = [c.row for c in candidates if c.word != CHAOTIC and len(a) == _entries(tab, c.row)
             and _matches(sig, tab["signature"][c.row], tab["match_tolerance"])]
     return hits[0] if len(hits) == 1 else None
+
+
+def _entries(tab, row) -> int:
+    """A row's entries per cycle in its series: impacts per cycle, else its period."""
+    return int(tab["impacts_per_cycle"][row] or tab["period"][row])
+
+
+def _neighbour(axis, i, step):
+    """The grid index next to ``i`` along ``axis`` in the order of its values (``step``:
+    +1 the next larger value, -1 the next smaller), or None at the end."""
+    order = np.argsort(axis.array, kind="stable")
+    pos = int(np.flatnonzero(order == i)[0]) + step
+    return int(order[pos]) if 0 <= pos < order.size else None
 
 
 def link(ns, par, tab):
@@ -242,8 +256,8 @@ def link(ns, par, tab):
                 if n.problem is None or (n.row, k, step) in linked:
                     continue
                 prob, X, i = _along(n, axis.name), n.X, n.at[k]
-                while 0 <= i + step < axis.array.size:
-                    i += step
+                while _neighbour(axis, i, step) is not None:
+                    i = _neighbour(axis, i, step)
                     nb = n.at[:k] + (i,) + n.at[k + 1:]
                     value = float(axis.array[i])
                     X = solve_at(prob, X, value)
@@ -285,9 +299,10 @@ def _link_chaotic(ns, at, par, tab, links, linked):
     CHAOS_LINK (intersection over union) are one branch."""
     for k in range(len(par)):
         for n in ns:
-            if n.word != CHAOTIC:
+            j = _neighbour(par[k], n.at[k], 1)
+            if n.word != CHAOTIC or j is None:
                 continue
-            nb = n.at[:k] + (n.at[k] + 1,) + n.at[k + 1:]
+            nb = n.at[:k] + (j,) + n.at[k + 1:]
             best = [(m.row, _box_overlap(_box(tab, n.row), _box(tab, m.row)))
                     for m in at.get(nb, []) if m.word == CHAOTIC]
             best = [(r, v) for r, v in best if v > CHAOS_LINK]
@@ -353,22 +368,23 @@ def _ends(br, ns, axis, tab, linked, log):
                            ("high", int(np.argmax([x[i] for i in idx])))):
             n = ns[rows[pick]]
             i = n.at[0]
-            step = 1 if (x[-1] > x[0]) == (side == "high") else -1
-            if not 0 <= i + step < x.size:
+            j = _neighbour(axis, i, 1 if side == "high" else -1)
+            if j is None:
                 end = End("range", float(x[i]), f"the range's end at {axis.name} = "
                           f"{float(x[i])!r}", _point_of(n))
             elif n.word == CHAOTIC:
-                nxt = by_point.get(i + step, [])
+                nxt = by_point.get(j, [])
                 beyond = ("the next grid value's attractors are cycles: a periodic window or "
                           "a crisis" if nxt else "the next grid value has no attractor: no "
                           "cycle within the record, and no chaos")
                 end = End("unlocated", math.nan,
-                          f"a chaotic attractor, gone at {axis.name} = {float(x[i + step])!r} "
+                          f"a chaotic attractor, gone at {axis.name} = {float(x[j])!r} "
                           f"({beyond}); not located between grid values")
             elif n.problem is None:
                 end = End("unlocated", math.nan, f"not located: {n.why}")
             else:
-                end = locate(n, axis.name, float(x[-1] if step > 0 else x[0]), grid, tab, br)
+                end = locate(n, axis.name, float(x.max() if side == "high" else x.min()),
+                             float(x[j]), grid, tab, br)
             getattr(br, side).append(end)
         if log and b % 50 == 49:
             log(f"ends of {b + 1} of {len(br.rows)} branches located")
@@ -407,16 +423,16 @@ def _event_point(e):
         return (math.nan, math.nan)
 
 
-def locate(n, axis, value, grid, tab, br):
+def locate(n, axis, value, next_value, grid, tab, br):
     """Where and why the branch of node ``n`` ends on the way from its value to ``value``
-    (the range's end that way): continuation from its orbit; the first stability event,
-    else the event that ends its itinerary (module doc).  The attractors of the first grid
-    value past the event name its other side."""
+    (the range's end that way; ``next_value`` the next grid value): continuation from its
+    orbit; the first stability event, else the event that ends its itinerary (module doc).
+    The attractors of the first grid value past the event name its other side."""
     prob = _along(n, axis)
     lam = n.values[axis]
     rng = (min(lam, value), max(lam, value))
     direction = 1.0 if value > lam else -1.0
-    spacing = float(np.min(np.abs(np.diff(grid.x))))
+    spacing = abs(next_value - lam)
     b, more = follow_step(prob, n.X, lam, None, "start", rng, direction, switch=True,
                           ds=spacing / 8, ds_min=spacing * 1e-9, ds_max=spacing * 4)
     evs = b.events
@@ -427,6 +443,9 @@ def locate(n, axis, value, grid, tab, br):
     far = grid.by_point.get(j, []) if j is not None else []
     far_note = ("; no start at the next grid value reached a cycle (chaos, or a cascade "
                 "finer than the grid)" if j is not None and grid.no_cycle[j] else "")
+    if e is not None and (e.lam - next_value) * direction > 0:
+        far_note += (f"; from {axis} = {next_value!r} to the event its orbit is still there "
+                     "though no start reached it")
     if stab:
         detail = f"{KINDS[e.kind]} at {axis} = {float(e.lam)!r}"
         if e.kind == "period_doubling":
@@ -439,7 +458,8 @@ def locate(n, axis, value, grid, tab, br):
         kind = ENDING_EVENTS[last.kind]
         detail = f"{KINDS[kind]} at {axis} = {float(last.lam)!r}"
         if kind == "corner":
-            detail += _other_side(more, last, far, br)
+            nxt = grid.x[j] if j is not None else None
+            detail += _other_side(more, last, far, br, tab, nxt)
         elif last.detail:
             detail += f" ({last.detail})"
         return End(kind, float(last.lam), detail + far_note, _event_point(last))
@@ -457,36 +477,73 @@ def locate(n, axis, value, grid, tab, br):
     return End(kind, math.nan, f"the continuation stopped ({why}){far_note}")
 
 
-def _other_side(more, last, far, br):
+def _other_side(more, last, far, br, tab, next_value):
     """What a corner collision's other side is: the orbit of the other side's itinerary
-    (``follow_step``'s switch) and, where an attractor of the next grid value has its word,
-    that attractor's branch; or that there is none, and why."""
+    (``follow_step``'s switch) and, where it is an attractor of the next grid value (solved
+    there by Newton and matched as ``link`` matches), that attractor's branch; or that
+    there is none, and why."""
     if not more:
         why = last.detail.split("; ", 1)[1] if "; " in last.detail else "none was found"
         return f": the orbit is lost, with no orbit on the other side ({why})"
     prob, X, lam, _, origin = more[0]
     try:
-        word = smallest_rotation(prob.word(X, lam))
+        word = prob.word(X, lam)
     except (ArithmeticError, ValueError):
         return f": {origin}"
-    same = [c for c in far if smallest_rotation(c.word) == word]
     kind = "turns back (a nonsmooth fold)" if "turns back" in origin else (
         "jumps to another orbit" if "jump" in origin else "persists")
     text = f": the orbit {kind} as {word!r}"
-    if same:
-        text += f", an attractor of the next grid value on branch {br.branch_of[same[0].row]}"
+    Xn = solve_at(prob, X, float(next_value)) if next_value is not None else None
+    m = _match(prob, Xn, float(next_value), far, tab) if Xn is not None else None
+    if m is not None:
+        text += f", an attractor of the next grid value on branch {br.branch_of[m]}"
     else:
         text += ", which is no attractor at the next grid value"
     return text
 
 
 # ------------------------------------------------------------------ the file
-def write(path, scene, br, tab_rows):
-    """Write the branch table into the finished sweep file ``path`` (on a copy renamed
-    over it, ``io._amend``: an interrupt leaves the file as it was)."""
+def _columns(br, tab) -> dict:
+    """The datasets of /branches (module doc), by name."""
+    m = len(br.rows)
+    first = [rows[0] for rows in br.rows]
+    out = {"id": np.arange(m, dtype=np.int32),
+           "word": np.array([str(tab["word"][r]).encode() for r in first], dtype=object)}
+    for col in ("period", "impacts_per_cycle"):
+        out[col] = np.array([tab[col][r] for r in first], np.int32)
+    out["attractors"] = np.array([len(r) for r in br.rows], np.int32)
+    for name in br.axes:
+        v = tab[f"at_{name}"]
+        out[f"min_{name}"] = np.array([v[r].min() for r in br.rows])
+        out[f"max_{name}"] = np.array([v[r].max() for r in br.rows])
+    out["max_abs_multiplier"] = br.max_mu
+    for side in ("low", "high"):
+        ends = getattr(br, side)
+        out[f"{side}_kind"] = np.array([e.kind.encode() for e in ends], dtype=object)
+        out[f"{side}_at"] = np.array([e.at for e in ends], float)
+        out[f"{side}_detail"] = np.array([e.detail.encode() for e in ends], dtype=object)
+        out[f"{side}_point"] = np.array([e.point for e in ends], float).reshape(m, 2)
+    return out
+
+
+def store(path, scene, br, tab) -> str:
+    """Store the branch table in the finished sweep file ``path``: on a copy (with the
+    file's permissions) renamed over it (``io._amend``: an interrupt, a full disk or a
+    file-size limit leaves the file as it was), under its lock.  A link is followed to its
+    file.  Returns "" when stored, else why not (a file or folder that cannot be written,
+    a file with other hard links, which a rename would part from it)."""
     import h5py  # start-up: loads h5py
 
     from . import io  # start-up: loads h5py
+    real = os.path.realpath(path)
+    st = os.stat(real)
+    if not st.st_mode & 0o200 or not os.access(real, os.W_OK):
+        return "the file is read-only"     # its mode says so even to a superuser
+    if not os.access(os.path.dirname(real) or ".", os.W_OK):
+        return "its folder cannot be written"
+    if st.st_nlink > 1:
+        return "the file has other hard links, which replacing it would part from it"
+    cols = _columns(br, tab)
 
     def change(g):
         a = g["attractors"]
@@ -496,58 +553,85 @@ def write(path, scene, br, tab_rows):
         if "branches" in g:
             del g["branches"]
         out = g.create_group("branches")
-        m = len(br.rows)
-        first = [rows[0] for rows in br.rows]
-        out.create_dataset("id", data=np.arange(m, dtype=np.int32))
-        out.create_dataset("word", data=np.array([tab_rows["word"][r] for r in first],
-                                                 dtype=g["attractors/word"].dtype))
-        for col in ("period", "impacts_per_cycle"):
-            out.create_dataset(col, data=np.array([tab_rows[col][r] for r in first],
-                                                  np.int32))
-        out.create_dataset("attractors", data=np.array([len(r) for r in br.rows], np.int32))
-        for name in br.axes:
-            v = tab_rows[f"at_{name}"]
-            out.create_dataset(f"min_{name}", data=np.array([v[r].min() for r in br.rows]))
-            out.create_dataset(f"max_{name}", data=np.array([v[r].max() for r in br.rows]))
-        out.create_dataset("max_abs_multiplier", data=br.max_mu)
-        for side in ("low", "high"):
-            ends = getattr(br, side)
-            out.create_dataset(f"{side}_kind", data=np.array([e.kind for e in ends], "S16"))
-            out.create_dataset(f"{side}_at", data=np.array([e.at for e in ends], float))
-            out.create_dataset(f"{side}_detail",
-                               data=np.array([e.detail.encode() for e in ends], object),
-                               dtype=h5py.string_dtype())
-            out.create_dataset(f"{side}_point", data=np.array([e.point for e in ends],
-                                                               float).reshape(m, 2))
+        for name, v in cols.items():
+            if v.dtype.kind == "O":
+                out.create_dataset(name, data=v, dtype=h5py.string_dtype())
+            else:
+                out.create_dataset(name, data=v)
         out.attrs["axes"] = ",".join(br.axes)
-    io._amend(path, path, change)
+    with output_lock(real, "cornerbif explain"):
+        try:
+            io.ensure_room(real + ".amend", st.st_size, what="the file's copy",
+                           then="the file is unchanged")
+            io._amend(real, real, change, after=lambda: os.chmod(real, st.st_mode & 0o7777))
+        except WriteFailed as e:
+            if e.broken:          # HDF5's state is unusable: the command ends at once
+                raise WriteFailed(f"{path}: storing the branch table failed inside HDF5; the "
+                                  "file is unchanged", broken=True) from None
+            return ("writing its copy failed (a full disk or a file-size limit); the file is "
+                    "unchanged")
+    return ""
 
 
 # ------------------------------------------------------------------ explain
 def explain_file(path, recompute=False, log=None) -> list:
-    """``cornerbif explain``: the branches of the finished sweep ``path`` (located and
-    stored in it the first time, or with ``recompute``) as lines of text (``genealogy``)."""
+    """``cornerbif explain``: the branches of the finished sweep ``path`` as lines of text
+    (``genealogy``), located the first time (or with ``recompute``) and stored in the file
+    where it can be written (``store``; otherwise the lines end with why not).  Refused
+    (``SweepError``, exit 2) before any work: a file that is not a finished sweep, one
+    without attractors or parameter axes, one that does not keep what the model's orbit
+    seed reads, an axis with repeated values."""
     from .io import check_readable  # start-up: loads h5py
     with check_readable(path) as f:
-        if not f.attrs.get("completed"):
-            raise ValueError(f"{path}: the sweep is not finished; complete it first "
-                             "(cornerbif sweep --resume)")
+        scene = _explainable(f, path)
         has = "branches" in f and "attractors/branch" in f
-        scene = config.loads(str(f.attrs["scene"]))
-        if "attractors" not in f:
-            raise ValueError(f"{path}: the file has no attractor table (model "
-                             f"{scene.model!r} names no cycles, or it was written before tables)")
-    if recompute or not has:
-        with output_lock(path, "cornerbif explain"):
-            with check_readable(path) as f:
-                tab = read_table(f)
-                br = build(f, scene, log)
-            if br is None:
-                raise ValueError(f"{path}: the sweep has no parameter axis to follow "
-                                 "attractors along")
-            write(path, scene, br, tab)
-    with check_readable(path) as f:
-        return genealogy(read_branches(f), read_table(f), scene)
+        if has and not recompute:
+            return genealogy(read_branches(f), read_table(f), scene)
+        tab = read_table(f)
+        br = build(f, scene, log)
+    lines = genealogy(_as_read(br, tab), tab, scene)
+    why = store(path, scene, br, tab)
+    return lines + ([f"(the branch table is not stored in {path}: {why})"] if why else [])
+
+
+def _explainable(f, path):
+    """The scene of the open file ``f`` if ``explain`` can follow its attractors; else
+    ``SweepError`` saying why."""
+    if not f.attrs.get("completed"):
+        raise SweepError(f"{path}: the sweep is not finished; complete it first "
+                         "(cornerbif sweep --resume)")
+    scene = config.loads(str(f.attrs["scene"]))
+    if "attractors" not in f or not len(f["attractors/id"]):
+        raise SweepError(f"{path}: the file has no attractor to follow (its attractor "
+                         "table is empty or missing)")
+    par = _parameter_axes(scene)
+    if not par:
+        raise SweepError(f"{path}: the sweep has no parameter axis to follow attractors along")
+    for a in par:
+        if np.unique(a.array).size != a.array.size:
+            raise SweepError(f"{path}: sweep.{a.name} repeats a value; attractors are followed "
+                             "between distinct values")
+    need = scene.spec.seed_observable
+    words = f["attractors/word"][...].astype(str)
+    if need and any(w != CHAOTIC for w in words) and not all(
+            fld.name in f for fld in scene.spec.observables[need]):
+        raise SweepError(f"{path}: the file does not keep {need!r}, from which a "
+                         f"{scene.model} orbit is solved (sweep it with output.keep "
+                         f"containing {need!r})")
+    return scene
+
+
+def _as_read(br, tab):
+    """The branch table as ``attractors.read_branches`` gives it, from ``build``'s result
+    (``explain`` prints the same whether it stored the table or not)."""
+    out = _columns(br, tab)
+    for k, v in out.items():
+        if isinstance(v, np.ndarray) and v.dtype.kind in "SO":
+            out[k] = np.array([x.decode() if isinstance(x, bytes) else str(x) for x in v],
+                              dtype=object)
+    out["axes"] = list(br.axes)
+    out["branch"] = br.branch_of
+    return out
 
 
 def _share(tab, rows):

@@ -504,7 +504,7 @@ def explain(file, recompute):
     try:
         with quiet():
             lines = explain_file(file, recompute, log=lambda m: click.echo(m, err=True))
-    except (FileFormatError, ValueError) as e:
+    except FileFormatError as e:
         _fail(str(e))
     for line in lines:
         click.echo(line)

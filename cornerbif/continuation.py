@@ -733,19 +733,24 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W, Tb=None):
                for q in range(len(ma[kind]))
                if (abs(ma[kind][q]) > 1e-12 and (ma[kind][q] > 0) != (mb[kind][q] > 0)
                    and np.isfinite(ma[kind][q]) and np.isfinite(mb[kind][q]))]
-    # the corner collisions first (their test is cheap): a sign change that has not yet
-    # happened at the first of them lies beyond the branch's end and is not located
+    # the corner collisions first (their test is cheap): a sign change that has clearly not
+    # yet happened at the first of them (its test there finite, of the start's sign, and
+    # beyond the location's tolerance: a tie at the corner, e.g. a grazing there, is
+    # located as before) lies beyond the branch's end and is not located
     changes.sort(key=lambda c: c[1] != "corner")
     first_end = None
     for i, kind, q in changes:
         a, b = ma[kind][q], mb[kind][q]
+        tol = 1e-6 * max(1.0, abs(a), abs(b))
 
         def fun(Y, kind=kind, q=q):
             return _monitor(problem, Y[:n], Y[n], kind)[q]
-        if first_end is not None and kind != "corner" and (fun(first_end) > 0) == (a > 0):
-            continue
+        if first_end is not None and kind != "corner":
+            at_end = fun(first_end)
+            if np.isfinite(at_end) and abs(at_end) > tol and (at_end > 0) == (a > 0):
+                continue
         Y = _locate(problem, Ya, T, 0.0, s_b, a, b, fun, W)
-        if not abs(fun(Y)) <= 1e-6 * max(1.0, abs(a), abs(b)):
+        if not abs(fun(Y)) <= tol:
             continue      # a sign change through a pole (multipliers blowing up)
         s = _wdot(W, T, Y - Ya)
         hits.append((s, i, kind, q, Y))

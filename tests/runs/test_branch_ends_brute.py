@@ -85,9 +85,11 @@ def test_double_impact_orbit_is_alpha_and_ab_crosses_kappa_CC():
     res = cornerbif.simulate(u0.ravel(), v0.ravel(), transient=1000, record=200, kappa=-0.0029,
                              **FIG6)
     i = list(res["symbols"]).index("ab")
-    path = follow(FIG6, "ab", [-0.0029, -0.0030, -0.0031, -0.0032, -0.0033],
-                  (res["final"][i, 0], res["final"][i, 1]))
-    assert path[0].value > kcc > path[-1].value
+    values = [-0.0029, -0.0030, -0.0031, -0.0032, -0.0033]
+    assert values[0] > kcc > values[-1]
+    # ``follow`` raises where the orbit is lost: it is found at every value, both sides
+    path = follow(FIG6, "ab", values, (res["final"][i, 0], res["final"][i, 1]))
+    assert [t.value for t in path] == values
 
 
 def test_double_impact_orbit_lost_below_kappa_CC(brute_kappa_CC):
@@ -100,7 +102,6 @@ def test_double_impact_orbit_lost_below_kappa_CC(brute_kappa_CC):
     assert e.outside < e.inside                 # lost as kappa decreases
     assert e.width < 1e-12
     assert 0.0 < e.slack < 2e-11
-    assert e.offset_rate == pytest.approx(0.4, rel=0.01)
     assert abs(e.at - kcc) <= e.trust, (e.at, kcc, e.trust)
 
 
@@ -144,7 +145,7 @@ keep = ["impacts", "section"]
 def small_fig06a(tmp_path_factory):
     """A small Fig. 6(a) sweep (kappa from -0.0142 to -0.0138, 5 values, 8 starts) and its
     branches: (branches, table, kappa grid, per-run attractor ids, per-run final states)."""
-    branches = pytest.importorskip("cornerbif.branches")
+    from cornerbif import branches
     from cornerbif.attractors import read_table
     from cornerbif.sweep import run_sweep
     out = str(tmp_path_factory.mktemp("fig06a_small") / "fig06a_small.h5")
@@ -190,4 +191,6 @@ def test_every_corner_end_inside_the_range_matches_the_brute_force(small_fig06a)
                              tuple(final[p, j]), tol=1e-12)
             assert abs(end.at - e.at) <= e.trust, (i, side, tab["word"][row], end.at, e.at)
             checked += 1
+    # at least b's upper end and both ends of the b^N g plateaus the 5-value grid samples
+    # inside the range (measured: 8 corner ends)
     assert checked >= 5

@@ -184,3 +184,127 @@ def test_skeleton_figure_needs_the_branch_table(tmp_path):
     assert r.exit_code == 0, r.output
     with open(png, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+TWO = """
+[scene]
+name = "branches_two"
+model = "two_particle"
+[system]
+omega0 = 1.999
+[sweep]
+omega0 = { start = 1.996, stop = 2.002, num = 4 }
+[initial]
+count = 4
+seed = 19
+[run]
+transient = 300
+record = 100
+[output]
+keep = ["section"]
+"""
+
+
+def test_two_particle_attractors_link_across_the_grid(tmp_path):
+    """two_particle's orbit problem spells its itinerary in events (U, W), the table in
+    corner letters: linked by the series and signature, 'ab' at omega0 = 1.996 and 1.998 is
+    one branch, and so is 'b' at 2.0 and 2.002 (each attractor of the table at two grid
+    values, the same orbit continued)."""
+    text = TWO
+    base = open("configs/fig19a.toml").read()
+    system = base[base.index("[system]"):base.index("[sweep]")]
+    text = text.replace('[system]\nomega0 = 1.999\n', system)
+    path = _swept(tmp_path, text, "two")
+    bt, _ = _explained(path)
+    with h5py.File(path) as f:
+        tab = read_table(f)
+    for word in ("ab", "b"):
+        rows = [r for r in range(len(tab["id"])) if tab["word"][r] == word]
+        assert len(rows) == 2, (word, list(tab["word"]))
+        assert bt["branch"][rows[0]] == bt["branch"][rows[1]], word
+
+
+def _run_cli(*args):
+    return CliRunner().invoke(main, list(args))
+
+
+def test_explain_refuses_files_it_cannot_follow(tmp_path):
+    """exit 2, nothing written: no attractor in the table (a scene where every run escapes
+    or finds no cycle), a flow file that does not keep the impacts its orbits are solved
+    from, an axis with a repeated value."""
+    nokeep = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141).replace(
+        'keep = ["impacts"]', "keep = []"), "nokeep")
+    before = open(nokeep, "rb").read()
+    r = _run_cli("explain", nokeep)
+    assert r.exit_code == 2 and "does not keep 'impacts'" in r.output, r.output
+    assert open(nokeep, "rb").read() == before
+    # beta = 0 (a fixed wall) with kappa above the forced motion's reach: no run impacts
+    none = """
+[scene]
+name = "none"
+model = "flow"
+[system]
+obstacle = "sine"
+omega = 2.5
+beta = 0.0
+r = 0.8
+F = 1.0
+Omega = 2.5
+[sweep]
+kappa = { start = 1.5, stop = 1.6, num = 2 }
+[initial]
+count = 4
+seed = 1
+u = [0.6, 3.0]
+v = [-1.0, 1.0]
+[run]
+transient = 3000
+record = 60
+[output]
+keep = ["impacts"]
+"""
+    path = _swept(tmp_path, none, "none")
+    before = open(path, "rb").read()
+    r = _run_cli("explain", path)
+    assert r.exit_code == 2 and "no attractor to follow" in r.output, r.output
+    assert open(path, "rb").read() == before
+    dup = FLOW.format(lo=0, hi=0).replace(
+        "kappa = { start = 0, stop = 0, num = 3 }", "kappa = { values = [-0.0143, -0.0142, -0.0142] }")
+    path = _swept(tmp_path, dup, "dup")
+    r = _run_cli("explain", path)
+    assert r.exit_code == 2 and "repeats a value" in r.output, r.output
+
+
+def test_unsorted_values_are_followed_in_their_order(tmp_path):
+    """kappa = [-0.0142, -0.0141, -0.0143]: 'b' at -0.0142 and -0.0143 is one branch, and it
+    ends at kappa_C (eq 11) between -0.0142 and -0.0141 as on a sorted grid."""
+    text = FLOW.format(lo=0, hi=0).replace(
+        "kappa = { start = 0, stop = 0, num = 3 }", "kappa = { values = [-0.0142, -0.0141, -0.0143] }")
+    path = _swept(tmp_path, text, "unsorted")
+    bt, _ = _explained(path)
+    b = _branch_of_word(bt, "b")
+    assert bt["attractors"][b] == 2
+    assert bt["high_kind"][b] == "corner"
+    assert abs(bt["high_at"][b] - theory.kappa_C(1.999, 0.8)) <= 1e-10
+    assert bt["low_kind"][b] == "range"
+
+
+def test_explain_prints_but_never_breaks_a_file_it_may_not_write(tmp_path):
+    """A read-only file: explained (exit 0), the table printed, the file unchanged and said
+    not stored.  A link: the table is stored in the file it points to, the link stays a
+    link."""
+    import os
+    path = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141), "ro")
+    os.chmod(path, 0o444)
+    before = open(path, "rb").read()
+    r = _run_cli("explain", path)
+    assert r.exit_code == 0 and "not stored" in r.output and "the file is read-only" in r.output
+    assert open(path, "rb").read() == before
+    assert os.stat(path).st_mode & 0o777 == 0o444
+    target = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141), "target")
+    link = tmp_path / "link.h5"
+    os.symlink(target, link)
+    r = _run_cli("explain", str(link))
+    assert r.exit_code == 0 and "not stored" not in r.output, r.output
+    assert os.path.islink(link)
+    assert read_branches(target) is not None
