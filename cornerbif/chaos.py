@@ -45,13 +45,16 @@ OVERLAP_CELLS = 16
 OVERLAP_MIN = 0.5
 MIN_ESTIMATES = 3
 GROUP = 256                 # runs rerun at a time (memory: GROUP x WINDOW x the outputs)
+RERUN_MAX = 64              # runs rerun at one parameter point (the first in the file's order)
 # why a run with no cycle is not on a chaotic attractor (``find``; the table's
 # /attractors/no_cycle counts them per parameter point)
 REASONS = ("its long rerun did not end well (escapes, sticks for good, budget)",
            "it sticks within the long window (exponent -inf: a long orbit through sticking)",
            "it grazes within the long window (exponent undefined)",
            "not recurrent within the long window (a transient)",
-           "its exponent's interval is not above 0 (a longer cycle, a torus)")
+           "its exponent's interval is not above 0 (a longer cycle, a torus)",
+           f"not examined (past the first {RERUN_MAX} runs without a cycle at its point, and "
+           "its record in the file is on no chaotic attractor found there)")
 
 
 @dataclasses.dataclass
@@ -136,45 +139,109 @@ def rerun(scene, grid_index, starts, extra_transient=0):
 
 def find(f, scene, runs, points):
     """The chaotic attractors among the runs ``runs`` (flat indices into the file's runs,
-    each with NO_CYCLE) at parameter points ``points`` (the same length): (a list of
-    Chaotic, ordered by (point, smallest run); per run, the index in REASONS of why it is on
-    none, or -1)."""
+    each with NO_CYCLE, in the file's order) at parameter points ``points`` (the same
+    length): (a list of Chaotic, ordered by point then smallest run; per run, the index in
+    REASONS of why it is on none, or -1).
+
+    At most RERUN_MAX runs of a point are rerun, points batched up to GROUP runs a kernel
+    call, each point finished before the next batch (memory: one batch's windows).  The
+    point's other runs join a chaotic attractor found there where their record in the file
+    lies on its cloud (``overlap``); else they are said not examined."""
     spec = registry.get(scene.model)
     why = np.full(runs.size, -1, np.int64)
     if spec.cycle is None or runs.size == 0 or "lyapunov" not in {
             fld.source for fld in spec.fields(("stability",))}:
         return [], why
-    G, n_ic = scene.shape, scene.n_ic
-    starts = np.stack([f[f"initial/{c}"][...].reshape(-1) for c in spec.start_names],
-                      axis=-1)[runs]
-    grid = [tuple(int(i) for i in ix) for ix in
-            zip(*np.unravel_index(runs // n_ic, G))] if G else [()] * runs.size
-    a, b, lam, ok, ended = rerun(scene, grid, starts)
-    why[:] = 4
-    why[~ended] = 0
-    why[ended & (lam == -np.inf)] = 1
-    why[ended & np.isnan(lam)] = 2
+    start_all = np.stack([f[f"initial/{c}"][...].reshape(-1) for c in spec.start_names], -1)
+    order = np.argsort(points, kind="stable")
+    bounds = np.flatnonzero(np.r_[True, points[order][1:] != points[order][:-1], True])
     found = []
-    for p in np.unique(points):
-        mine = np.flatnonzero((points == p) & ok)
-        rec = {i: recurrence(a[i], b[i]) for i in mine}
-        why[[i for i in mine if rec[i] < RECURRENCE_MIN]] = 3
-        mine = [i for i in mine if rec[i] >= RECURRENCE_MIN]
-        for group in _groups(mine, a, b):
-            est = lam[group]
-            if len(group) < MIN_ESTIMATES:
-                est = np.concatenate([est, _more_windows(scene, grid[group[0]],
-                                                         starts[group[0]], MIN_ESTIMATES
-                                                         - len(group))])
-            if est.size < 2 or not np.all(np.isfinite(est)):
-                continue
-            m, lo, hi = mean_interval(est)
-            if lo > 0.0:
-                fa = np.concatenate([a[i][np.isfinite(a[i])] for i in group])
-                fb = np.concatenate([b[i][np.isfinite(b[i])] for i in group])
-                found.append(Chaotic(int(p), runs[group], fa, fb, m, lo, hi))
-                why[group] = -1
+    batch = []
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        batch.append(order[lo:hi])
+        if sum(min(b.size, RERUN_MAX) for b in batch) >= GROUP or hi == runs.size:
+            for chaotic in _batch(scene, f, start_all, runs, points, batch, why):
+                found += chaotic
+            batch = []
     return found, why
+
+
+def _batch(scene, f, start_all, runs, points, batch, why):
+    """Rerun the first RERUN_MAX runs of each point of ``batch`` (arrays of indices into
+    ``runs``, one point each) in one kernel call and find each point's chaotic attractors
+    (``_point``): yields each point's Chaotic list."""
+    G, n_ic = scene.shape, scene.n_ic
+    picked = [b[:RERUN_MAX] for b in batch]
+    flat = runs[np.concatenate(picked)]
+    starts = start_all[flat]
+    grid = [tuple(int(i) for i in ix) for ix in
+            zip(*np.unravel_index(flat // n_ic, G))] if G else [()] * flat.size
+    a, b, lam, ok, ended = rerun(scene, grid, starts)
+    k = 0
+    for mine, pick in zip(batch, picked):
+        m = pick.size
+        res = (a[k:k + m], b[k:k + m], lam[k:k + m], ok[k:k + m], ended[k:k + m])
+        yield _point(scene, runs, int(points[mine[0]]), mine, pick, res, grid[k:k + m],
+                     starts[k:k + m], why, f)
+        k += m
+
+
+def _point(scene, runs, point, mine, pick, res, grid, starts, why, f):
+    """One parameter point's chaotic attractors from its rerun runs ``pick`` (indices into
+    ``runs``; ``res`` their windows, exponents and ends), the reasons of the others in
+    ``why``; its runs past RERUN_MAX join an attractor whose cloud holds their record."""
+    a, b, lam, ok, ended = res
+    why[pick] = 4
+    why[pick[~ended]] = 0
+    why[pick[ended & (lam == -np.inf)]] = 1
+    why[pick[ended & np.isnan(lam)]] = 2
+    good = np.flatnonzero(ok)
+    rec = {i: recurrence(a[i], b[i]) for i in good}
+    why[pick[[i for i in good if rec[i] < RECURRENCE_MIN]]] = 3
+    good = [i for i in good if rec[i] >= RECURRENCE_MIN]
+    out = []
+    for group in _groups(good, a, b):
+        est = lam[group]
+        if len(group) < MIN_ESTIMATES:
+            est = np.concatenate([est, _more_windows(scene, grid[group[0]], starts[group[0]],
+                                                     MIN_ESTIMATES - len(group))])
+        if est.size < 2 or not np.all(np.isfinite(est)):
+            continue
+        m, lo, hi = mean_interval(est)
+        if lo > 0.0:
+            fa = np.concatenate([a[i][np.isfinite(a[i])] for i in group])
+            fb = np.concatenate([b[i][np.isfinite(b[i])] for i in group])
+            members = list(pick[group])
+            rest = mine[RERUN_MAX:]
+            if rest.size:
+                members += list(_on_cloud(f, scene, runs, rest, fa, fb))
+            why[members] = -1
+            out.append(Chaotic(point, runs[np.sort(members)], fa, fb, m, lo, hi))
+    rest = mine[RERUN_MAX:]
+    why[rest[why[rest] == -1]] = 5
+    if out:
+        joined = np.concatenate([c.runs for c in out])
+        why[rest[np.isin(runs[rest], joined)]] = -1
+    return out
+
+
+def _on_cloud(f, scene, runs, rest, fa, fb):
+    """The runs among ``rest`` (indices into ``runs``) whose record in the file holds at
+    least OVERLAP_MIN of its points in the cells of the cloud (fa, fb): those on it (none
+    where the file does not keep the model's cycle series)."""
+    spec = registry.get(scene.model)
+    names = {fld.source: fld.name for fld in spec.fields(tuple(spec.observables))}
+    if names.get(spec.cycle.a) not in f or names.get(spec.cycle.b) not in f:
+        return np.empty(0, np.int64)
+    da, db = f[names[spec.cycle.a]], f[names[spec.cycle.b]]
+    out = []
+    for i in rest:
+        ix = np.unravel_index(runs[i], da.shape[:-1])
+        ra, rb = da[ix], db[ix]
+        keep = np.isfinite(ra) & np.isfinite(rb)
+        if keep.sum() >= 8 and overlap(ra[keep], rb[keep], fa, fb) >= OVERLAP_MIN:
+            out.append(i)
+    return np.array(out, np.int64)
 
 
 def _groups(mine, a, b):

@@ -55,7 +55,8 @@ import numpy as np
 from . import config as C
 from . import engine, outputs, registry
 from .analysis import run_length
-from .attractors import read_table
+from .attractors import read_branches, read_table
+from .branches import explain_file
 from .config import SceneError
 from .continuation_run import read
 from .errors import Fault, SweepError, SweepInterrupted, WriteFailed
@@ -689,10 +690,20 @@ class _Progress:
         return "; ".join(parts)
 
 
+def _explained(d: Data, echo):
+    """A sweep drawn as its branches (``[plot] kind = "branches"``) explained
+    (``cornerbif explain``: the branch table stored in its file) where it is not yet."""
+    if d.kind != "sweep" or d.scene.plot.get("kind") != "branches":
+        return
+    if read_branches(d.path) is None:
+        explain_file(d.path, log=echo)
+
+
 def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
     """Bring one data file up to date (``Data.action``); what was done: reused, swept,
-    resumed or continued."""
+    resumed or continued (a sweep drawn as its branches: explained, ``_explained``)."""
     if d.action == "reuse":
+        _explained(d, echo)
         return "reused"
     prog.current = d
     from . import continuation_run, sweep  # start-up: loads numba
@@ -726,6 +737,7 @@ def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
         done = "resumed" if d.action == "resume" else "continued"
     prog.current = None
     d.action, d.replace, d.discard = "reuse", False, False
+    _explained(d, echo)
     return done
 
 
