@@ -26,6 +26,8 @@ Written to the file::
                                of the runs at its point, and sqrt(f (1 - f) / runs there)
                                (the standard error of a share of independent random
                                starts; for a grid of starts, the share of the cells)
+    /attractors/share_low, share_high   (n,) the share's 95 % Wilson interval
+                               (``basin_stats.share_interval``: right for rare basins)
     /attractors/multiplier_re, multiplier_im   (n, m) its Floquet multipliers (the first
                                run's, when the file keeps ``stability``)
     /attractors/lyapunov, lyapunov_low, lyapunov_high   (n,) a chaotic attractor's largest
@@ -55,6 +57,7 @@ import numpy as np
 
 from . import chaos, registry
 from . import status as S
+from .basin_stats import share_interval
 from .cycles import SIGNATURE
 
 NO_CYCLE = -1        # the run ended well but no cycle repeated twice in its recorded window
@@ -344,6 +347,8 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point, lya
             "point": reps.point[rank] if R else np.empty((0, 2)),
             "runs": runs, "fraction": frac,
             "standard_error": np.sqrt(frac * (1.0 - frac) / runs_per_point)}
+    cols["share_low"], cols["share_high"] = (np.asarray(v, float).reshape(R) for v in
+                                             share_interval(runs, runs_per_point))
     lam = np.full((R, 3), np.nan)
     for s, v in lyap.items():
         if s != "no_cycle":

@@ -47,7 +47,7 @@ import numpy as np
 from . import config
 from .attractors import BRANCH_END_KINDS as KINDS
 from .attractors import read_branches, read_table
-from .basin_stats import share_interval
+from .basin_stats import basin_entropy, share_interval, uncertainty_exponent
 from .chaos import CHAOTIC
 from .continuation import OrbitError, follow_step, newton, rebase
 from .errors import SweepError, WriteFailed
@@ -584,6 +584,8 @@ def explain_file(path, recompute=False, log=None) -> list:
     from .io import check_readable  # start-up: loads h5py
     with check_readable(path) as f:
         scene = _explainable(f, path)
+        if not _parameter_axes(scene):
+            return basin_lines(f, scene, read_table(f))
         has = "branches" in f and "attractors/branch" in f
         if has and not recompute:
             return genealogy(read_branches(f), read_table(f), scene)
@@ -605,15 +607,16 @@ def _explainable(f, path):
         raise SweepError(f"{path}: the file has no attractor to follow (its attractor "
                          "table is empty or missing)")
     par = _parameter_axes(scene)
-    if not par:
-        raise SweepError(f"{path}: the sweep has no parameter axis to follow attractors along")
+    if not par and len(scene.start_axes) != 2:
+        raise SweepError(f"{path}: the sweep has no parameter axis to follow attractors along "
+                         "(and is no basin of two swept start coordinates)")
     for a in par:
         if np.unique(a.array).size != a.array.size:
             raise SweepError(f"{path}: sweep.{a.name} repeats a value; attractors are followed "
                              "between distinct values")
     need = scene.spec.seed_observable
     words = f["attractors/word"][...].astype(str)
-    if need and any(w != CHAOTIC for w in words) and not all(
+    if par and need and any(w != CHAOTIC for w in words) and not all(
             fld.name in f for fld in scene.spec.observables[need]):
         raise SweepError(f"{path}: the file does not keep {need!r}, from which a "
                          f"{scene.model} orbit is solved (sweep it with output.keep "
@@ -631,6 +634,43 @@ def _as_read(br, tab):
                               dtype=object)
     out["axes"] = list(br.axes)
     out["branch"] = br.branch_of
+    return out
+
+
+BASIN_BOX = 5        # cells per side of a box of the basin entropy
+
+
+def basin_lines(f, scene, tab) -> list:
+    """``explain`` of a basin (two swept start coordinates, no parameter axis): each
+    attractor's share of the cells with its 95 % intervals (Wilson; Clopper-Pearson), the
+    basin entropy and boundary basin entropy (Daza et al. 2016) over boxes of BASIN_BOX x
+    BASIN_BOX cells and the uncertainty exponent (Grebogi et al. 1983), from the cells'
+    outcomes (each attractor, and each code, its own label; the first start of a cell)."""
+    (nu, _), (nv, _) = sorted(scene.start_axes.items(), key=lambda kv: kv[1][0])
+    labels = f["attractor"][...][..., 0]          # the grid's axes: the two, in order
+    n = labels.size
+    out = [f"{scene.name}: a basin of {labels.shape[0]} x {labels.shape[1]} starts "
+           f"(initial.{nu}, initial.{nv}), {len(tab['id'])} attractors"]
+    for r in range(len(tab["id"])):
+        k = int(np.sum(labels == tab["id"][r]))
+        lo, hi = share_interval(k, n)
+        clo, chi = share_interval(k, n, method="clopper-pearson")
+        name = ("chaotic attractor" if tab["word"][r] == CHAOTIC else
+                f"{tab['word'][r]!r} (period {tab['period'][r]})")
+        out.append(f"  attractor {tab['id'][r]}: {name}: {k} cells, share {k / n:.4g} "
+                   f"(95 % Wilson {lo:.4g} to {hi:.4g}; Clopper-Pearson {clo:.4g} to {chi:.4g})")
+    none = int(np.sum(labels < 0))
+    if none:
+        out.append(f"  no attractor (codes): {none} cells, share {none / n:.4g}")
+    sb, sbb, nb = basin_entropy(labels, box=BASIN_BOX)
+    out.append(f"basin entropy Sb = {sb:.4g}, boundary basin entropy Sbb = {sbb:.4g} over {nb} "
+               f"boundary boxes of {BASIN_BOX} x {BASIN_BOX} cells (Daza et al. 2016: Sbb > "
+               f"log 2 = {math.log(2):.4g} is enough for a fractal boundary)")
+    alpha, se, eps, frac = uncertainty_exponent(labels)
+    out.append(f"uncertainty exponent alpha = {alpha:.3g} +- {se:.2g} (the uncertain share of "
+               f"cells f(eps) ~ eps^alpha over eps = {', '.join(str(int(e)) for e in eps)} cells: "
+               f"f = {', '.join(f'{x:.3g}' for x in frac)}; a smooth boundary has alpha = 1, and "
+               f"the boundary's dimension is 2 - alpha)")
     return out
 
 

@@ -142,45 +142,58 @@ def draw_basin(ax, path, axes, values, labels_of=None):
 
 
 def fraction_series(table, n_points):
-    """Per label, its fraction and standard error at each parameter point (NaN where the
-    label has no attractor): {label: (fraction (n_points,), error (n_points,))}."""
+    """Per label, its fraction and the 95 % interval of it at each parameter point (NaN
+    where the label has no attractor): {label: (fraction, low, high), each (n_points,)}.
+    The interval is the table's Wilson interval (``share_low``, ``share_high``), or +-1
+    standard error in a file written before the table had one."""
     labels = attractor_labels(table)
+    lo = table.get("share_low", table["fraction"] - table["standard_error"])
+    hi = table.get("share_high", table["fraction"] + table["standard_error"])
     out = {}
-    for lab, p, f, e in zip(labels, table["parameter_point"], table["fraction"],
-                            table["standard_error"]):
+    for lab, p, f, a, b in zip(labels, table["parameter_point"], table["fraction"], lo, hi):
         if lab not in out:
-            out[lab] = (np.full(n_points, np.nan), np.full(n_points, np.nan))
-        out[lab][0][p] = f
-        out[lab][1][p] = e
+            out[lab] = tuple(np.full(n_points, np.nan) for _ in range(3))
+        out[lab][0][p], out[lab][1][p], out[lab][2][p] = f, a, b
     return out
+
+
+LOG_SPAN = 100.0     # shares spanning more than this factor are drawn on a log scale
 
 
 def draw_fractions(ax, path, x, min_share=0.0):
     """Basin fractions against a swept parameter (random starts at each point): one line
-    per attractor label with a band of +-1 standard error, and the share of the starts
-    that found no attractor (dotted).  Labels whose largest fraction stays below
-    ``min_share`` are summed into one grey line."""
+    per attractor label with a band of its 95 % interval (Wilson: right for rare basins,
+    a share of 0 keeps an upper bound), and the share of the starts that found no
+    attractor (dotted), on a log scale where the shares drawn span more than LOG_SPAN.
+    Labels whose largest fraction stays below ``min_share`` are summed into one grey line."""
     table = read_table(path)
     series = fraction_series(table, x.size)
     colors = attractor_colors(series)
     rare = np.zeros(x.size)
     order = sorted(series, key=lambda lab: -np.nanmax(series[lab][0]))
+    drawn = []
     for lab in order:
-        f, e = series[lab]
+        f, lo, hi = series[lab]
         if np.nanmax(f) < min_share:
             rare += np.nan_to_num(f)
             continue
         ax.plot(x, f, "-", lw=1.0, color=colors[lab], label=label_tex(lab))
-        ax.fill_between(x, f - e, f + e, color=colors[lab], alpha=0.25, lw=0)
+        ax.fill_between(x, lo, hi, color=colors[lab], alpha=0.25, lw=0)
+        drawn.append(f)
     if rare.any():
         ax.plot(x, rare, "-", lw=0.8, color="0.5", label=f"others (each < {min_share:.0%})")
     out = table["outcomes"]
     none = 1.0 - out[:, 0] / out.sum(axis=1)
     if np.any(none > 0):
         ax.plot(x, none, ":", lw=1.0, color="k", label="no attractor")
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_ylabel(f"fraction of starts ({table['runs_per_point']} per point; band: "
-                  r"$\pm$1 s.e.)")
+    pos = np.concatenate([d[np.isfinite(d) & (d > 0)] for d in drawn]) if drawn else []
+    if len(pos) and pos.max() / pos.min() > LOG_SPAN:
+        ax.set_yscale("log")
+        ax.set_ylim(0.5 * pos.min(), 1.5)
+    else:
+        ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel(f"fraction of starts ({table['runs_per_point']} per point; band: 95 % "
+                  "Wilson interval)")
     return series
 
 

@@ -304,3 +304,37 @@ def test_matching_groups_runs_as_a_one_by_one_reference(tmp_path):
         assert np.array_equal(same_ref, same_tab), g
     assert len(np.unique(ids)) == groups
     assert groups > 2 * G[0]            # several attractors per point, split by jitter too
+
+
+def test_shares_have_wilson_intervals_and_rare_ones_draw_on_a_log_scale(tmp_path,
+                                                                        monkeypatch):
+    """share_low, share_high are the Wilson 95 % intervals of runs / runs_per_point (the
+    closed form of basin_stats, itself checked against hand values); the fractions figure
+    bands them, and where the shares drawn span more than a factor 100 (a basin of 1 start
+    in 1000 beside one of 999) it draws them on a log scale."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cornerbif import plot_attractors as PA
+    from cornerbif.basin_stats import share_interval
+    text = open("configs/fig06a.toml").read().replace("num = 2001", "num = 3")
+    out = str(tmp_path / "w.h5")
+    run_sweep(config.loads(text), out)
+    tab = A.read_table(out)
+    lo, hi = share_interval(tab["runs"], tab["runs_per_point"])
+    np.testing.assert_array_equal(tab["share_low"], lo)
+    np.testing.assert_array_equal(tab["share_high"], hi)
+    rare = {"id": np.arange(2), "word": np.array(["b", "a"], dtype=object),
+            "period": np.array([1, 1]), "parameter_point": np.array([0, 0]),
+            "runs": np.array([999, 1]), "fraction": np.array([0.999, 0.001]),
+            "runs_per_point": 1000, "outcomes": np.array([[1000, 0, 0, 0, 0, 0]]),
+            "impacts_per_cycle": np.array([1, 2]), "signature": np.zeros((2, 6)),
+            "standard_error": np.zeros(2)}
+    rare["share_low"], rare["share_high"] = share_interval(rare["runs"], 1000)
+    monkeypatch.setattr(PA, "read_table", lambda path: rare)
+    fig, ax = plt.subplots()
+    PA.draw_fractions(ax, "unused.h5", np.array([0.0]))
+    assert ax.get_yscale() == "log"
+    assert ax.get_ylim()[0] <= 0.0005
+    plt.close(fig)

@@ -308,3 +308,30 @@ def test_explain_prints_but_never_breaks_a_file_it_may_not_write(tmp_path):
     assert r.exit_code == 0 and "not stored" not in r.output, r.output
     assert os.path.islink(link)
     assert read_branches(target) is not None
+
+
+def test_explain_of_a_basin_gives_its_statistics(tmp_path):
+    """A basin (two swept start coordinates, Fig. 7(b)'s wedge at omega = 2.001, kappa =
+    0.008, 31 x 31 starts): ``explain`` prints each attractor's cells and share with its
+    Wilson and Clopper-Pearson intervals, the basin entropy and the uncertainty exponent,
+    each equal to ``basin_stats`` on the file's labels (tested against closed forms in
+    test_basin_stats.py), the counts adding up to the cells."""
+    from cornerbif.basin_stats import basin_entropy, share_interval, uncertainty_exponent
+    text = open("configs/basin_hysteresis.toml").read()
+    text = text.replace("num = 201", "num = 31").replace("transient = 3000", "transient = 1500")
+    path = _swept(tmp_path, text, "basin")
+    r = CliRunner().invoke(main, ["explain", path], catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    with h5py.File(path) as f:
+        labels = f["attractor"][...][..., 0]
+        tab = read_table(f)
+    counts = [int(np.sum(labels == i)) for i in tab["id"]]
+    assert sum(counts) + int(np.sum(labels < 0)) == 31 * 31
+    for i, k in zip(tab["id"], counts):
+        lo, hi = share_interval(k, 31 * 31)
+        assert f"attractor {i}: " in r.stdout and f"{k} cells, share {k / 961:.4g}" in r.stdout
+        assert f"95 % Wilson {lo:.4g} to {hi:.4g}" in r.stdout
+    sb, sbb, nb = basin_entropy(labels, box=5)
+    assert f"basin entropy Sb = {sb:.4g}, boundary basin entropy Sbb = {sbb:.4g} over {nb} " in r.stdout
+    alpha, se, _, _ = uncertainty_exponent(labels)
+    assert f"uncertainty exponent alpha = {alpha:.3g} +- {se:.2g}" in r.stdout
