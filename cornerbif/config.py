@@ -65,6 +65,9 @@ STOPS = ("none", "period")
 PERIODS_PER_IMPACT = 50
 BUDGET_MARGIN = 1000
 INITIAL_DEFAULTS = {"count": 8, "seed": 1}
+# starts given, not drawn: ``points`` (a list of starts) or ``points_file`` (a text file of
+# one start per line, read when the scene is loaded; the scene as run lists the points)
+INITIAL_LISTS = ("points", "points_file")
 # Sizes, checked before anything is allocated (each limit says why it is there):
 # values of one axis: the scene as run lists every value (the file's ``scene`` attribute)
 MAX_AXIS_VALUES = 100_000
@@ -73,6 +76,7 @@ MAX_GRID_POINTS = 100_000_000
 # starts per grid point: the counter-based draw keys a start by point * 2^20 + start
 # (engine.uniform), so more would repeat starts
 MAX_STARTS = 2**20
+MAX_POINTS_BYTES = 64 * 2**20   # of an [initial] points_file read
 # recorded events: the word of a cycle is a fixed-length string of record // 2 bytes whose
 # fill value lives in the dataset's HDF5 object header (at most 64 KiB)
 MAX_RECORD = 100_000
@@ -195,7 +199,8 @@ def _derive(names: tuple) -> dict:
             "scene": ("name", "title", "model"),
             "system": _union(tuple(m.params) + tuple(m.system_extra) for m in models),
             "sweep": None,  # parameter names + 'follow'
-            "initial": tuple(INITIAL_DEFAULTS) + _union(m.start_names for m in models),
+            "initial": tuple(INITIAL_DEFAULTS) + INITIAL_LISTS
+                       + _union(m.start_names for m in models),
             "run": ("preset",) + tuple(RUN_DEFAULTS),
             "output": ("keep",),
             "plot": PLOT_KEYS,
@@ -290,6 +295,7 @@ class Scene:
     cont: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     obstacle_table: object = None
+    points: tuple = None       # [initial] points: the starts given (each in start order)
 
     @property
     def shape(self) -> tuple:
@@ -606,7 +612,7 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
     if problems:
         raise SceneError(problems)
     try:
-        return from_dict(raw)
+        return from_dict(raw, source=source)
     except SceneError as e:
         raise SceneError([_from_set(p, given) for p in e.problems]) from None
 
@@ -976,6 +982,52 @@ def _fixed(rng) -> bool:
     return _is_number(rng) or (isinstance(rng, list) and len(rng) == 2 and rng[0] == rng[1])
 
 
+def _read_points(w, ini):
+    """``[initial] points`` (or ``points_file``): the starts given, each a list of the
+    model's start coordinates in order (``Model.start_names``; the start time, where the
+    model has one, may be left out: 0), every one of them used at every grid point; a tuple
+    of tuples, or None when the scene draws its starts.  Problems are added to the walk."""
+    given = [k for k in INITIAL_LISTS if k in ini]
+    if not given:
+        return None
+    names = w.spec.start_names
+    if len(given) > 1:
+        w.problems.append("initial.points and initial.points_file: give one of the two")
+        return None
+    if given[0] == "points_file":
+        path = ini["points_file"]
+        if not isinstance(path, str) or not path:
+            w.problems.append(f"initial.points_file: {shown(path)} must be a path (text: one "
+                              f"start per line, {', '.join(names)})")
+            return None
+        full = path if os.path.isabs(path) or w.source.startswith("<") else os.path.join(
+            os.path.dirname(w.source), path)
+        try:
+            rows = [[float(x) for x in line.replace(",", " ").split()]
+                    for line in open(full, encoding="utf-8").read(MAX_POINTS_BYTES).splitlines()
+                    if line.strip() and not line.lstrip().startswith("#")]
+        except (OSError, ValueError, UnicodeDecodeError) as e:
+            w.problems.append(f"initial.points_file: {shown(path)} cannot be read as starts "
+                              f"({type(e).__name__}: {cut(str(e))})")
+            return None
+        key, pts = "initial.points_file", rows
+    else:
+        key, pts = "initial.points", ini["points"]
+    others = [k for k in ("count", "seed", *names) if k in ini]
+    if others:
+        w.problems.append(f"{key}: the starts are given, so initial.{others[0]} has no use; "
+                          "give one or the other")
+    full_len, state_len = len(names), len(w.spec.coords)
+    if (not isinstance(pts, list) or not 1 <= len(pts) <= MAX_STARTS
+            or not all(isinstance(p, list) and len(p) in (state_len, full_len)
+                       and all(_is_number(x) and math.isfinite(x) for x in p) for p in pts)):
+        w.problems.append(f"{key}: {shown(pts)} must be a list of 1..{MAX_STARTS} starts, each "
+                          f"[{', '.join(names)}] of finite numbers"
+                          + (f" (or without {names[-1]}: 0)" if full_len > state_len else ""))
+        return None
+    return tuple(tuple(float(x) for x in p) + (0.0,) * (full_len - len(p)) for p in pts)
+
+
 def _read_initial(w):
     ini = w.table("initial")
     initial_keys = _registered()["TABLES"]["initial"]
@@ -990,7 +1042,10 @@ def _read_initial(w):
         w.problems.append(f"initial.seed: {shown(seed)} must be an integer in 0..2^62 - 1")
         seed = 0
     coords = w.spec.start_names
-    for c in initial_keys[len(INITIAL_DEFAULTS):]:
+    w.points = _read_points(w, ini)
+    if w.points is not None:
+        n_ic = len(w.points)
+    for c in initial_keys[len(INITIAL_DEFAULTS) + len(INITIAL_LISTS):]:
         if c in ini and c not in coords:
             w.problems.append(f"initial.{c}: not an initial coordinate of model {w.model!r}; "
                               f"allowed: {', '.join(coords)}")
@@ -1526,11 +1581,12 @@ READERS = (("scene", _read_scene), ("system", _read_system), ("sweep", _read_swe
            ("plot", _read_plot), ("continue", _read_continue), (None, _read_model_checks))
 
 
-def from_dict(raw, drawn_starts: bool = True) -> Scene:
+def from_dict(raw, drawn_starts: bool = True, source: str = "<scene>") -> Scene:
     """Validate a raw scene dict; raise ``SceneError`` listing every problem.
 
     ``drawn_starts=False`` (``simulate``, which is given its starts) skips the checks of
-    the ``[initial]`` ranges against the obstacle.
+    the ``[initial]`` ranges against the obstacle.  ``source``: the scene file's path (an
+    ``[initial] points_file`` is read beside it), or a name in angle brackets.
     """
     if not isinstance(raw, dict):
         raise SceneError([f"scene: expected a table, got {type(raw).__name__}"])
@@ -1545,6 +1601,7 @@ def from_dict(raw, drawn_starts: bool = True) -> Scene:
     if wide:                 # before a problem is said of each key (unknown, misspelt)
         raise SceneError(wide)
     w = _Walk(raw, drawn_starts)
+    w.source = str(source)
     tables = _registered()["TABLES"]
     for t, body in raw.items():
         if t not in tables:
@@ -1572,9 +1629,10 @@ def _scene(w) -> Scene:
         "scene": {"name": w.name, "title": w.title, "model": w.model},
         "system": system_text,
         "sweep": {**{a.name: {"values": list(a.values)} for a in w.axes}, "follow": w.follow},
-        "initial": {"count": w.n_ic, "seed": w.seed,
-                    **{c: list(r) for c, r in w.ranges.items()
-                       if not any(a.name == IC_PREFIX + c for a in w.axes)}},
+        "initial": ({"points": [list(p) for p in w.points]} if w.points is not None else
+                    {"count": w.n_ic, "seed": w.seed,
+                     **{c: list(r) for c, r in w.ranges.items()
+                        if not any(a.name == IC_PREFIX + c for a in w.axes)}}),
         "run": {**({"preset": w.preset} if "preset" in w.run_given else {}),
                 **{k: v for k, v in run.items()
                    if v is not None and k not in ("stop", "max_events", "max_periods")},
@@ -1598,4 +1656,5 @@ def _scene(w) -> Scene:
                  chatter=run["chatter"], escape=run["escape"], period_tol=run["period_tol"],
                  max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
                  plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"],
-                 cont=w.cont, extra=w.extra, obstacle_table=getattr(w, "obstacle_table", None))
+                 cont=w.cont, extra=w.extra, obstacle_table=getattr(w, "obstacle_table", None),
+                 points=w.points)

@@ -52,7 +52,8 @@ def uniform(seed, point, ic, coord):
 def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray, params=None):
     """Initial states for grid points ``flat_points`` (shape (n,)): an array
     (n, n_ic, start size) in the model's start order (``Model.starts``: the state, then
-    the start time where the model has one).
+    the start time where the model has one).  Given starts (``[initial] points``) are the
+    same at every point, with no floor: a start below the obstacle gets the kernel's status.
 
     A coordinate with a floor is uniform on the part of its ``[initial]`` range strictly
     above it (the same law as drawing on the whole range and redrawing points below):
@@ -64,6 +65,9 @@ def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray, params
     """
     spec = registry.get(scene.model)
     n = flat_points.shape[0]
+    if scene.points is not None:          # [initial] points: the same starts at every point
+        return np.broadcast_to(np.asarray(scene.points, float),
+                               (n, scene.n_ic, len(spec.start_names))).copy()
     pts = np.repeat(flat_points.astype(np.uint64), scene.n_ic)
     ics = np.tile(np.arange(scene.n_ic, dtype=np.uint64), n)
     drawn = {}

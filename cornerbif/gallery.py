@@ -104,7 +104,10 @@ def smoke_raw(raw: dict) -> dict:
         if "values" in spec:
             spec["values"] = spec["values"][: SMOKE["axis_values"]]
     ini = raw.setdefault("initial", {})
-    ini["count"] = min(ini.get("count", 8), SMOKE["count"])
+    if isinstance(ini.get("points"), list):          # given starts: the first few
+        ini["points"] = ini["points"][: SMOKE["count"]]
+    elif "points_file" not in ini:
+        ini["count"] = min(ini.get("count", 8), SMOKE["count"])
     run = raw.setdefault("run", {})
     for k in ("transient", "record"):
         run[k] = min(run.get(k, C.RUN_DEFAULTS[k]), SMOKE[k])
@@ -112,7 +115,7 @@ def smoke_raw(raw: dict) -> dict:
         run.pop(k, None)
     pl = raw.get("plot", {})
     if isinstance(pl.get("ic"), list):
-        pl["ic"] = [i for i in pl["ic"] if i < ini["count"]] or [0]
+        pl["ic"] = [i for i in pl["ic"] if i < ini.get("count", SMOKE["count"])] or [0]
     pl.pop("point", None)
     return raw
 
