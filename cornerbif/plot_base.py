@@ -13,6 +13,7 @@ import numpy as np
 
 from . import obstacles, plot_attractors, registry
 from . import status as S
+from .chaos import CHAOTIC
 from .errors import SweepError
 from .model import Obstacle
 from .plot_style import bounded, plain
@@ -201,12 +202,33 @@ def status_name(code: int, names=None) -> str:
     return bounded(name, 40) if name else f"unknown ({code})"
 
 
-def endings(status, no_cycle) -> str:
+# a run that ended well without a cycle, once the chaos pass has looked at it (a file
+# whose attractor table says which runs are on chaotic attractors)
+TESTED_OK = "ended without one within the record, on no chaotic attractor"
+
+
+def endings(status, no_cycle, tested=False) -> str:
     """How the runs ``no_cycle`` (a mask) that reached no cycle ended, by status, most
-    first: '3 ended without one (chaos, ...), 2 escaped (...)'; '' when there are none."""
+    first: '3 ended without one (chaos, ...), 2 escaped (...)'; '' when there are none.
+    ``tested``: the file's table names its chaotic attractors (the runs left are not on
+    one: TESTED_OK)."""
     codes, counts = np.unique(np.asarray(status)[no_cycle], return_counts=True)
     order = sorted(zip(counts.tolist(), codes.tolist()), key=lambda t: (-t[0], t[1]))
-    return ", ".join(f"{n} {ENDINGS.get(c, f'of unknown status {c}')}" for n, c in order)
+    words = dict(ENDINGS) | ({S.OK: TESTED_OK} if tested else {})
+    return ", ".join(f"{n} {words.get(c, f'of unknown status {c}')}" for n, c in order)
+
+
+def chaotic_runs(data: PlotData):
+    """The runs on chaotic attractors (the table's rows of word ``chaos.CHAOTIC``), a mask
+    shaped as the file's runs, or None where the file has no table or one written before
+    the table named them."""
+    if not data.has_table:
+        return None
+    tab = plot_attractors.read_table(data.path)
+    if tab is None or "lyapunov" not in tab:
+        return None
+    ids = tab["id"][tab["word"] == CHAOTIC]
+    return np.isin(tab["ids"], ids)
 
 
 def attractor_summary(data: PlotData, tex: bool = True) -> str:
@@ -220,7 +242,10 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
     k = int(count.max())
     run = data.status != -1                     # a partial file's unfinished points aside
     no_cycle = (labels < 0) & run
-    how = endings(data.status, no_cycle)
+    chaotic = chaotic_runs(data)
+    if chaotic is not None and chaotic.shape == no_cycle.shape:
+        no_cycle &= ~chaotic
+    how = endings(data.status, no_cycle, tested=chaotic is not None)
     if k == 0:
         if not no_cycle.any():
             return "no run finished"
@@ -234,6 +259,10 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
         vals = data.values[a][where]
         parts.append(f"{int((count >= 2).sum())} of {n} points have 2 or more "
                      f"({LABELS.get(a, a) if tex else a} in [{vals.min():.6g}, {vals.max():.6g}])")
+    if chaotic is not None and chaotic.any():
+        on = chaotic.reshape(n, -1).any(axis=1)
+        parts.append(f"{int(chaotic.sum())} runs at {int(on.sum())} points on chaotic "
+                     "attractors (Lyapunov exponent's 95 % interval above 0)")
     none = int(no_cycle.all(axis=-1).sum())
     if none:
         parts.append(f"{none} points without a cycle")

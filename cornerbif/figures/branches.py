@@ -76,9 +76,11 @@ class Skeleton(FigureKind):
                 pa = bt[f"{side}_point"][b][0]
                 if kind == "impact_u" and math.isfinite(pa) and np.isfinite(bt[f"{side}_at"][b]):
                     ax.plot([x], [pa], mk, ms=4, color=c, mfc="none")
+        from matplotlib.ticker import MaxNLocator  # start-up: loads matplotlib
+        axb.yaxis.set_major_locator(MaxNLocator(integer=True))
         axb.set_ylabel("branch")
         axb.set_xlabel(axis)
-        axb.set_ylim(-1, m)
+        axb.set_ylim(-0.7, m - 0.3)
         axb.invert_yaxis()
         if seen:
             axb.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=6,

@@ -85,6 +85,14 @@ def test_properties_of_every_recorded_impact(w, kap, r, u0, v0, obstacle):
         z = naive.z_obstacle(obstacle, ti, w, kap, 1.0, w, w)
         vin, vout = res["v_in"][0, i], res["v_out"][0, i]
         scale = 1.0 + abs(vin) + abs(zp)
+        if off == 0.0 and obstacle != "sine":
+            # exactly at the corner z' has two values: the law holds with one of them (the
+            # kernel takes the piece it found the impact on; the offset's zero has no side).
+            # Found by this test: the triangle at omega = 4, r = 0.25 from (0.01, 0), whose
+            # impacts converge onto the corner and reach it exactly at the 23rd
+            assert min(abs(vout - ((1 + r) * s - r * vin)) for s in (zp, -zp)) < 1e-9 * scale
+            assert abs(res["u"][0, i] - z) < 1e-9 * scale
+            continue
         assert abs(vout - ((1 + r) * zp - r * vin)) < 1e-9 * scale
         assert abs(res["u"][0, i] - z) < 1e-9 * scale
     su = res["su"][0]

@@ -335,3 +335,56 @@ def test_explain_of_a_basin_gives_its_statistics(tmp_path):
     assert f"basin entropy Sb = {sb:.4g}, boundary basin entropy Sbb = {sbb:.4g} over {nb} " in r.stdout
     alpha, se, _, _ = uncertainty_exponent(labels)
     assert f"uncertainty exponent alpha = {alpha:.3g} +- {se:.2g}" in r.stdout
+
+
+FOLD = """
+[scene]
+name = "branches_fold"
+model = "flow"
+[system]
+obstacle = "sine"
+omega = 2.5
+kappa = 0.5
+beta = 0.0
+r = 0.8
+sigma = 0.0
+k = 1.0
+F = 1.0
+Omega = 2.5
+[sweep]
+kappa = { start = 0.5, stop = 1.6, num = 6 }
+[initial]
+count = 4
+seed = 1
+u = [0.6, 3.0]
+v = [-1.0, 1.0]
+[run]
+transient = 3000
+record = 60
+[output]
+keep = ["impacts"]
+"""
+
+
+def test_a_fold_is_located_at_its_closed_form(tmp_path):
+    """A fixed stop (beta = 0) at kappa under u'' + u = F cos(Omega t + phi), r = 0.8: the
+    single-impact period-T orbit (T = 2 pi / Omega) with impact velocity -V, phase phi and
+    P = F / (1 - Omega^2) satisfies, from u(T) = kappa and u'(T) = -V after u'(0) = r V
+    (derived in docs/basins.md):
+        P cos(phi) = kappa - a V,  P sin(phi) = b V,  a = (1 + r)/2 cot(T/2),  b = (1 - r)/(2 Omega),
+    so (a^2 + b^2) V^2 - 2 a kappa V + kappa^2 - P^2 = 0 has real roots only for
+    kappa <= |P| sqrt(a^2 + b^2) / b: the saddle-node (fold) of the orbit, 1.405479843094...
+    The branch of this orbit ends there, in a fold, to 1e-10 (measured: 3e-16)."""
+    import math
+    P = 1.0 / (1.0 - 2.5 ** 2)
+    T = 2.0 * math.pi / 2.5
+    a = 0.9 / math.tan(T / 2.0)
+    b = 0.2 / (2.0 * 2.5)
+    kappa_fold = abs(P) * math.hypot(a, b) / b
+    path = _swept(tmp_path, FOLD, "fold")
+    bt, text = _explained(path)
+    one = [b_ for b_ in range(len(bt["id"])) if bt["period"][b_] == 1
+           and bt["impacts_per_cycle"][b_] == 1]
+    assert len(one) == 1, text
+    assert bt["high_kind"][one[0]] == "fold", text
+    assert abs(bt["high_at"][one[0]] - kappa_fold) <= 1e-10, (bt["high_at"][one[0]], kappa_fold)
