@@ -27,14 +27,15 @@ Written to the file::
                                (the standard error of a share of independent random
                                starts; for a grid of starts, the share of the cells)
     /attractors/share_low, share_high   (n,) the share's 95 % Wilson interval
-                               (``basin_stats.share_interval``: right for rare basins)
+                               (``basin_stats.share_interval``: right for rare basins) for
+                               random starts; NaN for a grid of starts (a quadrature)
     /attractors/multiplier_re, multiplier_im   (n, m) its Floquet multipliers (the first
                                run's, when the file keeps ``stability``)
     /attractors/lyapunov, lyapunov_low, lyapunov_high   (n,) a chaotic attractor's largest
                                Lyapunov exponent and its 95 % interval (NaN for a cycle)
     /attractors/outcomes       (points, 6) runs at each parameter point: reaching an
                                attractor, then one column per code -1 .. -5
-    /attractors/no_cycle       (points, 5) of the runs that keep NO_CYCLE, why they are on
+    /attractors/no_cycle       (points, 6) of the runs that keep NO_CYCLE, why they are on
                                no chaotic attractor (``chaos.REASONS``, attribute columns)
 
 A run that ends well with no cycle in its record is tested for chaos (``chaos.find``: a
@@ -347,8 +348,13 @@ def _write(f, scene, spec, reps, serial, outcomes, par_axes, runs_per_point, lya
             "point": reps.point[rank] if R else np.empty((0, 2)),
             "runs": runs, "fraction": frac,
             "standard_error": np.sqrt(frac * (1.0 - frac) / runs_per_point)}
-    cols["share_low"], cols["share_high"] = (np.asarray(v, float).reshape(R) for v in
-                                             share_interval(runs, runs_per_point))
+    if scene.start_axes:
+        # a grid of starts: its share is a quadrature of the basin's area, not a sample of
+        # independent starts; no sampling interval (``explain`` bounds it by the boundary)
+        cols["share_low"] = cols["share_high"] = np.full(R, np.nan)
+    else:
+        cols["share_low"], cols["share_high"] = (np.asarray(v, float).reshape(R) for v in
+                                                 share_interval(runs, runs_per_point))
     lam = np.full((R, 3), np.nan)
     for s, v in lyap.items():
         if s != "no_cycle":

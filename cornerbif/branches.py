@@ -374,9 +374,11 @@ def _ends(br, ns, axis, tab, linked, log):
                           f"{float(x[i])!r}", _point_of(n))
             elif n.word == CHAOTIC:
                 nxt = by_point.get(j, [])
-                beyond = ("the next grid value's attractors are cycles: a periodic window or "
-                          "a crisis" if nxt else "the next grid value has no attractor: no "
-                          "cycle within the record, and no chaos")
+                beyond = ("its box overlaps none of the next grid value's chaotic "
+                          "attractors by more than half" if any(m.word == CHAOTIC for m in nxt)
+                          else "the next grid value's attractors are cycles: a periodic "
+                          "window or a crisis" if nxt else "the next grid value has no "
+                          "attractor: no cycle within the record, and no chaos")
                 end = End("unlocated", math.nan,
                           f"a chaotic attractor, gone at {axis.name} = {float(x[j])!r} "
                           f"({beyond}); not located between grid values")
@@ -642,35 +644,56 @@ BASIN_BOX = 5        # cells per side of a box of the basin entropy
 
 def basin_lines(f, scene, tab) -> list:
     """``explain`` of a basin (two swept start coordinates, no parameter axis): each
-    attractor's share of the cells with its 95 % intervals (Wilson; Clopper-Pearson), the
-    basin entropy and boundary basin entropy (Daza et al. 2016) over boxes of BASIN_BOX x
-    BASIN_BOX cells and the uncertainty exponent (Grebogi et al. 1983), from the cells'
-    outcomes (each attractor, and each code, its own label; the first start of a cell)."""
+    attractor's share of the cells (a quadrature of its basin's area, with its cells on a
+    boundary as the bound of its error), the basin entropy and boundary basin entropy
+    (Daza et al. 2016) over boxes of BASIN_BOX x BASIN_BOX cells and the uncertainty
+    exponent (Grebogi et al. 1983), from the cells' outcomes (each attractor, and each code,
+    its own label; the first start of a cell)."""
     (nu, _), (nv, _) = sorted(scene.start_axes.items(), key=lambda kv: kv[1][0])
     labels = f["attractor"][...][..., 0]          # the grid's axes: the two, in order
     n = labels.size
     out = [f"{scene.name}: a basin of {labels.shape[0]} x {labels.shape[1]} starts "
            f"(initial.{nu}, initial.{nv}), {len(tab['id'])} attractors"]
+    # a grid's share is a quadrature of the basin's area: its error at this resolution is
+    # bounded by the share of its cells on a boundary (a neighbour along an axis differs)
+    edge = np.zeros(labels.shape, bool)
+    for ax in range(labels.ndim):
+        d = np.diff(labels, axis=ax) != 0
+        lo = [slice(None)] * labels.ndim
+        hi = [slice(None)] * labels.ndim
+        lo[ax], hi[ax] = slice(None, -1), slice(1, None)
+        edge[tuple(lo)] |= d
+        edge[tuple(hi)] |= d
     for r in range(len(tab["id"])):
-        k = int(np.sum(labels == tab["id"][r]))
-        lo, hi = share_interval(k, n)
-        clo, chi = share_interval(k, n, method="clopper-pearson")
+        mine = labels == tab["id"][r]
+        k = int(mine.sum())
         name = ("chaotic attractor" if tab["word"][r] == CHAOTIC else
                 f"{tab['word'][r]!r} (period {tab['period'][r]})")
-        out.append(f"  attractor {tab['id'][r]}: {name}: {k} cells, share {k / n:.4g} "
-                   f"(95 % Wilson {lo:.4g} to {hi:.4g}; Clopper-Pearson {clo:.4g} to {chi:.4g})")
+        out.append(f"  attractor {tab['id'][r]}: {name}: {k} cells, share {k / n:.4g} (a grid "
+                   f"quadrature: {int((mine & edge).sum())} of its cells lie on a boundary, "
+                   f"{(mine & edge).sum() / n:.3g} of the grid, the bound of its error at this "
+                   "resolution)")
     none = int(np.sum(labels < 0))
     if none:
         out.append(f"  no attractor (codes): {none} cells, share {none / n:.4g}")
-    sb, sbb, nb = basin_entropy(labels, box=BASIN_BOX)
-    out.append(f"basin entropy Sb = {sb:.4g}, boundary basin entropy Sbb = {sbb:.4g} over {nb} "
-               f"boundary boxes of {BASIN_BOX} x {BASIN_BOX} cells (Daza et al. 2016: Sbb > "
-               f"log 2 = {math.log(2):.4g} is enough for a fractal boundary)")
+    if min(labels.shape) < BASIN_BOX:
+        out.append(f"basin entropy: not computed (boxes of {BASIN_BOX} x {BASIN_BOX} cells do "
+                   f"not fit in {labels.shape[0]} x {labels.shape[1]})")
+    else:
+        sb, sbb, nb = basin_entropy(labels, box=BASIN_BOX)
+        out.append(f"basin entropy Sb = {sb:.4g}, boundary basin entropy Sbb = {sbb:.4g} over "
+                   f"{nb} boundary boxes of {BASIN_BOX} x {BASIN_BOX} cells (Daza et al. 2016: "
+                   f"Sbb > log 2 = {math.log(2):.4g} is enough for a fractal boundary)")
     alpha, se, eps, frac = uncertainty_exponent(labels)
-    out.append(f"uncertainty exponent alpha = {alpha:.3g} +- {se:.2g} (the uncertain share of "
-               f"cells f(eps) ~ eps^alpha over eps = {', '.join(str(int(e)) for e in eps)} cells: "
-               f"f = {', '.join(f'{x:.3g}' for x in frac)}; a smooth boundary has alpha = 1, and "
-               f"the boundary's dimension is 2 - alpha)")
+    if not np.isfinite(alpha):
+        out.append(f"uncertainty exponent: not computed (fewer than two scales eps with an "
+                   f"uncertain cell on a {labels.shape[0]} x {labels.shape[1]} grid)")
+    else:
+        out.append(f"uncertainty exponent alpha = {alpha:.3g} +- {se:.2g} (the uncertain share "
+                   f"of cells f(eps) ~ eps^alpha over eps = "
+                   f"{', '.join(str(int(e)) for e in eps)} cells: f = "
+                   f"{', '.join(f'{x:.3g}' for x in frac)}; a smooth boundary has alpha = 1, "
+                   "and the boundary's dimension is 2 - alpha)")
     return out
 
 

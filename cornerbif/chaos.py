@@ -46,15 +46,17 @@ OVERLAP_MIN = 0.5
 MIN_ESTIMATES = 3
 GROUP = 256                 # runs rerun at a time (memory: GROUP x WINDOW x the outputs)
 RERUN_MAX = 64              # runs rerun at one parameter point (the first in the file's order)
+BUDGET_MAX = 2**62 - 1      # a rerun's scaled budgets stay within a scene's limits (config's
+PERIODS_MAX = 2**58         # MAX_INT - 1 and MAX_PERIODS)
 # why a run with no cycle is not on a chaotic attractor (``find``; the table's
 # /attractors/no_cycle counts them per parameter point)
 REASONS = ("its long rerun did not end well (escapes, sticks for good, budget)",
            "it sticks within the long window (exponent -inf: a long orbit through sticking)",
-           "it grazes within the long window (exponent undefined)",
+           "its exponent is undefined over the long window (a grazing, or too few impacts)",
            "not recurrent within the long window (a transient)",
            "its exponent's interval is not above 0 (a longer cycle, a torus)",
-           f"not examined (past the first {RERUN_MAX} runs without a cycle at its point, and "
-           "its record in the file is on no chaotic attractor found there)")
+           f"past the first {RERUN_MAX} runs without a cycle at its point: on no chaotic "
+           "attractor found among those (rerun, its window's points are not in one's cells)")
 
 
 @dataclasses.dataclass
@@ -103,25 +105,31 @@ def overlap(a1, b1, a2, b2, cells=OVERLAP_CELLS) -> float:
     return float(min(in1, in2))
 
 
-def _long_scene(scene, extra_transient=0):
-    """The scene of the reruns: the same system and starts, a window of WINDOW, the cycle
-    series and the stability kept, the budgets scaled with the run's length."""
+def _series_observable(spec) -> str:
+    """The observable that keeps the model's cycle series (``Model.cycle``)."""
+    return "impacts" if spec.cycle.per == "impacts" else "section"
+
+
+def _long_scene(scene, extra_transient=0, window=WINDOW):
+    """The scene of the reruns: the same system and starts, a window of ``window``, the
+    cycle series and the stability kept, the budgets scaled with the run's length (within
+    the limits a scene may give)."""
     spec = registry.get(scene.model)
-    keep = tuple(sorted({spec.cycle.per == "impacts" and "impacts" or "section", "stability"}))
+    keep = tuple(sorted({_series_observable(spec), "stability"}))
     old = scene.transient + scene.record
-    new = scene.transient + extra_transient + WINDOW
+    grow = max(1.0, (scene.transient + extra_transient + window) / old)
     return dataclasses.replace(
-        scene, transient=scene.transient + extra_transient, record=WINDOW, keep=keep,
-        stop="none", max_events=int(scene.max_events * max(1.0, new / old)),
-        max_periods=int(scene.max_periods * max(1.0, new / old)))
+        scene, transient=scene.transient + extra_transient, record=window, keep=keep,
+        stop="none", max_events=min(int(scene.max_events * grow), BUDGET_MAX),
+        max_periods=min(int(scene.max_periods * grow), PERIODS_MAX))
 
 
-def rerun(scene, grid_index, starts, extra_transient=0):
+def rerun(scene, grid_index, starts, extra_transient=0, window=WINDOW):
     """The runs of ``scene`` at grid indices ``grid_index`` (n tuples) from ``starts`` (n,
     start size), over the long window: (a, b, lambda_1, ok, ended) per run (``ended``: the
     run ended well; ``ok``: and its exponent is finite)."""
     spec = registry.get(scene.model)
-    long = _long_scene(scene, extra_transient)
+    long = _long_scene(scene, extra_transient, window)
     ints = spec.int_settings(long)
     a_all, b_all, lam, ended = [], [], [], []
     for s in range(0, len(grid_index), GROUP):
@@ -189,7 +197,7 @@ def _batch(scene, f, start_all, runs, points, batch, why):
 def _point(scene, runs, point, mine, pick, res, grid, starts, why, f):
     """One parameter point's chaotic attractors from its rerun runs ``pick`` (indices into
     ``runs``; ``res`` their windows, exponents and ends), the reasons of the others in
-    ``why``; its runs past RERUN_MAX join an attractor whose cloud holds their record."""
+    ``why``; its runs past RERUN_MAX are rerun too (``_join``) where an attractor is found."""
     a, b, lam, ok, ended = res
     why[pick] = 4
     why[pick[~ended]] = 0
@@ -208,40 +216,84 @@ def _point(scene, runs, point, mine, pick, res, grid, starts, why, f):
         if est.size < 2 or not np.all(np.isfinite(est)):
             continue
         m, lo, hi = mean_interval(est)
-        if lo > 0.0:
+        if lo > 0.0 and _persists(scene, grid[group[0]], starts[group[0]], m):
             fa = np.concatenate([a[i][np.isfinite(a[i])] for i in group])
             fb = np.concatenate([b[i][np.isfinite(b[i])] for i in group])
-            members = list(pick[group])
-            rest = mine[RERUN_MAX:]
-            if rest.size:
-                members += list(_on_cloud(f, scene, runs, rest, fa, fb))
-            why[members] = -1
-            out.append(Chaotic(point, runs[np.sort(members)], fa, fb, m, lo, hi))
+            why[pick[group]] = -1
+            out.append(Chaotic(point, runs[pick[group]], fa, fb, m, lo, hi))
     rest = mine[RERUN_MAX:]
-    why[rest[why[rest] == -1]] = 5
-    if out:
-        joined = np.concatenate([c.runs for c in out])
-        why[rest[np.isin(runs[rest], joined)]] = -1
+    why[rest] = 5
+    if out and rest.size:
+        out = _join(scene, runs, rest, out, why, f)
     return out
 
 
-def _on_cloud(f, scene, runs, rest, fa, fb):
-    """The runs among ``rest`` (indices into ``runs``) whose record in the file holds at
-    least OVERLAP_MIN of its points in the cells of the cloud (fa, fb): those on it (none
-    where the file does not keep the model's cycle series)."""
+PERSIST = 0.6      # lambda over PERSIST_FACTOR windows at least this share of lambda over one
+PERSIST_FACTOR = 4
+
+
+def _persists(scene, grid_index, start, lam):
+    """Whether a positive exponent ``lam`` (over windows of WINDOW) persists over a window
+    PERSIST_FACTOR times longer: on a chaotic attractor it stays (to its scatter), while on a
+    torus or along a neutral direction a finite-time exponent is a bias of order
+    log(N) / N, which falls about PERSIST_FACTOR / log(PERSIST_FACTOR) times over the longer
+    window (docs/stability.md: the maps' generic basis); kept where it keeps at least
+    PERSIST of its value."""
+    _, _, lam_long, ok, _ = rerun(scene, [grid_index], start[None],
+                                  window=WINDOW * PERSIST_FACTOR)
+    return bool(ok[0] and lam_long[0] >= PERSIST * lam)
+
+
+JOIN_RECORD = 200    # impacts (or periods) of a rerun that joins a run to an attractor
+
+
+def _join(scene, runs, rest, out, why, f):
+    """The point's runs past RERUN_MAX (``rest``, indices into ``runs``), rerun without the
+    stability pass over JOIN_RECORD after their transient, each joined to the one chaotic
+    attractor of ``out`` whose cloud's cells (a grid of OVERLAP_CELLS over the cloud) hold
+    the most of its points, at least OVERLAP_MIN of them (one-sided: a short window covers
+    little of a cloud).  Returns ``out`` with their runs added; ``why`` -1 for them."""
     spec = registry.get(scene.model)
-    names = {fld.source: fld.name for fld in spec.fields(tuple(spec.observables))}
-    if names.get(spec.cycle.a) not in f or names.get(spec.cycle.b) not in f:
-        return np.empty(0, np.int64)
-    da, db = f[names[spec.cycle.a]], f[names[spec.cycle.b]]
-    out = []
-    for i in rest:
-        ix = np.unravel_index(runs[i], da.shape[:-1])
-        ra, rb = da[ix], db[ix]
-        keep = np.isfinite(ra) & np.isfinite(rb)
-        if keep.sum() >= 8 and overlap(ra[keep], rb[keep], fa, fb) >= OVERLAP_MIN:
-            out.append(i)
-    return np.array(out, np.int64)
+    G, n_ic = scene.shape, scene.n_ic
+    long = dataclasses.replace(_long_scene(scene, window=JOIN_RECORD),
+                               keep=(_series_observable(spec),))
+    ints = spec.int_settings(long)
+    start_all = np.stack([f[f"initial/{c}"][...].reshape(-1) for c in spec.start_names], -1)
+    cells = []
+    for c in out:
+        box = (c.a.min(), c.a.max(), c.b.min(), c.b.max())
+        occ = np.zeros(OVERLAP_CELLS * OVERLAP_CELLS, bool)
+        occ[_cell(c.a, box[0], box[1], OVERLAP_CELLS) * OVERLAP_CELLS
+            + _cell(c.b, box[2], box[3], OVERLAP_CELLS)] = True
+        cells.append((box, occ))
+    joined = [[] for _ in out]
+    for s in range(0, rest.size, GROUP):
+        part = rest[s:s + GROUP]
+        flat = runs[part]
+        grid = [tuple(int(i) for i in ix) for ix in
+                zip(*np.unravel_index(flat // n_ic, G))] if G else [()] * flat.size
+        run = spec.run_items(spec.pack_points(long, grid),
+                             np.ascontiguousarray(start_all[flat]), ints, long)
+        ra = np.asarray(run.fields[spec.cycle.a], float)
+        rb = np.asarray(run.fields[spec.cycle.b], float)
+        fin = np.isfinite(ra) & np.isfinite(rb)
+        n_fin = fin.sum(axis=1)
+        share = np.zeros((len(out), part.size))
+        for k, ((lo_a, hi_a, lo_b, hi_b), occ) in enumerate(cells):
+            inside = fin & (ra >= lo_a) & (ra <= hi_a) & (rb >= lo_b) & (rb <= hi_b)
+            code = (_cell(np.where(fin, ra, lo_a), lo_a, hi_a, OVERLAP_CELLS) * OVERLAP_CELLS
+                    + _cell(np.where(fin, rb, lo_b), lo_b, hi_b, OVERLAP_CELLS))
+            hits = (inside & occ[code]).sum(axis=1)
+            share[k] = np.where(n_fin >= 8, hits / np.maximum(n_fin, 1), 0.0)
+        best = np.argmax(share, axis=0)
+        good = (share[best, np.arange(part.size)] >= OVERLAP_MIN) & (run.status == S.OK)
+        for i in np.flatnonzero(good):
+            joined[best[i]].append(part[i])
+    for c, extra in zip(out, joined):
+        if extra:
+            why[extra] = -1
+            c.runs = np.sort(np.concatenate([c.runs, runs[np.array(extra)]]))
+    return out
 
 
 def _groups(mine, a, b):

@@ -1003,8 +1003,15 @@ def _read_points(w, ini):
         full = path if os.path.isabs(path) or w.source.startswith("<") else os.path.join(
             os.path.dirname(w.source), path)
         try:
+            if not stat.S_ISREG(os.stat(full).st_mode):
+                raise ValueError("not a regular file (a folder, a pipe or a device is never "
+                                 "read: it may never end)")
+            with open(full, encoding="utf-8") as fh:
+                text = fh.read(MAX_POINTS_BYTES + 1)
+            if len(text) > MAX_POINTS_BYTES:
+                raise ValueError(f"more than {MAX_POINTS_BYTES} characters")
             rows = [[float(x) for x in line.replace(",", " ").split()]
-                    for line in open(full, encoding="utf-8").read(MAX_POINTS_BYTES).splitlines()
+                    for line in text.splitlines()
                     if line.strip() and not line.lstrip().startswith("#")]
         except (OSError, ValueError, UnicodeDecodeError) as e:
             w.problems.append(f"initial.points_file: {shown(path)} cannot be read as starts "
@@ -1017,6 +1024,10 @@ def _read_points(w, ini):
     if others:
         w.problems.append(f"{key}: the starts are given, so initial.{others[0]} has no use; "
                           "give one or the other")
+    swept = [a.name for a in getattr(w, "axes", ()) if a.name.startswith(IC_PREFIX)]
+    if swept:
+        w.problems.append(f"{key}: the starts are given, so sweep.{swept[0]} (a swept start "
+                          "coordinate) has no use; give one or the other")
     full_len, state_len = len(names), len(w.spec.coords)
     if (not isinstance(pts, list) or not 1 <= len(pts) <= MAX_STARTS
             or not all(isinstance(p, list) and len(p) in (state_len, full_len)
@@ -1025,7 +1036,14 @@ def _read_points(w, ini):
                           f"[{', '.join(names)}] of finite numbers"
                           + (f" (or without {names[-1]}: 0)" if full_len > state_len else ""))
         return None
-    return tuple(tuple(float(x) for x in p) + (0.0,) * (full_len - len(p)) for p in pts)
+    out = tuple(tuple(float(x) for x in p) + (0.0,) * (full_len - len(p)) for p in pts)
+    if full_len > state_len:                 # the start time: the ranges' rule, per start
+        for p in out:
+            why = _start_time_problem(w, names[-1], [p[-1], p[-1]], key)
+            if why:
+                w.problems.append(why)
+                return None
+    return out
 
 
 def _read_initial(w):

@@ -132,7 +132,8 @@ def cold_compiles(scene: Scene, what=("sweep",)) -> list:
     """The kernels of ``scene`` that compile on their first call here (``_jit.cache_is_cold``),
     as (name, seconds) with the model's measured cold compile time (``Model.compiles``,
     benchmarks/compile_time.py).  ``what``: "sweep" (the sweep's kernels, with the stability
-    kernels when ``[output] keep`` has "stability"), "stability" (those whatever keep says),
+    kernels: a finished sweep's runs without a cycle are tested for chaos with them,
+    ``cornerbif.chaos``), "stability" (those whatever keep says),
     "continuation" (what ``cornerbif continue`` compiles), "simulate" (what
     ``cornerbif.simulate`` compiles: the sweep's kernels but the file's)."""
     from ._jit import cache_is_cold  # start-up: loads numba

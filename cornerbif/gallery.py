@@ -131,7 +131,7 @@ def load_scene(path: str, smoke: bool = False) -> C.Scene:
     except (OSError, ValueError, RecursionError) as e:
         raise SceneError([f"{path}: cannot be read again for its smoke version ({e})"]) from None
     try:
-        return C.from_dict(smoke_raw(raw))
+        return C.from_dict(smoke_raw(raw), source=path)
     except SceneError as e:
         raise SceneError([f"{p} (in its smoke version)" for p in e.problems]) from None
 

@@ -246,20 +246,21 @@ def attractor_summary(data: PlotData, tex: bool = True) -> str:
     if chaotic is not None and chaotic.shape == no_cycle.shape:
         no_cycle &= ~chaotic
     how = endings(data.status, no_cycle, tested=chaotic is not None)
-    if k == 0:
+    has_chaos = chaotic is not None and bool(chaotic.any())
+    if k == 0 and not has_chaos:
         if not no_cycle.any():
             return "no run finished"
         if (data.status[no_cycle] == S.OK).all():
             return "no start reached a cycle (chaos, or a period too long for the record)"
         return f"no start reached a cycle: of {int(no_cycle.sum())} runs, {how}"
-    parts = [f"coexisting attractors: up to {k}"]
+    parts = [f"coexisting attractors: up to {k}"] if k else ["no periodic attractor"]
     if k >= 2 and data.axes:
         a = data.axes[0]
         where = np.nonzero(count.reshape(len(data.values[a]), -1).max(axis=1) >= 2)[0]
         vals = data.values[a][where]
         parts.append(f"{int((count >= 2).sum())} of {n} points have 2 or more "
                      f"({LABELS.get(a, a) if tex else a} in [{vals.min():.6g}, {vals.max():.6g}])")
-    if chaotic is not None and chaotic.any():
+    if has_chaos:
         on = chaotic.reshape(n, -1).any(axis=1)
         parts.append(f"{int(chaotic.sum())} runs at {int(on.sum())} points on chaotic "
                      "attractors (Lyapunov exponent's 95 % interval above 0)")

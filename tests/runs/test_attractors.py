@@ -309,7 +309,7 @@ def test_matching_groups_runs_as_a_one_by_one_reference(tmp_path):
 def test_shares_have_wilson_intervals_and_rare_ones_draw_on_a_log_scale(tmp_path,
                                                                         monkeypatch):
     """share_low, share_high are the Wilson 95 % intervals of runs / runs_per_point (the
-    closed form of basin_stats, itself checked against hand values); the fractions figure
+    score interval written out here); the fractions figure
     bands them, and where the shares drawn span more than a factor 100 (a basin of 1 start
     in 1000 beside one of 999) it draws them on a log scale."""
     import matplotlib
@@ -322,9 +322,13 @@ def test_shares_have_wilson_intervals_and_rare_ones_draw_on_a_log_scale(tmp_path
     out = str(tmp_path / "w.h5")
     run_sweep(config.loads(text), out)
     tab = A.read_table(out)
-    lo, hi = share_interval(tab["runs"], tab["runs_per_point"])
-    np.testing.assert_array_equal(tab["share_low"], lo)
-    np.testing.assert_array_equal(tab["share_high"], hi)
+    z = 1.959963984540054           # the 0.975 quantile of the normal law
+    n = tab["runs_per_point"]
+    for k, lo, hi in zip(tab["runs"], tab["share_low"], tab["share_high"]):
+        p = k / n                   # Wilson (1927): the score interval, written out
+        mid, half = p + z * z / (2 * n), z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+        assert lo == pytest.approx((mid - half) / (1 + z * z / n), abs=1e-12)
+        assert hi == pytest.approx((mid + half) / (1 + z * z / n), abs=1e-12)
     rare = {"id": np.arange(2), "word": np.array(["b", "a"], dtype=object),
             "period": np.array([1, 1]), "parameter_point": np.array([0, 0]),
             "runs": np.array([999, 1]), "fraction": np.array([0.999, 0.001]),

@@ -312,29 +312,45 @@ def test_explain_prints_but_never_breaks_a_file_it_may_not_write(tmp_path):
 
 def test_explain_of_a_basin_gives_its_statistics(tmp_path):
     """A basin (two swept start coordinates, Fig. 7(b)'s wedge at omega = 2.001, kappa =
-    0.008, 31 x 31 starts): ``explain`` prints each attractor's cells and share with its
-    Wilson and Clopper-Pearson intervals, the basin entropy and the uncertainty exponent,
-    each equal to ``basin_stats`` on the file's labels (tested against closed forms in
-    test_basin_stats.py), the counts adding up to the cells."""
-    from cornerbif.basin_stats import basin_entropy, share_interval, uncertainty_exponent
+    0.008, 31 x 21 starts): ``explain`` prints its size in the axes' order, each attractor's
+    cells and share (a grid quadrature) with its cells on a boundary (counted here cell by
+    cell: a 4-neighbour of another label), the basin entropy and the uncertainty exponent of
+    ``basin_stats`` (tested against closed forms in test_basin_stats.py), the counts adding
+    up to the cells.  A 4 x 4 basin is too small for boxes of 5 and for two scales: said,
+    not computed."""
+    from cornerbif.basin_stats import basin_entropy, uncertainty_exponent
     text = open("configs/basin_hysteresis.toml").read()
-    text = text.replace("num = 201", "num = 31").replace("transient = 3000", "transient = 1500")
+    text = text.replace("transient = 3000", "transient = 1500")
+    text = text.replace("initial.u = { start = 0.5, stop = 20.0, num = 201 }",
+                        "initial.u = { start = 0.5, stop = 20.0, num = 31 }")
+    text = text.replace("initial.v = { start = -0.02, stop = 0.02, num = 201 }",
+                        "initial.v = { start = -0.02, stop = 0.02, num = 21 }")
     path = _swept(tmp_path, text, "basin")
     r = CliRunner().invoke(main, ["explain", path], catch_exceptions=False)
     assert r.exit_code == 0, r.output
+    assert "a basin of 31 x 21 starts (initial.u, initial.v)" in r.stdout
     with h5py.File(path) as f:
         labels = f["attractor"][...][..., 0]
         tab = read_table(f)
+    assert labels.shape == (31, 21)
     counts = [int(np.sum(labels == i)) for i in tab["id"]]
-    assert sum(counts) + int(np.sum(labels < 0)) == 31 * 31
+    assert sum(counts) + int(np.sum(labels < 0)) == 31 * 21
     for i, k in zip(tab["id"], counts):
-        lo, hi = share_interval(k, 31 * 31)
-        assert f"attractor {i}: " in r.stdout and f"{k} cells, share {k / 961:.4g}" in r.stdout
-        assert f"95 % Wilson {lo:.4g} to {hi:.4g}" in r.stdout
+        edge = sum(1 for x in range(31) for y in range(21) if labels[x, y] == i and any(
+            0 <= x + dx < 31 and 0 <= y + dy < 21 and labels[x + dx, y + dy] != i
+            for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1))))
+        assert f"attractor {i}: " in r.stdout
+        assert f"{k} cells, share {k / 651:.4g} (a grid quadrature: {edge} of its cells" in r.stdout
     sb, sbb, nb = basin_entropy(labels, box=5)
     assert f"basin entropy Sb = {sb:.4g}, boundary basin entropy Sbb = {sbb:.4g} over {nb} " in r.stdout
     alpha, se, _, _ = uncertainty_exponent(labels)
     assert f"uncertainty exponent alpha = {alpha:.3g} +- {se:.2g}" in r.stdout
+    small = text.replace("num = 31", "num = 4").replace("num = 21", "num = 4")
+    path = _swept(tmp_path, small, "small")
+    r = CliRunner().invoke(main, ["explain", path], catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    assert "basin entropy: not computed" in r.stdout
+    assert "uncertainty exponent: not computed" in r.stdout
 
 
 FOLD = """

@@ -126,3 +126,54 @@ def test_chaotic_ids_do_not_depend_on_threads(tmp_path):
                  record=100)
     for k in ("word", "runs", "lyapunov", "lyapunov_low", "lyapunov_high", "ids"):
         np.testing.assert_array_equal(one[k], two[k])
+
+
+ONE_POINT = """
+[scene]
+name = "chaos_many"
+model = "flow"
+[system]
+obstacle = "sine"
+omega = 2.84
+kappa = 0.0
+beta = 1.0
+r = 0.8
+[initial]
+count = 100
+seed = 1
+u = [0.0, 20.0]
+v = [-20.0, 20.0]
+[run]
+transient = 500
+record = 20
+[output]
+keep = []
+"""
+
+
+def test_runs_past_the_first_64_join_the_chaotic_attractor(tmp_path):
+    """100 starts at omega = 2.84 (Fig. 1(a)'s chaotic window), a record of 20 that keeps
+    nothing: the first 64 are rerun with the stability pass and find the attractor, the
+    other 36 are rerun without it and join it (their window's points in its cloud's cells):
+    every start is on it, whatever the file keeps and in whatever order."""
+    out = str(tmp_path / "many.h5")
+    run_sweep(config.loads(ONE_POINT), out)
+    with h5py.File(out) as f:
+        tab = read_table(f)
+    assert list(tab["word"]) == [CHAOTIC] and list(tab["runs"]) == [100]
+    assert tab["no_cycle"].sum() == 0
+    assert np.isnan(tab["share_low"]).sum() == 0       # random starts: a Wilson interval
+
+
+def test_an_all_chaotic_file_is_summarised_as_such(tmp_path):
+    """``cornerbif info`` of a file whose every run is on a chaotic attractor says so (it
+    said "no run finished": no cycle, and no run left without one)."""
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    out = str(tmp_path / "all.h5")
+    run_sweep(config.loads(ONE_POINT.replace("count = 100", "count = 8")), out)
+    r = CliRunner().invoke(main, ["info", out])
+    assert r.exit_code == 0, r.output
+    assert "no run finished" not in r.output
+    assert "8 runs at 1 points on chaotic attractors" in r.output, r.output

@@ -80,3 +80,33 @@ def test_what_is_no_list_of_starts_is_refused(initial, says):
     with pytest.raises(SceneError) as e:
         config.loads(SCENE.format(initial=initial))
     assert any(says in p for p in e.value.problems), e.value.problems
+
+
+def test_points_beside_a_swept_start_coordinate_are_refused():
+    """A swept start coordinate would be ignored by given starts: refused, naming both."""
+    text = SCENE.format(initial="points = [[5.0, 0.0]]").replace(
+        "kappa = { start = -0.006, stop = -0.004, num = 3 }",
+        "kappa = { start = -0.006, stop = -0.004, num = 3 }\n"
+        "initial.u = { start = 0.5, stop = 5.0, num = 3 }")
+    with pytest.raises(SceneError) as e:
+        config.loads(text)
+    assert any("sweep.initial.u" in p and "initial.points" in p for p in e.value.problems)
+
+
+def test_a_points_file_that_is_no_regular_file_or_too_big_is_refused(tmp_path, monkeypatch):
+    """A FIFO is never opened (reading it would wait for a writer forever), nor a folder;
+    a file past the size read is refused, not cut (a cut could end inside a number)."""
+    import os
+    os.mkfifo(tmp_path / "fifo.txt")
+    (tmp_path / "dir.txt").mkdir()
+    for name in ("fifo.txt", "dir.txt"):
+        (tmp_path / "s.toml").write_text(SCENE.format(initial=f'points_file = "{name}"'))
+        with pytest.raises(SceneError) as e:
+            config.load(str(tmp_path / "s.toml"))
+        assert any("not a regular file" in p for p in e.value.problems), e.value.problems
+    monkeypatch.setattr(config, "MAX_POINTS_BYTES", 20)
+    (tmp_path / "big.txt").write_text("1.0 2.0\n" * 4)
+    (tmp_path / "s.toml").write_text(SCENE.format(initial='points_file = "big.txt"'))
+    with pytest.raises(SceneError) as e:
+        config.load(str(tmp_path / "s.toml"))
+    assert any("more than 20 characters" in p for p in e.value.problems), e.value.problems

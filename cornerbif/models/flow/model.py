@@ -237,8 +237,10 @@ class FlowModel(Model):
                     a.name for a in scene.axes]:
                 out.append(("the obstacle's heights at the start times",
                             COMPILE_SECONDS["t0"], [fill_obstacle_heights]))
-        if "stability" in what or (("sweep" in what or "simulate" in what)
-                                   and "stability" in scene.keep):
+        # a sweep's file tests its runs without a cycle for chaos when it finishes
+        # (cornerbif.chaos: reruns with the stability pass), whatever it keeps
+        if "stability" in what or "sweep" in what or ("simulate" in what
+                                                      and "stability" in scene.keep):
             out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
                         [batch_stability]))
         if "continuation" in what:

@@ -81,8 +81,10 @@ class Map2dModel(Model):
                         [iterate_batch, detect_map_cycles]
                         + (dispatchers("analysis.cycle_signatures", "chunkwrite._shuffle_bytes")
                            if files else [])))
-        if "stability" in what or (("sweep" in what or "simulate" in what)
-                                   and "stability" in scene.keep):
+        # a sweep's file tests its runs without a cycle for chaos when it finishes
+        # (cornerbif.chaos: reruns with the stability pass), whatever it keeps
+        if "stability" in what or "sweep" in what or ("simulate" in what
+                                                      and "stability" in scene.keep):
             out.append(("the map2d stability kernel", COMPILE_SECONDS["stability"],
                         [batch_map_stability]))
         return out

@@ -148,8 +148,10 @@ class TwoParticleModel(Model):
                         dispatchers(*(ANALYSIS_KERNELS if files else RUN_ANALYSIS_KERNELS))))
             out.append(("the two-particle kernel", COMPILE_SECONDS["two_particle"],
                         [K.run_batch]))
-        if "stability" in what or (("sweep" in what or "simulate" in what)
-                                   and "stability" in scene.keep):
+        # a sweep's file tests its runs without a cycle for chaos when it finishes
+        # (cornerbif.chaos: reruns with the stability pass), whatever it keeps
+        if "stability" in what or "sweep" in what or ("simulate" in what
+                                                      and "stability" in scene.keep):
             out.append(("the two-particle stability kernel", COMPILE_SECONDS["stability"],
                         [batch_two_particle_stability]))
         if "continuation" in what:
