@@ -188,14 +188,20 @@ def compiling_aside(scene: Scene, what=("sweep",)):
 
 
 def compile_beside(names):
-    """What ``compiling_aside``'s second process compiles: for each kernel name its helpers in
-    ``compile_plan.PLANS``, and "the cycle analysis" (``compile_analysis``)."""
+    """What ``compiling_aside``'s second process compiles, in the order a first run reaches
+    them: the helpers of each kernel in ``compile_plan.HALF_PLANS``, "the cycle analysis"
+    (``compile_analysis``: it runs right after the kernel), then the whole kernels of
+    ``compile_plan.PLANS`` (a stability kernel runs after the analysis, or at the file's
+    finish for the chaos test)."""
     from ._jit import compile_listed  # start-up: loads numba
     for name in names:
-        if name in PLANS:
+        if name in PLANS and name in HALF_PLANS:
             compile_listed(PLANS[name])
     if "the cycle analysis" in names:
         compile_analysis()
+    for name in names:
+        if name in PLANS and name not in HALF_PLANS:
+            compile_listed(PLANS[name])
 
 
 def compile_analysis():
