@@ -169,14 +169,21 @@ def compiling_aside(scene: Scene, what=("sweep",)):
     from ._jit import cache_is_cold, dispatchers  # start-up: loads numba
     child = None
     cold = [name for name, _ in cold_compiles(scene, what)]
-    # a kernel's helpers first (this process reaches them soon), then whole kernels of their own
+    # in the order this process reaches them: a kernel's helpers, whole kernels of their own
+    # (a stability kernel the scene keeps runs right after the kernel: compiled here, the
+    # short analysis would keep this process waiting for it), the cycle analysis, and last
+    # a stability kernel only the finish's chaos test uses
     planned = sorted((name for name in cold if name in PLANS), key=lambda n: n not in HALF_PLANS)
+    late = [] if "stability" in scene.keep or "stability" in what else [
+        name for name, _, _ in getattr(registry.get(scene.model), "compiles",
+                                       lambda *a: [])(scene, ("stability",))]
     analysis = any(cache_is_cold(k) for k in dispatchers(*ANALYSIS_KERNELS)) and len(cold) > 1
+    order = ([n for n in planned if n not in late] + ["the cycle analysis"] * analysis
+             + [n for n in planned if n in late])
     if ((os.cpu_count() or 1) > 1 and (planned or analysis)
             and os.environ.get("CORNERBIF_COMPILE_BESIDE", "1") != "0"):
         child = subprocess.Popen([sys.executable, "-c", "import sys; from cornerbif.engine import "
-                                  "compile_beside; compile_beside(sys.argv[1:])", *planned,
-                                  *["the cycle analysis"] * analysis],
+                                  "compile_beside; compile_beside(sys.argv[1:])", *order],
                                  stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                  stderr=subprocess.DEVNULL)
     try:
@@ -188,20 +195,15 @@ def compiling_aside(scene: Scene, what=("sweep",)):
 
 
 def compile_beside(names):
-    """What ``compiling_aside``'s second process compiles, in the order a first run reaches
-    them: the helpers of each kernel in ``compile_plan.HALF_PLANS``, "the cycle analysis"
-    (``compile_analysis``: it runs right after the kernel), then the whole kernels of
-    ``compile_plan.PLANS`` (a stability kernel runs after the analysis, or at the file's
-    finish for the chaos test)."""
+    """What ``compiling_aside``'s second process compiles, in the order given: for each
+    kernel name its functions in ``compile_plan.PLANS``, and "the cycle analysis"
+    (``compile_analysis``) where it is named."""
     from ._jit import compile_listed  # start-up: loads numba
     for name in names:
-        if name in PLANS and name in HALF_PLANS:
+        if name in PLANS:
             compile_listed(PLANS[name])
-    if "the cycle analysis" in names:
-        compile_analysis()
-    for name in names:
-        if name in PLANS and name not in HALF_PLANS:
-            compile_listed(PLANS[name])
+        elif name == "the cycle analysis":
+            compile_analysis()
 
 
 def compile_analysis():
