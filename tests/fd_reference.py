@@ -282,3 +282,27 @@ def settle(obstacle, omega, kappa, beta, r, u0, v0, n_periods, period, sigma=0.0
     st = state_at(obstacle, omega, kappa, beta, r, u0, v0, t0, t1, sigma=sigma, k=k, F=F,
                   Omega=Omega, phi=phi, theta1=theta1, theta2=theta2, dt=dt)
     return st.u, st.v
+
+
+def benettin(omega, u0, v0, t0, periods, delta=1e-9, obstacle="sine", kappa=0.0, beta=1.0,
+             r=0.8):
+    """The largest Lyapunov exponent by Benettin's two-trajectory method on the slow
+    exhaustive simulator (``state_at``, built on tests/naive.py): a companion trajectory
+    ``delta`` away, carried one obstacle period T at a time and put back at distance delta
+    along the separation after each period; the mean of log(separation / delta) per unit
+    time."""
+    T = 2 * math.pi / omega
+    x = np.array([u0, v0])
+    e = np.array([1.0, 1.0]) / math.sqrt(2.0)
+    total = 0.0
+    for i in range(periods):
+        a, b = t0 + i * T, t0 + (i + 1) * T
+        s0 = state_at(obstacle, omega, kappa, beta, r, x[0], x[1], a, b)
+        y = x + delta * e
+        s1 = state_at(obstacle, omega, kappa, beta, r, y[0], y[1], a, b)
+        x = np.array([s0.u, s0.v])
+        d = np.array([s1.u, s1.v]) - x
+        dist = np.linalg.norm(d)
+        total += math.log(dist / delta)
+        e = d / dist
+    return total / (periods * T)

@@ -11,6 +11,7 @@ import math
 import os
 import sys
 
+import fd_reference as FD
 import numpy as np
 import pytest
 
@@ -86,30 +87,6 @@ def test_a_window_that_sticks_has_exponents_minus_infinity():
     assert np.all(res["mu_re"] == 0) and np.all(res["mu_im"] == 0)
 
 
-def _benettin(omega, u0, v0, t0, periods, delta=1e-9):
-    """The largest Lyapunov exponent by Benettin's two-trajectory method on the slow
-    exhaustive simulator (tests/fd_reference.state_at, built on tests/naive.py): a
-    companion trajectory delta away, carried one obstacle period T at a time and put back
-    at distance delta along the separation after each period; the mean of
-    log(separation/delta) per unit time."""
-    import fd_reference as FD
-    T = 2 * math.pi / omega
-    x = np.array([u0, v0])
-    e = np.array([1.0, 1.0]) / math.sqrt(2.0)
-    total = 0.0
-    for i in range(periods):
-        a, b = t0 + i * T, t0 + (i + 1) * T
-        s0 = FD.state_at("sine", omega, 0.0, 1.0, 0.8, x[0], x[1], a, b)
-        y = x + delta * e
-        s1 = FD.state_at("sine", omega, 0.0, 1.0, 0.8, y[0], y[1], a, b)
-        x = np.array([s0.u, s0.v])
-        d = np.array([s1.u, s1.v]) - x
-        dist = np.linalg.norm(d)
-        total += math.log(dist / delta)
-        e = d / dist
-    return total / (periods * T)
-
-
 @pytest.mark.parametrize("omega,chaotic", [(2.85, True), (1.5, False)])
 def test_fig1a_exponent_against_benettin_on_the_slow_simulator(omega, chaotic):
     """Fig. 1(a) (smooth wall, r = 0.8): at omega = 2.85 (no cycle found, a chaotic
@@ -127,7 +104,7 @@ def test_fig1a_exponent_against_benettin_on_the_slow_simulator(omega, chaotic):
     n_sec = int(np.isfinite(res["su"]).sum())
     t0 = n_sec * T           # the kernel's last recorded section, t = n T (sections 1..n)
     periods = int(res["lyapunov_window"] / T)
-    ref = _benettin(omega, res["su"][n_sec - 1], res["sv"][n_sec - 1], t0, periods)
+    ref = FD.benettin(omega, res["su"][n_sec - 1], res["sv"][n_sec - 1], t0, periods)
     if chaotic:
         assert res["period"] == 0 and lam > 0.1 and ref > 0.1
         assert abs(lam - ref) < 0.05, (lam, ref)

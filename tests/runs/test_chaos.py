@@ -49,26 +49,6 @@ def _table(tmp_path, name, threads=None, **kw):
         return read_table(f)
 
 
-def _benettin(omega, u0, v0, t0, periods, delta=1e-9):
-    """Benettin's largest exponent on the slow simulator (tests/fd_reference.state_at): a
-    companion delta away carried one period T at a time and put back at delta along the
-    separation; the mean of log(separation / delta) per unit time (as
-    tests/models/test_lyapunov.py)."""
-    T = 2 * math.pi / omega
-    x = np.array([u0, v0])
-    e = np.array([1.0, 1.0]) / math.sqrt(2.0)
-    total = 0.0
-    for i in range(periods):
-        a, b = t0 + i * T, t0 + (i + 1) * T
-        s0 = FD.state_at("sine", omega, 0.0, 1.0, 0.8, x[0], x[1], a, b)
-        s1 = FD.state_at("sine", omega, 0.0, 1.0, 0.8, *(x + delta * e), a, b)
-        x = np.array([s0.u, s0.v])
-        d = np.array([s1.u, s1.v]) - x
-        total += math.log(np.linalg.norm(d) / delta)
-        e = d / np.linalg.norm(d)
-    return total / (periods * T)
-
-
 def test_the_chaotic_window_of_fig1a_is_a_chaotic_attractor(tmp_path):
     """omega = 2.80 .. 2.84 (Fig. 1(a), the file's runs find no cycle): every start reaches
     one chaotic attractor per point, with lambda > 0 and its interval above 0; at 2.84 its
@@ -88,7 +68,7 @@ def test_the_chaotic_window_of_fig1a_is_a_chaotic_attractor(tmp_path):
     T = 2 * math.pi / omega
     su, sv = res["su"][0], res["sv"][0]
     n_sec = int(np.isfinite(su).sum())
-    ref = _benettin(omega, su[n_sec - 1], sv[n_sec - 1], n_sec * T, 400)
+    ref = FD.benettin(omega, su[n_sec - 1], sv[n_sec - 1], n_sec * T, 400)
     assert ref > 0.1
     assert abs(tab["lyapunov"][-1] - ref) < 0.03, (tab["lyapunov"][-1], ref)
 
