@@ -27,7 +27,7 @@ from . import config, engine, outputs, plot_style, registry
 from . import continuation_run as C
 from . import warm as warmup
 from .branches import explain_file
-from .config import PLOT_COLOR_BY, PLOT_Y, SceneError, undrawable
+from .config import PLOT_COLOR_BY, PLOT_ORBITS, PLOT_Y, SceneError, undrawable
 from .errors import EXIT_FAULT, EXIT_INPUT, EXIT_INTERRUPTED, SweepError, SweepInterrupted, WriteFailed
 from .estimate import estimate_bytes, estimate_file_bytes, estimate_memory, estimate_time, estimate_words
 from .model import cut, did_you_mean
@@ -352,7 +352,10 @@ def _command_line(scene_path, out, sets, threads, resume, overwrite, block_point
 @click.option("--kind", "kind", metavar="KIND",
               help="The figure kind, instead of the scene's [plot] kind (e.g. branches: the "
                    "skeleton of a file explained by cornerbif explain).")
-def plot(files, out, y, title, color_by, style, kind):
+@click.option("--orbits", "orbits", type=click.Choice(list(PLOT_ORBITS)),
+              help="Colour a diagram's orbits by word, by family (beta^N gamma for every N) "
+                   "or by branch (cornerbif explain's), instead of the scene's [plot] orbits.")
+def plot(files, out, y, title, color_by, style, kind, orbits):
     """Draw the diagram(s) in FILES (several files are overlaid, e.g. follow up and down);
     continuation files (``cornerbif continue``) are drawn over the diagram, or alone.
 
@@ -383,7 +386,7 @@ def plot(files, out, y, title, color_by, style, kind):
         # design) is said after the figure, one line each
         with warnings.catch_warnings(record=True) as said:
             draw_files(list(files), out, y=y, title=title, color_by=color_by, style=style,
-                       kind=kind)
+                       kind=kind, orbits=orbits)
     except FileFormatError as e:
         _fail(str(e))
     except KeyboardInterrupt:

@@ -134,6 +134,7 @@ PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic",
              "max_panels", "color_by", "style", "marks", "orbits")
 # [plot] color_by: a diagram's or a chart's colour from the stability observable
 PLOT_COLOR_BY = ("lyapunov", "multiplier")
+PLOT_ORBITS = ("words", "families", "branches")
 PLOT_Y = ("impact_u", "impact_v", "impact_height", "section_u", "section_v", "winding",
           "period")
 
@@ -1261,9 +1262,10 @@ def _read_plot(w):
                             f"{MAX_MARKER_SIZE:g}] (a marker's size; default: from the number "
                             "of points drawn)")
     _read_plot_text(w, plot)
-    if "orbits" in plot and plot["orbits"] not in ("words", "families"):
+    if "orbits" in plot and plot["orbits"] not in PLOT_ORBITS:
         problems.append(f"plot.orbits: {shown(plot['orbits'])} must be \"words\" (a colour per "
-                        "orbit) or \"families\" (one per family such as beta^N gamma)")
+                        "orbit), \"families\" (one per family such as beta^N gamma) or "
+                        "\"branches\" (one per branch of cornerbif explain)")
     if "style" in plot:
         p = plot_style.style_problem(plot["style"], "plot.style")
         if p:

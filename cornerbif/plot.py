@@ -44,18 +44,21 @@ def figure_branches(paths, out, y=None, title=None, plot_cfg=None, style=None, c
 
 
 def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branches=(),
-           style=None, kind=None):
+           style=None, kind=None, orbits=None):
     """Draw one or more files of the same kind into ``out`` (png, pdf or svg), in the
     project's style (``plot_style``) with the user's style sheet over it (``style``, or
     ``[plot] style``), continuation files ``branches`` over them.  What the files and
     options ask is checked before anything is drawn (``check_together``); the figure is
     written whole or not at all (``save``).  ``kind`` (``--kind``) draws another figure
-    kind than the scene's ``[plot] kind``.  See ``_figure``."""
+    kind than the scene's ``[plot] kind``, ``orbits`` (``--orbits``) colours by another
+    than its ``[plot] orbits``.  See ``_figure``."""
     datas = [PlotData(p) for p in paths]
     conts = [read_continuation(b) for b in branches]
     cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
     if kind is not None:
         cfg = dict(cfg) | {"kind": kind}
+    if orbits is not None:
+        cfg = dict(cfg) | {"orbits": orbits}
     check_together(datas, conts, y=y, color_by=color_by, plot_cfg=cfg)
     color_by = color_by or scene_color_by(datas, cfg)
     cfg = cfg_for_y(cfg, y, datas[0].default_y())
@@ -63,14 +66,15 @@ def figure(paths, out, y=None, title=None, plot_cfg=None, color_by=None, branche
         return _figure(datas, out, y, title, cfg, color_by, conts)
 
 
-def draw_files(files, out, y=None, title=None, color_by=None, style=None, kind=None):
+def draw_files(files, out, y=None, title=None, color_by=None, style=None, kind=None,
+               orbits=None):
     """``cornerbif plot``: the sweeps among ``files`` drawn with the continuation files
     over them (``figure``), or the continuation files alone (``figure_branches``)."""
     conts = [f for f in files if is_continuation(f)]
     sweeps = [f for f in files if f not in conts]
     if sweeps:
         return figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
-                      style=style, kind=kind)
+                      style=style, kind=kind, orbits=orbits)
     return figure_branches(conts, out, y=y, title=title, style=style, color_by=color_by)
 
 

@@ -217,11 +217,14 @@ def run_labels(table, families=False):
     return run_index(table["ids"], row), names
 
 
-def label_rows(table, families=False):
+def label_rows(table, families=False, branches=False):
     """The distinct labels of the table's rows, sorted (their families with
-    ``families``), and each row's index into them."""
+    ``families``; with ``branches``, each row's branch of ``cornerbif explain``, its word
+    and "#branch N", the table having them), and each row's index into them."""
     labels = attractor_labels(table)
-    if families:
+    if branches:
+        labels = [f"{w}#branch {int(b)}" for w, b in zip(table["word"], table["branch"])]
+    elif families:
         labels = [family(lab) for lab in labels]
     names = sorted(set(labels))
     at = {lab: i for i, lab in enumerate(names)}
@@ -247,12 +250,13 @@ def label_counts(ids, row, n_labels):
 
 
 def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=None,
-                          xlim=None, also=(), colors_out=None):
+                          xlim=None, also=(), colors_out=None, branches=False):
     """A one-parameter diagram coloured by what each run's orbit is: its attractor's label
     (the word; the same colour in every figure, ``attractor_colors``).  The ``shown``
     labels with the most runs are named in the paper's notation; the other cycles are
     black, the runs without a cycle light grey.  ``yv``: (points, starts, record).
-    ``families``: one colour per family of orbits (``family``: beta^N gamma for every N).
+    ``families``: one colour per family of orbits (``family``: beta^N gamma for every N);
+    ``branches``: one per branch (``cornerbif explain``'s, the file having them).
     ``window`` (the y-window): draw the points as one image (``plot_style.raster_runs``,
     for millions of points: memory that does not grow with them; ``yv`` may then be
     ``plot_style.Rows``, read a slab at a time), ``xlim`` its x-window.  ``also``: labels
@@ -260,7 +264,7 @@ def draw_diagram_by_label(ax, path, x, yv, ms, shown=8, families=False, window=N
     map; ``colors_out`` (a dict) receives that map.
     Returns the legend's handles (the caller places the legend with its other lines)."""
     table = read_table(path)
-    names, row = label_rows(table, families)
+    names, row = label_rows(table, families, branches)
     tex = family_tex if families else label_tex
     counts, none = label_counts(table["ids"], row, len(names))
     top = [int(i) for i in np.argsort(-counts, kind="stable")[:shown] if counts[i] > 0]

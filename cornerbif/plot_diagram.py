@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import plot_attractors, plot_style, theory
+from .attractors import read_branches
 from .plot_base import (
     ATTRACTOR_COLORS,
     BRANCH_Y,
@@ -631,6 +632,13 @@ def draw_diagram(fig, ax, datas, y, plot_cfg, color_by, conts):
     # a branch takes the colour its orbit has in the diagram (its family's, with
     # families): one colour map for both
     families = plot_cfg.get("orbits") == "families"
+    by_branch = plot_cfg.get("orbits") == "branches"
+    if by_branch and v.by_label and read_branches(d0.path) is None:
+        import matplotlib.pyplot as plt  # start-up: loads matplotlib
+        plt.close(fig)
+        raise Undrawable(f"{d0.path}: plot.orbits = \"branches\" colours by the branches of "
+                         f"cornerbif explain, which the file does not hold yet: run `cornerbif "
+                         f"explain {d0.path}` first")
     words = [str(br["word"]) for c in conts for br in c["branches"]]
     label_of = {w: plot_attractors.family(w) if families else w for w in words}
     colors_b = branch_colors(conts)
@@ -640,7 +648,8 @@ def draw_diagram(fig, ax, datas, y, plot_cfg, color_by, conts):
         orbit_handles = plot_attractors.draw_diagram_by_label(
             ax, d0.path, d0.values[d0.axes[0]], v.ys[0] if v.raster else d0.y(kind), ms,
             families=families, window=v.window if v.raster else None,
-            xlim=plot_cfg.get("xlim"), also=list(label_of.values()), colors_out=shared)
+            xlim=plot_cfg.get("xlim"), also=list(label_of.values()), colors_out=shared,
+            branches=by_branch)
         colors_b = {w: shared[lab] for w, lab in label_of.items()}
     if kind == "winding" and len(datas) == 1 and not color_by:
         draw_winding_by_alpha(ax, d0, ms)
@@ -680,7 +689,8 @@ def _label_diagram(ax, datas, v: _DiagramValues, plot_cfg, color_by, conts, orbi
     d0 = datas[0]
     if v.by_label:
         lines, names = ax.get_legend_handles_labels()
-        legend_title = "orbit (family of words)" if families else "orbit (word)"
+        legend_title = ("orbit (family of words)" if families else "orbit (word and branch)"
+                        if plot_cfg.get("orbits") == "branches" else "orbit (word)")
         if any("x" in h.get_label() for h in orbit_handles):
             # a corner's cluster of impacts that is none of alpha, beta, gamma (or any
             # cluster, on an obstacle without corners): analysis.detect_cycle

@@ -404,3 +404,20 @@ def test_a_fold_is_located_at_its_closed_form(tmp_path):
     assert len(one) == 1, text
     assert bt["high_kind"][one[0]] == "fold", text
     assert abs(bt["high_at"][one[0]] - kappa_fold) <= 1e-10, (bt["high_at"][one[0]], kappa_fold)
+
+
+def test_a_diagram_coloured_by_branch(tmp_path):
+    """``cornerbif plot --kind diagram --orbits branches``: refused (exit 2, saying to run
+    explain) before ``explain``; after it, drawn, with one label per branch ("#branch N")."""
+    from cornerbif import plot_attractors as PA
+    path = _swept(tmp_path, FLOW.format(lo=-0.0143, hi=-0.0141), "colour")
+    png = str(tmp_path / "c.png")
+    args = ["plot", path, "-o", png, "--kind", "diagram", "--orbits", "branches"]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 2 and "cornerbif explain" in r.output, r.output
+    bt, _ = _explained(path)
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    names, row = PA.label_rows(PA.read_table(path), branches=True)
+    assert len(names) == len(bt["id"])
+    assert all(n.split("#branch ")[1].isdigit() for n in names)
