@@ -18,6 +18,7 @@ that uses the simulator only.
 
 import h5py
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from cornerbif import config, theory
@@ -421,3 +422,20 @@ def test_a_diagram_coloured_by_branch(tmp_path):
     names, row = PA.label_rows(PA.read_table(path), branches=True)
     assert len(names) == len(bt["id"])
     assert all(n.split("#branch ")[1].isdigit() for n in names)
+
+
+@pytest.mark.slow
+def test_branch_ids_are_the_same_on_dask(tmp_path):
+    """The same scene on the Dask backend (a local cluster of 2 workers) and locally: equal
+    ``explain`` text and branch tables (its files are bitwise the local backend's,
+    test_distributed.py; the chaos pass and explain run on the finished file)."""
+    pytest.importorskip("distributed")
+    text = FLOW.format(lo=-0.0143, hi=-0.0141)
+    here = _swept(tmp_path, text, "here")
+    there = _swept(tmp_path, text, "there", scheduler="local:2")
+    bt1, out1 = _explained(here)
+    bt2, out2 = _explained(there)
+    assert out1 == out2
+    for k in bt1:
+        if k != "axes":
+            np.testing.assert_array_equal(bt1[k], bt2[k])
