@@ -59,7 +59,7 @@ import numpy as np
 from . import chaos, registry
 from . import status as S
 from .basin_stats import share_interval
-from .cycles import SIGNATURE
+from .cycles import SIGNATURE, series_point, series_signature
 
 NO_CYCLE = -1        # the run ended well but no cycle repeated twice in its recorded window
 STICKS = -2          # sticking or chattering without end (STUCK, MAX_EVENTS)
@@ -259,12 +259,12 @@ def _chaotic(f, scene, reps, serial, point_of, outcomes, stab):
     np.add.at(reasons, (point_of[cand][why >= 0], why[why >= 0]), 1)
     out["no_cycle"] = reasons
     for c in found:
-        k = int(np.argmax(c.b))
-        sig = np.array([c.a.mean(), c.b.mean(), c.a.min(), c.a.max(), c.b.min(), c.b.max()])
+        sig = series_signature(c.a, c.b)
         mult = (np.full(f["stability/multiplier_re"].shape[-1], complex(np.nan, np.nan))[None]
                 if stab else None)
         s = int(reps.add_many([(c.point, 0, 0, chaos.CHAOTIC.encode())], sig[None],
-                              np.array([[c.a[k], c.b[k]]]), mult, np.array([c.runs.size]))[0])
+                              np.array([series_point(c.a, c.b)]), mult,
+                              np.array([c.runs.size]))[0])
         serial[c.runs] = s
         outcomes[c.point, 0] += c.runs.size
         outcomes[c.point, -NO_CYCLE] -= c.runs.size

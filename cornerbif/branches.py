@@ -50,6 +50,7 @@ from .attractors import read_branches, read_table
 from .basin_stats import basin_entropy, share_interval, uncertainty_exponent
 from .chaos import CHAOTIC
 from .continuation import OrbitError, follow_step, newton, rebase
+from .cycles import series_point, series_signature
 from .errors import SweepError, WriteFailed
 from .outputs import output_lock
 
@@ -87,18 +88,6 @@ class Branches:
     low: list = field(default_factory=list)     # per branch: End (one-parameter sweeps)
     high: list = field(default_factory=list)
     max_mu: np.ndarray = None
-
-
-def signature(a, b) -> np.ndarray:
-    """The attractor table's signature of one cycle's series (``cycles.SIGNATURE``)."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return np.array([a.mean(), b.mean(), a.min(), a.max(), b.min(), b.max()])
-
-
-def cycle_point(a, b) -> tuple:
-    """The table's point of a cycle: (a, b) where b is largest."""
-    k = int(np.argmax(b))
-    return float(a[k]), float(b[k])
 
 
 def _matches(sig, ref, tol) -> bool:
@@ -171,7 +160,7 @@ def nodes(f, scene, tab):
         try:
             prob, X = scene.spec.orbit_seed(values, scene, param, node.word, run)
             X = newton(prob, X, lam)
-            sig = signature(*prob.cycle_series(X, lam))
+            sig = series_signature(*prob.cycle_series(X, lam))
         except (OrbitError, NotImplementedError, np.linalg.LinAlgError, ArithmeticError,
                 ValueError) as e:
             node.why = f"its orbit could not be solved from its run ({e})"
@@ -217,7 +206,7 @@ def _match(prob, X, value, candidates, tab):
     models: two_particle's problem spells its events, U and W)."""
     try:
         a, b = prob.cycle_series(X, value)
-        sig = signature(a, b)
+        sig = series_signature(a, b)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None
     hits = [c.row for c in candidates if c.word != CHAOTIC and len(a) == _entries(tab, c.row)
@@ -230,34 +219,41 @@ def _entries(tab, row) -> int:
     return int(tab["impacts_per_cycle"][row] or tab["period"][row])
 
 
-def _neighbour(axis, i, step):
-    """The grid index next to ``i`` along ``axis`` in the order of its values (``step``:
-    +1 the next larger value, -1 the next smaller), or None at the end."""
-    order = np.argsort(axis.array, kind="stable")
-    pos = int(np.flatnonzero(order == i)[0]) + step
-    return int(order[pos]) if 0 <= pos < order.size else None
+class _Order:
+    """An axis's grid indices in the order of its values (``link`` and ``_ends`` walk it)."""
+
+    def __init__(self, axis):
+        self.order = np.argsort(axis.array, kind="stable")
+        self.pos = np.empty_like(self.order)
+        self.pos[self.order] = np.arange(self.order.size)
+
+    def next(self, i, step):
+        """The grid index next to ``i`` (``step``: +1 the next larger value, -1 the next
+        smaller), or None at the end."""
+        p = int(self.pos[i]) + step
+        return int(self.order[p]) if 0 <= p < self.order.size else None
 
 
 def link(ns, par, tab):
     """Union the rows whose orbits continue into each other along every parameter axis,
     both ways: from each attractor, its orbit solved by Newton at the next grid value, and
     on while it is stable there but no start reached it (an unsampled grid point), until it
-    is an attractor of the table (linked), unstable, or lost.  Returns (_Links, the set of
-    (row, axis, step) that have a partner that way)."""
+    is an attractor of the table (linked), unstable, or lost.  Returns the _Links."""
     at = {}
     for n in ns:
         at.setdefault(n.at, []).append(n)
     links = _Links(len(ns))
     linked = set()
-    _link_chaotic(ns, at, par, tab, links, linked)
+    orders = [_Order(a) for a in par]
+    _link_chaotic(ns, at, orders, tab, links, linked)
     for k, axis in enumerate(par):
         for step in (1, -1):
             for n in ns:
                 if n.problem is None or (n.row, k, step) in linked:
                     continue
                 prob, X, i = _along(n, axis.name), n.X, n.at[k]
-                while _neighbour(axis, i, step) is not None:
-                    i = _neighbour(axis, i, step)
+                while orders[k].next(i, step) is not None:
+                    i = orders[k].next(i, step)
                     nb = n.at[:k] + (i,) + n.at[k + 1:]
                     value = float(axis.array[i])
                     X = solve_at(prob, X, value)
@@ -271,7 +267,7 @@ def link(ns, par, tab):
                         break
                     if not _stable(prob, X, value):
                         break
-    return links, linked
+    return links
 
 
 def _box(tab, row):
@@ -293,13 +289,13 @@ def _box_overlap(p, q) -> float:
 CHAOS_LINK = 0.5     # chaotic attractors at neighbouring grid values whose boxes overlap more
 
 
-def _link_chaotic(ns, at, par, tab, links, linked):
+def _link_chaotic(ns, at, orders, tab, links, linked):
     """Chaotic attractors have no orbit to follow: those at neighbouring grid values whose
     boxes (the ranges of their cycle series, the table's signature) overlap by more than
     CHAOS_LINK (intersection over union) are one branch."""
-    for k in range(len(par)):
+    for k, order in enumerate(orders):
         for n in ns:
-            j = _neighbour(par[k], n.at[k], 1)
+            j = order.next(n.at[k], 1)
             if n.word != CHAOTIC or j is None:
                 continue
             nb = n.at[:k] + (j,) + n.at[k + 1:]
@@ -313,10 +309,10 @@ def _link_chaotic(ns, at, par, tab, links, linked):
                 linked.add((m, k, -1))
 
 
-def build(f, scene, log=None) -> Branches | None:
-    """The branches of the finished sweep file ``f`` (open): None where it has no attractor
-    table or no parameter axis."""
-    tab = read_table(f)
+def build(f, scene, log=None, tab=None) -> Branches | None:
+    """The branches of the finished sweep file ``f`` (open; ``tab`` its attractor table,
+    read here when not given): None where it has no attractor table or no parameter axis."""
+    tab = read_table(f) if tab is None else tab
     par = _parameter_axes(scene)
     if tab is None or not par:
         return None
@@ -324,7 +320,7 @@ def build(f, scene, log=None) -> Branches | None:
     if log:
         solved = sum(n.problem is not None for n in ns)
         log(f"{solved} of {len(ns)} attractors' orbits solved; linking them across the grid")
-    links, linked = link(ns, par, tab)
+    links = link(ns, par, tab)
     roots = np.array([links.find(i) for i in range(len(ns))], np.int64)
     order = {r: b for b, r in enumerate(sorted(set(roots.tolist())))}
     branch_of = np.array([order[r] for r in roots], np.int32)
@@ -334,7 +330,7 @@ def build(f, scene, log=None) -> Branches | None:
     br = Branches([a.name for a in par], branch_of, rows)
     br.max_mu = np.array([_max_mu(ns, r) for r in rows])
     if len(par) == 1:
-        _ends(br, ns, par[0], tab, linked, log)
+        _ends(br, ns, par[0], tab, log)
     else:
         br.low = br.high = [End("", math.nan, KINDS[""]) for _ in rows]
     return br
@@ -354,7 +350,7 @@ def _max_mu(ns, rows):
     return float(max(vals)) if vals else math.nan
 
 
-def _ends(br, ns, axis, tab, linked, log):
+def _ends(br, ns, axis, tab, log):
     """Locate and name both ends of every branch of a one-parameter sweep."""
     x = axis.array
     no_cycle = tab["outcomes"][:, 0] == 0        # no start reached any cycle there
@@ -362,13 +358,14 @@ def _ends(br, ns, axis, tab, linked, log):
     for n in ns:
         by_point.setdefault(n.at[0], []).append(n)
     grid = _Grid(x, by_point, no_cycle)
+    order = _Order(axis)
     for b, rows in enumerate(br.rows):
         idx = [ns[r].at[0] for r in rows]
         for side, pick in (("low", int(np.argmin([x[i] for i in idx]))),
                            ("high", int(np.argmax([x[i] for i in idx])))):
             n = ns[rows[pick]]
             i = n.at[0]
-            j = _neighbour(axis, i, 1 if side == "high" else -1)
+            j = order.next(i, 1 if side == "high" else -1)
             if j is None:
                 end = End("range", float(x[i]), f"the range's end at {axis.name} = "
                           f"{float(x[i])!r}", _point_of(n))
@@ -412,7 +409,7 @@ def _point_of(n):
     if n.problem is None:
         return (math.nan, math.nan)
     lam = n.values[n.problem.param]
-    return cycle_point(*n.problem.cycle_series(n.X, lam))
+    return series_point(*n.problem.cycle_series(n.X, lam))
 
 
 def _event_point(e):
@@ -420,7 +417,7 @@ def _event_point(e):
         prob, X = e.problem, e.X
         if hasattr(prob, "orbit"):
             prob, X = prob.orbit(X, e.lam)
-        return cycle_point(*prob.cycle_series(X, e.lam))
+        return series_point(*prob.cycle_series(X, e.lam))
     except (ArithmeticError, ValueError, AttributeError, np.linalg.LinAlgError):
         return (math.nan, math.nan)
 
@@ -592,7 +589,7 @@ def explain_file(path, recompute=False, log=None) -> list:
         if has and not recompute:
             return genealogy(read_branches(f), read_table(f), scene)
         tab = read_table(f)
-        br = build(f, scene, log)
+        br = build(f, scene, log, tab)
     lines = genealogy(_as_read(br, tab), tab, scene)
     why = store(path, scene, br, tab)
     return lines + ([f"(the branch table is not stored in {path}: {why})"] if why else [])

@@ -168,13 +168,13 @@ def find(f, scene, runs, points):
     for lo, hi in zip(bounds[:-1], bounds[1:]):
         batch.append(order[lo:hi])
         if sum(min(b.size, RERUN_MAX) for b in batch) >= GROUP or hi == runs.size:
-            for chaotic in _batch(scene, f, start_all, runs, points, batch, why):
+            for chaotic in _batch(scene, start_all, runs, points, batch, why):
                 found += chaotic
             batch = []
     return found, why
 
 
-def _batch(scene, f, start_all, runs, points, batch, why):
+def _batch(scene, start_all, runs, points, batch, why):
     """Rerun the first RERUN_MAX runs of each point of ``batch`` (arrays of indices into
     ``runs``, one point each) in one kernel call and find each point's chaotic attractors
     (``_point``): yields each point's Chaotic list."""
@@ -190,11 +190,11 @@ def _batch(scene, f, start_all, runs, points, batch, why):
         m = pick.size
         res = (a[k:k + m], b[k:k + m], lam[k:k + m], ok[k:k + m], ended[k:k + m])
         yield _point(scene, runs, int(points[mine[0]]), mine, pick, res, grid[k:k + m],
-                     starts[k:k + m], why, f)
+                     starts[k:k + m], why, start_all)
         k += m
 
 
-def _point(scene, runs, point, mine, pick, res, grid, starts, why, f):
+def _point(scene, runs, point, mine, pick, res, grid, starts, why, start_all):
     """One parameter point's chaotic attractors from its rerun runs ``pick`` (indices into
     ``runs``; ``res`` their windows, exponents and ends), the reasons of the others in
     ``why``; its runs past RERUN_MAX are rerun too (``_join``) where an attractor is found."""
@@ -224,7 +224,7 @@ def _point(scene, runs, point, mine, pick, res, grid, starts, why, f):
     rest = mine[RERUN_MAX:]
     why[rest] = 5
     if out and rest.size:
-        out = _join(scene, runs, rest, out, why, f)
+        out = _join(scene, runs, rest, out, why, start_all)
     return out
 
 
@@ -247,18 +247,18 @@ def _persists(scene, grid_index, start, lam):
 JOIN_RECORD = 200    # impacts (or periods) of a rerun that joins a run to an attractor
 
 
-def _join(scene, runs, rest, out, why, f):
+def _join(scene, runs, rest, out, why, start_all):
     """The point's runs past RERUN_MAX (``rest``, indices into ``runs``), rerun without the
     stability pass over JOIN_RECORD after their transient, each joined to the one chaotic
     attractor of ``out`` whose cloud's cells (a grid of OVERLAP_CELLS over the cloud) hold
     the most of its points, at least OVERLAP_MIN of them (one-sided: a short window covers
-    little of a cloud).  Returns ``out`` with their runs added; ``why`` -1 for them."""
+    little of a cloud; ``start_all``: every run's start, as ``find`` read them).  Returns
+    ``out`` with their runs added; ``why`` -1 for them."""
     spec = registry.get(scene.model)
     G, n_ic = scene.shape, scene.n_ic
     long = dataclasses.replace(_long_scene(scene, window=JOIN_RECORD),
                                keep=(_series_observable(spec),))
     ints = spec.int_settings(long)
-    start_all = np.stack([f[f"initial/{c}"][...].reshape(-1) for c in spec.start_names], -1)
     cells = []
     for c in out:
         box = (c.a.min(), c.a.max(), c.b.min(), c.b.max())

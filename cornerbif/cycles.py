@@ -199,3 +199,16 @@ def run_length(word: str, tex: bool = False, empty: str = "-") -> str:
 # ------------------------------------------------------------ a cycle's signature
 # the columns of a cycle's signature (``analysis.cycle_signature_one``)
 SIGNATURE = ("mean_a", "mean_b", "min_a", "max_a", "min_b", "max_b")
+
+
+def series_signature(a, b) -> np.ndarray:
+    """The signature (SIGNATURE) of two series over one cycle, or over a chaotic
+    attractor's cloud: what ``analysis.cycle_signature_one`` computes in the kernel."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.array([a.mean(), b.mean(), a.min(), a.max(), b.min(), b.max()])
+
+
+def series_point(a, b) -> tuple:
+    """The table's point of a cycle (or cloud): (a, b) where b is largest."""
+    k = int(np.argmax(b))
+    return float(a[k]), float(b[k])
