@@ -84,7 +84,7 @@ BRANCH_END_KINDS = {
     "no_orbit": "no periodic orbit on the far side",
     "unsampled": "not reached from the starts",
     "unlocated": "not located",
-    "": "not located (ends are located along one-parameter sweeps)",
+    "": "not located (a sweep of several parameters: see the branch's edges)",
 }
 SLAB_RUNS = 1 << 17       # runs read at a time
 
@@ -404,6 +404,14 @@ def read_table(path_or_file):
 
 
 
+def _decoded(v):
+    """Strings read from HDF5 as str (object array); other arrays as they are."""
+    if v.dtype.kind in "SO":
+        return np.array([s.decode() if isinstance(s, bytes) else str(s) for s in v],
+                        dtype=object)
+    return v
+
+
 def read_branches(path_or_file):
     """The branch table of a file (``cornerbif explain``, ``cornerbif.branches``) as a dict
     of arrays (strings as str, ``axes`` the parameter axes, ``branch`` each attractor's), or
@@ -417,13 +425,11 @@ def read_branches(path_or_file):
         g = f["branches"]
         out = {}
         for k in g:
-            v = g[k][...]
-            if v.dtype.kind in "SO":
-                v = np.array([s.decode() if isinstance(s, bytes) else str(s) for s in v],
-                             dtype=object)
-            out[k] = v
+            out[k] = _decoded(g[k][...])
         out["axes"] = [a for a in str(g.attrs["axes"]).split(",") if a]
         out["branch"] = f["attractors/branch"][...]
+        if "branch_edges" in f:
+            out["edges"] = {k: _decoded(v[...]) for k, v in f["branch_edges"].items()}
         return out
     finally:
         if own:

@@ -12,7 +12,9 @@ attractors; ids are ordered by the table's smallest id in each, so they depend o
 table (itself the same on any thread count, block size, backend or resume).
 
 For a one-parameter sweep, every end of a branch inside the range is located by continuation
-from its last attractor towards the neighbouring grid value (``continuation.follow_step``,
+from its last attractor towards the neighbouring grid value (for a sweep of several parameters,
+every edge: each attractor not linked to the next grid value along an axis, its end located
+along that grid line with the other axes held, ``_edges``) (``continuation.follow_step``,
 events to the secant method's 1e-14 in arclength) and named (``KINDS``):
 
 * the first stability event on the way (fold, period doubling, torus): the attractor loses
@@ -34,6 +36,11 @@ Written to the file (``write``, on a copy renamed over it)::
     /branches/{low,high}_kind, _at, _detail, _point   its ends (one-parameter sweeps):
                                  the event's kind (KINDS), the located parameter value, a
                                  sentence, and (a, b) of the orbit there (b largest)
+    /branch_edges/branch, attractor, parameter_point, axis, step, kind, at, detail, point
+                                 a sweep of several parameters: per edge (an attractor not
+                                 linked to the next grid value along axis ``axis`` (index
+                                 into /branches' axes) going ``step`` (+1: up)) its end on
+                                 that grid line, as the columns of the ends above
 """
 
 from __future__ import annotations
@@ -66,6 +73,8 @@ class Node:
     at: tuple
     values: dict
     word: str
+    entries: int = 0        # entries per cycle of its series (the model's CycleSeries.per:
+    #                         impacts per cycle, or the period)
     problem: object = None
     X: np.ndarray = None
     why: str = ""
@@ -88,6 +97,21 @@ class Branches:
     low: list = field(default_factory=list)     # per branch: End (one-parameter sweeps)
     high: list = field(default_factory=list)
     max_mu: np.ndarray = None
+    edges: list = field(default_factory=list)   # sweeps of several parameters: Edge per
+    #                                             boundary crossing of a grid line
+
+
+@dataclass
+class Edge:
+    """Where a branch of a sweep of several parameters leaves a grid line: the attractor
+    ``row`` at its grid value, the axis and direction (+1 towards larger values) along
+    which its orbit was not found at the next grid value, and the End located on that line
+    (the other axes fixed at the attractor's values)."""
+    branch: int
+    row: int
+    axis: int
+    step: int
+    end: End
 
 
 def _matches(sig, ref, tol) -> bool:
@@ -143,11 +167,13 @@ def nodes(f, scene, tab):
     base = {k: v for k, v in scene.system.items() if v is not None}
     param = par[0].name if par else ""
     tol = tab["match_tolerance"]
+    per_column = ("impacts_per_cycle" if scene.spec.cycle.per == "impacts" else "period")
     out = []
     for row in range(len(tab["id"])):
         at = tuple(int(s[row]) for s in sub)
         values = base | {a.name: float(a.array[i]) for a, i in zip(par, at)}
-        node = Node(row, at, values, str(tab["word"][row]))
+        node = Node(row, at, values, str(tab["word"][row]),
+                    int(tab[per_column][row]))
         out.append(node)
         if node.word == CHAOTIC:
             node.why = "a chaotic attractor (no periodic orbit to solve)"
@@ -200,23 +226,18 @@ def _stable(prob, X, value) -> bool:
 
 def _match(prob, X, value, candidates, tab):
     """The row among ``candidates`` (nodes at the neighbour) whose cycle is this orbit: the
-    same number of entries per cycle (impacts per cycle, or the period for a model whose
-    series are per period) and the same signature within the table's match tolerance (the
-    table's words and an orbit problem's itinerary are in different alphabets for some
-    models: two_particle's problem spells its events, U and W)."""
+    same number of entries per cycle in its series (``Node.entries``) and the same
+    signature within the table's match tolerance (the table's words and an orbit problem's
+    itinerary are in different alphabets for some models: two_particle's problem spells
+    its events, U and W)."""
     try:
         a, b = prob.cycle_series(X, value)
         sig = series_signature(a, b)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None
-    hits = [c.row for c in candidates if c.word != CHAOTIC and len(a) == _entries(tab, c.row)
+    hits = [c.row for c in candidates if c.word != CHAOTIC and len(a) == c.entries
             and _matches(sig, tab["signature"][c.row], tab["match_tolerance"])]
     return hits[0] if len(hits) == 1 else None
-
-
-def _entries(tab, row) -> int:
-    """A row's entries per cycle in its series: impacts per cycle, else its period."""
-    return int(tab["impacts_per_cycle"][row] or tab["period"][row])
 
 
 class _Order:
@@ -243,7 +264,7 @@ def link(ns, par, tab):
     for n in ns:
         at.setdefault(n.at, []).append(n)
     links = _Links(len(ns))
-    linked = set()
+    linked = set()          # (row, axis, step): linked to an attractor that way
     orders = [_Order(a) for a in par]
     _link_chaotic(ns, at, orders, tab, links, linked)
     for k, axis in enumerate(par):
@@ -267,7 +288,7 @@ def link(ns, par, tab):
                         break
                     if not _stable(prob, X, value):
                         break
-    return links
+    return links, linked
 
 
 def _box(tab, row):
@@ -320,7 +341,7 @@ def build(f, scene, log=None, tab=None) -> Branches | None:
     if log:
         solved = sum(n.problem is not None for n in ns)
         log(f"{solved} of {len(ns)} attractors' orbits solved; linking them across the grid")
-    links = link(ns, par, tab)
+    links, linked = link(ns, par, tab)
     roots = np.array([links.find(i) for i in range(len(ns))], np.int64)
     order = {r: b for b, r in enumerate(sorted(set(roots.tolist())))}
     branch_of = np.array([order[r] for r in roots], np.int32)
@@ -333,6 +354,7 @@ def build(f, scene, log=None, tab=None) -> Branches | None:
         _ends(br, ns, par[0], tab, log)
     else:
         br.low = br.high = [End("", math.nan, KINDS[""]) for _ in rows]
+        br.edges = _edges(br, ns, par, tab, linked, log)
     return br
 
 
@@ -353,46 +375,85 @@ def _max_mu(ns, rows):
 def _ends(br, ns, axis, tab, log):
     """Locate and name both ends of every branch of a one-parameter sweep."""
     x = axis.array
-    no_cycle = tab["outcomes"][:, 0] == 0        # no start reached any cycle there
-    by_point = {}
-    for n in ns:
-        by_point.setdefault(n.at[0], []).append(n)
-    grid = _Grid(x, by_point, no_cycle)
+    grid = _line(ns, tab, 0, axis, {}, (x.size,))
     order = _Order(axis)
     for b, rows in enumerate(br.rows):
         idx = [ns[r].at[0] for r in rows]
         for side, pick in (("low", int(np.argmin([x[i] for i in idx]))),
                            ("high", int(np.argmax([x[i] for i in idx])))):
             n = ns[rows[pick]]
-            i = n.at[0]
-            j = order.next(i, 1 if side == "high" else -1)
-            if j is None:
-                end = End("range", float(x[i]), f"the range's end at {axis.name} = "
-                          f"{float(x[i])!r}", _point_of(n))
-            elif n.word == CHAOTIC:
-                nxt = by_point.get(j, [])
-                beyond = ("its box overlaps none of the next grid value's chaotic "
-                          "attractors by more than half" if any(m.word == CHAOTIC for m in nxt)
-                          else "the next grid value's attractors are cycles: a periodic "
-                          "window or a crisis" if nxt else "the next grid value has no "
-                          "attractor: no cycle within the record, and no chaos")
-                end = End("unlocated", math.nan,
-                          f"a chaotic attractor, gone at {axis.name} = {float(x[j])!r} "
-                          f"({beyond}); not located between grid values")
-            elif n.problem is None:
-                end = End("unlocated", math.nan, f"not located: {n.why}")
-            else:
-                end = locate(n, axis.name, float(x.max() if side == "high" else x.min()),
-                             float(x[j]), grid, tab, br)
-            getattr(br, side).append(end)
+            step = 1 if side == "high" else -1
+            getattr(br, side).append(_end_of(n, 0, axis, step, order, grid, tab, br))
         if log and b % 50 == 49:
             log(f"ends of {b + 1} of {len(br.rows)} branches located")
 
 
+def _line(ns, tab, k, axis, fixed, shape):
+    """The _Grid of the grid line along axis ``k`` (``shape``: the parameter grid's) through
+    the grid indices ``fixed`` of the other axes ({axis index: grid index})."""
+    by_point = {}
+    for n in ns:
+        if all(n.at[a] == i for a, i in fixed.items()):
+            by_point.setdefault(n.at[k], []).append(n)
+    no_cycle_all = (tab["outcomes"][:, 0] == 0).reshape(shape)
+    sel = tuple(slice(None) if a == k else fixed[a] for a in range(len(shape)))
+    return _Grid(axis.array, by_point, no_cycle_all[sel])
+
+
+def _end_of(n, k, axis, step, order, grid, tab, br):
+    """Where the branch of node ``n`` ends going ``step`` along axis ``k`` (``grid`` the
+    grid line through it): the range's end, a chaotic attractor's (not located), or the
+    event ``locate`` finds."""
+    x = axis.array
+    i = n.at[k]
+    j = order.next(i, step)
+    if j is None:
+        return End("range", float(x[i]), f"the range's end at {axis.name} = {float(x[i])!r}",
+                   _point_of(n))
+    if n.word == CHAOTIC:
+        nxt = grid.by_point.get(j, [])
+        beyond = ("its box overlaps none of the next grid value's chaotic "
+                  "attractors by more than half" if any(m.word == CHAOTIC for m in nxt)
+                  else "the next grid value's attractors are cycles: a periodic "
+                  "window or a crisis" if nxt else "the next grid value has no "
+                  "attractor: no cycle within the record, and no chaos")
+        return End("unlocated", math.nan,
+                   f"a chaotic attractor, gone at {axis.name} = {float(x[j])!r} "
+                   f"({beyond}); not located between grid values")
+    if n.problem is None:
+        return End("unlocated", math.nan, f"not located: {n.why}")
+    return locate(n, axis.name, float(x.max() if step > 0 else x.min()), float(x[j]), grid,
+                  tab, br)
+
+
+def _edges(br, ns, par, tab, linked, log):
+    """Every boundary crossing of the branches of a sweep of several parameters: for each
+    attractor and each axis and direction in which it was not linked to the next grid
+    value's attractors (``link``), the End located along that grid line, the other axes
+    held at the attractor's values (``_end_of``, as a one-parameter sweep's ends).  The
+    range's ends are not edges."""
+    orders = [_Order(a) for a in par]
+    lines = {}
+    todo = [(n, k, step) for n in ns for k in range(len(par)) for step in (-1, 1)
+            if (n.row, k, step) not in linked and orders[k].next(n.at[k], step) is not None]
+    out = []
+    for c, (n, k, step) in enumerate(todo):
+        key = (k, n.at[:k] + n.at[k + 1:])
+        if key not in lines:
+            fixed = {a: n.at[a] for a in range(len(par)) if a != k}
+            lines[key] = _line(ns, tab, k, par[k], fixed, tuple(a.array.size for a in par))
+        end = _end_of(n, k, par[k], step, orders[k], lines[key], tab, br)
+        out.append(Edge(int(br.branch_of[n.row]), n.row, k, step, end))
+        if log and c % 200 == 199:
+            log(f"{c + 1} of {len(todo)} branch edges located")
+    return out
+
+
 @dataclass
 class _Grid:
-    """A one-parameter sweep's grid values, attractors by grid index, and where no start
-    reached any cycle."""
+    """A grid line's values (a one-parameter sweep's axis, or one axis of several with the
+    others held), its attractors by grid index along it, and where no start reached any
+    cycle."""
     x: np.ndarray
     by_point: dict
     no_cycle: np.ndarray
@@ -525,6 +586,21 @@ def _columns(br, tab) -> dict:
     return out
 
 
+def _edge_columns(br, tab) -> dict:
+    """The datasets of /branch_edges (module doc), by name (empty for one-parameter
+    sweeps)."""
+    es = br.edges
+    return {"branch": np.array([e.branch for e in es], np.int32),
+            "attractor": np.array([e.row for e in es], np.int32),
+            "parameter_point": np.array([tab["parameter_point"][e.row] for e in es], np.int64),
+            "axis": np.array([e.axis for e in es], np.int8),
+            "step": np.array([e.step for e in es], np.int8),
+            "kind": np.array([e.end.kind.encode() for e in es], dtype=object),
+            "at": np.array([e.end.at for e in es], float),
+            "detail": np.array([e.end.detail.encode() for e in es], dtype=object),
+            "point": np.array([e.end.point for e in es], float).reshape(len(es), 2)}
+
+
 def store(path, scene, br, tab) -> str:
     """Store the branch table in the finished sweep file ``path``: on a copy (with the
     file's permissions) renamed over it (``io._amend``: an interrupt, a full disk or a
@@ -543,6 +619,7 @@ def store(path, scene, br, tab) -> str:
     if st.st_nlink > 1:
         return "the file has other hard links, which replacing it would part from it"
     cols = _columns(br, tab)
+    edges = _edge_columns(br, tab) if br.edges else None
 
     def change(g):
         a = g["attractors"]
@@ -558,6 +635,13 @@ def store(path, scene, br, tab) -> str:
             else:
                 out.create_dataset(name, data=v)
         out.attrs["axes"] = ",".join(br.axes)
+        if "branch_edges" in g:
+            del g["branch_edges"]
+        if edges is not None:
+            e = g.create_group("branch_edges")
+            for name, v in edges.items():
+                e.create_dataset(name, data=v, dtype=h5py.string_dtype() if v.dtype.kind == "O"
+                                 else None)
     with output_lock(real, "cornerbif explain"):
         try:
             io.ensure_room(real + ".amend", st.st_size, what="the file's copy",
@@ -633,6 +717,10 @@ def _as_read(br, tab):
                               dtype=object)
     out["axes"] = list(br.axes)
     out["branch"] = br.branch_of
+    if br.edges:
+        out["edges"] = {k: (np.array([x.decode() for x in v], dtype=object)
+                            if v.dtype.kind == "O" else v)
+                        for k, v in _edge_columns(br, tab).items()}
     return out
 
 
@@ -704,6 +792,33 @@ def _share(tab, rows):
     return runs / (n * points), float(lo), float(hi)
 
 
+def _edge_lines(bt, b) -> list:
+    """A branch's edges in a sweep of several parameters, per axis and direction: how many
+    grid lines it leaves that way, by kind, with the span of the located values."""
+    es = bt.get("edges")
+    mine = es["branch"] == b if es is not None else np.zeros(0, bool)
+    if not mine.any():
+        return ["  no edge inside the grid: along every grid line it reaches the range's "
+                "ends"]
+    out = []
+    for k, a in enumerate(bt["axes"]):
+        for step, way in ((-1, "down"), (1, "up")):
+            sel = mine & (es["axis"] == k) & (es["step"] == step)
+            if not sel.any():
+                continue
+            kinds, counts = np.unique(es["kind"][sel].astype(str), return_counts=True)
+            parts = []
+            for kind, c in sorted(zip(kinds, counts), key=lambda kc: (-kc[1], kc[0])):
+                at = es["at"][sel & (es["kind"] == kind)]
+                at = at[np.isfinite(at)]
+                where = ("" if not at.size else f" at {a} = {at[0]:.10g}" if at.size == 1
+                         else f" at {a} from {at.min():.10g} to {at.max():.10g}")
+                parts.append(f"{KINDS[kind]} on {c} line{'s' if c > 1 else ''}{where}")
+            out.append(f"  leaves {int(sel.sum())} grid line{'s' if sel.sum() > 1 else ''} "
+                       f"going {way} in {a}: " + "; ".join(parts))
+    return out
+
+
 def genealogy(bt, tab, scene) -> list:
     """The branch table ``bt`` (``attractors.read_branches``) as text: per branch, where it
     is, how it begins and ends and why, what it coexists with, and the share of starts it
@@ -730,9 +845,11 @@ def genealogy(bt, tab, scene) -> list:
               f"; |multipliers| <= {bt['max_abs_multiplier'][b]:.3g}")
         out.append(f"branch {b}: {what}, an attractor at "
                    f"{len(pts[b])} grid value{'s' if len(pts[b]) > 1 else ''}, {span}{mu}")
-        for side, name in (("low", "begins" if len(axes) == 1 else "low end"),
-                           ("high", "ends" if len(axes) == 1 else "high end")):
-            out.append(f"  {name}: {bt[f'{side}_detail'][b]}")
+        if len(axes) == 1:
+            for side, name in (("low", "begins"), ("high", "ends")):
+                out.append(f"  {name}: {bt[f'{side}_detail'][b]}")
+        else:
+            out += _edge_lines(bt, b)
         others = [c for c in range(m) if c != b and pts[b] & pts[c]]
         if others:
             out.append("  coexists with branch" + ("es " if len(others) > 1 else " ")

@@ -2,7 +2,10 @@
 docs/basins.md "Branches across the sweep").  Above: the diagram in grey, each branch's
 located ends marked by kind at the orbit's point there.  Below: one bar per branch over
 the parameter, from its located beginning to its located end (the grid values it spans
-where an end is not located), coloured by its word, its ends marked by kind."""
+where an end is not located), coloured by its word, its ends marked by kind.  A sweep of two
+parameters: the located edges of every branch in the parameter plane, marked by kind and
+coloured by the branch's word, with the words (short ones) of the largest branches written at
+their middle."""
 
 from __future__ import annotations
 
@@ -27,14 +30,16 @@ MARKS = {
     "unlocated": ("d", "not located"),
 }
 LABELLED = 12        # the words of this many branches (the most attractors) are written
+SHORT_WORD = 8       # (in the plane: of those whose word is at most this long)
 
 
 class Skeleton(FigureKind):
     def check(self, w):
-        if len(w.axes) == 1 and not w.axes[0].name.startswith(IC_PREFIX):
+        if len(w.axes) in (1, 2) and not any(a.name.startswith(IC_PREFIX) for a in w.axes):
             return []
-        return ["plot.kind: 'branches' draws the branches of one swept parameter (cornerbif "
-                "explain); this scene sweeps " + (", ".join(a.name for a in w.axes) or "nothing")]
+        return ["plot.kind: 'branches' draws the branches of one or two swept parameters "
+                "(cornerbif explain); this scene sweeps "
+                + (", ".join(a.name for a in w.axes) or "nothing")]
 
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
         # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
@@ -46,6 +51,8 @@ class Skeleton(FigureKind):
         if bt is None:
             raise Undrawable(f"{d0.path}: the file holds no branch table; run `cornerbif "
                              f"explain {d0.path}` first")
+        if len(bt["axes"]) == 2:
+            return _plane(plt, d0, bt, out, title, plot_cfg)
         axis = bt["axes"][0]
         kind = y or plot_cfg.get("y") or d0.default_y()
         fig, (ax, axb) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 7.0),
@@ -100,5 +107,56 @@ class Skeleton(FigureKind):
         return save(fig, out)
 
 
+def _plane(plt, d0, bt, out, title, plot_cfg):
+    """The skeleton of a sweep of two parameters: every located edge (``/branch_edges``) at
+    its place in the plane (the located value on its grid line), marked by kind, coloured by
+    its branch's word; the words of the LABELLED largest branches at their middle."""
+    from ..plot_attractors import attractor_colors, label_tex  # start-up: loads matplotlib
+    E = bt.get("edges")
+    xa, ya = bt["axes"]
+    fig, ax = plt.subplots(figsize=(7.5, 6.0))
+    colors = attractor_colors(sorted(set(bt["word"])))
+    tab_at = {a: _at(d0.path, a) for a in (xa, ya)}
+    if E is not None and len(E["branch"]):
+        row = E["attractor"]
+        x = np.where(E["axis"] == 0, E["at"], tab_at[xa][row])
+        yv = np.where(E["axis"] == 1, E["at"], tab_at[ya][row])
+        for k, (mk, words) in MARKS.items():
+            sel = (E["kind"] == k) & np.isfinite(x) & np.isfinite(yv)
+            if sel.any():
+                c = [colors[bt["word"][b]] for b in E["branch"][sel]]
+                ax.scatter(x[sel], yv[sel], s=10, marker=mk, c=c, linewidths=0.5)
+                ax.scatter([], [], s=10, marker=mk, c="k", label=f"{words} ({int(sel.sum())})")
+    short = [b for b in np.argsort(-bt["attractors"], kind="stable")
+             if len(bt["word"][b]) <= SHORT_WORD]
+    for b in short[:LABELLED]:
+        mine = bt["branch"] == b
+        cx, cy = np.median(tab_at[xa][mine]), np.median(tab_at[ya][mine])
+        ax.text(cx, cy, label_tex(bt["word"][b]), fontsize=7, ha="center", va="center",
+                color=colors[bt["word"][b]], bbox={"fc": "white", "ec": "none", "alpha": 0.7,
+                                                    "pad": 0.5})
+    ax.set_xlabel(xa)
+    ax.set_ylabel(ya)
+    ax.ticklabel_format(useOffset=False)
+    for lim, setter in (("xlim", ax.set_xlim), ("ylim", ax.set_ylim)):
+        if lim in plot_cfg:
+            setter(*plot_cfg[lim])
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=6, frameon=False,
+              title="edges", title_fontsize=7)
+    sc = d0.scene.get("scene", {})
+    ax.set_title(title_lines(title or plot_cfg.get("title") or
+                             f"{sc.get('title', sc.get('name', ''))}: {len(bt['id'])} branches, "
+                             "their located edges", 80), fontsize=9)
+    fig.tight_layout()
+    return save(fig, out)
+
+
+def _at(path, axis):
+    """Each attractor's value of parameter ``axis`` (the table's ``at_<axis>``)."""
+    import h5py  # start-up: loads h5py
+    with h5py.File(path, "r") as f:
+        return f[f"attractors/at_{axis}"][...]
+
+
 FIGURE = Skeleton("branches", "the branches of an explained sweep and their ends",
-                  files="one", one_axis=True)
+                  files="one")

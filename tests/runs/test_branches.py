@@ -439,3 +439,99 @@ def test_branch_ids_are_the_same_on_dask(tmp_path):
     for k in bt1:
         if k != "axes":
             np.testing.assert_array_equal(bt1[k], bt2[k])
+
+
+CHART = """
+[scene]
+name = "branches_chart"
+model = "{model}"
+[system]
+{system}
+omega = 2.0
+kappa = 0.0
+r = 0.8
+[sweep]
+omega = {{ start = {w0}, stop = {w1}, num = {nw} }}
+kappa = {{ start = -0.03, stop = 0.03, num = 21 }}
+[initial]
+count = 4
+seed = 1
+u = [0.0, 20.0]
+v = [-0.02, 0.02]
+[run]
+transient = {transient}
+record = 240
+[output]
+keep = ["{keep}"]
+"""
+
+
+def _edges_of(bt, f, word, axis, kind="corner"):
+    """(attractor's other coordinate, step, located value) of a word's edges along ``axis``
+    (0 omega, 1 kappa) of the given kind."""
+    E = bt["edges"]
+    other = f["attractors/at_" + ("kappa" if axis == 0 else "omega")][...]
+    sel = np.flatnonzero(np.isin(E["branch"], [b for b in range(len(bt["id"]))
+                                                if bt["word"][b] == word])
+                         & (E["axis"] == axis) & (E["kind"] == kind))
+    return [(float(other[E["attractor"][i]]), int(E["step"][i]), float(E["at"][i]))
+            for i in sel]
+
+
+def test_map_chart_edges_are_the_exact_word_intervals(tmp_path):
+    """A chart of the maps (56) over (omega, kappa): every branch's edges are located along
+    both axes, and every corner-collision edge lies on the boundary of its word's exact
+    admissible region (``theory.word_interval`` at the edge's omega, an independent
+    linear-inequality computation): along kappa the located kappa is the interval's end
+    that way, along omega the attractor's kappa is an end of the interval at the located
+    omega (or it is the apex (2, 0), where every word's region closes); both to 1e-10.
+    ``a`` is one branch over many grid values (linked along both
+    axes: its series has one entry per iterate, not per impact)."""
+    text = CHART.format(model="map2d", system="", w0=1.998, w1=2.002, nw=5, transient=3000,
+                        keep="section")
+    path = _swept(tmp_path, text, "chart_maps")
+    bt, out = _explained(path)
+    a = _branch_of_word(bt, "a")
+    assert bt["attractors"][a] > 20
+    E = bt["edges"]
+    assert (E["kind"] == "corner").sum() > 50
+    with h5py.File(path) as f:
+        om, ka = f["attractors/at_omega"][...], f["attractors/at_kappa"][...]
+    checked = set()
+    for i in np.flatnonzero(E["kind"] == "corner"):
+        word = bt["word"][E["branch"][i]]
+        row, at = E["attractor"][i], E["at"][i]
+        if E["axis"][i] == 1:
+            lo, hi = theory.word_interval(word, om[row] - 2.0, 0.8)
+            assert abs(at - (hi if E["step"][i] > 0 else lo)) <= 1e-10, (word, om[row])
+        else:
+            lo, hi = theory.word_interval(word, at - 2.0, 0.8)
+            if np.isnan(lo):       # the apex (omega, kappa) = (2, 0), where every region
+                assert abs(at - 2.0) <= 1e-10 and ka[row] == 0.0     # closes to a point
+                continue
+            assert min(abs(ka[row] - lo), abs(ka[row] - hi)) <= 1e-10, (word, ka[row])
+        checked.add((word, int(E["axis"][i])))
+    assert {("a", 0), ("a", 1), ("b", 0), ("b", 1)} <= checked
+    assert "leaves" in out and "grid lines going down in kappa: a corner collision" in out
+
+
+def test_flow_chart_edges_meet_eqs_11_and_17(tmp_path):
+    """A chart of the flow at omega = 1.998 and 2.002: along kappa the single-impact orbit
+    ``b`` ends at kappa_C(omega) (eq 11) and the double-impact orbit ``a`` begins at
+    kappa_CC(omega) (eq 17), on each omega grid line, to 1e-10.  The table is stored in the
+    file, and explain's text from it equals the recomputed one."""
+    text = CHART.format(model="flow", system='obstacle = "rectified_sine"\nbeta = 1.0',
+                        w0=1.998, w1=2.002, nw=2, transient=1500, keep="impacts")
+    path = _swept(tmp_path, text, "chart_flow")
+    bt, out = _explained(path)
+    with h5py.File(path) as f:
+        b_ends = _edges_of(bt, f, "b", 1)
+        a_ends = _edges_of(bt, f, "a", 1)
+    assert sorted((w, s) for w, s, _ in b_ends) == [(1.998, 1), (2.002, 1)]
+    assert sorted((w, s) for w, s, _ in a_ends) == [(1.998, -1), (2.002, -1)]
+    for w, _, at in b_ends:
+        assert abs(at - theory.kappa_C(w, 0.8)) <= 1e-10
+    for w, _, at in a_ends:
+        assert abs(at - theory.kappa_CC(w, 0.8)) <= 1e-10
+    r = CliRunner().invoke(main, ["explain", path, "--recompute"], catch_exceptions=False)
+    assert r.exit_code == 0 and r.stdout == out
