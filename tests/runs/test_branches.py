@@ -408,6 +408,43 @@ def test_a_fold_is_located_at_its_closed_form(tmp_path):
     assert abs(bt["high_at"][one[0]] - kappa_fold) <= 1e-10, (bt["high_at"][one[0]], kappa_fold)
 
 
+def test_a_period_doubling_is_located_at_its_closed_form(tmp_path):
+    """The same fixed stop and orbit as the fold's, at small kappa.  Its monodromy over one
+    period is J = S M(T): the flight M(T) = [[cos T, sin T], [-sin T, cos T]] (k = 1,
+    sigma = 0) and the saltation of law (5) at a wall at rest, S = [[-r, 0], [q, -r]], with
+    q = (1 + r) A / v-, v- = -V and A = u'' at the impact = -kappa + F cos(phi) =
+    -Omega^2 kappa - (1 - Omega^2) a V (derived here from the saltation formula
+    S = G + (f+ - G f-) n^T / (n^T f-), G = diag(1, -r), n = (1, 0); not the kernel's code).
+    det J = r^2, so a multiplier crosses -1 where tr J = -2 r cos T + q sin T = -(1 + r^2):
+    with V(kappa) the larger root of the fold's quadratic, bisection gives kappa_PD =
+    -0.0766752106693865.  Below it the orbit, going down in kappa, ends in a period
+    doubling located there to 1e-10 (measured: 1e-17)."""
+    import math
+    F, W, r = 1.0, 2.5, 0.8
+    P = F / (1.0 - W * W)
+    T = 2.0 * math.pi / W
+    a = (1.0 + r) / 2.0 / math.tan(T / 2.0)
+    b = (1.0 - r) / (2.0 * W)
+
+    def excess(kappa):             # tr J + 1 + det J along the orbit
+        A2, B, C = a * a + b * b, -2.0 * a * kappa, kappa * kappa - P * P
+        V = (-B + math.sqrt(B * B - 4.0 * A2 * C)) / (2.0 * A2)
+        A = -W * W * kappa - (1.0 - W * W) * a * V
+        return -2.0 * r * math.cos(T) - (1.0 + r) * A * math.sin(T) / V + 1.0 + r * r
+
+    lo, hi = -0.19, 0.0            # V > 0 above kappa = -|P| = -0.1905 (a grazing there)
+    assert excess(lo) < 0.0 < excess(hi)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if excess(mid) < 0.0 else (lo, mid)
+    text = FOLD.replace("kappa = { start = 0.5, stop = 1.6, num = 6 }",
+                        "kappa = { start = -0.1, stop = 0.2, num = 7 }")
+    bt, out = _explained(_swept(tmp_path, text, "pd"))
+    one = _branch_of_word(bt, "x")
+    assert bt["low_kind"][one] == "period_doubling", out
+    assert abs(bt["low_at"][one] - lo) <= 1e-10, (bt["low_at"][one], lo)
+
+
 def test_a_diagram_coloured_by_branch(tmp_path):
     """``cornerbif plot --kind diagram --orbits branches``: refused (exit 2, saying to run
     explain) before ``explain``; after it, drawn, with one label per branch ("#branch N")."""
