@@ -28,7 +28,7 @@ import numpy as np
 
 from . import figures, obstacles, plot_style, registry
 from .cycles import parse_word
-from .model import IC_PREFIX, KEY_CHARS, cut, did_you_mean, shown
+from .model import BUDGET_MARGIN, IC_PREFIX, KEY_CHARS, PERIODS_PER_IMPACT, cut, did_you_mean, shown
 from .model import is_number as _is_number
 
 FOLLOW = ("none", "up", "down")
@@ -43,6 +43,7 @@ RUN_DEFAULTS = {
     "max_events": None,
     "max_periods": None,
     "stop": None,
+    "lyapunov_impacts": None,
 }
 # Accuracy presets (``run.preset``): the speed-accuracy trade made explicit.  Keys given
 # explicitly in [run] override the preset.  "paper" is the default and holds the values
@@ -60,10 +61,6 @@ DEFAULT_PRESET = "paper"
 # early stop, models with Model.early_stop); the default is "period" for such a scene that
 # keeps only the summary (output.keep = []) and "none" otherwise
 STOPS = ("none", "period")
-# the automatic time budget: periods (of the slower of the obstacle and the oscillator, see
-# docs/guarantees.md) per transient or recorded impact, plus a margin
-PERIODS_PER_IMPACT = 50
-BUDGET_MARGIN = 1000
 INITIAL_DEFAULTS = {"count": 8, "seed": 1}
 # starts given, not drawn: ``points`` (a list of starts) or ``points_file`` (a text file of
 # one start per line, read when the scene is loaded; the scene as run lists the points)
@@ -297,6 +294,8 @@ class Scene:
     extra: dict = field(default_factory=dict)
     obstacle_table: object = None
     points: tuple = None       # [initial] points: the starts given (each in start order)
+    lyapunov_impacts: int = 0  # run.lyapunov_impacts: exponents streamed over this many
+    #                            impacts (0: over the recorded window)
 
     @property
     def shape(self) -> tuple:
@@ -1129,6 +1128,9 @@ def _read_run(w):
                 v = None
             run[k] = v
             continue
+        if k == "lyapunov_impacts":
+            run[k] = _lyapunov_impacts(w, v)
+            continue
         if k in ("transient", "record", "max_events", "max_periods"):
             if v is None and k in ("max_events", "max_periods"):
                 run[k] = None         # automatic budget (below)
@@ -1155,6 +1157,25 @@ def _read_run(w):
     if run["max_periods"] is None:
         run["max_periods"] = min(PERIODS_PER_IMPACT * need + BUDGET_MARGIN, MAX_PERIODS)
     w.preset, w.run, w.run_given = preset, run, rn
+
+
+def _lyapunov_impacts(w, v):
+    """``run.lyapunov_impacts``: the exponents averaged over this many impacts streamed by the
+    kernel (none stored, any number: docs/stability.md), for a model that streams them;
+    None (the default): over the recorded window."""
+    if v is None:
+        return None
+    if not _is_int(v) or not 1 <= v <= MAX_INT - 1:
+        w.problems.append(f"run.lyapunov_impacts: {shown(v)} must be an integer in "
+                          f"1..{MAX_INT - 1}")
+        return None
+    if not w.spec.streams_lyapunov:
+        which = " or ".join(repr(m.name) for m in _all_models() if m.streams_lyapunov)
+        w.problems.append(f"run.lyapunov_impacts: exponents streamed over any number of "
+                          f"impacts are implemented for model {which}, not {w.model!r}; "
+                          "without the key they are averaged over the recorded window")
+        return None
+    return v
 
 
 def _read_output(w):
@@ -1184,6 +1205,10 @@ def _read_output(w):
             w.problems.append(f"output.keep: {x!r} is not an observable of model {w.model!r}"
                               f"{w.spec.keep_hint}; allowed: {', '.join(allowed_keep)}")
     w.keep = tuple(x for x in keep if x in allowed_keep)
+    if w.run.get("lyapunov_impacts") is not None and "stability" not in w.keep:
+        w.problems.append(f"run.lyapunov_impacts: {w.run['lyapunov_impacts']} streams the "
+                          "Lyapunov exponents of the stability observable; output.keep must "
+                          'contain "stability"')
     if w.run["stop"] is None:
         w.run["stop"] = "period" if (w.spec.early_stop and not w.keep) else "none"
 
@@ -1677,4 +1702,4 @@ def _scene(w) -> Scene:
                  max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
                  plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"],
                  cont=w.cont, extra=w.extra, obstacle_table=getattr(w, "obstacle_table", None),
-                 points=w.points)
+                 points=w.points, lyapunov_impacts=run["lyapunov_impacts"] or 0)

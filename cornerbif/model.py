@@ -32,6 +32,12 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+# the automatic budgets of a run (config's rule, and a stream's chunks): periods (of the
+# slower of the obstacle and the oscillator, see docs/guarantees.md) per transient or
+# recorded impact, plus a margin
+PERIODS_PER_IMPACT = 50
+BUDGET_MARGIN = 1000
+
 
 # ------------------------------------------------------------------ declarations
 @dataclass(frozen=True)
@@ -324,7 +330,9 @@ class Model:
     ``observables`` (keep name -> tuple of Fields), ``system_extra`` (non-numeric
     ``[system]`` keys: name -> default), ``obstacles`` (name -> Obstacle, ``flow``
     only), ``events_per_impact`` (the automatic event budget per recorded or transient
-    impact), ``early_stop`` (``run.stop = "period"`` is implemented), ``timeseries``
+    impact), ``early_stop`` (``run.stop = "period"`` is implemented), ``streams_lyapunov``
+    (``run.lyapunov_impacts`` is implemented: ``run_items`` streams the exponents),
+    ``timeseries``
     (``[plot] kind = "timeseries"`` can rebuild its flights), ``normal_form``
     (a ``NormalFormSide`` or None: its part in the flow-against-map figures of sections 4-5),
     ``default_y`` (the diagram's default y), ``keep_hint`` (said when a scene asks for
@@ -363,6 +371,8 @@ class Model:
     obstacles: dict = field(default_factory=dict)
     events_per_impact: int = 10
     early_stop: bool = False
+    streams_lyapunov: bool = False     # run.lyapunov_impacts: its stability pass streams the
+    #                                    exponents over any number of impacts (run_items)
     timeseries: bool = False
     normal_form: NormalFormSide | None = None
     default_y: str | None = None

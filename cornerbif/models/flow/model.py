@@ -114,7 +114,7 @@ def escape_impacts(speed, r, k, escape):
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``)
 COMPILE_SECONDS = {"flow": 5.8, "own_kernel": 6.9, "t0": 0.9, "stability": 2.8,
-                   "continuation": 2.3}
+                   "continuation": 2.3, "stream": 5.9, "stream_own": 6.9}
 
 
 # what ``cornerbif continue`` compiles for the flow model beyond the sweep's kernels (the
@@ -204,10 +204,9 @@ class FlowModel(Model):
         ints[P.I_TRANSIENT] = scene.transient
         ints[P.I_RECORD] = scene.record
         ints[P.I_MAX_EVENTS] = scene.max_events
-        per_pieces = 4  # at most 4 pieces per obstacle period (triangle, sine: 2)
         # the budget at the obstacle's time scale; the kernel stretches it per point to the
         # oscillator's period 2 pi / k where that is slower (oscillator.budget_pieces)
-        ints[P.I_MAX_PIECES] = scene.max_periods * per_pieces
+        ints[P.I_MAX_PIECES] = scene.max_periods * P.PIECES_PER_PERIOD
         return ints
 
     def kernel(self):
@@ -243,6 +242,12 @@ class FlowModel(Model):
                                                       and "stability" in scene.keep):
             out.append(("the flow stability kernel", COMPILE_SECONDS["stability"],
                         [batch_stability]))
+        if scene.lyapunov_impacts and "stability" in scene.keep and (files or "simulate" in what):
+            from .stream import stream_batch, stream_batch_profile  # start-up: loads numba
+            own = OBSTACLES[scene.extra["obstacle"]].own_kernel
+            out.append(("the streamed Lyapunov kernel" + (" for a cam profile" if own else ""),
+                        COMPILE_SECONDS["stream_own" if own else "stream"],
+                        [stream_batch_profile if own else stream_batch]))
         if "continuation" in what:
             out.append(("the flow continuation's functions", COMPILE_SECONDS["continuation"],
                         dispatchers(*CONTINUATION_KERNELS)))
@@ -341,6 +346,8 @@ class FlowModel(Model):
                 whole[redo] = part
         if "stability" in scene.keep:
             out.update(_stability(params, out, ipc, ints[P.I_CONTROL]))
+            if scene.lyapunov_impacts:
+                out.update(_streamed_lyapunov(params, ics, ints, ipc, scene.lyapunov_impacts))
         # the kernel's corner ids are read here only (unset where a run has no impact)
         ids = out.pop("corner_id")
         if "corners" in scene.keep:
@@ -363,6 +370,30 @@ def _stability(params, out, ipc, control=0):
                     out["corner_offset"], ipc, *res.values(), control)
     raise_if_stopped(control)
     return res
+
+
+def _streamed_lyapunov(params, ics, ints, ipc, impacts):
+    """``run.lyapunov_impacts``: each run's Lyapunov spectrum over ``impacts`` impacts after
+    its transient, streamed by the kernel and none stored (``stream.lyapunov_stream``,
+    docs/stability.md): the first WARMUP_SHARE of them align the basis, the rest, trimmed
+    to whole cycles where the run has one (``ipc``), are averaged, as over a record."""
+    from ...stability import WARMUP_SHARE, lyapunov_window  # start-up: loads numba
+    from .stream import lyapunov_stream  # start-up: loads numba
+    out = {"lyapunov": np.empty((params.shape[0], 2)),
+           "lyapunov_window": np.empty(params.shape[0]),
+           "lyapunov_status": np.empty(params.shape[0], np.int8)}
+    for c in np.unique(ipc):                 # one window per cycle length
+        rows = np.flatnonzero(ipc == c)
+        warmup = lyapunov_window(impacts, int(c), WARMUP_SHARE)
+        if warmup < 0:
+            warmup, window = 0, impacts
+        else:
+            window = impacts - warmup
+        res = lyapunov_stream(np.ascontiguousarray(params[rows]),
+                              np.ascontiguousarray(ics[rows]), ints, warmup, window)
+        for k in out:
+            out[k][rows] = res[k]
+    return out
 
 
 def batch_stability(*args):
@@ -477,8 +508,9 @@ MODEL = FlowModel(
     system_extra={"obstacle": obstacles.DEFAULT, "section_period": None}
     | {t: None for o in OBSTACLES.values() for t in o.tables},
     obstacles=OBSTACLES,
-    events_per_impact=10,
+    events_per_impact=P.EVENTS_PER_IMPACT,
     early_stop=True,
+    streams_lyapunov=True,
     timeseries=True,
     normal_form=SIDE,
     # per item and recorded event: 7 float64 outputs, the corner index, the word (the arrays

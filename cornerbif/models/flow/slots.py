@@ -78,3 +78,9 @@ def wide_rows(rows) -> bool:
     """Whether packed rows have the longer layout (NPARAM_PROFILE: an obstacle kind with its
     own kernel, a cam) rather than NPARAM."""
     return rows.shape[1] > NPARAM
+
+# the budgets of a flow run (``FlowModel.int_settings``, config's automatic rule): at most
+# PIECES_PER_PERIOD obstacle pieces per period (triangle, sine: 2), EVENTS_PER_IMPACT events
+# (impacts, releases, corners crossed stuck) per impact
+PIECES_PER_PERIOD = 4
+EVENTS_PER_IMPACT = 10
