@@ -62,6 +62,9 @@ from .errors import SweepError, WriteFailed
 from .outputs import output_lock
 
 STABILITY_EVENTS = ("fold", "period_doubling", "torus")
+# /branches' version: a table stored by an older cornerbif (1: without /branch_edges for
+# several parameters, map2d's cycles linked by impacts per cycle) is located again
+TABLE_VERSION = 2
 ENDING_EVENTS = {"corner": "corner", "grazing": "grazing", "zero_velocity": "admissibility"}
 
 
@@ -619,7 +622,7 @@ def store(path, scene, br, tab) -> str:
     if st.st_nlink > 1:
         return "the file has other hard links, which replacing it would part from it"
     cols = _columns(br, tab)
-    edges = _edge_columns(br, tab) if br.edges else None
+    edges = _edge_columns(br, tab) if len(br.axes) > 1 else None     # (none: still stored)
 
     def change(g):
         a = g["attractors"]
@@ -635,6 +638,7 @@ def store(path, scene, br, tab) -> str:
             else:
                 out.create_dataset(name, data=v)
         out.attrs["axes"] = ",".join(br.axes)
+        out.attrs["version"] = TABLE_VERSION
         if "branch_edges" in g:
             del g["branch_edges"]
         if edges is not None:
@@ -669,14 +673,20 @@ def explain_file(path, recompute=False, log=None) -> list:
         scene = _explainable(f, path)
         if not _parameter_axes(scene):
             return basin_lines(f, scene, read_table(f))
-        has = "branches" in f and "attractors/branch" in f
-        if has and not recompute:
+        if has_current_table(f) and not recompute:
             return genealogy(read_branches(f), read_table(f), scene)
         tab = read_table(f)
         br = build(f, scene, log, tab)
     lines = genealogy(_as_read(br, tab), tab, scene)
     why = store(path, scene, br, tab)
     return lines + ([f"(the branch table is not stored in {path}: {why})"] if why else [])
+
+
+def has_current_table(f) -> bool:
+    """Whether the open file ``f`` holds a branch table this cornerbif stored (its version
+    TABLE_VERSION): ``explain`` reads it back instead of locating again."""
+    return ("branches" in f and "attractors/branch" in f
+            and f["branches"].attrs.get("version", 1) == TABLE_VERSION)
 
 
 def _explainable(f, path):
@@ -794,7 +804,8 @@ def _share(tab, rows):
 
 def _edge_lines(bt, b) -> list:
     """A branch's edges in a sweep of several parameters, per axis and direction: how many
-    grid lines it leaves that way, by kind, with the span of the located values."""
+    there are that way (an edge: one of its attractors whose orbit is not an attractor at
+    the next grid value), by kind, with the span of the located values."""
     es = bt.get("edges")
     mine = es["branch"] == b if es is not None else np.zeros(0, bool)
     if not mine.any():
@@ -813,9 +824,9 @@ def _edge_lines(bt, b) -> list:
                 at = at[np.isfinite(at)]
                 where = ("" if not at.size else f" at {a} = {at[0]:.10g}" if at.size == 1
                          else f" at {a} from {at.min():.10g} to {at.max():.10g}")
-                parts.append(f"{KINDS[kind]} on {c} line{'s' if c > 1 else ''}{where}")
-            out.append(f"  leaves {int(sel.sum())} grid line{'s' if sel.sum() > 1 else ''} "
-                       f"going {way} in {a}: " + "; ".join(parts))
+                parts.append(f"{KINDS[kind]} x {c}{where}")
+            out.append(f"  {int(sel.sum())} edge{'s' if sel.sum() > 1 else ''} going {way} "
+                       f"in {a}: " + "; ".join(parts))
     return out
 
 

@@ -112,7 +112,8 @@ def _series_observable(spec) -> str:
 
 def _long_scene(scene, extra_transient=0, window=WINDOW):
     """The scene of the reruns: the same system and starts, a window of ``window``, the
-    cycle series and the stability kept, the budgets scaled with the run's length (within
+    cycle series and the stability kept over it (not streamed: ``run.lyapunov_impacts``
+    off), the budgets scaled with the run's length (within
     the limits a scene may give)."""
     spec = registry.get(scene.model)
     keep = tuple(sorted({_series_observable(spec), "stability"}))
@@ -121,7 +122,7 @@ def _long_scene(scene, extra_transient=0, window=WINDOW):
     return dataclasses.replace(
         scene, transient=scene.transient + extra_transient, record=window, keep=keep,
         stop="none", max_events=min(int(scene.max_events * grow), BUDGET_MAX),
-        max_periods=min(int(scene.max_periods * grow), PERIODS_MAX))
+        max_periods=min(int(scene.max_periods * grow), PERIODS_MAX), lyapunov_impacts=0)
 
 
 def rerun(scene, grid_index, starts, extra_transient=0, window=WINDOW):

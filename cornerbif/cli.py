@@ -294,7 +294,10 @@ def _describe(scene, out, threads):
         lo, hi = min(a.values), max(a.values)
         lines.append(f"  axis {a.name}: {len(a.values)} values from {lo:.10g} to {hi:.10g}")
     lines.append(f"  {n_points} grid points x {scene.n_ic} starts = {n_items} runs of "
-                 f"{scene.transient} + {scene.record} events")
+                 f"{scene.transient} + {scene.record} events"
+                 + (f", then {scene.transient} + {scene.lyapunov_impacts} more each for the "
+                    "streamed Lyapunov exponents (run.lyapunov_impacts)"
+                    if scene.lyapunov_impacts else ""))
     low, typical, high = estimate_file_bytes(scene)
     lines.append(f"output {out}: about {typical / 2**20:.1f} MiB on disk ({low / 2**20:.1f} to "
                  f"{high / 2**20:.1f} MiB at the compression ratios measured on the shipped "

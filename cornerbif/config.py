@@ -1171,8 +1171,8 @@ def _lyapunov_impacts(w, v):
         return None
     if not w.spec.streams_lyapunov:
         which = " or ".join(repr(m.name) for m in _all_models() if m.streams_lyapunov)
-        w.problems.append(f"run.lyapunov_impacts: exponents streamed over any number of "
-                          f"impacts are implemented for model {which}, not {w.model!r}; "
+        w.problems.append(f"run.lyapunov_impacts = {v}: exponents streamed over any number "
+                          f"of impacts are implemented for model {which}, not {w.model!r}; "
                           "without the key they are averaged over the recorded window")
         return None
     return v

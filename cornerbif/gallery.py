@@ -55,8 +55,8 @@ import numpy as np
 from . import config as C
 from . import engine, outputs, registry
 from .analysis import run_length
-from .attractors import read_branches, read_table
-from .branches import explain_file
+from .attractors import read_table
+from .branches import explain_file, has_current_table
 from .config import SceneError
 from .continuation_run import read
 from .errors import Fault, SweepError, SweepInterrupted, WriteFailed
@@ -698,7 +698,10 @@ def _explained(d: Data, echo):
     (``cornerbif explain``: the branch table stored in its file) where it is not yet."""
     if d.kind != "sweep" or d.scene.plot.get("kind") != "branches":
         return
-    if read_branches(d.path) is None:
+    import h5py  # start-up: loads h5py
+    with h5py.File(d.path, "r") as f:
+        current = has_current_table(f)
+    if not current:          # none, or one an older cornerbif stored
         explain_file(d.path, log=echo)
 
 

@@ -32,14 +32,16 @@ STABILITY_FIELDS = (
           "1 grazing impact (none), 2 the cycle sticks (exactly 0), 3 no cycle (none); "
           "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
           axis=(), dtype="i1", fill=-1),
-    Field("stability/lyapunov", "lyapunov", "Lyapunov exponents over the recorded window, "
-          "largest first, per unit time (QR through flights and impacts, docs/stability.md)",
+    Field("stability/lyapunov", "lyapunov", "Lyapunov exponents over the recorded window "
+          "(with run.lyapunov_impacts: over that many impacts, streamed), largest first, per "
+          "unit time (QR through flights and impacts, docs/stability.md)",
           "1/time", axis=("exponent", 2)),
     Field("stability/lyapunov_window", "lyapunov_window", "time over which the Lyapunov "
           "exponents are averaged (after the warm-up, whole cycles where there is one)",
           "time", axis=()),
     Field("stability/lyapunov_status", "lyapunov_status", "how the exponents were found: 0 "
-          "ok, 1 grazing impact (none), 2 the window sticks (-inf), 4 too few impacts (none); "
+          "ok, 1 grazing impact (none), 2 the window sticks (-inf), 4 too few impacts, or "
+          "the run ended before a streamed window did (none); "
           "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
           axis=(), dtype="i1", fill=-1),
 )

@@ -112,12 +112,17 @@ def _plane(plt, d0, bt, out, title, plot_cfg):
     its place in the plane (the located value on its grid line), marked by kind, coloured by
     its branch's word; the words of the LABELLED largest branches at their middle."""
     from ..plot_attractors import attractor_colors, label_tex  # start-up: loads matplotlib
+    from ..plot_base import Undrawable  # start-up: loads matplotlib
     E = bt.get("edges")
+    if E is None:
+        raise Undrawable(f"{d0.path}: its branch table has no edges (stored by an older "
+                         f"cornerbif); run `cornerbif explain {d0.path} --recompute` first")
     xa, ya = bt["axes"]
     fig, ax = plt.subplots(figsize=(7.5, 6.0))
     colors = attractor_colors(sorted(set(bt["word"])))
     tab_at = {a: _at(d0.path, a) for a in (xa, ya)}
-    if E is not None and len(E["branch"]):
+    unplaced = 0
+    if len(E["branch"]):
         row = E["attractor"]
         x = np.where(E["axis"] == 0, E["at"], tab_at[xa][row])
         yv = np.where(E["axis"] == 1, E["at"], tab_at[ya][row])
@@ -127,6 +132,9 @@ def _plane(plt, d0, bt, out, title, plot_cfg):
                 c = [colors[bt["word"][b]] for b in E["branch"][sel]]
                 ax.scatter(x[sel], yv[sel], s=10, marker=mk, c=c, linewidths=0.5)
                 ax.scatter([], [], s=10, marker=mk, c="k", label=f"{words} ({int(sel.sum())})")
+        unplaced = int(np.sum(~(np.isfinite(x) & np.isfinite(yv))))
+    if unplaced:          # not located (an orbit that goes on unreached, a chaotic one, ...)
+        ax.scatter([], [], s=0, label=f"{unplaced} more not located: not drawn")
     short = [b for b in np.argsort(-bt["attractors"], kind="stable")
              if len(bt["word"][b]) <= SHORT_WORD]
     for b in short[:LABELLED]:

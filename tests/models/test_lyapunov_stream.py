@@ -318,7 +318,8 @@ def test_a_scene_streams_its_exponents_with_run_lyapunov_impacts(tmp_path):
 
 
 @pytest.mark.parametrize("change, said", [
-    ('model = "map2d"', "implemented for model 'flow', not 'map2d'"),
+    ('model = "map2d"', "= 1000: exponents streamed over any number of impacts are implemented "
+                        "for model 'flow', not 'map2d'"),
     ('keep = ["impacts"]', 'output.keep must contain "stability"'),
     ("lyapunov_impacts = 0", "must be an integer in 1.."),
     ("lyapunov_impacts = 2.5", "must be an integer in 1.."),

@@ -550,7 +550,7 @@ def test_map_chart_edges_are_the_exact_word_intervals(tmp_path):
             assert min(abs(ka[row] - lo), abs(ka[row] - hi)) <= 1e-10, (word, ka[row])
         checked.add((word, int(E["axis"][i])))
     assert {("a", 0), ("a", 1), ("b", 0), ("b", 1)} <= checked
-    assert "leaves" in out and "grid lines going down in kappa: a corner collision" in out
+    assert "edges going down in kappa: a corner collision x " in out
 
 
 def test_flow_chart_edges_meet_eqs_11_and_17(tmp_path):
@@ -613,3 +613,25 @@ def test_branch_ids_and_edges_are_the_same_after_a_resume(tmp_path, monkeypatch)
                 np.testing.assert_array_equal(bt1[k][c], bt2[k][c])
         else:
             np.testing.assert_array_equal(bt1[k], bt2[k])
+
+
+def test_a_table_stored_by_an_older_cornerbif_is_located_again(tmp_path):
+    """A two-parameter table stored without /branch_edges and without /branches' version
+    (an older cornerbif) is not read back as if it had no edges: explain locates it again
+    (the edges then stored), and the skeleton is refused, saying to recompute, before
+    that."""
+    from cornerbif.branches import TABLE_VERSION
+    text = CHART.format(model="map2d", system="", w0=1.998, w1=2.002, nw=3, transient=3000,
+                        keep="section")
+    path = _swept(tmp_path, text, "old")
+    bt, out = _explained(path)
+    with h5py.File(path, "a") as f:
+        del f["branch_edges"]
+        del f["branches"].attrs["version"]
+    r = CliRunner().invoke(main, ["plot", path, "--kind", "branches", "-o",
+                                  str(tmp_path / "s.png")])
+    assert r.exit_code != 0 and "--recompute" in r.output
+    again, out2 = _explained(path)
+    assert out2 == out and len(again["edges"]["branch"]) == len(bt["edges"]["branch"]) > 0
+    with h5py.File(path) as f:
+        assert f["branches"].attrs["version"] == TABLE_VERSION

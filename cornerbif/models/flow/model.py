@@ -113,6 +113,10 @@ def escape_impacts(speed, r, k, escape):
 # --- what a first run compiles (``engine.announce_compiles``) ------------------------------
 # cold compile seconds, measured by ``python benchmarks/compile_time.py`` (announced rounded,
 # as the time they took there: ``engine.compile_words``)
+# an impact of the streamed Lyapunov exponents against one of the sweep's kernel: the kernel
+# alone 4.36 and 5.32 M impacts/s, the stream 2.68 and 3.12 (one thread, Fig. 1(a) at
+# omega = 2.84 and the rectified sine at 1.8: tests/models/test_lyapunov_stream.py's cases)
+STREAM_COST = 1.65
 COMPILE_SECONDS = {"flow": 5.8, "own_kernel": 6.9, "t0": 0.9, "stability": 2.8,
                    "continuation": 2.3, "stream": 5.9, "stream_own": 6.9}
 
@@ -265,7 +269,8 @@ class FlowModel(Model):
         free particle), so it crosses about that over the piece's length pieces per
         impact, at most its time budget (``run.max_periods``, docs/guarantees.md
         "Budgets").  With ``run.stop = "period"`` the transient may end early: the low end
-        is the record alone."""
+        is the record alone.  ``run.lyapunov_impacts`` adds the stream's transient and
+        impacts, at STREAM_COST each."""
         w, k, r = float(values["omega"]), float(values["k"]), float(values["r"])
         sigma, F = float(values["sigma"]), float(values["F"])
         Om = float(values["Omega"])
@@ -294,6 +299,11 @@ class FlowModel(Model):
         if cost_pieces >= 0.5 * seconds:
             reasons.append(f"runs cross about {max(1.0, flight / piece):.2g} obstacle pieces "
                            "between impacts")
+        if scene.lyapunov_impacts:
+            # the stream runs the transient again, then its impacts, with the tangent steps
+            # (``_streamed_lyapunov``): STREAM_COST times a recorded impact's cost
+            more = min(scene.transient + scene.lyapunov_impacts, esc)
+            seconds *= 1.0 + STREAM_COST * more / max(n, 1)
         f = UNCERTAIN_FACTOR if reasons else CLOSE_FACTOR
         low, high = seconds / f, seconds * f
         if scene.stop == "period" and n > scene.record:
@@ -376,24 +386,16 @@ def _streamed_lyapunov(params, ics, ints, ipc, impacts):
     """``run.lyapunov_impacts``: each run's Lyapunov spectrum over ``impacts`` impacts after
     its transient, streamed by the kernel and none stored (``stream.lyapunov_stream``,
     docs/stability.md): the first WARMUP_SHARE of them align the basis, the rest, trimmed
-    to whole cycles where the run has one (``ipc``), are averaged, as over a record."""
+    to whole cycles where the run has one (``ipc``), are averaged, as over a record.  The
+    sweep's control stops it (``KernelStopped``), but it does not count runs: the block's
+    progress is counted by the kernel before."""
     from ...stability import WARMUP_SHARE, lyapunov_window  # start-up: loads numba
     from .stream import lyapunov_stream  # start-up: loads numba
-    out = {"lyapunov": np.empty((params.shape[0], 2)),
-           "lyapunov_window": np.empty(params.shape[0]),
-           "lyapunov_status": np.empty(params.shape[0], np.int8)}
-    for c in np.unique(ipc):                 # one window per cycle length
-        rows = np.flatnonzero(ipc == c)
-        warmup = lyapunov_window(impacts, int(c), WARMUP_SHARE)
-        if warmup < 0:
-            warmup, window = 0, impacts
-        else:
-            window = impacts - warmup
-        res = lyapunov_stream(np.ascontiguousarray(params[rows]),
-                              np.ascontiguousarray(ics[rows]), ints, warmup, window)
-        for k in out:
-            out[k][rows] = res[k]
-    return out
+    cycles, which = np.unique(ipc, return_inverse=True)
+    warmup = np.array([max(lyapunov_window(impacts, int(c), WARMUP_SHARE), 0) for c in cycles],
+                      np.int64)[which.ravel()]
+    res = lyapunov_stream(params, ics, ints, warmup, impacts - warmup)   # one call: all threads
+    return {k: res[k] for k in ("lyapunov", "lyapunov_window", "lyapunov_status")}
 
 
 def batch_stability(*args):

@@ -82,10 +82,12 @@ def stream_settings(ints, chunk=CHUNK):
     out = np.array(ints, np.int64)
     need = int(out[P.I_TRANSIENT]) + chunk
     out[P.I_RECORD] = chunk
-    out[P.I_MAX_EVENTS] = max(int(out[P.I_MAX_EVENTS]),
-                                  P.EVENTS_PER_IMPACT * need + BUDGET_MARGIN)
-    out[P.I_MAX_PIECES] = max(int(out[P.I_MAX_PIECES]),
-                              P.PIECES_PER_PERIOD * (PERIODS_PER_IMPACT * need + BUDGET_MARGIN))
+    # within int64, as config keeps a scene's budgets (MAX_INT - 1)
+    most = np.iinfo(np.int64).max - 1
+    out[P.I_MAX_EVENTS] = min(max(int(out[P.I_MAX_EVENTS]),
+                                  P.EVENTS_PER_IMPACT * need + BUDGET_MARGIN), most)
+    out[P.I_MAX_PIECES] = min(max(int(out[P.I_MAX_PIECES]), P.PIECES_PER_PERIOD * (
+        PERIODS_PER_IMPACT * need + BUDGET_MARGIN)), most)
     return out
 
 
@@ -268,8 +270,8 @@ def stream_batch(k0, k1, params, ints, ics, warmup, window, o_lam, o_dur, o_lsta
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
         drow = derive(row)
         res = stream_one(P.as_tuple(row), derived_tuple(drow), row, drow, ints, ics[i, 0],
-                         ics[i, 1], t0, warmup, window, o_t, o_u, o_vin, o_vout, o_off, o_corner,
-                         o_su, o_sv, final, info)
+                         ics[i, 1], t0, warmup[i], window[i], o_t, o_u, o_vin, o_vout, o_off,
+                         o_corner, o_su, o_sv, final, info)
         store_stream(i, res, o_lam, o_dur, o_lstatus, o_status, o_count)
 
 
@@ -295,15 +297,15 @@ def stream_batch_profile(k0, k1, params, ints, ics, warmup, window, o_lam, o_dur
         t0 = ics[i, 2] if ics.shape[1] > 2 else 0.0
         drow = derive(row)
         res = stream_one(P.as_tuple_profile(row), derived_tuple_profile(drow, row), row, drow,
-                         ints, ics[i, 0], ics[i, 1], t0, warmup, window, o_t, o_u, o_vin, o_vout,
-                         o_off, o_corner, o_su, o_sv, final, info)
+                         ints, ics[i, 0], ics[i, 1], t0, warmup[i], window[i], o_t, o_u, o_vin,
+                         o_vout, o_off, o_corner, o_su, o_sv, final, info)
         store_stream(i, res, o_lam, o_dur, o_lstatus, o_status, o_count)
 
 
 def lyapunov_stream(params, ics, ints, warmup, window):
     """The Lyapunov spectrum of each run (params[i], ics[i]) over ``window`` impacts after
-    ``warmup`` aligning ones, counted from the first impact after the transient
-    (``ints[I_TRANSIENT]``), none of them stored (``stream_one``; module docstring).
+    ``warmup`` aligning ones (each a number or one per run), counted from the first impact
+    after the transient (``ints[I_TRANSIENT]``), none of them stored (``stream_one``; module docstring).
 
     ``params``: packed flow rows as ``run_batch`` takes them (one row, or one per start;
     a cam's wider rows run on ``stream_batch_profile``); ``ics``: rows (u, v[, t0]);
@@ -324,10 +326,11 @@ def lyapunov_stream(params, ics, ints, warmup, window):
     params = np.ascontiguousarray(params)
     if params.shape[0] != n:
         raise ValueError(f"lyapunov_stream: {params.shape[0]} parameter rows for {n} starts")
-    warmup = int(warmup)
-    window = int(window)
-    if warmup < 0 or window < 1:
-        raise ValueError(f"lyapunov_stream: warmup {warmup} must be >= 0 and window {window} >= 1")
+    warmup = np.ascontiguousarray(np.broadcast_to(np.asarray(warmup), (n,)), np.int64)
+    window = np.ascontiguousarray(np.broadcast_to(np.asarray(window), (n,)), np.int64)
+    if (warmup < 0).any() or (window < 1).any():
+        raise ValueError(f"lyapunov_stream: warmup {warmup.min()} must be >= 0 and window "
+                         f"{window.min()} >= 1")
     settings = stream_settings(ints)
     out = {"lyapunov": np.empty((n, 2)), "lyapunov_window": np.empty(n),
            "lyapunov_status": np.empty(n, np.int8), "status": np.empty(n, np.int8),
