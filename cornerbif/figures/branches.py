@@ -133,8 +133,8 @@ def _plane(plt, d0, bt, out, title, plot_cfg):
                 ax.scatter(x[sel], yv[sel], s=10, marker=mk, c=c, linewidths=0.5)
                 ax.scatter([], [], s=10, marker=mk, c="k", label=f"{words} ({int(sel.sum())})")
         unplaced = int(np.sum(~(np.isfinite(x) & np.isfinite(yv))))
-    if unplaced:          # not located (an orbit that goes on unreached, a chaotic one, ...)
-        ax.scatter([], [], s=0, label=f"{unplaced} more not located: not drawn")
+    if unplaced:          # an orbit that goes on unreached, a chaotic attractor's, ...
+        ax.scatter([], [], s=0, label=f"{unplaced} more with no located value: not drawn")
     short = [b for b in np.argsort(-bt["attractors"], kind="stable")
              if len(bt["word"][b]) <= SHORT_WORD]
     for b in short[:LABELLED]:
