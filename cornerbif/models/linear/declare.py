@@ -1,0 +1,418 @@
+"""The ``[system]`` table of a ``linear`` scene (issue 33): ``read_system`` builds a
+``system.LinearSystem`` or lists what is wrong, each problem naming its key by its path
+(``system.contact.R.gap``) and the value there; ``numeric_paths`` and ``with_value`` name and
+set every number by its path (sweep axes, continuation parameters: ``"forcing.0.Omega"``,
+``"contact.R.kappa"``, ``"mass.y"``, ``"stiffness.x.x"``).  Pure Python: loads no numba.
+
+The table::
+
+    dofs = ["x", "y"]               # N <= MAX_DOFS distinct identifiers, in order
+    mass = [1.0, 0.1]               # N numbers (a diagonal) or N rows of N numbers
+    stiffness = [[1.0, 0.0], [0.0, 0.0]]          # the same two forms
+    damping = [[0.05, 0.0], [0.0, 0.0]]           # the same two forms; default 0
+    forcing = [{ on = "x", F = 0.7, Omega = 0.9, phi = 0.0 }]   # Omega, phi default 0
+    [[system.contact]]              # at most MAX_CONTACTS
+    name = "R"                      # one letter A-Z or a-z, distinct: the impact's symbol
+    gap = { y = 1.0, x = -1.0 }     # a = (-1, 1); or a list of N numbers; dofs left out are 0
+    obstacle = "fixed"              # default; or a kind of cornerbif.obstacles
+    kappa = -0.4                    # z(t) = kappa + beta shape(omega t); default 0
+    law = "impact"                  # default, with r (default 0.8); or "spring", with k, c
+
+What is checked, and why:
+
+* M symmetric positive-definite (Cholesky; a diagonal of positive numbers), its condition
+  number at most MAX_CONDITION: the exact flight and the impact law v+ = v- - (1 + r) w-
+  M^-1 a / (a^T M^-1 a) need M^-1, and a^T M^-1 a > 0 for every gap a != 0;
+* K symmetric positive semi-definite (eigenvalues >= -PSD_TOL * max |K_ij|): the free motion
+  stays bounded (a zero eigenvalue, a rigid-body mode such as a free ball, is allowed);
+* M and K are symmetric to a relative SYMMETRY_TOL, and stored symmetrized; C is any N x N
+  finite matrix (a gyroscopic part is not symmetric);
+* every number finite, and a number (a bool is not);
+* forcing: ``on`` a declared dof, F finite, Omega >= 0 (0: the constant force F cos(phi));
+* contacts: a gap over declared dofs, finite, not all zero (no coordinate: no contact); law
+  "impact" with 0 <= r <= 1 (restitution, default 0.8 as the flow model's, so that the
+  paper's scenes written as linear scenes keep their default); law "spring" with k > 0
+  (required: no default stiffness of a stop makes sense) and c >= 0 (default 0); obstacle
+  "fixed" (z = kappa: beta and omega are refused) or a registered kind without tables of
+  its own (a cam ``profile`` needs [system.profile], which a contact cannot hold yet); a
+  moving kind needs both beta (finite) and omega (> 0);
+* unknown keys in [system], a forcing entry or a contact are refused, with a did-you-mean.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import math
+import string
+
+import numpy as np
+
+from ... import obstacles
+from ...model import KEY_CHARS, cut, did_you_mean, is_number, shown
+from .system import MAX_CONTACTS, MAX_DOFS, Contact, Forcing, LinearSystem
+
+SYSTEM_KEYS = ("dofs", "mass", "stiffness", "damping", "forcing", "contact")
+FORCING_KEYS = ("on", "F", "Omega", "phi")
+CONTACT_KEYS = ("name", "gap", "obstacle", "kappa", "beta", "omega", "law", "r", "k", "c")
+FIXED = "fixed"
+LAWS = ("impact", "spring")
+LAW_KEYS = {"impact": ("r",), "spring": ("k", "c")}
+SYMMETRY_TOL = 1e-12      # |M - M^T| <= SYMMETRY_TOL max |M|
+PSD_TOL = 1e-12           # eigenvalues of K >= -PSD_TOL max |K|
+MAX_CONDITION = 1e12      # of M: M^-1 keeps about 4 digits
+
+
+def obstacle_kinds() -> tuple:
+    """The obstacles a contact may name: "fixed", then the registered kinds without tables
+    of their own."""
+    return (FIXED,) + tuple(n for n, o in obstacles.registered().items() if not o.tables)
+
+
+def _finite(v) -> bool:
+    return is_number(v) and math.isfinite(float(v))
+
+
+class _Reader:
+    def __init__(self):
+        self.problems = []
+
+    def bad(self, key, v, what):
+        self.problems.append(f"system.{key}: {shown(v)} {what}")
+
+    def unknown(self, key, table, allowed):
+        for k in table:
+            if k not in allowed:
+                self.problems.append(f"system.{key}{cut(k, KEY_CHARS)}: unknown key"
+                                     f"{did_you_mean(str(k), allowed)}; allowed: {', '.join(allowed)}")
+
+    def number(self, key, table, name, default=None, *, test=None, need="", missing=""):
+        """``table[name]`` as a finite float passing ``test`` (``need`` says what it must
+        be), or ``default`` when absent (a problem saying ``missing`` when there is no
+        default); None when refused."""
+        if name not in table:
+            if default is None:
+                self.problems.append(f"system.{key}.{name}: missing; {missing or 'it must be ' + need}")
+            return default
+        v = table[name]
+        if not _finite(v) or (test is not None and not test(float(v))):
+            self.bad(f"{key}.{name}", v, f"must be a finite number{need and ' ' + need}")
+            return None
+        return float(v)
+
+    def dofs(self, v):
+        if not isinstance(v, list) or not v:
+            self.bad("dofs", v, "must be a non-empty list of coordinate names, e.g. [\"x\", \"y\"]")
+            return None
+        if len(v) > MAX_DOFS:
+            self.bad("dofs", v, f"names {len(v)} coordinates; at most {MAX_DOFS}")
+            return None
+        ok = True
+        for i, d in enumerate(v):
+            if not (isinstance(d, str) and d.isidentifier()):
+                self.bad(f"dofs.{i}", d, "must be a name (letters, digits and _, not starting with a digit)")
+                ok = False
+            elif d in v[:i]:
+                self.bad(f"dofs.{i}", d, "is named twice; coordinate names must be distinct")
+                ok = False
+        return tuple(v) if ok else None
+
+    def matrix(self, key, v, dofs):
+        """(the (N, N) array, whether given as a diagonal), or None."""
+        n = len(dofs)
+        shape = (f"must be {n} numbers (a diagonal) or {n} rows of {n} numbers, one per dof "
+                 f"({', '.join(dofs)})")
+        if not isinstance(v, list) or len(v) != n:
+            self.bad(key, v, shape)
+            return None
+        rows = [isinstance(row, list) for row in v]
+        if any(rows) and not (all(rows) and all(len(row) == n for row in v)):
+            self.bad(key, v, shape)
+            return None
+        out, ok = np.zeros((n, n)), True
+        cells = (((i, j), f"{key}.{dofs[i]}.{dofs[j]}", x) for i, row in enumerate(v)
+                 for j, x in enumerate(row)) if all(rows) else \
+            (((i, i), f"{key}.{dofs[i]}", x) for i, x in enumerate(v))
+        for ij, path, x in cells:
+            if _finite(x):
+                out[ij] = float(x)
+            else:
+                self.bad(path, x, "must be a finite number")
+                ok = False
+        return (out, not all(rows)) if ok else None
+
+    def symmetric(self, key, v, a):
+        with np.errstate(all="ignore"):
+            asym = np.abs(a - a.T)
+            if not asym.max() <= SYMMETRY_TOL * np.abs(a).max():
+                i, j = np.unravel_index(np.argmax(asym), a.shape)
+                self.bad(key, v, f"is not symmetric (entries [{i}][{j}] = {float(a[i, j])!r} "
+                                 f"and [{j}][{i}] = {float(a[j, i])!r})")
+                return None, None
+            s = 0.5 * (a + a.T)
+            eig = np.linalg.eigvalsh(s) if np.all(np.isfinite(s)) else np.array([np.nan])
+        if not np.all(np.isfinite(eig)):
+            self.bad(key, v, "is too large: its eigenvalues overflow float64")
+            return None, None
+        return s, eig
+
+    def mass(self, v, dofs):
+        got = self.matrix("mass", v, dofs)
+        if got is None:
+            return None
+        m, diagonal = got
+        if diagonal and np.any(np.diag(m) <= 0):
+            for i in np.flatnonzero(np.diag(m) <= 0):
+                self.bad(f"mass.{dofs[i]}", v[i], "must be a positive number (a diagonal mass)")
+            return None
+        m, eig = self.symmetric("mass", v, m)
+        if m is None:
+            return None
+        try:
+            np.linalg.cholesky(m)
+        except np.linalg.LinAlgError:
+            self.bad("mass", v, f"is not positive-definite (its smallest eigenvalue is "
+                                f"{eig[0]:.6g}): the flight and the impact law need M^-1")
+            return None
+        if eig[0] <= 0 or eig[-1] > MAX_CONDITION * eig[0]:
+            self.bad("mass", v, f"is nearly singular (eigenvalues {eig[0]:.3g} to {eig[-1]:.3g}, "
+                                f"a condition number past {MAX_CONDITION:g}): M^-1 would lose "
+                                "its digits")
+            return None
+        return m
+
+    def stiffness(self, v, dofs):
+        got = self.matrix("stiffness", v, dofs)
+        if got is None:
+            return None
+        k, eig = self.symmetric("stiffness", v, got[0])
+        if k is not None and eig[0] < -PSD_TOL * np.abs(k).max():
+            self.bad("stiffness", v, f"is not positive semi-definite (its smallest eigenvalue "
+                                     f"is {eig[0]:.6g}): the free motion would grow without bound")
+            return None
+        return k
+
+    def forcing(self, v, dofs):
+        if not isinstance(v, list):
+            self.bad("forcing", v, "must be a list of { on = .., F = .., Omega = .., phi = .. }")
+            return None
+        out = []
+        for i, f in enumerate(v):
+            key = f"forcing.{i}"
+            if not isinstance(f, dict):
+                self.bad(key, f, "must be a table { on = .., F = .., Omega = .., phi = .. }")
+                continue
+            self.unknown(key + ".", f, FORCING_KEYS)
+            on = f.get("on")
+            if "on" not in f:
+                self.problems.append(f"system.{key}.on: missing; a force names the dof it acts on")
+            elif not isinstance(on, str):
+                self.bad(f"{key}.on", on, "must be the name of a dof")
+            elif dofs is not None and on not in dofs:
+                self.bad(f"{key}.on", on, f"is not a dof{did_you_mean(on, dofs)}; "
+                                          f"dofs: {', '.join(dofs)}")
+            F = self.number(key, f, "F", missing="the force's amplitude in F cos(Omega t + phi)")
+            Om = self.number(key, f, "Omega", 0.0, test=lambda x: x >= 0,
+                             need=">= 0 (0: a constant force F cos(phi))")
+            phi = self.number(key, f, "phi", 0.0)
+            if dofs is not None and on in dofs and None not in (F, Om, phi):
+                out.append(Forcing(dofs.index(on), F, Om, phi))
+        return tuple(out)
+
+    def gap(self, key, v, dofs):
+        n, given = len(dofs), v
+        if isinstance(v, list):
+            if len(v) != n:
+                self.bad(key, v, f"has {len(v)} coefficients; it needs {n}, one per dof "
+                                 f"({', '.join(dofs)}), or a table {{ dof = coefficient }}")
+                return None
+            v = dict(zip(dofs, v))
+        elif not isinstance(v, dict):
+            self.bad(key, v, "must be a table { dof = coefficient } or a list of one number per dof")
+            return None
+        a, ok = np.zeros(n), True
+        for d, x in v.items():
+            if d not in dofs:
+                self.bad(f"{key}.{cut(d, KEY_CHARS)}", d, f"is not a dof{did_you_mean(str(d), dofs)}; "
+                                                          f"dofs: {', '.join(dofs)}")
+                ok = False
+            elif not _finite(x):
+                self.bad(f"{key}.{d}", x, "must be a finite number")
+                ok = False
+            else:
+                a[dofs.index(d)] = float(x)
+        if ok and not np.any(a):
+            self.bad(key, given, "is all zero; a gap g = a . x - z(t) needs a coordinate")
+            return None
+        return a if ok else None
+
+    def contacts(self, v, dofs):
+        if not isinstance(v, list):
+            self.bad("contact", v, "must be a list of tables ([[system.contact]])")
+            return None
+        if len(v) > MAX_CONTACTS:
+            self.bad("contact", v, f"declares {len(v)} contacts; at most {MAX_CONTACTS}")
+            return None
+        out, names = [], []
+        for i, c in enumerate(v):
+            if not isinstance(c, dict):
+                self.bad(f"contact.{i}", c, "must be a table ([[system.contact]])")
+                continue
+            name = c.get("name")
+            key = f"contact.{name}" if _letter(name) and name not in names else f"contact.{i}"
+            self.unknown(key + ".", c, CONTACT_KEYS)
+            if "name" not in c:
+                self.problems.append(f"system.{key}.name: missing; a contact's name is one letter, "
+                                     "its impacts' symbol in words")
+            elif not _letter(name):
+                self.bad(f"{key}.name", name, "must be one letter, A-Z or a-z (its impacts' symbol "
+                                              "in words)")
+            elif name in names:
+                self.bad(f"{key}.name", name, f"names contact {names.index(name)} too; contact "
+                                              "names must be distinct")
+            names.append(name)
+            got = self.contact(key, c, dofs)
+            if _letter(name) and got is not None:
+                out.append(Contact(name, *got))
+        return tuple(out)
+
+    def contact(self, key, c, dofs):
+        a = None
+        if "gap" not in c:
+            self.problems.append(f"system.{key}.gap: missing; e.g. gap = {{ x = 1.0 }}: g = x - z(t)")
+        elif dofs is not None:
+            a = self.gap(f"{key}.gap", c["gap"], dofs)
+        kinds = obstacle_kinds()
+        obstacle = c.get("obstacle", FIXED)
+        if obstacle not in kinds:
+            own = isinstance(obstacle, str) and obstacle in obstacles.registered()
+            why = (" here: it needs its own table, which a contact cannot hold yet" if own
+                   else f" kind{did_you_mean(str(obstacle), kinds)}")
+            self.bad(f"{key}.obstacle", obstacle, f"is not an obstacle{why}; allowed: {', '.join(kinds)}")
+            obstacle = None
+        kappa = self.number(key, c, "kappa", 0.0)
+        beta = omega = 0.0
+        if obstacle == FIXED:
+            for p in ("beta", "omega"):
+                if p in c:
+                    self.bad(f"{key}.{p}", c[p], "is given, but the obstacle is 'fixed' (z = kappa): "
+                                                 "remove it, or name a moving obstacle")
+        elif obstacle is not None:
+            need = f"the obstacle {obstacle!r} is z = kappa + beta shape(omega t)"
+            beta = self.number(key, c, "beta", missing=need)
+            omega = self.number(key, c, "omega", test=lambda x: x > 0, need=f"> 0; {need}")
+        law = c.get("law", "impact")
+        if law not in LAWS:
+            self.bad(f"{key}.law", law, f"is not a law{did_you_mean(str(law), LAWS)}; allowed: "
+                                        f"{', '.join(LAWS)}")
+            law = None
+        r, k, cc = Contact.r, 0.0, 0.0
+        for p, other in ((p, o) for o in LAWS if law not in (None, o) for p in LAW_KEYS[o] if p in c):
+            self.bad(f"{key}.{p}", c[p], f"is given, but the law is {law!r}; {p} belongs to law {other!r}")
+        if law == "impact":
+            r = self.number(key, c, "r", Contact.r, test=lambda x: 0 <= x <= 1,
+                            need="in [0, 1] (the restitution: w+ = -r w-)")
+        elif law == "spring":
+            k = self.number(key, c, "k", test=lambda x: x > 0, need="> 0 (the stop's stiffness)")
+            cc = self.number(key, c, "c", 0.0, test=lambda x: x >= 0, need=">= 0 (the stop's damping)")
+        got = (a, obstacle, kappa, beta, omega, law, r, k, cc)
+        return None if any(x is None for x in got) else got
+
+
+def _letter(name) -> bool:
+    return isinstance(name, str) and len(name) == 1 and name in string.ascii_letters
+
+
+def read_system(table: dict) -> tuple[LinearSystem | None, list[str]]:
+    """The scene's ``[system]`` table (as ``tomllib`` reads it) as a ``LinearSystem``, and
+    the problems found (empty when it is valid; the system is None when it is not)."""
+    r = _Reader()
+    if not isinstance(table, dict):
+        return None, [f"system: {shown(table)} must be a table"]
+    r.unknown("", table, SYSTEM_KEYS)
+    dofs = r.dofs(table.get("dofs"))
+    m = k = c = None
+    for key in ("mass", "stiffness"):
+        if key not in table:
+            r.problems.append(f"system.{key}: missing; one number per dof (a diagonal) or a row "
+                              "of them per dof")
+    if dofs is not None:
+        m = r.mass(table["mass"], dofs) if "mass" in table else None
+        k = r.stiffness(table["stiffness"], dofs) if "stiffness" in table else None
+        got = r.matrix("damping", table["damping"], dofs) if "damping" in table \
+            else (np.zeros((len(dofs), len(dofs))), False)
+        c = got and got[0]
+    forcing = r.forcing(table.get("forcing", []), dofs)
+    contacts = r.contacts(table.get("contact", []), dofs)
+    if r.problems:
+        return None, r.problems
+    for a in (m, k, c, *(x.gap for x in contacts)):
+        a.flags.writeable = False
+    return LinearSystem(dofs, m, k, c, forcing, contacts), []
+
+
+# ------------------------------------------------------------------ paths of the numbers
+def _cells(table):
+    """(path, container, index) of every number of ``table`` (a bool is not one), valid or
+    not: dofs and contacts named where they can be, by position where they cannot."""
+    if not isinstance(table, dict):
+        return
+    dofs = table.get("dofs") if isinstance(table.get("dofs"), list) else []
+
+    def dof(i):
+        return dofs[i] if i < len(dofs) and isinstance(dofs[i], str) else str(i)
+
+    for key in ("mass", "stiffness", "damping"):
+        for i, row in enumerate(table.get(key) if isinstance(table.get(key), list) else []):
+            if isinstance(row, list):
+                yield from ((f"{key}.{dof(i)}.{dof(j)}", row, j) for j, x in enumerate(row) if is_number(x))
+            elif is_number(row):
+                yield f"{key}.{dof(i)}", table[key], i
+    forcing = table.get("forcing") if isinstance(table.get("forcing"), list) else []
+    for i, f in enumerate(forcing):
+        if isinstance(f, dict):
+            yield from ((f"forcing.{i}.{k}", f, k) for k, x in f.items() if is_number(x))
+    seen = set()
+    for i, c in enumerate(table.get("contact") if isinstance(table.get("contact"), list) else []):
+        if not isinstance(c, dict):
+            continue
+        name = c.get("name")
+        label = name if isinstance(name, str) and name not in seen and not name.isdigit() else str(i)
+        seen.add(name if isinstance(name, str) else None)
+        for k, x in c.items():
+            if is_number(x):
+                yield f"contact.{label}.{k}", c, k
+            elif k == "gap" and isinstance(x, dict):
+                yield from ((f"contact.{label}.gap.{d}", x, d) for d, y in x.items() if is_number(y))
+            elif k == "gap" and isinstance(x, list):
+                yield from ((f"contact.{label}.gap.{dof(j)}", x, j) for j, y in enumerate(x) if is_number(y))
+
+
+def numeric_paths(table) -> dict[str, float]:
+    """Every number given in ``table`` by its path: ``"forcing.0.Omega"``,
+    ``"contact.R.kappa"``, ``"contact.R.gap.x"``, ``"mass.y"`` (a diagonal entry),
+    ``"mass.x.y"`` (a matrix entry), ``"stiffness.x.x"``, ``"damping.x.y"``.  A default not
+    written in the table (r = 0.8, damping 0) has no path: write it to sweep it."""
+    return {path: float(c[i]) for path, c, i in _cells(table)}
+
+
+def with_value(table: dict, path: str, value) -> dict:
+    """A deep copy of ``table`` with the number at ``path`` (a key of ``numeric_paths``)
+    set to ``value``.  A mass or stiffness entry off the diagonal, ``"stiffness.x.y"``, sets
+    its mirror ``"stiffness.y.x"`` too (those matrices are symmetric); a damping entry sets
+    only itself.  A path that is not there raises KeyError naming it and its near matches."""
+    new = copy.deepcopy(table)
+    cells = {p: (c, i) for p, c, i in _cells(new)}
+    if path not in cells:
+        near = difflib.get_close_matches(str(path), list(cells), n=3, cutoff=0.6)
+        raise KeyError(f"system: {shown(path)} is not a number of the [system] table"
+                       + (f" (near: {', '.join(near)})" if near else "")
+                       + "; a default not written in the scene has no path: write it to sweep it")
+    c, i = cells[path]
+    c[i] = value
+    parts = path.split(".")
+    if parts[0] in ("mass", "stiffness") and len(parts) == 3:
+        mirror = cells.get(f"{parts[0]}.{parts[2]}.{parts[1]}")
+        if mirror is not None:
+            mirror[0][mirror[1]] = value
+    return new

@@ -1,0 +1,109 @@
+"""Exact flights of a linear system (issue 33): M x'' + C x' + K x = f(t), f a sum of
+harmonic forces F cos(Omega t + phi) and constant ones, over any time, in one closed form
+for every case: damped or not, rigid-body modes (K singular: a free particle, gravity),
+repeated eigenvalues, forcing at resonance.
+
+**The augmented system.**  The forces are themselves the solution of a linear system: each
+harmonic force's phase (c, s) = (cos, sin)(Omega t + phi) obeys c' = -Omega s,
+s' = Omega c, and a constant force is carried by a state 1 with 1' = 0.  With them the
+flight is autonomous: y = (x, v, forcing states), y' = A y,
+
+    A = [[0,        I,        0     ],
+         [-M^-1 K,  -M^-1 C,  M^-1 B],
+         [0,        0,        S     ]],
+
+B the columns of the forces (F e_on on each c, nothing on each s, the constants' sum on
+1) and S the rotations of the phases.  So y(t0 + h) = expm(A h) y(t0) exactly: no modal
+decomposition, which would need a diagonalisable A (a free particle has the Jordan block
+[[0, 1], [0, 0]]; an undamped oscillator forced at its own frequency has a double pair
++-i Omega, whose solution grows like t sin t), and no particular solution to solve for.
+
+**expm** is Higham's scaling and squaring with the [13/13] Pade approximant (N. J. Higham,
+SIAM J. Matrix Anal. Appl. 26 (2005) 1179-1193): A / 2^s with ||A / 2^s||_1 <= theta_13,
+whose approximant has a backward error below the unit roundoff, then s squarings; exact up
+to rounding, as the flow's closed-form flights (eq 4) are.
+
+Pure numpy: the reference for the kernel to come, and its tests
+(tests/models/test_linear_flight.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .system import LinearSystem
+
+# Higham (2005), Table 2.3 and eq (2.4): the [13/13] Pade coefficients and the largest
+# ||A||_1 for which it has backward error below 2^-53
+PADE13 = (64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0,
+          129060195264000.0, 10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0,
+          40840800.0, 960960.0, 16380.0, 182.0, 1.0)
+THETA13 = 5.371920351148152
+
+
+def expm(A) -> np.ndarray:
+    """exp(A) of a real square matrix: scaling and squaring with the [13/13] Pade
+    approximant (module docstring)."""
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    norm = np.linalg.norm(A, 1) if n else 0.0
+    s = int(max(0, np.ceil(np.log2(norm / THETA13)))) if norm > THETA13 else 0
+    A = A / 2.0 ** s
+    b = PADE13
+    eye = np.eye(n)
+    A2 = A @ A
+    A4 = A2 @ A2
+    A6 = A4 @ A2
+    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2) + b[7] * A6 + b[5] * A4 + b[3] * A2
+             + b[1] * eye)
+    V = A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2) + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * eye
+    X = np.linalg.solve(V - U, V + U)
+    for _ in range(s):
+        X = X @ X
+    return X
+
+
+def augmented(system: LinearSystem) -> np.ndarray:
+    """The matrix A of the augmented flight y' = A y (module docstring), of size
+    2N + 2 (harmonic forces) + 1 (when there is a constant force)."""
+    n = system.n
+    harmonic = [f for f in system.forcing if f.Omega > 0.0]
+    constant = [f for f in system.forcing if f.Omega == 0.0]
+    m = 2 * len(harmonic) + (1 if constant else 0)
+    A = np.zeros((2 * n + m, 2 * n + m))
+    Minv = np.linalg.inv(system.mass)
+    A[:n, n:2 * n] = np.eye(n)
+    A[n:2 * n, :n] = -Minv @ system.stiffness
+    A[n:2 * n, n:2 * n] = -Minv @ system.damping
+    B = np.zeros((n, m))
+    for j, f in enumerate(harmonic):
+        B[f.on, 2 * j] += f.F                      # on c = cos(Omega t + phi)
+        c, s = 2 * n + 2 * j, 2 * n + 2 * j + 1
+        A[c, s] = -f.Omega                          # c' = -Omega s
+        A[s, c] = f.Omega                           # s' = Omega c
+    for f in constant:
+        B[f.on, m - 1] += f.F * np.cos(f.phi)       # on the state 1
+    A[n:2 * n, 2 * n:] = Minv @ B
+    return A
+
+
+def forcing_state(system: LinearSystem, t: float) -> np.ndarray:
+    """The forcing part of the augmented state at time t: (cos, sin)(Omega t + phi) per
+    harmonic force, then 1 when there is a constant one."""
+    harmonic = [f for f in system.forcing if f.Omega > 0.0]
+    out = []
+    for f in harmonic:
+        out += [np.cos(f.Omega * t + f.phi), np.sin(f.Omega * t + f.phi)]
+    if any(f.Omega == 0.0 for f in system.forcing):
+        out.append(1.0)
+    return np.array(out, dtype=float)
+
+
+def flight(system: LinearSystem, t0: float, x0, v0, h: float, A=None):
+    """The state (x, v) at t0 + h of the free flight from (x0, v0) at t0: expm(A h) on the
+    augmented state (``A``: ``augmented(system)``, computed when not given)."""
+    A = augmented(system) if A is None else A
+    n = system.n
+    y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float), forcing_state(system, t0)])
+    y = expm(A * h) @ y0
+    return y[:n], y[n:2 * n]

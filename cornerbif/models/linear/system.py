@@ -1,0 +1,64 @@
+"""A linear vibro-impact system as a scene declares it (issue 33, docs to come in
+docs/linear.md): N coordinates x with a mass matrix M, a stiffness K and a damping C,
+harmonic and constant forces, and contacts, each a gap g = a . x - z(t) that stays >= 0 in
+flight against an obstacle z(t) = kappa + beta shape(omega t), with an impact law
+(restitution r: the generalised Newton law, ``impact.newton_impact``) or a soft stop (a
+spring k and dashpot c acting while g < 0).
+
+Between events the motion is M x'' + C x' + K x = f(t), f = sum of the forces: linear, so
+its flights are exact (``flight.py``).  This module holds only the declarations, pure
+Python (checking a scene loads no numba); ``declare.read_system`` builds them from the
+scene's ``[system]`` table and says what is wrong with it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+MAX_DOFS = 6          # N: the exact flight's augmented matrix stays small (flight.py)
+MAX_CONTACTS = 8
+
+
+@dataclass(frozen=True)
+class Forcing:
+    """F cos(Omega t + phi) on coordinate ``on`` (an index into the system's dofs);
+    Omega = 0: the constant force F cos(phi)."""
+    on: int
+    F: float
+    Omega: float = 0.0
+    phi: float = 0.0
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A contact: the gap g = a . x - z(t), z = kappa + beta shape(omega t) (``obstacle``:
+    "fixed", z = kappa, or an obstacle kind of cornerbif.obstacles), and its law: "impact"
+    (w+ = -r w-, w = a . v - z') or "spring" (a soft stop: the generalised force
+    -(k g + c g') a while g < 0, g' = a . v - z')."""
+    name: str                  # one letter: the impact's symbol in words
+    gap: np.ndarray            # (N,) the vector a
+    obstacle: str = "fixed"
+    kappa: float = 0.0
+    beta: float = 0.0
+    omega: float = 0.0
+    law: str = "impact"
+    r: float = 0.8
+    k: float = 0.0
+    c: float = 0.0
+
+
+@dataclass(frozen=True)
+class LinearSystem:
+    """M x'' + C x' + K x = sum of ``forcing``, with ``contacts``."""
+    dofs: tuple               # coordinate names, in order
+    mass: np.ndarray          # (N, N) symmetric positive-definite
+    stiffness: np.ndarray     # (N, N) symmetric positive semi-definite
+    damping: np.ndarray       # (N, N)
+    forcing: tuple = ()       # of Forcing
+    contacts: tuple = ()      # of Contact
+
+    @property
+    def n(self) -> int:
+        return len(self.dofs)

@@ -1,0 +1,360 @@
+"""The ``[system]`` table of a ``linear`` scene (issue 33): ``declare.read_system`` builds the
+declared system or refuses it naming the key and the value; ``numeric_paths`` and
+``with_value`` name and set every number by its path.  Pure Python: no numba is loaded."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cornerbif.model import shown
+from cornerbif.models.linear.declare import numeric_paths, read_system, with_value
+from cornerbif.models.linear.system import MAX_CONTACTS, MAX_DOFS
+
+SKETCH = """
+[system]
+dofs = ["x", "y"]
+mass = [1.0, 0.1]
+stiffness = [[1.0, 0.0], [0.0, 0.0]]
+damping = [[0.05, 0.0], [0.0, 0.0]]
+forcing = [{ on = "x", F = 0.7, Omega = 0.9, phi = 0.0 }]
+
+[[system.contact]]
+name = "R"
+gap = { y = 1.0, x = -1.0 }
+obstacle = "fixed"
+kappa = -0.4
+r = 0.5
+
+[[system.contact]]
+name = "L"
+gap = { x = 1.0, y = -1.0 }
+obstacle = "fixed"
+kappa = -0.4
+law = "spring"
+k = 50.0
+c = 0.1
+"""
+
+
+def sketch() -> dict:
+    return tomllib.loads(SKETCH)["system"]
+
+
+def paper_flow(obstacle="rectified_sine") -> dict:
+    """The flow model's u'' + 2 sigma u' + u = F cos(Omega t) against z = kappa + beta
+    shape(omega t), written as a linear system with N = 1."""
+    return {"dofs": ["u"], "mass": [1.0], "stiffness": [[1.0]], "damping": [[0.1]],
+            "forcing": [{"on": "u", "F": 0.3, "Omega": 1.5}],
+            "contact": [{"name": "A", "gap": {"u": 1.0}, "obstacle": obstacle, "kappa": -0.1,
+                         "beta": 1.0, "omega": 2.2, "r": 0.8}]}
+
+
+def test_the_issue_sketch_parses_into_its_arrays():
+    """The impact damper of issue 33: M = diag(1, 0.1), K, C as written, one harmonic
+    force on x, an impact contact R (gap a = (-1, 1), r = 0.5) and a soft stop L (a = (1, -1),
+    k = 50, c = 0.1)."""
+    s, problems = read_system(sketch())
+    assert problems == []
+    assert s.dofs == ("x", "y") and s.n == 2
+    np.testing.assert_array_equal(s.mass, np.diag([1.0, 0.1]))
+    np.testing.assert_array_equal(s.stiffness, [[1.0, 0.0], [0.0, 0.0]])
+    np.testing.assert_array_equal(s.damping, [[0.05, 0.0], [0.0, 0.0]])
+    (f,) = s.forcing
+    assert (f.on, f.F, f.Omega, f.phi) == (0, 0.7, 0.9, 0.0)
+    R, L = s.contacts
+    assert (R.name, R.obstacle, R.kappa, R.law, R.r) == ("R", "fixed", -0.4, "impact", 0.5)
+    np.testing.assert_array_equal(R.gap, [-1.0, 1.0])
+    assert (L.name, L.law, L.k, L.c, L.kappa) == ("L", "spring", 50.0, 0.1, -0.4)
+    np.testing.assert_array_equal(L.gap, [1.0, -1.0])
+    assert not s.mass.flags.writeable     # a frozen declaration holds read-only arrays
+
+
+def test_defaults():
+    """No damping: C = 0; no forcing, no contact: empty; Omega and phi default to 0; an
+    impact's r to 0.8 (the flow model's), a spring's c to 0; obstacle "fixed", kappa 0."""
+    t = {"dofs": ["x"], "mass": [2.0], "stiffness": [[0.0]],
+         "forcing": [{"on": "x", "F": -1.0}],
+         "contact": [{"name": "g", "gap": [1.0]}, {"name": "s", "gap": [-1.0], "law": "spring", "k": 3}]}
+    s, problems = read_system(t)
+    assert problems == []
+    np.testing.assert_array_equal(s.damping, [[0.0]])
+    assert (s.forcing[0].Omega, s.forcing[0].phi) == (0.0, 0.0)
+    g, sp = s.contacts
+    assert (g.obstacle, g.kappa, g.law, g.r) == ("fixed", 0.0, "impact", 0.8)
+    assert (sp.k, sp.c) == (3.0, 0.0)
+    s, problems = read_system({"dofs": ["x"], "mass": [1.0], "stiffness": [1.0]})
+    assert problems == [] and s.forcing == () and s.contacts == ()
+
+
+@pytest.mark.parametrize("obstacle", ["rectified_sine", "sine", "triangle"])
+def test_the_paper_flow_as_one_dof(obstacle):
+    """N = 1 with a = (1,) against a moving obstacle: the paper's flow (eqs 1-5)."""
+    s, problems = read_system(paper_flow(obstacle))
+    assert problems == []
+    (c,) = s.contacts
+    np.testing.assert_array_equal(c.gap, [1.0])
+    assert (c.obstacle, c.kappa, c.beta, c.omega, c.r) == (obstacle, -0.1, 1.0, 2.2, 0.8)
+    assert s.mass.shape == s.stiffness.shape == s.damping.shape == (1, 1)
+
+
+def test_a_full_mass_matrix_and_a_rigid_body_mode():
+    """A symmetric positive-definite full M; K singular (a free mass: a rigid-body mode)."""
+    t = {"dofs": ["a", "b"], "mass": [[2.0, 0.5], [0.5, 1.0]], "stiffness": [[1.0, -1.0], [-1.0, 1.0]]}
+    s, problems = read_system(t)
+    assert problems == []
+    np.testing.assert_array_equal(s.mass, [[2.0, 0.5], [0.5, 1.0]])
+
+
+def _set(path, value):
+    """The sketch with the key at ``path`` (a list of keys and indices) set to ``value``, or
+    removed (value ``DEL``)."""
+    def change(t):
+        *head, last = path
+        for p in head:
+            t = t[p]
+        if value is DEL:
+            del t[last]
+        else:
+            t[last] = value
+    return change
+
+
+DEL = object()
+NAN, INF = float("nan"), float("inf")
+SEVEN = ["a", "b", "c", "d", "e", "f", "g"]
+NINE = [{"name": chr(65 + i), "gap": {"x": 1.0}} for i in range(MAX_CONTACTS + 1)]
+MOVING = {"name": "R", "gap": {"x": 1.0}, "obstacle": "sine", "beta": 1.0, "omega": 2.0}
+
+REFUSALS = [
+    # id, change, key path, the value as shown
+    ("dofs empty", _set(["dofs"], []), "system.dofs", "[]"),
+    ("dofs not a list", _set(["dofs"], "x"), "system.dofs", "'x'"),
+    ("dofs twice", _set(["dofs"], ["x", "x"]), "system.dofs.1", "'x'"),
+    ("dofs not a name", _set(["dofs"], ["x", "2y"]), "system.dofs.1", "'2y'"),
+    ("dofs not a string", _set(["dofs"], ["x", 3]), "system.dofs.1", "3"),
+    ("dofs too many", _set(["dofs"], SEVEN[:MAX_DOFS + 1]), "system.dofs", "'g'"),
+    ("mass not symmetric", _set(["mass"], [[1.0, 2.0], [3.0, 1.0]]), "system.mass",
+     "[[1.0, 2.0], [3.0, 1.0]] is not symmetric"),
+    ("mass not definite", _set(["mass"], [[1.0, 2.0], [2.0, 1.0]]), "system.mass",
+     "[[1.0, 2.0], [2.0, 1.0]] is not positive-definite"),
+    ("mass singular", _set(["mass"], [[1.0, 1.0], [1.0, 1.0]]), "system.mass", "[[1.0, 1.0], [1.0, 1.0]]"),
+    ("mass near singular", _set(["mass"], [1.0, 1e-14]), "system.mass", "[1.0, 1e-14]"),
+    ("mass diagonal <= 0", _set(["mass"], [1.0, -0.1]), "system.mass.y", "-0.1"),
+    ("mass diagonal 0", _set(["mass"], [0.0, 1.0]), "system.mass.x", "0.0"),
+    ("mass short", _set(["mass"], [1.0]), "system.mass", "[1.0]"),
+    ("mass ragged", _set(["mass"], [[1.0, 0.0], [0.0]]), "system.mass", "[[1.0, 0.0], [0.0]]"),
+    ("mass mixed", _set(["mass"], [[1.0, 0.0], 1.0]), "system.mass", "[[1.0, 0.0], 1.0]"),
+    ("mass bool", _set(["mass"], [1.0, True]), "system.mass.y", "True"),
+    ("mass nan", _set(["mass", 1], NAN), "system.mass.y", "nan"),
+    ("mass string", _set(["mass"], [[1.0, "0"], ["0", 1.0]]), "system.mass.x.y", "'0'"),
+    ("mass missing", _set(["mass"], DEL), "system.mass", "missing"),
+    ("mass overflows", _set(["mass"], [[1e308, 1e308], [1e308, 1e308]]), "system.mass", "1e+308"),
+    ("stiffness not symmetric", _set(["stiffness", 0, 1], 0.5), "system.stiffness",
+     "[[1.0, 0.5], [0.0, 0.0]] is not symmetric"),
+    ("stiffness negative", _set(["stiffness"], [[1.0, 0.0], [0.0, -1.0]]), "system.stiffness",
+     "[[1.0, 0.0], [0.0, -1.0]]"),
+    ("stiffness indefinite", _set(["stiffness"], [[1.0, 2.0], [2.0, 1.0]]), "system.stiffness",
+     "[[1.0, 2.0], [2.0, 1.0]]"),
+    ("stiffness inf", _set(["stiffness", 1, 1], INF), "system.stiffness.y.y", "inf"),
+    ("stiffness shape", _set(["stiffness"], [[1.0, 0.0, 0.0]] * 2), "system.stiffness", "[[1.0, 0.0, 0.0]"),
+    ("stiffness missing", _set(["stiffness"], DEL), "system.stiffness", "missing"),
+    ("damping shape", _set(["damping"], [[0.05]]), "system.damping", "[[0.05]]"),
+    ("damping nan", _set(["damping", 0, 1], NAN), "system.damping.x.y", "nan"),
+    ("damping not a list", _set(["damping"], 0.1), "system.damping", "0.1"),
+    ("forcing not a list", _set(["forcing"], {"on": "x"}), "system.forcing", "{'on': 'x'}"),
+    ("forcing entry", _set(["forcing", 0], 0.7), "system.forcing.0", "0.7"),
+    ("forcing on", _set(["forcing", 0, "on"], "z"), "system.forcing.0.on", "'z'"),
+    ("forcing on a number", _set(["forcing", 0, "on"], 0), "system.forcing.0.on", "0"),
+    ("forcing on missing", _set(["forcing", 0, "on"], DEL), "system.forcing.0.on", "missing"),
+    ("forcing F string", _set(["forcing", 0, "F"], "0.7"), "system.forcing.0.F", "'0.7'"),
+    ("forcing F missing", _set(["forcing", 0, "F"], DEL), "system.forcing.0.F", "missing"),
+    ("forcing Omega < 0", _set(["forcing", 0, "Omega"], -0.9), "system.forcing.0.Omega", "-0.9"),
+    ("forcing phi inf", _set(["forcing", 0, "phi"], INF), "system.forcing.0.phi", "inf"),
+    ("forcing unknown", _set(["forcing", 0, "omega"], 1.0), "system.forcing.0.omega", "did you mean 'Omega'"),
+    ("contacts too many", _set(["contact"], NINE), "system.contact", f"{MAX_CONTACTS + 1} contacts"),
+    ("contact not a list", _set(["contact"], {"name": "R"}), "system.contact", "{'name': 'R'}"),
+    ("contact not a table", _set(["contact", 1], "L"), "system.contact.1", "'L'"),
+    ("contact name long", _set(["contact", 0, "name"], "RR"), "system.contact.0.name", "'RR'"),
+    ("contact name digit", _set(["contact", 0, "name"], "1"), "system.contact.0.name", "'1'"),
+    ("contact name greek", _set(["contact", 0, "name"], "α"), "system.contact.0.name", "'α'"),
+    ("contact name missing", _set(["contact", 0, "name"], DEL), "system.contact.0.name", "missing"),
+    ("contact name twice", _set(["contact", 1, "name"], "R"), "system.contact.1.name", "'R'"),
+    ("gap unknown dof", _set(["contact", 0, "gap", "z"], 1.0), "system.contact.R.gap.z", "'z'"),
+    ("gap all zero", _set(["contact", 0, "gap"], {"x": 0.0, "y": 0.0}), "system.contact.R.gap",
+     "{'x': 0.0, 'y': 0.0}"),
+    ("gap empty", _set(["contact", 0, "gap"], {}), "system.contact.R.gap", "{}"),
+    ("gap length", _set(["contact", 0, "gap"], [1.0]), "system.contact.R.gap", "[1.0]"),
+    ("gap list zero", _set(["contact", 0, "gap"], [0.0, 0]), "system.contact.R.gap", "[0.0, 0]"),
+    ("gap nan", _set(["contact", 0, "gap", "x"], NAN), "system.contact.R.gap.x", "nan"),
+    ("gap bool", _set(["contact", 0, "gap", "x"], False), "system.contact.R.gap.x", "False"),
+    ("gap missing", _set(["contact", 0, "gap"], DEL), "system.contact.R.gap", "missing"),
+    ("gap a number", _set(["contact", 0, "gap"], 1.0), "system.contact.R.gap", "1.0"),
+    ("law unknown", _set(["contact", 0, "law"], "impakt"), "system.contact.R.law", "'impakt'"),
+    ("r > 1", _set(["contact", 0, "r"], 1.5), "system.contact.R.r", "1.5"),
+    ("r < 0", _set(["contact", 0, "r"], -0.1), "system.contact.R.r", "-0.1"),
+    ("r with a spring", _set(["contact", 1, "r"], 0.5), "system.contact.L.r", "0.5"),
+    ("k with an impact", _set(["contact", 0, "k"], 50.0), "system.contact.R.k", "50.0"),
+    ("k = 0", _set(["contact", 1, "k"], 0.0), "system.contact.L.k", "0.0"),
+    ("k missing", _set(["contact", 1, "k"], DEL), "system.contact.L.k", "missing"),
+    ("c < 0", _set(["contact", 1, "c"], -0.1), "system.contact.L.c", "-0.1"),
+    ("obstacle unknown", _set(["contact", 0, "obstacle"], "sin"), "system.contact.R.obstacle", "'sin'"),
+    ("obstacle profile", _set(["contact", 0, "obstacle"], "profile"), "system.contact.R.obstacle",
+     "'profile'"),
+    ("obstacle a number", _set(["contact", 0, "obstacle"], 1), "system.contact.R.obstacle", "1"),
+    ("fixed with beta", _set(["contact", 0, "beta"], 0.5), "system.contact.R.beta", "0.5"),
+    ("fixed with omega", _set(["contact", 0, "omega"], 2.0), "system.contact.R.omega", "2.0"),
+    ("moving omega 0", _set(["contact", 0], {**MOVING, "omega": 0.0}), "system.contact.R.omega", "0.0"),
+    ("moving omega missing", _set(["contact", 0], {k: v for k, v in MOVING.items() if k != "omega"}),
+     "system.contact.R.omega", "missing"),
+    ("moving beta nan", _set(["contact", 0], {**MOVING, "beta": NAN}), "system.contact.R.beta", "nan"),
+    ("moving beta missing", _set(["contact", 0], {k: v for k, v in MOVING.items() if k != "beta"}),
+     "system.contact.R.beta", "missing"),
+    ("kappa string", _set(["contact", 0, "kappa"], "-0.4"), "system.contact.R.kappa", "'-0.4'"),
+    ("contact unknown", _set(["contact", 0, "kapa"], 1.0), "system.contact.R.kapa", "did you mean 'kappa'"),
+    ("system unknown", _set(["stifness"], 1.0), "system.stifness", "did you mean 'stiffness'"),
+]
+
+
+@pytest.mark.parametrize("change,key,value", [r[1:] for r in REFUSALS], ids=[r[0] for r in REFUSALS])
+def test_refusals_name_the_key_and_the_value(change, key, value):
+    """Each bad value is refused (no system) by a problem that starts with its key path and
+    shows the value."""
+    t = sketch()
+    change(t)
+    s, problems = read_system(t)
+    assert s is None
+    assert any(p.startswith(key + ":") and value in p for p in problems), problems
+
+
+def test_a_table_that_is_not_one_is_refused():
+    """[system] given as something else than a table."""
+    assert read_system([1, 2]) == (None, ["system: [1, 2] must be a table"])
+
+
+def test_every_path_of_the_sketch_round_trips():
+    """numeric_paths names every number of the sketch, the issue's names among them; setting
+    each by with_value changes that number (and a symmetric matrix's mirror entry) only,
+    in a copy."""
+    t = sketch()
+    paths = numeric_paths(t)
+    assert {"forcing.0.Omega", "contact.R.kappa", "mass.y", "stiffness.x.x", "damping.x.y",
+            "contact.R.gap.x", "contact.L.k", "contact.L.c", "contact.R.r"} <= set(paths)
+    assert len(paths) == 2 + 4 + 4 + 3 + 4 + 5     # mass, K, C, forcing, R, L
+    assert paths["mass.y"] == 0.1 and paths["contact.R.gap.x"] == -1.0
+    for path, v in paths.items():
+        new = with_value(t, path, v + 0.125)
+        got = numeric_paths(new)
+        assert got[path] == v + 0.125
+        head, *ij = path.split(".")
+        mirror = f"{head}.{ij[1]}.{ij[0]}" if head in ("mass", "stiffness") and len(ij) == 2 else path
+        changed = {p for p in paths if got[p] != paths[p]}
+        assert changed == {path, mirror}, path
+        assert numeric_paths(t) == paths             # the original is untouched
+
+
+def test_with_value_keeps_stiffness_symmetric_and_damping_not():
+    """"stiffness.x.y" sets K_xy and K_yx; "damping.x.y" sets C_xy alone."""
+    t = with_value(sketch(), "stiffness.x.y", 0.25)
+    assert t["stiffness"] == [[1.0, 0.25], [0.25, 0.0]]
+    t = with_value(t, "stiffness.y.y", 1.0)
+    s, problems = read_system(t)
+    assert problems == [] and s.stiffness[0, 1] == s.stiffness[1, 0] == 0.25
+    t = with_value(sketch(), "damping.x.y", 0.01)
+    assert t["damping"] == [[0.05, 0.01], [0.0, 0.0]]
+
+
+def test_with_value_sweeps_a_list_gap_and_a_moving_obstacle():
+    """A gap given as a list is still named by dof; the paper's flow's omega is a path."""
+    t = paper_flow()
+    t["contact"][0]["gap"] = [1.0]
+    assert with_value(t, "contact.A.gap.u", 2.0)["contact"][0]["gap"] == [2.0]
+    assert read_system(with_value(t, "contact.A.omega", 1.9))[0].contacts[0].omega == 1.9
+
+
+@pytest.mark.parametrize("path", ["stiffness.x.z", "contact.R.kapa", "contact.L.r", "mass.x.y", "dofs"])
+def test_an_unknown_path_raises_a_key_error_naming_it(path):
+    """A path that is not a number of the table (a typo; a default not written, r of L; an
+    entry off a diagonal mass; a name, not a number) is a KeyError naming it."""
+    with pytest.raises(KeyError) as e:
+        with_value(sketch(), path, 1.0)
+    assert repr(path) in str(e.value)
+    if path == "contact.R.kapa":
+        assert "contact.R.kappa" in str(e.value)
+
+
+def test_no_numba_is_loaded():
+    """Reading a scene's system imports no numba (the issue: checking a scene is quick)."""
+    code = ("import sys, tomllib; from cornerbif.models.linear.declare import read_system; "
+            f"assert read_system(tomllib.loads({SKETCH!r})['system'])[1] == []; "
+            "assert 'numba' not in sys.modules, 'numba imported'")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# ------------------------------------------------------------------ random systems
+FLOATS = st.floats(-2.0, 2.0, allow_subnormal=False)
+
+
+@st.composite
+def systems(draw):
+    """A random valid [system] table: N = 1..6, M = A A^T + I (not symmetrized: its rounding
+    is tolerated), K = B B^T of any rank, any C, forces and contacts."""
+    n = draw(st.integers(1, MAX_DOFS))
+    dofs = [f"q{i}" for i in range(n)]
+    A = np.array(draw(st.lists(FLOATS, min_size=n * n, max_size=n * n))).reshape(n, n)
+    rank = draw(st.integers(0, n))
+    B = np.array(draw(st.lists(FLOATS, min_size=n * rank, max_size=n * rank))).reshape(n, rank)
+    C = draw(st.lists(FLOATS, min_size=n * n, max_size=n * n))
+    table = {"dofs": dofs, "mass": (A @ A.T + np.eye(n)).tolist(), "stiffness": (B @ B.T).tolist(),
+             "damping": np.array(C).reshape(n, n).tolist(),
+             "forcing": [{"on": draw(st.sampled_from(dofs)), "F": f, "Omega": abs(o)}
+                         for f, o in draw(st.lists(st.tuples(FLOATS, FLOATS), max_size=3))]}
+    contacts = []
+    for name in draw(st.lists(st.sampled_from("ABCDEFGHxyz"), unique=True, max_size=MAX_CONTACTS)):
+        gap = dict(zip(dofs, draw(st.lists(FLOATS, min_size=n, max_size=n))))
+        gap[draw(st.sampled_from(dofs))] = 1.0         # not all zero
+        c = {"name": name, "gap": gap, "kappa": draw(FLOATS)}
+        if draw(st.booleans()):
+            c.update(obstacle=draw(st.sampled_from(["sine", "rectified_sine", "triangle"])),
+                     beta=draw(FLOATS), omega=draw(st.floats(0.1, 5.0)))
+        if draw(st.booleans()):
+            c.update(law="spring", k=draw(st.floats(0.1, 100.0)), c=draw(st.floats(0.0, 1.0)))
+        else:
+            c["r"] = draw(st.floats(0.0, 1.0))
+        contacts.append(c)
+    table["contact"] = contacts
+    return table
+
+
+@settings(max_examples=150, deadline=None)
+@given(systems())
+def test_random_valid_systems_parse(table):
+    """Every random valid table parses, into arrays of the declared size."""
+    s, problems = read_system(table)
+    assert problems == []
+    assert s.mass.shape == s.stiffness.shape == s.damping.shape == (s.n, s.n)
+    assert len(s.contacts) == len(table["contact"])
+    for path, v in numeric_paths(table).items():      # and every number has a path
+        assert numeric_paths(with_value(table, path, v)) == numeric_paths(table)
+
+
+@settings(max_examples=100, deadline=None)
+@given(systems().filter(lambda t: len(t["dofs"]) >= 2), st.data())
+def test_a_random_non_symmetric_mass_is_refused(table, data):
+    """Moving one off-diagonal mass entry by more than rounding is refused as not symmetric."""
+    n = len(table["dofs"])
+    i, j = data.draw(st.sampled_from([(i, j) for i in range(n) for j in range(n) if i != j]))
+    m = copy.deepcopy(table["mass"])
+    scale = max(abs(x) for row in m for x in row)
+    m[i][j] += data.draw(st.sampled_from([-1, 1])) * data.draw(st.floats(1e-9, 1.0)) * scale
+    table["mass"] = m
+    s, problems = read_system(table)
+    assert s is None
+    assert any(p.startswith(f"system.mass: {shown(m)} is not symmetric") for p in problems), problems
