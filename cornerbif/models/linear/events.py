@@ -71,6 +71,10 @@ class ContactObstacle:
             a = max(a, b)
             j += 1
 
+    def piece_at(self, t):
+        """The piece index and local time of time t."""
+        return piece_at(self.d, t)
+
     def state(self, j, t):
         """z, z' on piece j at time t."""
         z, zp, _, _ = z_state(self.row, j, t - piece_start(self.d, j))
