@@ -1,0 +1,298 @@
+"""The event loop of a linear vibro-impact system, jitted (issue 33; not yet a model's kernel:
+``run`` is called with the arrays ``prepare`` builds).  The method of ``events.py`` and
+``simulate.py``, with no matrix exponential inside the loop:
+
+**A ladder of flights.**  Every interval the certified search looks at is a dyadic part of a
+chunk of length H = 1 / |A|: [p + i H / 2^k, p + (i + 1) H / 2^k].  So the flights it needs
+are E_k = expm(A H / 2^k), k = 0 .. LEVELS, computed once per system (``prepare``, by
+``flight.expm``); the state at the right half's start is E_(k+1) y at the left's.  A flight
+of any length L = H (m + f) is E_0^m times the E_k of f's binary digits (``advance``): 52
+digits resolve f to the last bit, so the loop multiplies matrices by vectors and nothing
+else.
+
+**The search** (per contact, per chunk [p, q], q - p <= H, inside one smooth piece of every
+contact's obstacle) is ``events._search``'s halving on the ladder: the Taylor bound of |g''|
+with its remainder, no root where the concave lower bound stays positive, the left half
+first.  The chunk's dyadic intervals may pass q (the piece's end): there the piece's own
+formula is continued, whose |z''| stays within the sinusoid's beta omega^2 (a triangle's
+0), so a proof of no root holds on [a, q]; a sign change past q is not an event of the
+piece (the next chunk's piece decides).  A root resolved to an interval of width ``tol``:
+an impact at its right end; a touch whose ends are both above zero: a graze, applied as an
+impact when the relative velocity there approaches (w- < 0), else stepped over.
+
+Obstacles are evaluated by ``obstacles.dispatch`` on each contact's packed row (the flow's
+kinds; a cam profile not yet).  Simultaneous events: the earliest, ties in the order of the
+contacts.  Chattering (a rebound w+ <= ``chatter``) ends the run (CHATTERS), as do soft
+stops (not here) and the time budget.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..._jit import jit
+from ...numerics.oscillator import derive
+from ...obstacles.dispatch import NDERIVED, piece_at, piece_length, piece_start, z_state, zpp_range
+from ..flow.params import NPARAM, pack
+from .events import TAYLOR_TERMS
+from .flight import augmented, expm, forcing_state
+
+LEVELS = 52                 # the ladder E_0 .. E_LEVELS: H / 2^52 resolves a chunk to its bit
+NONE, IMPACT, GRAZE = 0, 1, 2
+OK, CHATTERS, BUDGET = 0, 1, 2
+
+
+def prepare(system, t0, x0, v0, tol=1e-12):
+    """The arrays of ``run`` for one system and start: a dict (module docstring)."""
+    A = augmented(system)
+    m = A.shape[0]
+    normA = float(np.linalg.norm(A, 2))
+    H = 1.0 / max(normA, 1e-300)
+    E = np.empty((LEVELS + 1, m, m))
+    for k in range(LEVELS + 1):
+        E[k] = expm(A * (H / 2.0 ** k))
+    nc = len(system.contacts)
+    cA = np.zeros((nc, TAYLOR_TERMS + 3, m))
+    rows = np.zeros((nc, NPARAM))
+    ds = np.zeros((nc, NDERIVED))
+    D = np.zeros((nc, system.n))
+    for i, c in enumerate(system.contacts):
+        row = np.zeros(m)
+        row[:system.n] = c.gap
+        for k in range(TAYLOR_TERMS + 3):
+            cA[i, k] = row
+            row = row @ A
+        kind, beta, omega = c.obstacle, c.beta, c.omega
+        if kind == "fixed":
+            kind, beta, omega = "sine", 0.0, 1.0
+        rows[i] = pack({"omega": omega, "kappa": c.kappa, "beta": beta}, kind, tol, 1e-6, 1e6,
+                       None)
+        ds[i] = derive(rows[i])
+        D[i] = np.linalg.solve(system.mass, c.gap)
+    y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float),
+                         forcing_state(system, t0)])
+    return {"E": E, "H": H, "normA": normA, "cA": cA,
+            "normc": np.array([np.linalg.norm(c.gap) for c in system.contacts]),
+            "rows": rows, "ds": ds, "gaps": np.array([c.gap for c in system.contacts], float),
+            "D": D, "r": np.array([c.r for c in system.contacts], float), "y0": y0,
+            "t0": float(t0), "n": system.n}
+
+
+@jit
+def matvec(E, k, y, out):
+    """out = E[k] y."""
+    m = y.shape[0]
+    for i in range(m):
+        s = 0.0
+        for j in range(m):
+            s += E[k, i, j] * y[j]
+        out[i] = s
+
+
+@jit
+def advance(E, H, y, length, tmp):
+    """y <- the state ``length`` later: E_0^floor(length / H), then the E_k of the binary
+    digits of the rest (module docstring)."""
+    x = length / H
+    whole = int(math.floor(x))
+    f = x - whole
+    for _ in range(whole):
+        matvec(E, 0, y, tmp)
+        y[:] = tmp
+    for k in range(1, E.shape[0]):
+        f *= 2.0
+        if f >= 1.0:
+            matvec(E, k, y, tmp)
+            y[:] = tmp
+            f -= 1.0
+
+
+@jit
+def gap_at(cA, i, y, row, d, j, t):
+    """Contact i's gap and its rate at time t on its obstacle's piece j, from the state y."""
+    gy = 0.0
+    gpy = 0.0
+    for k in range(y.shape[0]):
+        gy += cA[i, 0, k] * y[k]
+        gpy += cA[i, 1, k] * y[k]
+    z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
+    return gy - z, gpy - zp
+
+
+@jit
+def bound2(cA, i, y, h, normc, normA, zpp):
+    """A bound of |g''| over [p, p + h] from the state y at p (events.py's series with its
+    remainder)."""
+    J = cA.shape[1] - 2
+    total = 0.0
+    fact = 1.0
+    for jj in range(J):
+        s = 0.0
+        for k in range(y.shape[0]):
+            s += cA[i, jj + 2, k] * y[k]
+        total += abs(s) * fact
+        fact *= h / (jj + 1)
+    ny = 0.0
+    for k in range(y.shape[0]):
+        ny += y[k] * y[k]
+    rem = normc * normA ** (J + 2) * math.sqrt(ny) * fact * math.exp(normA * h)
+    return total + rem + zpp
+
+
+@jit
+def piece_zpp(row, j):
+    lo, hi = zpp_range(row, j)
+    return max(abs(lo), abs(hi), abs(row[2]) * row[0] * row[0])
+
+
+@jit
+def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y, tmp):
+    """The first event of contact i in [p, q] (q - p <= H) on its piece j from the state yp
+    at p: (kind, time, state there in tmp)."""
+    zpp = piece_zpp(row, j)
+    top = 0
+    st_a[0] = p
+    st_k[0] = 0
+    st_y[0, :] = yp
+    while top >= 0:
+        a = st_a[top]
+        k = st_k[top]
+        ya = st_y[top].copy()
+        top -= 1
+        if a >= q:
+            continue
+        h = H / 2.0 ** k
+        ga, g1 = gap_at(cA, i, ya, row, d, j, a)
+        B = bound2(cA, i, ya, h, normc, normA, zpp)
+        if min(ga, ga + g1 * h - B * h * h / 2.0) > 0.0:
+            continue
+        if ga <= 0.0:
+            tmp[:] = ya
+            return IMPACT, a
+        if h <= tol or k == LEVELS:
+            # as fine as asked: the right end's sign (at q where the interval passes it)
+            b = min(a + h, q)
+            tmp[:] = ya
+            advance(E, H, tmp, b - a, st_y[top + 1])
+            gb, _ = gap_at(cA, i, tmp, row, d, j, b)
+            if gb <= 0.0:
+                return IMPACT, b
+            if b < q:
+                tmp[:] = ya
+                return GRAZE, a
+            continue
+        # the right half under the left
+        matvec(E, k + 1, ya, tmp)
+        top += 1
+        st_a[top] = a + h / 2.0
+        st_k[top] = k + 1
+        st_y[top, :] = tmp
+        top += 1
+        st_a[top] = a
+        st_k[top] = k + 1
+        st_y[top, :] = ya
+    return NONE, math.inf
+
+
+@jit
+def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, count, tol, chatter, t_max,
+        o_t, o_c, o_x, o_vin, o_vout):
+    """Up to ``count`` impacts from y0 at t0 (module docstring) into the outputs: (status,
+    impacts recorded)."""
+    m = y0.shape[0]
+    nc = gaps.shape[0]
+    y = y0.copy()
+    t = t0
+    tmp = np.empty(m)
+    best_y = np.empty(m)
+    st_a = np.empty(2 * LEVELS + 4)
+    st_k = np.empty(2 * LEVELS + 4, np.int64)
+    st_y = np.empty((2 * LEVELS + 4, m))
+    js = np.empty(nc, np.int64)
+    recorded = 0
+    while recorded < count:
+        if t > t_max:
+            return BUDGET, recorded
+        # the chunk: at most H, inside one piece of every contact's obstacle
+        q = t + H
+        for i in range(nc):
+            j, _ = piece_at(ds[i], t)
+            js[i] = j
+            q = min(q, piece_start(ds[i], j) + piece_length(ds[i], j))
+        if q <= t:
+            q = t + H * 1e-12
+        best = math.inf
+        bi = -1
+        bkind = NONE
+        for i in range(nc):
+            p = t
+            yp = y.copy()
+            g0, g1 = gap_at(cA, i, y, rows[i], ds[i], js[i], t)
+            if g0 <= 0.0:
+                if g1 <= 0.0:
+                    if 0.0 < best:
+                        best, bi, bkind = 0.0, i, IMPACT
+                        best_y[:] = y
+                    continue
+                # leaving the obstacle: free until g' / B at least (events.py)
+                B = bound2(cA, i, y, q - t, normc[i], normA, piece_zpp(rows[i], js[i]))
+                s = g1 / B
+                if t + s >= q:
+                    continue
+                advance(E, H, yp, s, tmp)
+                p = t + s
+            kind, te = search(E, H, cA, i, normc[i], normA, rows[i], ds[i], js[i], p, yp, q,
+                              tol, st_a, st_k, st_y, tmp)
+            if kind != NONE and te - t < best:
+                best, bi, bkind = te - t, i, kind
+                best_y[:] = tmp
+        if bi < 0:
+            advance(E, H, y, q - t, tmp)
+            t = q
+            continue
+        te = t + best                 # (a graze: its interval's start, where best_y is)
+        y[:] = best_y
+        j = js[bi]
+        _, zp, _, _ = z_state(rows[bi], j, te - piece_start(ds[bi], j))
+        w = 0.0
+        for k in range(n):
+            w += gaps[bi, k] * y[n + k]
+        w -= zp
+        if bkind == GRAZE and w >= 0.0:
+            # a touch moving away: no impact; on past it
+            advance(E, H, y, 2.0 * tol, tmp)
+            t = te + 2.0 * tol
+            continue
+        ad = 0.0
+        for k in range(n):
+            ad += gaps[bi, k] * D[bi, k]
+        for k in range(n):
+            o_vin[recorded, k] = y[n + k]
+            y[n + k] -= (1.0 + r[bi]) * w * D[bi, k] / ad
+            o_vout[recorded, k] = y[n + k]
+            o_x[recorded, k] = y[k]
+        o_t[recorded] = te
+        o_c[recorded] = bi
+        recorded += 1
+        t = te
+        if -r[bi] * w <= chatter:
+            return CHATTERS, recorded
+    return OK, recorded
+
+
+def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4):
+    """``run`` for one system and start: (status, dict of the recorded impacts: t, contact
+    (names), x, v_in, v_out)."""
+    a = prepare(system, t0, x0, v0, tol)
+    n = system.n
+    o_t = np.full(count, np.nan)
+    o_c = np.full(count, -1, np.int64)
+    o_x, o_vin, o_vout = (np.full((count, n), np.nan) for _ in range(3))
+    st, k = run(a["E"], a["H"], a["normA"], a["cA"], a["normc"], a["rows"], a["ds"], a["gaps"],
+                a["D"], a["r"], a["y0"], a["t0"], n, count, tol, chatter, t_max, o_t, o_c, o_x,
+                o_vin, o_vout)
+    names = [system.contacts[i].name for i in o_c[:k]]
+    return st, {"t": o_t[:k], "contact": names, "x": o_x[:k], "v_in": o_vin[:k],
+                "v_out": o_vout[:k]}

@@ -1,0 +1,90 @@
+"""The linear system's jitted event loop (cornerbif/models/linear/kernel.py, issue 33), which
+searches on a ladder of precomputed flights instead of a matrix exponential per step,
+against the engine's kernels where the paper's systems are special cases, and against the
+pure-numpy run (simulate.py, checked itself against the 30-digit reference)."""
+
+import numpy as np
+import pytest
+
+import cornerbif
+from cornerbif.models.linear.kernel import CHATTERS, OK, run_system
+from cornerbif.models.linear.simulate import simulate
+from cornerbif.models.linear.system import Contact, Forcing, LinearSystem
+
+
+def _one_mass(obstacle, omega, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0):
+    forcing = (Forcing(0, F, Omega, phi),) if F else ()
+    return LinearSystem(("u",), np.array([[1.0]]), np.array([[k * k]]),
+                        np.array([[2.0 * sigma]]), forcing,
+                        (Contact("R", np.array([1.0]), obstacle, 0.0, 1.0, omega, r=0.8),))
+
+
+@pytest.mark.parametrize("obstacle, omega, extra", [
+    ("rectified_sine", 1.8, {}),
+    ("rectified_sine", 2.3, {"sigma": 0.05, "k": 1.2, "F": 0.5, "Omega": 1.3, "phi": 0.2}),
+    ("triangle", 1.9, {}),
+    ("sine", 1.5, {}),
+])
+def test_one_mass_is_the_flow_kernel(obstacle, omega, extra):
+    """20 impacts from (5, 0): times and velocities equal the flow kernel's to 1e-10 (both
+    resolve impact times to 1e-12; by the 30th the difference has grown to 1.3e-10 on the
+    damped, forced case)."""
+    st, out = run_system(_one_mass(obstacle, omega, **extra), 0.0, [5.0], [0.0], 20)
+    assert st == OK and len(out["t"]) == 20
+    ref = cornerbif.simulate(5.0, 0.0, model="flow", obstacle=obstacle, omega=omega, kappa=0.0,
+                             beta=1.0, r=0.8, record=20, **extra)
+    np.testing.assert_allclose(out["t"], np.ravel(ref["t"]), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(out["v_out"][:, 0], np.ravel(ref["v_out"]), rtol=0, atol=1e-10)
+
+
+def test_two_masses_are_the_two_particle_kernel():
+    """Fig. 19(a)'s system at omega0 = 2 (two coordinates, the wall W and the pair U):
+    10 u-z and 10 w-z impacts equal the two-particle kernel's to 1e-10, in order."""
+    mu, w1, w2 = 1000.0, 1.001, 1.0
+    s = LinearSystem(("z", "u"), np.diag([1.0, 1.0 / mu]), np.diag([w1 * w1, w2 * w2 / mu]),
+                     np.zeros((2, 2)), (),
+                     (Contact("W", np.array([1.0, 0.0]), "sine", 0.0, 1.0, 2.0, r=0.8),
+                      Contact("U", np.array([-1.0, 1.0]), "fixed", 0.0, r=0.8)))
+    st, out = run_system(s, 0.0, [1.0, 15.0], [0.5, 0.0], 20)
+    assert st == OK
+    ref = cornerbif.simulate(1.0, 0.5, 15.0, 0.0, model="two_particle", omega0=2.0, omega1=w1,
+                             omega2=w2, mu=mu, r1=0.8, r2=0.8, kappa=0.0, beta=1.0, record=20)
+    u = [k for k, c in enumerate(out["contact"]) if c == "U"][:10]
+    w = [k for k, c in enumerate(out["contact"]) if c == "W"][:10]
+    np.testing.assert_allclose(out["t"][u], np.ravel(ref["t"])[:10], atol=1e-10, rtol=0)
+    np.testing.assert_allclose(out["v_out"][u, 1], np.ravel(ref["v_out"])[:10], atol=1e-10,
+                               rtol=0)
+    np.testing.assert_allclose(out["t"][w], np.ravel(ref["wz_t"])[:10], atol=1e-10, rtol=0)
+
+
+def test_an_impact_damper_equals_the_numpy_run():
+    """The impact damper of test_linear_simulate.py (a forced, damped primary and a free
+    mass in its cavity, r = 0.5): both runs find the same 27 impacts on the same contacts,
+    the last 20 a chattering sequence on L that ends both runs (CHATTERS); the first 20
+    impacts' times and velocities equal to 1e-9 (a chattering sequence magnifies the 1e-12
+    of each impact time: 8e-9 at the 27th)."""
+    s = LinearSystem(("x", "y"), np.diag([1.0, 0.1]), np.diag([1.0, 0.0]),
+                     np.diag([0.05, 0.0]), (Forcing(0, 0.7, 0.9, 0.0),),
+                     (Contact("R", np.array([-1.0, 1.0]), "fixed", -0.4, r=0.5),
+                      Contact("L", np.array([1.0, -1.0]), "fixed", -0.4, r=0.5)))
+    st, out = run_system(s, 0.0, [0.0, 0.0], [0.0, 0.0], 40)
+    imp, why = simulate(s, [0.0, 0.0], [0.0, 0.0], 0.0, 40)
+    assert st == CHATTERS and "chatters on contact L" in why and len(imp) == len(out["t"]) == 27
+    assert out["contact"] == [i.contact for i in imp]
+    np.testing.assert_allclose(out["t"][:20], [i.t for i in imp[:20]], atol=1e-9, rtol=0)
+    np.testing.assert_allclose(out["v_out"][:20], [i.v_out for i in imp[:20]], atol=1e-9, rtol=0)
+
+
+def test_a_chattering_ball_ends_the_run_saying_so():
+    """A ball under gravity on a floor with r = 0.5: its rebounds fall geometrically
+    (v_k = 0.5^k v_0), and the run ends (CHATTERS) at the first rebound below 1e-6, after
+    ceil(log(1e-6 / v_0) / log 0.5) impacts with v_0 = sqrt(2) r (each rebound to 1e-9, or
+    1e-11 absolute: an impact time's 1e-12 under gravity 1)."""
+    s = LinearSystem(("u",), np.array([[1.0]]), np.array([[0.0]]), np.array([[0.0]]),
+                     (Forcing(0, -1.0),), (Contact("R", np.array([1.0]), "fixed", 0.0, r=0.5),))
+    st, out = run_system(s, 0.0, [1.0], [0.0], 200)
+    v0 = np.sqrt(2.0) * 0.5
+    assert st == CHATTERS
+    assert len(out["t"]) == int(np.ceil(np.log(1e-6 / v0) / np.log(0.5))) + 1
+    np.testing.assert_allclose(out["v_out"][:, 0], v0 * 0.5 ** np.arange(len(out["t"])),
+                               rtol=1e-9, atol=1e-11)
