@@ -3,6 +3,8 @@ searches on a ladder of precomputed flights instead of a matrix exponential per 
 against the engine's kernels where the paper's systems are special cases, and against the
 pure-numpy run (simulate.py, checked itself against the 30-digit reference)."""
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -11,12 +13,8 @@ from cornerbif.models.linear.kernel import CHATTERS, OK, run_system
 from cornerbif.models.linear.simulate import simulate
 from cornerbif.models.linear.system import Contact, Forcing, LinearSystem
 
-
-def _one_mass(obstacle, omega, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0):
-    forcing = (Forcing(0, F, Omega, phi),) if F else ()
-    return LinearSystem(("u",), np.array([[1.0]]), np.array([[k * k]]),
-                        np.array([[2.0 * sigma]]), forcing,
-                        (Contact("R", np.array([1.0]), obstacle, 0.0, 1.0, omega, r=0.8),))
+sys.path.insert(0, __file__.rsplit("/", 2)[0])
+from linear_systems import MU, OMEGA1, OMEGA2, impact_damper, one_mass, two_particles  # noqa: E402
 
 
 @pytest.mark.parametrize("obstacle, omega, extra", [
@@ -29,7 +27,7 @@ def test_one_mass_is_the_flow_kernel(obstacle, omega, extra):
     """20 impacts from (5, 0): times and velocities equal the flow kernel's to 1e-10 (both
     resolve impact times to 1e-12; by the 30th the difference has grown to 1.3e-10 on the
     damped, forced case)."""
-    st, out = run_system(_one_mass(obstacle, omega, **extra), 0.0, [5.0], [0.0], 20)
+    st, out = run_system(one_mass(obstacle, omega, **extra), 0.0, [5.0], [0.0], 20)
     assert st == OK and len(out["t"]) == 20
     ref = cornerbif.simulate(5.0, 0.0, model="flow", obstacle=obstacle, omega=omega, kappa=0.0,
                              beta=1.0, r=0.8, record=20, **extra)
@@ -40,11 +38,8 @@ def test_one_mass_is_the_flow_kernel(obstacle, omega, extra):
 def test_two_masses_are_the_two_particle_kernel():
     """Fig. 19(a)'s system at omega0 = 2 (two coordinates, the wall W and the pair U):
     10 u-z and 10 w-z impacts equal the two-particle kernel's to 1e-10, in order."""
-    mu, w1, w2 = 1000.0, 1.001, 1.0
-    s = LinearSystem(("z", "u"), np.diag([1.0, 1.0 / mu]), np.diag([w1 * w1, w2 * w2 / mu]),
-                     np.zeros((2, 2)), (),
-                     (Contact("W", np.array([1.0, 0.0]), "sine", 0.0, 1.0, 2.0, r=0.8),
-                      Contact("U", np.array([-1.0, 1.0]), "fixed", 0.0, r=0.8)))
+    mu, w1, w2 = MU, OMEGA1, OMEGA2
+    s = two_particles()
     st, out = run_system(s, 0.0, [1.0, 15.0], [0.5, 0.0], 20)
     assert st == OK
     ref = cornerbif.simulate(1.0, 0.5, 15.0, 0.0, model="two_particle", omega0=2.0, omega1=w1,
@@ -63,10 +58,7 @@ def test_an_impact_damper_equals_the_numpy_run():
     the last 20 a chattering sequence on L that ends both runs (CHATTERS); the first 20
     impacts' times and velocities equal to 1e-9 (a chattering sequence magnifies the 1e-12
     of each impact time: 8e-9 at the 27th)."""
-    s = LinearSystem(("x", "y"), np.diag([1.0, 0.1]), np.diag([1.0, 0.0]),
-                     np.diag([0.05, 0.0]), (Forcing(0, 0.7, 0.9, 0.0),),
-                     (Contact("R", np.array([-1.0, 1.0]), "fixed", -0.4, r=0.5),
-                      Contact("L", np.array([1.0, -1.0]), "fixed", -0.4, r=0.5)))
+    s = impact_damper()
     st, out = run_system(s, 0.0, [0.0, 0.0], [0.0, 0.0], 40)
     imp, why = simulate(s, [0.0, 0.0], [0.0, 0.0], 0.0, 40)
     assert st == CHATTERS and "chatters on contact L" in why and len(imp) == len(out["t"]) == 27

@@ -13,17 +13,10 @@ import numpy as np
 import pytest
 
 import cornerbif
-from cornerbif.models.linear.system import Contact, Forcing, LinearSystem
 
 sys.path.insert(0, __file__.rsplit("/", 2)[0])
 from linear_reference import Reference  # noqa: E402
-
-
-def _one_mass(obstacle, omega, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0, r=0.8):
-    forcing = (Forcing(0, F, Omega, phi),) if F else ()
-    return LinearSystem(("u",), np.array([[1.0]]), np.array([[k * k]]),
-                        np.array([[2.0 * sigma]]), forcing,
-                        (Contact("R", np.array([1.0]), obstacle, 0.0, 1.0, omega, r=r),))
+from linear_systems import MU, OMEGA1, OMEGA2, one_mass, two_particles  # noqa: E402
 
 
 @pytest.mark.parametrize("obstacle, omega, extra, count", [
@@ -36,7 +29,7 @@ def _one_mass(obstacle, omega, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0, r=0.
 def test_one_mass_is_the_flow_model(obstacle, omega, extra, count):
     """u'' + 2 sigma u' + k^2 u = F cos(Omega t + phi) against the obstacle, from (5, 0):
     the first impacts' times, heights and velocities equal the flow kernel's to 1e-10."""
-    ref = Reference(_one_mass(obstacle, omega, **extra)).impacts(0.0, [5.0], [0.0], count)
+    ref = Reference(one_mass(obstacle, omega, **extra)).impacts(0.0, [5.0], [0.0], count)
     out = cornerbif.simulate(5.0, 0.0, model="flow", obstacle=obstacle, omega=omega, kappa=0.0,
                              beta=1.0, r=0.8, record=count, **extra)
     got = np.array([np.ravel(out[k])[:count] for k in ("t", "u", "v_in", "v_out")])
@@ -51,11 +44,8 @@ def test_two_masses_are_the_two_particle_model():
     u'' + omega2^2 u = 0) above z (gap u - z, law 74 with r2), as a linear system of two
     coordinates and two contacts: the first 6 u-z and 6 w-z impacts equal the two-particle
     kernel's to 1e-10."""
-    mu, w1, w2 = 1000.0, 1.001, 1.0
-    s = LinearSystem(("z", "u"), np.diag([1.0, 1.0 / mu]), np.diag([w1 * w1, w2 * w2 / mu]),
-                     np.zeros((2, 2)), (),
-                     (Contact("W", np.array([1.0, 0.0]), "sine", 0.0, 1.0, 2.0, r=0.8),
-                      Contact("U", np.array([-1.0, 1.0]), "fixed", 0.0, r=0.8)))
+    mu, w1, w2 = MU, OMEGA1, OMEGA2
+    s = two_particles()
     ref = Reference(s).impacts(0.0, [1.0, 15.0], [0.5, 0.0], 12)
     out = cornerbif.simulate(1.0, 0.5, 15.0, 0.0, model="two_particle", omega0=2.0, omega1=w1,
                              omega2=w2, mu=mu, r1=0.8, r2=0.8, kappa=0.0, beta=1.0, record=12)

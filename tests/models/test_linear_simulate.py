@@ -14,13 +14,7 @@ from cornerbif.models.linear.system import Contact, Forcing, LinearSystem
 
 sys.path.insert(0, __file__.rsplit("/", 2)[0])
 from linear_reference import Reference  # noqa: E402
-
-
-def _one_mass(obstacle, omega, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0):
-    forcing = (Forcing(0, F, Omega, phi),) if F else ()
-    return LinearSystem(("u",), np.array([[1.0]]), np.array([[k * k]]),
-                        np.array([[2.0 * sigma]]), forcing,
-                        (Contact("R", np.array([1.0]), obstacle, 0.0, 1.0, omega, r=0.8),))
+from linear_systems import MU, OMEGA1, OMEGA2, impact_damper, one_mass, two_particles  # noqa: E402
 
 
 @pytest.mark.parametrize("obstacle, omega, extra", [
@@ -31,7 +25,7 @@ def _one_mass(obstacle, omega, sigma=0.0, k=1.0, F=0.0, Omega=1.0, phi=0.0):
 ])
 def test_one_mass_is_the_flow_kernel(obstacle, omega, extra):
     """20 impacts from (5, 0): times and velocities equal the flow kernel's to 1e-10."""
-    imp, why = simulate(_one_mass(obstacle, omega, **extra), [5.0], [0.0], 0.0, 20)
+    imp, why = simulate(one_mass(obstacle, omega, **extra), [5.0], [0.0], 0.0, 20)
     assert why == "ok" and len(imp) == 20
     out = cornerbif.simulate(5.0, 0.0, model="flow", obstacle=obstacle, omega=omega, kappa=0.0,
                              beta=1.0, r=0.8, record=20, **extra)
@@ -44,11 +38,8 @@ def test_two_masses_are_the_two_particle_kernel():
     """Fig. 19(a)'s system at omega0 = 2 as two coordinates and two contacts (the wall W and
     the pair U, as tests/models/test_linear_reference.py builds it): 8 u-z and 8 w-z impacts
     equal the two-particle kernel's to 1e-10, in the same order."""
-    mu, w1, w2 = 1000.0, 1.001, 1.0
-    s = LinearSystem(("z", "u"), np.diag([1.0, 1.0 / mu]), np.diag([w1 * w1, w2 * w2 / mu]),
-                     np.zeros((2, 2)), (),
-                     (Contact("W", np.array([1.0, 0.0]), "sine", 0.0, 1.0, 2.0, r=0.8),
-                      Contact("U", np.array([-1.0, 1.0]), "fixed", 0.0, r=0.8)))
+    mu, w1, w2 = MU, OMEGA1, OMEGA2
+    s = two_particles()
     imp, why = simulate(s, [1.0, 15.0], [0.5, 0.0], 0.0, 16)
     assert why == "ok"
     out = cornerbif.simulate(1.0, 0.5, 15.0, 0.0, model="two_particle", omega0=2.0, omega1=w1,
@@ -68,10 +59,7 @@ def test_an_impact_damper_equals_the_30_digit_reference():
     cavity of clearance 2 x 0.4 (contacts R: y - x >= -0.4 and L: x - y >= -0.4, r = 0.5),
     from rest: the first 10 impacts, their order, times and velocities, equal the mpmath
     reference's to 1e-9 (flights there at 30 digits, impacts by sampling and bisection)."""
-    s = LinearSystem(("x", "y"), np.diag([1.0, 0.1]), np.diag([1.0, 0.0]),
-                     np.diag([0.05, 0.0]), (Forcing(0, 0.7, 0.9, 0.0),),
-                     (Contact("R", np.array([-1.0, 1.0]), "fixed", -0.4, r=0.5),
-                      Contact("L", np.array([1.0, -1.0]), "fixed", -0.4, r=0.5)))
+    s = impact_damper()
     imp, why = simulate(s, [0.0, 0.0], [0.0, 0.0], 0.0, 10)
     assert why == "ok"
     ref = Reference(s).impacts(0.0, [0.0, 0.0], [0.0, 0.0], 10)
