@@ -930,8 +930,10 @@ def _write_units(scene, partial, head, branches, curves, state, done, log):
                 _write_bytes(partial, _image(scene, head, branches, curves, state),
                              f"{_kept(partial, done)}; {room}")
                 done = (len(branches), len(curves))
-            if line:
-                log(line)               # said once it is on disk
+                if line:
+                    # said once it is on disk, and before an interrupt that came during the
+                    # write ends the run: every branch said kept was shown
+                    log(line)
         head["completed"] = time.strftime("%Y-%m-%dT%H:%M:%S")
         _write_bytes(partial, _image(scene, head, branches, curves),
                      f"{_kept(partial, done)}; {room}")
