@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import cornerbif
-from cornerbif.models.linear.kernel import CHATTERS, OK, run_system
+from cornerbif.models.linear.kernel import BUDGET, CHATTERS, OK, run_system
 from cornerbif.models.linear.simulate import simulate
 from cornerbif.models.linear.system import Contact, Forcing, LinearSystem
 
@@ -80,3 +80,34 @@ def test_a_chattering_ball_ends_the_run_saying_so():
     assert len(out["t"]) == int(np.ceil(np.log(1e-6 / v0) / np.log(0.5))) + 1
     np.testing.assert_allclose(out["v_out"][:, 0], v0 * 0.5 ** np.arange(len(out["t"])),
                                rtol=1e-9, atol=1e-11)
+
+
+def test_a_run_that_meets_no_impact_ends_on_its_budget():
+    """A stiff oscillator (k = 1e4, |A| about 1e4: chunks of 1e-4) that never reaches its stop
+    at -2 from (1, 0): the loop crosses the fixed obstacle's piece ends (multiples of pi)
+    thousands of times and ends on its time budget.  (Seen in review: at a piece's end t
+    rounded into the ended piece, the chunk had length 0, and past t ~ 9000 chunks the loop
+    never moved again.)"""
+    s = LinearSystem(("u",), np.array([[1.0]]), np.array([[1e4]]), np.array([[0.0]]), (),
+                     (Contact("R", np.array([1.0]), "fixed", -2.0),))
+    st, out = run_system(s, 0.0, [1.0], [0.0], 5, t_max=5.0)
+    assert st == BUDGET and len(out["t"]) == 0
+
+
+def test_an_impact_resolved_just_before_a_piece_end_is_not_found_again():
+    """A ball under gravity (g = 1) dropped from 1.0 onto a fixed floor, its landing put
+    1e-12 before pi (a fixed obstacle's piece end) by its start time: an impact resolved to
+    tol leaves the gap up to |w| tol below zero at the next piece's start, where the contact
+    is leaving.  The kernel and the numpy run find the same impacts, at pi - 1e-12, then
+    2.6 pi (the rebound 0.8 v: flight 2 (0.8 v) / g), not a second impact at pi (seen in
+    review on the numpy run)."""
+    s = LinearSystem(("u",), np.array([[1.0]]), np.array([[0.0]]), np.array([[0.0]]),
+                     (Forcing(0, -1.0),), (Contact("R", np.array([1.0]), "fixed", 0.0, r=0.8),))
+    t0 = np.pi - 1e-12 - np.sqrt(2.0)
+    st, out = run_system(s, t0, [1.0], [0.0], 3)
+    imp, why = simulate(s, [1.0], [0.0], t0, 3)
+    assert st == OK and why == "ok"
+    v = np.sqrt(2.0)
+    want = [np.pi - 1e-12, np.pi - 1e-12 + 2 * 0.8 * v, np.pi - 1e-12 + 2 * 0.8 * v * 1.8]
+    np.testing.assert_allclose(out["t"], want, atol=1e-9, rtol=0)
+    np.testing.assert_allclose([i.t for i in imp], want, atol=1e-9, rtol=0)

@@ -35,7 +35,7 @@ What is checked, and why:
   (required: no default stiffness of a stop makes sense) and c >= 0 (default 0); obstacle
   "fixed" (z = kappa: beta and omega are refused) or a registered kind without tables of
   its own (a cam ``profile`` needs [system.profile], which a contact cannot hold yet); a
-  moving kind needs both beta (finite) and omega (> 0);
+  moving kind needs both beta (finite, not 0: that is the fixed obstacle) and omega (> 0);
 * unknown keys in [system], a forcing entry or a contact are refused, with a did-you-mean.
 """
 
@@ -300,6 +300,10 @@ class _Reader:
         elif obstacle is not None:
             need = f"the obstacle {obstacle!r} is z = kappa + beta shape(omega t)"
             beta = self.number(key, c, "beta", missing=need)
+            if beta == 0.0:
+                # (a triangle of no height has slopes 0 and pieces of 0 / 0 time)
+                self.bad(f"{key}.beta", c.get("beta"), f"is 0: {need}, which is then the "
+                         "fixed obstacle z = kappa; write obstacle = \"fixed\"")
             omega = self.number(key, c, "omega", test=lambda x: x > 0, need=f"> 0; {need}")
         law = c.get("law", "impact")
         if law not in LAWS:

@@ -118,25 +118,36 @@ class Gap:
         terms = np.abs(self.cA[2:J + 2] @ y)
         fact = np.array([h ** i / math.factorial(i) for i in range(J)])
         nA = self.normA
-        rem = self.normc * nA ** (J + 2) * np.linalg.norm(y) * h ** J / math.factorial(J) \
+        # |c| |A|^(J+2) |y| h^J / J! e^(|A| h), as |A|^2 (|A| h)^J / J! (no overflow)
+        rem = self.normc * nA * nA * np.linalg.norm(y) * (nA * h) ** J / math.factorial(J) \
             * math.exp(nA * h)
         return float(terms @ fact + rem + self.obstacle.zpp_bound(j))
 
 
 def first_event(gap, length, tol=1e-12):
-    """The first s in (0, length] where ``gap`` reaches zero: (kind, s), kind IMPACT (a sign
-    change, resolved to ``tol``), GRAZE (a touch within the resolution ``tol``) or NONE
-    (none, proven).  The gap at s = 0 is the start's (>= 0: just after an impact it is 0)."""
+    """``first_event_piece`` without the piece: (kind, s)."""
+    kind, s, _ = first_event_piece(gap, length, tol)
+    return kind, s
+
+
+def first_event_piece(gap, length, tol=1e-12):
+    """The first s in (0, length] where ``gap`` reaches zero: (kind, s, j), kind IMPACT (a
+    sign change, resolved to ``tol``), GRAZE (a touch within the resolution ``tol``) or NONE
+    (none, proven), j the obstacle's piece it lies on (whose slope an impact there takes).
+    The gap at s = 0 is the start's (>= 0: just after an impact it is 0)."""
     hmax = 1.0 / max(gap.normA, 1e-300)
     for j, lo, hi in gap.obstacle.pieces(gap.t0, gap.t0 + length):
         p = lo - gap.t0
         while p < hi - gap.t0:
             q = min(hi - gap.t0, p + hmax)
-            found = _search(gap, p, q, tol, p == 0.0, j)
+            # every chunk starts as a flight may: on the obstacle and leaving it (an impact
+            # resolved to tol just before a piece's end leaves the gap up to |w| tol below
+            # zero at the next piece's start)
+            found = _search(gap, p, q, tol, True, j)
             if found is not None:
-                return found
+                return found + (j,)
             p = q
-    return NONE, math.inf
+    return NONE, math.inf, -1
 
 
 def _search(gap, p, q, tol, start, j):
