@@ -378,7 +378,7 @@ def _max_mu(ns, rows):
 def _ends(br, ns, axis, tab, log):
     """Locate and name both ends of every branch of a one-parameter sweep."""
     x = axis.array
-    grid = _line(ns, tab, 0, axis, {}, (x.size,))
+    grid = _lines(ns, tab, 0, [axis]).get((), _Grid(x, {}, tab["outcomes"][:, 0] == 0))
     order = _Order(axis)
     for b, rows in enumerate(br.rows):
         idx = [ns[r].at[0] for r in rows]
@@ -391,16 +391,18 @@ def _ends(br, ns, axis, tab, log):
             log(f"ends of {b + 1} of {len(br.rows)} branches located")
 
 
-def _line(ns, tab, k, axis, fixed, shape):
-    """The _Grid of the grid line along axis ``k`` (``shape``: the parameter grid's) through
-    the grid indices ``fixed`` of the other axes ({axis index: grid index})."""
-    by_point = {}
+def _lines(ns, tab, k, par):
+    """The _Grid of every grid line along axis ``k`` of the parameter axes ``par``, keyed by
+    the grid indices of the other axes (one pass over the attractors)."""
+    shape = tuple(a.array.size for a in par)
+    no_cycle = np.moveaxis((tab["outcomes"][:, 0] == 0).reshape(shape), k, -1)
+    lines = {}
     for n in ns:
-        if all(n.at[a] == i for a, i in fixed.items()):
-            by_point.setdefault(n.at[k], []).append(n)
-    no_cycle_all = (tab["outcomes"][:, 0] == 0).reshape(shape)
-    sel = tuple(slice(None) if a == k else fixed[a] for a in range(len(shape)))
-    return _Grid(axis.array, by_point, no_cycle_all[sel])
+        key = n.at[:k] + n.at[k + 1:]
+        if key not in lines:
+            lines[key] = _Grid(par[k].array, {}, no_cycle[key])
+        lines[key].by_point.setdefault(n.at[k], []).append(n)
+    return lines
 
 
 def _end_of(n, k, axis, step, order, grid, tab, br):
@@ -436,16 +438,12 @@ def _edges(br, ns, par, tab, linked, log):
     held at the attractor's values (``_end_of``, as a one-parameter sweep's ends).  The
     range's ends are not edges."""
     orders = [_Order(a) for a in par]
-    lines = {}
+    lines = [_lines(ns, tab, k, par) for k in range(len(par))]
     todo = [(n, k, step) for n in ns for k in range(len(par)) for step in (-1, 1)
             if (n.row, k, step) not in linked and orders[k].next(n.at[k], step) is not None]
     out = []
     for c, (n, k, step) in enumerate(todo):
-        key = (k, n.at[:k] + n.at[k + 1:])
-        if key not in lines:
-            fixed = {a: n.at[a] for a in range(len(par)) if a != k}
-            lines[key] = _line(ns, tab, k, par[k], fixed, tuple(a.array.size for a in par))
-        end = _end_of(n, k, par[k], step, orders[k], lines[key], tab, br)
+        end = _end_of(n, k, par[k], step, orders[k], lines[k][n.at[:k] + n.at[k + 1:]], tab, br)
         out.append(Edge(int(br.branch_of[n.row]), n.row, k, step, end))
         if log and c % 200 == 199:
             log(f"{c + 1} of {len(todo)} branch edges located")

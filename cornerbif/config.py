@@ -28,7 +28,7 @@ import numpy as np
 
 from . import figures, obstacles, plot_style, registry
 from .cycles import parse_word
-from .model import BUDGET_MARGIN, IC_PREFIX, KEY_CHARS, PERIODS_PER_IMPACT, cut, did_you_mean, shown
+from .model import IC_PREFIX, KEY_CHARS, automatic_budgets, cut, did_you_mean, shown
 from .model import is_number as _is_number
 
 FOLLOW = ("none", "up", "down")
@@ -1151,11 +1151,12 @@ def _read_run(w):
                 w.problems.append(f"run.tol: {v!r} is too coarse; the event-time tolerance must be <= 1e-3")
             v = float(v)
         run[k] = v
-    need = run["transient"] + run["record"]
+    events, periods = automatic_budgets(w.spec.events_per_impact,
+                                        run["transient"] + run["record"])
     if run["max_events"] is None:
-        run["max_events"] = min(w.spec.events_per_impact * need + BUDGET_MARGIN, MAX_INT - 1)
+        run["max_events"] = min(events, MAX_INT - 1)
     if run["max_periods"] is None:
-        run["max_periods"] = min(PERIODS_PER_IMPACT * need + BUDGET_MARGIN, MAX_PERIODS)
+        run["max_periods"] = min(periods, MAX_PERIODS)
     w.preset, w.run, w.run_given = preset, run, rn
 
 

@@ -39,6 +39,13 @@ PERIODS_PER_IMPACT = 50
 BUDGET_MARGIN = 1000
 
 
+def automatic_budgets(events_per_impact: int, impacts: int) -> tuple:
+    """(max_events, max_periods) of the automatic rule for ``impacts`` transient and recorded
+    impacts of a model with ``events_per_impact`` (uncapped: the callers cap them)."""
+    return (events_per_impact * impacts + BUDGET_MARGIN,
+            PERIODS_PER_IMPACT * impacts + BUDGET_MARGIN)
+
+
 # ------------------------------------------------------------------ declarations
 @dataclass(frozen=True)
 class Param:

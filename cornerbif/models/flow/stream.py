@@ -56,7 +56,7 @@ import numpy as np
 
 from ... import status as S
 from ..._jit import STOPPED, items_kernel, jit, raise_if_stopped, stop_requested
-from ...model import BUDGET_MARGIN, PERIODS_PER_IMPACT
+from ...model import automatic_budgets
 from ...numerics.oscillator import derive
 from ...numerics.saltation import GRAZING_TOL
 from ...obstacles.dispatch import (
@@ -84,10 +84,9 @@ def stream_settings(ints, chunk=CHUNK):
     out[P.I_RECORD] = chunk
     # within int64, as config keeps a scene's budgets (MAX_INT - 1)
     most = np.iinfo(np.int64).max - 1
-    out[P.I_MAX_EVENTS] = min(max(int(out[P.I_MAX_EVENTS]),
-                                  P.EVENTS_PER_IMPACT * need + BUDGET_MARGIN), most)
-    out[P.I_MAX_PIECES] = min(max(int(out[P.I_MAX_PIECES]), P.PIECES_PER_PERIOD * (
-        PERIODS_PER_IMPACT * need + BUDGET_MARGIN)), most)
+    events, periods = automatic_budgets(P.EVENTS_PER_IMPACT, need)
+    out[P.I_MAX_EVENTS] = min(max(int(out[P.I_MAX_EVENTS]), events), most)
+    out[P.I_MAX_PIECES] = min(max(int(out[P.I_MAX_PIECES]), P.PIECES_PER_PERIOD * periods), most)
     return out
 
 

@@ -39,10 +39,9 @@ import math
 import numpy as np
 
 from ..._jit import jit
-from ...numerics.oscillator import derive
 from ...obstacles.dispatch import NDERIVED, piece_at, piece_length, piece_start, z_state, zpp_range
-from ..flow.params import NPARAM, pack
-from .events import TAYLOR_TERMS
+from ..flow.params import NPARAM
+from .events import TAYLOR_TERMS, ContactObstacle
 from .flight import augmented, expm, forcing_state
 
 LEVELS = 52                 # the ladder E_0 .. E_LEVELS: H / 2^52 resolves a chunk to its bit
@@ -50,7 +49,7 @@ NONE, IMPACT, GRAZE = 0, 1, 2
 OK, CHATTERS, BUDGET = 0, 1, 2
 
 
-def prepare(system, t0, x0, v0, tol=1e-12):
+def prepare(system, t0, x0, v0):
     """The arrays of ``run`` for one system and start: a dict (module docstring)."""
     A = augmented(system)
     m = A.shape[0]
@@ -70,12 +69,8 @@ def prepare(system, t0, x0, v0, tol=1e-12):
         for k in range(TAYLOR_TERMS + 3):
             cA[i, k] = row
             row = row @ A
-        kind, beta, omega = c.obstacle, c.beta, c.omega
-        if kind == "fixed":
-            kind, beta, omega = "sine", 0.0, 1.0
-        rows[i] = pack({"omega": omega, "kappa": c.kappa, "beta": beta}, kind, tol, 1e-6, 1e6,
-                       None)
-        ds[i] = derive(rows[i])
+        ob = ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega)
+        rows[i], ds[i] = ob.row, ob.d
         D[i] = np.linalg.solve(system.mass, c.gap)
     y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float),
                          forcing_state(system, t0)])
@@ -299,7 +294,7 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, count, tol, cha
 def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4):
     """``run`` for one system and start: (status, dict of the recorded impacts: t, contact
     (names), x, v_in, v_out)."""
-    a = prepare(system, t0, x0, v0, tol)
+    a = prepare(system, t0, x0, v0)
     n = system.n
     o_t = np.full(count, np.nan)
     o_c = np.full(count, -1, np.int64)

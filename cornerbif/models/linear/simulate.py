@@ -44,8 +44,7 @@ def simulate(system: LinearSystem, x0, v0, t0: float, count: int, horizon: float
         return [], "a soft stop (law 'spring'): not implemented yet"
     A = augmented(system)
     n = system.n
-    obstacles = [ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega if c.omega else 1.0)
-                 for c in system.contacts]
+    obstacles = [ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega) for c in system.contacts]
     t = float(t0)
     y = np.concatenate([np.asarray(x0, float), np.asarray(v0, float), forcing_state(system, t)])
     out = []
