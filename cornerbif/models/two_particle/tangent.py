@@ -95,8 +95,10 @@ def two_particle_steps(p, zu, wz, i0, i1):
     if last >= 0 and wz[last, TK.WZ_T] == wz[last, TK.WZ_T] and \
             wz[last, TK.WZ_T] < zu[i1, TK.ZU_T]:
         return np.zeros((0, 4, 4)), np.zeros(0), TABLE_FULL
-    c = TK.derive(p)
-    Q, D = TK.oscillators(p, c)
+    # as the kernel calls them (a tuple of the row, its constants as a tuple): the same
+    # compiled functions, which a first run then compiles once, not twice
+    pt = TP.as_tuple(p)
+    Q, D = TK.oscillators(pt, TK.constants_tuple(TK.derive(p)))
     s1, w1 = p[TP.SIGMA1], p[TP.OMEGA1]
     s2, w2 = p[TP.SIGMA2], p[TP.OMEGA2]
     t0 = zu[i0, TK.ZU_T]
@@ -127,7 +129,7 @@ def two_particle_steps(p, zu, wz, i0, i1):
         u11, u12, u21, u22 = flight_matrix(s2, w2, tau)
         times[m] = te
         if is_wz:
-            wv, wp, wpp, _ = TK.wall(p, te, 0.0)
+            wv, wp, wpp, _ = TK.wall(pt, te, 0.0)
             y_in = wz[j, TK.WZ_YIN]
             zrec = wz[j, TK.WZ_Z]
             if flight_misses(Q[TK.RZ], D[TK.RZ], z11, z12, z21, z22, tz, zz, yz, te, zrec,
