@@ -24,6 +24,7 @@ import ctypes
 import importlib
 import os
 import threading
+import time
 import types as pytypes
 from concurrent.futures import ThreadPoolExecutor, wait
 
@@ -119,6 +120,15 @@ class ItemKernel:
         return self._direct.signatures
 
     def __call__(self, *args, **kws):
+        if _BESIDE and not self._direct.signatures:      # a first call, with a compile beside
+            _await_or_report(self)
+            try:
+                return self._run(*args, **kws)
+            finally:
+                _reported(self)
+        return self._run(*args, **kws)
+
+    def _run(self, *args, **kws):
         n = int(self.count(*args, **kws))
         threads = max(1, min(numba.get_num_threads(), n))
         if threads == 1:
@@ -194,6 +204,51 @@ def _cold(dispatcher) -> bool:
         return False
 
 
+# ------------------------------------------------------------------ compiling beside
+# ``engine.compiling_aside`` runs a second process that compiles into numba's cache what this
+# one will call.  That process says which kernels (``ItemKernel``s) it has begun and finished
+# to compile, as empty files "<module.function>.begun" and ".done" in a folder of its own
+# (``_BESIDE["report"]``).  This process (``_BESIDE["folder"]``, ``_BESIDE["child"]``), about to
+# compile a kernel the other has begun, waits for it and loads it from the cache instead of
+# compiling it a second time beside it.
+_BESIDE: dict = {}
+
+
+def compiling_beside(folder, child=None, report=False):
+    """From now on, this process waits for (``report=False``: ``child`` is the second
+    process) or reports to (``report=True``: this is the second process) the folder of a
+    compile beside; ``compiling_beside(None)`` ends it."""
+    _BESIDE.clear()
+    if folder is not None:
+        _BESIDE.update(report=folder) if report else _BESIDE.update(folder=folder, child=child)
+
+
+def _marker(folder, kernel, stage):
+    return os.path.join(folder, f"{kernel.__module__}.{kernel.__qualname__}.{stage}")
+
+
+def _await_or_report(kernel):
+    """Before the first call of ``kernel`` here (which compiles it): in the second process,
+    say that it has begun (``_reported`` says when it is done); in the first, wait while the
+    second compiles it (it has begun, is not done, and is still running)."""
+    report = _BESIDE.get("report")
+    if report is not None:
+        open(_marker(report, kernel, "begun"), "w").close()
+        return
+    folder, child = _BESIDE["folder"], _BESIDE["child"]
+    begun, done = _marker(folder, kernel, "begun"), _marker(folder, kernel, "done")
+    while (os.path.exists(begun) and not os.path.exists(done)
+           and (child is None or child.poll() is None)):
+        time.sleep(0.01)
+
+
+def _reported(kernel):
+    """In the second process: say that ``kernel`` is compiled (and in numba's cache)."""
+    report = _BESIDE.get("report")
+    if report is not None:
+        open(_marker(report, kernel, "done"), "w").close()
+
+
 def compile_listed(functions):
     """Compile each ``(module.function, argument types)`` (as ``compile_plan.PLANS`` lists
     them; the types as numba prints them) into numba's cache, skipping what the cache holds."""
@@ -204,10 +259,14 @@ def compile_listed(functions):
         disp, = dispatchers(f"{module}.{fn.removesuffix('_py')}" if twin else name)
         if twin:
             disp = disp.python_entry           # a function called from Python: its twin
-        elif isinstance(disp, ItemKernel):
-            disp = disp._direct
         sig = eval(args[:-1] + ",)", {"__builtins__": {}}, names)   # noqa: S307 - our own file
-        disp.compile(sig)
+        if isinstance(disp, ItemKernel):
+            if _BESIDE and not disp._direct.signatures:
+                _await_or_report(disp)
+            disp._direct.compile(sig)
+            _reported(disp)
+        else:
+            disp.compile(sig)
 
 
 def dispatchers(*names):

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
 
@@ -163,11 +165,13 @@ def compiling_aside(scene: Scene, what=("sweep",)):
     the cycle analysis (``observables.ANALYSIS_KERNELS``) when it and another kernel compile
     first.  numba compiles one function at a time in a process; a function the second process
     has put in numba's cache is loaded, not compiled, when this one reaches it (one it has
-    not yet: compiled here as before).  Nothing else is shared; the child writes only numba's
-    cache, and is stopped at the end of the body if it is still running.  The environment
-    variable CORNERBIF_COMPILE_BESIDE=0 turns it off."""
-    from ._jit import cache_is_cold, dispatchers  # start-up: loads numba
-    child = None
+    not yet: compiled here as before), and a kernel it is compiling when this one calls it
+    is awaited (``_jit.compiling_beside``: the second process says which kernels it has begun
+    and finished, as empty files in a folder of its own).  Nothing else is shared; the child
+    writes only numba's cache and that folder, and is stopped at the end of the body if it
+    is still running.  The environment variable CORNERBIF_COMPILE_BESIDE=0 turns it off."""
+    from ._jit import cache_is_cold, compiling_beside, dispatchers  # start-up: loads numba
+    child = folder = None
     cold = [name for name, _ in cold_compiles(scene, what)]
     # in the order this process reaches them: a kernel's helpers, whole kernels of their own
     # (a stability kernel the scene keeps runs right after the kernel: compiled here, the
@@ -182,23 +186,32 @@ def compiling_aside(scene: Scene, what=("sweep",)):
              + [n for n in planned if n in late])
     if ((os.cpu_count() or 1) > 1 and (planned or analysis)
             and os.environ.get("CORNERBIF_COMPILE_BESIDE", "1") != "0"):
+        folder = tempfile.mkdtemp(prefix="cornerbif-compiling-")
         child = subprocess.Popen([sys.executable, "-c", "import sys; from cornerbif.engine import "
                                   "compile_beside; compile_beside(sys.argv[1:])", *order],
                                  stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                 stderr=subprocess.DEVNULL)
+                                 stderr=subprocess.DEVNULL,
+                                 env=dict(os.environ, CORNERBIF_COMPILING_REPORT=folder))
+        compiling_beside(folder, child)     # a kernel it has begun is awaited, not compiled again
     try:
         yield child
     finally:
+        compiling_beside(None)
         if child is not None and child.poll() is None:
             child.terminate()
             child.wait()
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def compile_beside(names):
     """What ``compiling_aside``'s second process compiles, in the order given: for each
     kernel name its functions in ``compile_plan.PLANS``, and "the cycle analysis"
     (``compile_analysis``) where it is named."""
-    from ._jit import compile_listed  # start-up: loads numba
+    from ._jit import compile_listed, compiling_beside  # start-up: loads numba
+    report = os.environ.get("CORNERBIF_COMPILING_REPORT")
+    if report:      # say which kernels are begun and done (``_jit.compiling_beside``)
+        compiling_beside(report, report=True)
     for name in names:
         if name in PLANS:
             compile_listed(PLANS[name])
