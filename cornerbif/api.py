@@ -14,7 +14,7 @@ RUN_KEYS = ("tol", "chatter", "escape", "period_tol")
 
 def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol=1e-12, chatter=1e-6,
              escape=1e6, period_tol=1e-6, max_events=None, max_periods=None, stop="none",
-             keep=None, **system):
+             keep=None, table=None, **system):
     """Run ``model`` for one or many initial states at t = 0 (``flow``: at ``t0``).
 
     ``starts`` are the state coordinates at t = 0 in the model's order
@@ -32,12 +32,26 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
     ``keep`` names observables as a scene's ``[output] keep`` does; the opt-in ones add
     their per-run arrays (``keep=["stability"]``: mu_re, mu_im (``shape + (2,)``),
     cycle_duration, stability_status, lyapunov, lyapunov_window, lyapunov_status).
+
+    A model that its scene declares (``linear``) takes its ``[system]`` as ``table`` (the
+    dict a scene's TOML gives), its starts by its coordinates (``x0=``, ``v_x0=``), and any
+    of the table's numbers by path as arrays (``**{"contact.T.beta": betas}``).
     """
     from .analysis import words  # start-up: loads numba
     if model not in registry.models():
         raise ValueError(f"simulate(model={model!r}): not a model; allowed: "
                          + ", ".join(registry.models()))
     spec = registry.get(model)
+    if spec.for_system is not None:          # a model its scene declares (docs/linear.md)
+        if table is None:
+            raise TypeError(f"simulate(model={model!r}) needs table=, the scene's [system] "
+                            "table as a dict")
+        spec, problems = spec.for_system(table)
+        if problems:
+            raise SceneError(problems)
+    elif table is not None:
+        raise TypeError(f"simulate(model={model!r}): table= is for a model declared by its "
+                        "scene (linear); give the parameters by name")
     coords = spec.coords
     named = {c: system.pop(f"{c}0") for c in coords if f"{c}0" in system}
     if len(starts) + len(named) != len(coords) or any(c in named for c in coords[:len(starts)]):
@@ -57,7 +71,8 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
         raise TypeError(f"simulate() got an unknown parameter {unknown[0]!r} of model "
                         f"{model!r}; allowed: {', '.join(spec.params)}")
     raw = {"scene": {"model": model},
-           "system": {k: v for k, v in extra.items() if v is not None},
+           "system": (dict(table) if table is not None else
+                      {k: v for k, v in extra.items() if v is not None}),
            "run": {"transient": transient, "record": record, "tol": tol, "chatter": chatter,
                    "escape": escape, "period_tol": period_tol, "stop": stop}}
     if max_events is not None:
@@ -74,8 +89,8 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                          f"shape {shape})")
     flat = {k: np.broadcast_to(a, shape).ravel() for k, a in arrays.items()}
     n = int(np.prod(shape))
-    for k, a in flat.items():
-        raw["system"][k] = float(a[0])
+    first = {k: float(a[0]) for k, a in flat.items()}
+    raw["system"] = _with(spec, raw["system"], first)
     scene = from_dict(raw, drawn_starts=False)
     # every value is checked as a scene's would be, not only the first of each array:
     # ranges per distinct value (their extremes when there are many), then the model's
@@ -83,7 +98,9 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
     for k, a in flat.items():
         vals = np.unique(a)
         for v in (vals if vals.size <= 2000 else vals[[0, -1]]):
-            from_dict({**raw, "system": {**raw["system"], k: float(v)}}, drawn_starts=False)
+            from_dict({**raw, "system": _with(spec, raw["system"], {**first, k: float(v)})},
+                      drawn_starts=False)
+    spec = scene.spec
     names = list(flat)
     table = np.stack([flat[k] for k in names], -1) if names else np.zeros((n, 0))
     rows, first = np.unique(table, axis=0, return_index=True) if n else (table, [])
@@ -106,3 +123,14 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                period=run.period.reshape(shape), impacts_per_cycle=run.ipc.reshape(shape),
                symbols=words(run.symbols).reshape(shape))
     return res
+
+
+
+def _with(spec, system: dict, values: dict) -> dict:
+    """A scene's ``[system]`` with the parameters ``values``: by name, or by their paths in
+    the table of a model its scene declares (``Model.system_table_with``)."""
+    if spec.system_table is not None:
+        known = {k: v for k, v in values.items() if k in spec.params}
+        return {**spec.system_table_with(known),
+                **{k: v for k, v in values.items() if k not in spec.params}}
+    return {**system, **values}

@@ -56,7 +56,7 @@ import json
 
 import numpy as np
 
-from . import chaos, registry
+from . import chaos
 from . import status as S
 from .basin_stats import share_interval
 from .cycles import SIGNATURE, series_point, series_signature
@@ -198,7 +198,7 @@ def _group_keys(pp, period, ipc, words):
 def tabulate(f, scene):
     """Build the attractor table of the finished file ``f`` (open for writing) and write it
     with every run's id (module doc); an earlier table is replaced."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     if spec.cycle is None or "cycle/signature" not in f:
         return
     G = scene.shape

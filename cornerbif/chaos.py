@@ -33,7 +33,6 @@ import dataclasses
 
 import numpy as np
 
-from . import registry
 from . import status as S
 from .basin_stats import mean_interval
 
@@ -115,7 +114,7 @@ def _long_scene(scene, extra_transient=0, window=WINDOW):
     cycle series and the stability kept over it (not streamed: ``run.lyapunov_impacts``
     off), the budgets scaled with the run's length (within
     the limits a scene may give)."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     keep = tuple(sorted({_series_observable(spec), "stability"}))
     old = scene.transient + scene.record
     grow = max(1.0, (scene.transient + extra_transient + window) / old)
@@ -129,7 +128,7 @@ def rerun(scene, grid_index, starts, extra_transient=0, window=WINDOW):
     """The runs of ``scene`` at grid indices ``grid_index`` (n tuples) from ``starts`` (n,
     start size), over the long window: (a, b, lambda_1, ok, ended) per run (``ended``: the
     run ended well; ``ok``: and its exponent is finite)."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     long = _long_scene(scene, extra_transient, window)
     ints = spec.int_settings(long)
     a_all, b_all, lam, ended = [], [], [], []
@@ -156,7 +155,7 @@ def find(f, scene, runs, points):
     call, each point finished before the next batch (memory: one batch's windows).  The
     point's other runs join a chaotic attractor found there where their record in the file
     lies on its cloud (``overlap``); else they are said not examined."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     why = np.full(runs.size, -1, np.int64)
     if spec.cycle is None or runs.size == 0 or "lyapunov" not in {
             fld.source for fld in spec.fields(("stability",))}:
@@ -255,7 +254,7 @@ def _join(scene, runs, rest, out, why, start_all):
     the most of its points, at least OVERLAP_MIN of them (one-sided: a short window covers
     little of a cloud; ``start_all``: every run's start, as ``find`` read them).  Returns
     ``out`` with their runs added; ``why`` -1 for them."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     G, n_ic = scene.shape, scene.n_ic
     long = dataclasses.replace(_long_scene(scene, window=JOIN_RECORD),
                                keep=(_series_observable(spec),))

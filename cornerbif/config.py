@@ -296,6 +296,10 @@ class Scene:
     points: tuple = None       # [initial] points: the starts given (each in start order)
     lyapunov_impacts: int = 0  # run.lyapunov_impacts: exponents streamed over this many
     #                            impacts (0: over the recorded window)
+    # the model as this scene declares it, where its ``[system]`` declares the model itself
+    # (``Model.for_system``: the linear model's coordinates and parameters); None: the
+    # registered model
+    model_spec: object = field(default=None, compare=False, repr=False)
 
     @property
     def shape(self) -> tuple:
@@ -307,8 +311,9 @@ class Scene:
 
     @property
     def spec(self):
-        """The registered model (``cornerbif.model.Model``)."""
-        return registry.get(self.model)
+        """The model (``cornerbif.model.Model``): the registered one, or the one this scene's
+        ``[system]`` declares (``Model.for_system``)."""
+        return self.model_spec if self.model_spec is not None else registry.get(self.model)
 
     def point(self, index: tuple) -> dict:
         """Named parameter values at a grid index (swept start coordinates aside)."""
@@ -488,8 +493,15 @@ def _toml_value(v):
             return "[" + ", ".join(map(repr, v)) + "]"
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
     raise TypeError(type(v))
+
+
+def _toml_key(k) -> str:
+    """A key as TOML writes it: bare where it can be, else quoted (a path such as
+    "contact.R.kappa", unquoted, would be read back as nested tables)."""
+    k = str(k)
+    return k if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k) else _toml_value(k)
 
 
 def dumps(raw: dict) -> str:
@@ -501,7 +513,7 @@ def dumps(raw: dict) -> str:
             continue
         out.append(f"[{table}]")
         for k, v in body.items():
-            out.append(f"{k} = {_toml_value(v)}")
+            out.append(f"{_toml_key(k)} = {_toml_value(v)}")
         out.append("")
     return "\n".join(out)
 
@@ -672,6 +684,7 @@ class CheckContext:
         self.problems = list(w.problems)
         self.drawn = w.drawn
         self.obstacle_table = getattr(w, "obstacle_table", None)
+        self.follow = getattr(w, "follow", "none")
 
     def swept(self, name):
         return next((a for a in self.axes if a.name == name), None)
@@ -739,6 +752,13 @@ def _read_scene(w):
 
 def _read_system(w):
     sy = w.table("system")
+    if w.spec.for_system is not None:
+        # a model whose [system] declares the model itself (the linear model's coordinates,
+        # matrices and contacts): its own reader, which names each problem's key and value
+        specific, problems = w.spec.for_system(sy)
+        w.problems.extend(problems)
+        if specific is not None:
+            w.spec = specific
     spec = w.spec
     w.unknown("system", tuple(spec.params) + tuple(spec.system_extra))
     obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", obstacles.DEFAULT))
@@ -1049,7 +1069,8 @@ def _read_points(w, ini):
 def _read_initial(w):
     ini = w.table("initial")
     initial_keys = _registered()["TABLES"]["initial"]
-    w.unknown("initial", initial_keys)
+    # with the coordinates a scene's [system] declares (the linear model's)
+    w.unknown("initial", initial_keys + tuple(c for c in w.spec.start_names if c not in initial_keys))
     n_ic = ini.get("count", INITIAL_DEFAULTS["count"])
     if not _is_int(n_ic) or not 1 <= n_ic <= MAX_STARTS:
         w.problems.append(f"initial.count: {shown(n_ic)} must be an integer in 1..{MAX_STARTS} "
@@ -1671,6 +1692,8 @@ def _scene(w) -> Scene:
     if "obstacle" in spec.system_extra:
         system_text["obstacle"] = w.obstacle
     system_text |= {k: v for k, v in w.system.items() if v is not None}
+    if spec.system_table is not None:          # a [system] that declares the model: as given
+        system_text = spec.system_table_with(w.system)
     as_run = {
         "scene": {"name": w.name, "title": w.title, "model": w.model},
         "system": system_text,
@@ -1703,4 +1726,5 @@ def _scene(w) -> Scene:
                  max_events=run["max_events"], max_periods=run["max_periods"], keep=w.keep,
                  plot=w.plot, text=dumps(as_run), preset=w.preset, stop=run["stop"],
                  cont=w.cont, extra=w.extra, obstacle_table=getattr(w, "obstacle_table", None),
-                 points=w.points, lyapunov_impacts=run["lyapunov_impacts"] or 0)
+                 points=w.points, lyapunov_impacts=run["lyapunov_impacts"] or 0,
+                 model_spec=spec if spec is not registry.get(w.model) else None)

@@ -20,7 +20,6 @@ import tempfile
 
 import numpy as np
 
-from . import registry
 from .compile_plan import HALF_PLANS, PLANS
 from .config import Scene
 from .observables import ANALYSIS_KERNELS
@@ -65,7 +64,7 @@ def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray, params
     coordinate swept by the scene (``[sweep] initial.<c>``) takes its cell's value for
     every start, with no floor: a start below the obstacle gets the kernel's status for it.
     """
-    spec = registry.get(scene.model)
+    spec = scene.spec
     n = flat_points.shape[0]
     if scene.points is not None:          # [initial] points: the same starts at every point
         return np.broadcast_to(np.asarray(scene.points, float),
@@ -103,12 +102,12 @@ def draw_initial(scene: Scene, flat_points: np.ndarray, wall: np.ndarray, params
 # ------------------------------------------------------------------ the model's kernel
 def pack_points(scene: Scene, index_list) -> np.ndarray:
     """Packed parameter rows of the scene's model for a list of grid indices."""
-    return registry.get(scene.model).pack_points(scene, index_list)
+    return scene.spec.pack_points(scene, index_list)
 
 
 def int_settings(scene: Scene) -> np.ndarray:
     """The kernel's integer settings (transient, record, budgets)."""
-    return registry.get(scene.model).int_settings(scene)
+    return scene.spec.int_settings(scene)
 
 
 def with_control(scene: Scene, ints: np.ndarray, control) -> np.ndarray:
@@ -117,7 +116,7 @@ def with_control(scene: Scene, ints: np.ndarray, control) -> np.ndarray:
     model's ``control_slot``.  A model without one runs as before (it stops between blocks
     only).  The result holds an address: only this process may use it, and only while
     ``control`` is alive (the caller keeps a reference to it)."""
-    slot = getattr(registry.get(scene.model), "control_slot", None)
+    slot = getattr(scene.spec, "control_slot", None)
     ints = np.array(ints, np.int64)
     if slot is not None and control is not None:
         ints[slot] = control.address
@@ -127,7 +126,7 @@ def with_control(scene: Scene, ints: np.ndarray, control) -> np.ndarray:
 def run_items(params: np.ndarray, ics: np.ndarray, ints: np.ndarray, scene: Scene):
     """The model's kernel and cycle analysis on n items (rows of params / ics):
     ``Model.run_items``'s ``RunResult``."""
-    return registry.get(scene.model).run_items(params, ics, ints, scene)
+    return scene.spec.run_items(params, ics, ints, scene)
 
 
 def cold_compiles(scene: Scene, what=("sweep",)) -> list:
@@ -139,7 +138,7 @@ def cold_compiles(scene: Scene, what=("sweep",)) -> list:
     "continuation" (what ``cornerbif continue`` compiles), "simulate" (what
     ``cornerbif.simulate`` compiles: the sweep's kernels but the file's)."""
     from ._jit import cache_is_cold  # start-up: loads numba
-    compiles = getattr(registry.get(scene.model), "compiles", None)
+    compiles = getattr(scene.spec, "compiles", None)
     if compiles is None:
         return []
     return [(name, seconds) for name, seconds, kernels in compiles(scene, tuple(what))
@@ -179,7 +178,7 @@ def compiling_aside(scene: Scene, what=("sweep",)):
     # a stability kernel only the finish's chaos test uses
     planned = sorted((name for name in cold if name in PLANS), key=lambda n: n not in HALF_PLANS)
     late = [] if "stability" in scene.keep or "stability" in what else [
-        name for name, _, _ in getattr(registry.get(scene.model), "compiles",
+        name for name, _, _ in getattr(scene.spec, "compiles",
                                        lambda *a: [])(scene, ("stability",))]
     analysis = any(cache_is_cold(k) for k in dispatchers(*ANALYSIS_KERNELS)) and len(cold) > 1
     order = ([n for n in planned if n not in late] + ["the cycle analysis"] * analysis
@@ -263,7 +262,7 @@ def symbol_bytes(sym, record):
 # ------------------------------------------------------------------ blocks
 def item_bytes(scene: Scene) -> int:
     """Working memory of one item (one start at one grid point) in a block."""
-    return scene.record * registry.get(scene.model).bytes_per_event + ITEM_OVERHEAD
+    return scene.record * scene.spec.bytes_per_event + ITEM_OVERHEAD
 
 
 def points_fit(scene: Scene) -> int:
@@ -332,7 +331,7 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
     ready for ``io.write_block``.  The local loop and the Dask workers
     (``cornerbif.distributed``) both call it, so both write the same bytes.
     """
-    spec = registry.get(scene.model)
+    spec = scene.spec
     if ints is None:
         ints = spec.int_settings(scene)
     G = scene.shape
@@ -391,7 +390,7 @@ def cycle_signatures(series, out, period, ipc):
 
 def carry_names(scene: Scene) -> list:
     """The datasets a followed sweep carries to the next slab (the final states)."""
-    return [f"final/{c}" for c in registry.get(scene.model).coords]
+    return [f"final/{c}" for c in scene.spec.coords]
 
 
 def block_carry(scene: Scene, block: dict) -> np.ndarray:

@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import engine, registry
+from . import engine
 from .config import Scene
 
 # bytes per run of the per-run summary: status (1), period and impacts per cycle (4 + 4)
@@ -38,7 +38,7 @@ def estimate_bytes(scene: Scene) -> int:
 def _byte_parts(scene: Scene) -> dict:
     """``estimate_bytes`` by part: "runs" (the per-run datasets), "table", "scales",
     "scene" (the scene as run, twice: an attribute is stored as it is) and "overhead"."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     points = int(np.prod(scene.shape or (1,)))
     n = points * scene.n_ic
     word = max(1, scene.record // 2)
@@ -135,7 +135,7 @@ def estimate_time(scene: Scene, threads: int) -> Estimate:
     them: an upper bound).  Runs spread over the threads, but a sweep takes at least its
     slowest run.  A model without a time model runs at its measured ``events_per_second``
     per impact."""
-    spec = registry.get(scene.model)
+    spec = scene.spec
     runs = int(np.prod(scene.shape or (1,))) * scene.n_ic
     threads = max(1, int(threads))
     model = getattr(spec, "run_seconds", None)

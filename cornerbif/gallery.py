@@ -53,7 +53,7 @@ import tomllib
 import numpy as np
 
 from . import config as C
-from . import engine, outputs, registry
+from . import engine, outputs
 from .analysis import run_length
 from .attractors import read_table
 from .branches import explain_file, has_current_table
@@ -155,7 +155,7 @@ def file_matches(h5: str, scene: C.Scene) -> bool:
         with check_readable(h5) as f:
             if not f.attrs.get("completed", ""):
                 return False
-            if registry.get(scene.model).cycle is not None and "attractors" not in f:
+            if scene.spec.cycle is not None and "attractors" not in f:
                 return False
             return C.same_run(str(f.attrs["scene"]), scene.text)
     except (FileFormatError, OSError, KeyError):

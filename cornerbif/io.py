@@ -76,7 +76,7 @@ def create(path, scene, n_ic, command="", versions=None):
     symbols) with the grid's ``done`` mask.
     """
     from . import chunkwrite  # start-up: loads numba (jitted), imported by the commands that write
-    spec = registry.get(scene.model)
+    spec = scene.spec
     G = scene.shape
     rec = scene.record
     f = h5py.File(path, "w", libver="latest")
@@ -456,9 +456,12 @@ def check_readable(path):
     """
     f = open_checked(path)
     try:
-        for req in ("status", "done", "initial/u"):
+        for req in ("status", "done", "initial"):
             if req not in f:
                 raise FileFormatError(f"{path}: required dataset {req!r} is missing")
+        if not isinstance(f["initial"], h5py.Group) or not len(f["initial"]):
+            raise FileFormatError(f"{path}: required group 'initial' (a start coordinate per "
+                                  "dataset) is missing or empty")
         _check_contents(path, f)
     except FileFormatError:
         f.close()
@@ -492,7 +495,12 @@ def _check_contents(path, f):
             raise FileFormatError(f"{path}: dataset {name!r} has dtype {f[name].dtype}, "
                                   "not what cornerbif writes")
     G = f["done"].shape
-    for name in ("status", "period", "impacts_per_cycle", "symbols", "initial/u"):
+    # the start coordinates (the model's; the group also holds its copies of the scales)
+    group = f.get("initial")
+    starts = ([f"initial/{c}" for c, d in group.items()
+               if isinstance(d, h5py.Dataset) and not d.is_scale]
+              if isinstance(group, h5py.Group) else [])
+    for name in ("status", "period", "impacts_per_cycle", "symbols", *starts):
         if name in f and f[name].shape[:len(G)] != G:
             raise FileFormatError(f"{path}: dataset {name!r} has shape {f[name].shape}, "
                                   f"which does not match the grid {G}")

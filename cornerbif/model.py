@@ -393,6 +393,17 @@ class Model:
     start_time: Coord | None = None
     axis_labels: dict = field(default_factory=dict)
     warmups: tuple = ()
+    # a model declared by its scene's [system] (the linear model): its method
+    # ``for_system(table)`` gives (the model of that table, problems); ``system_table`` is that
+    # table, which the scene as run writes back (``system_table_with``).  None for a model
+    # declared once for all scenes.
+    for_system = None
+    system_table: dict | None = None
+
+    def system_table_with(self, values: dict) -> dict:
+        """The ``[system]`` table of a model declared by its scene, with ``values`` (its
+        numbers by path) written in: the scene as run."""
+        raise NotImplementedError
 
     # --- declared facts, derived ------------------------------------------------------
     @property

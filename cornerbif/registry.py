@@ -19,6 +19,7 @@ MODEL_MODULES = (
     "cornerbif.models.flow.model",
     "cornerbif.models.map2d.model",
     "cornerbif.models.two_particle.model",
+    "cornerbif.models.linear.model",
 )
 
 _MODELS = {}

@@ -38,7 +38,7 @@ def expected_seconds(warmups) -> float:
     for w in warmups:
         scene = config.loads(w.scene, source=f"<warm-up {w.label!r}>")
         what = ("continuation",) if w.command == "continue" else ("sweep",)
-        compiles = getattr(registry.get(scene.model), "compiles", None)
+        compiles = getattr(scene.spec, "compiles", None)
         total += sum(s for _, s, _ in compiles(scene, what)) if compiles else 0.0
     return total
 

@@ -19,7 +19,7 @@ def obstacle_curve(data: PlotData):
     """z(t) of a scene's obstacle at its system values (the model's ``wall_at``: the kernels'
     own obstacle) as a function of t, its period and the scene."""
     scene = data.parsed
-    model = registry.get(scene.model)
+    model = scene.spec
     row = np.ascontiguousarray(model.pack_values(scene.system, scene)[None, :])
 
     def z(t):

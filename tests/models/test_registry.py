@@ -14,12 +14,26 @@ from cornerbif.cli import main
 from cornerbif.model import Model
 
 
+def model_of(name):
+    """The registered model, or for a model that its scene declares (the linear model) the
+    model of its example system (the [system] of its warm-up scene)."""
+    spec = registry.get(name)
+    if spec.for_system is not None:
+        spec = config.loads(spec.warmups[0].scene).spec
+    return spec
+
+
 def tiny(name, **extra):
     raw = {"scene": {"name": f"tiny_{name}", "model": name},
            "initial": {"count": 2, "seed": 3},
            "run": {"transient": 4, "record": 6}}
-    spec = registry.get(name)
+    spec = model_of(name)
     first = next(iter(spec.params))
+    if spec.system_table is not None:        # its example's system, starts and first axis
+        example = config.loads(registry.get(name).warmups[0].scene)
+        raw["system"] = dict(spec.system_table)
+        raw["initial"].update({c: list(r) for c, r in example.initial.items()})
+        first = example.axes[0].name
     p = spec.params[first]
     raw["sweep"] = {first: {"values": [p.default, p.default * 1.001 if p.default else 0.001]}}
     for k, v in extra.items():
@@ -29,7 +43,7 @@ def tiny(name, **extra):
 
 @pytest.mark.parametrize("name", registry.names())
 def test_declarations_are_complete_and_their_defaults_allowed(name):
-    spec = registry.get(name)
+    spec = model_of(name)
     assert isinstance(spec, Model) and spec.name == name and spec.doc
     for k, p in spec.params.items():
         assert p.name == k and p.allowed and p.doc and p.equation, k
@@ -61,7 +75,7 @@ def test_a_block_fills_exactly_the_schema_and_simulate_agrees(name, tmp_path):
     starts = [block[f"initial/{c}"] for c in spec.coords]
     axis = sc.axes[0]
     res = simulate(*starts, model=name, transient=sc.transient, record=sc.record,
-                   **{axis.name: np.array(axis.values)[:, None]})
+                   table=spec.system_table, **{axis.name: np.array(axis.values)[:, None]})
     assert np.array_equal(res["status"], block["status"])
     assert np.array_equal(res["period"], block["period"])
     for fld in spec.fields(sc.keep):
@@ -77,7 +91,7 @@ def test_every_observable_opt_in_included_fills_the_schema(name, tmp_path):
     """With every observable kept (the opt-in ones too, e.g. stability) a block holds
     exactly the datasets the file declares, with their shapes and dtypes; without keep
     the opt-in ones are left out."""
-    spec = registry.get(name)
+    spec = model_of(name)
     sc = tiny(name, output={"keep": list(spec.observables)})
     with io.create(str(tmp_path / "s.h5"), sc, sc.n_ic) as f:
         names = []
@@ -97,7 +111,7 @@ def test_the_cycle_signature_is_the_last_recorded_cycles(name):
     """A model's CycleSeries names outputs of its kernel: each run's cycle/signature is the
     mean, least and largest of the two series over the last cycle of its record, counted
     here in numpy from cornerbif.simulate's arrays; NaN exactly where there is no cycle."""
-    spec = registry.get(name)
+    spec = model_of(name)
     if spec.cycle is None:
         pytest.skip("no cycle series")
     sc = tiny(name, run={"transient": 400, "record": 40}, initial={"count": 4})
@@ -105,7 +119,7 @@ def test_the_cycle_signature_is_the_last_recorded_cycles(name):
     starts = [block[f"initial/{c}"] for c in spec.coords]
     axis = sc.axes[0]
     res = simulate(*starts, model=name, transient=sc.transient, record=sc.record,
-                   **{axis.name: np.array(axis.values)[:, None]})
+                   table=spec.system_table, **{axis.name: np.array(axis.values)[:, None]})
     assert np.array_equal(res["period"], block["period"])
     cs = spec.cycle
     count = res["impacts_per_cycle"] if cs.per == "impacts" else res["period"]
@@ -125,11 +139,18 @@ def test_the_cycle_signature_is_the_last_recorded_cycles(name):
 
 @pytest.mark.parametrize("name", registry.names())
 def test_bad_values_name_key_value_and_range(name):
-    spec = registry.get(name)
+    spec = model_of(name)
     k, p = next((k, p) for k, p in spec.params.items() if p.ok(-1.0) is False)
-    with pytest.raises(config.SceneError) as e:
-        tiny(name, system={k: -1.0})
-    assert f"system.{k}: -1.0 is out of range; {k} must be {p.allowed}" in str(e.value)
+    if spec.system_table is not None:
+        # a number of a declared system, by its path: the table's own refusal names the key
+        # (system.mass) and the value
+        with pytest.raises(config.SceneError) as e:
+            tiny(name, system=spec.system_table_with({k: -1.0}))
+        assert f"system.{k.split('.')[0]}" in str(e.value) and "-1.0" in str(e.value)
+    else:
+        with pytest.raises(config.SceneError) as e:
+            tiny(name, system={k: -1.0})
+        assert f"system.{k}: -1.0 is out of range; {k} must be {p.allowed}" in str(e.value)
     with pytest.raises(config.SceneError) as e:
         tiny(name, system={k + "x": 1.0})
     assert f"system.{k}x: unknown key" in str(e.value)

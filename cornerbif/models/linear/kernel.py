@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ..._jit import jit
+from ..._jit import STOPPED, jit, stop_requested
 from ...obstacles.dispatch import NDERIVED, piece_at, piece_length, piece_start, z_state, zpp_range
 from ..flow.params import NPARAM
 from .events import TAYLOR_TERMS, ContactObstacle
@@ -203,24 +203,29 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
 
 
 @jit
-def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, count, tol, chatter, t_max,
-        o_t, o_c, o_x, o_vin, o_vout):
-    """Up to ``count`` impacts from y0 at t0 (module docstring) into the outputs: (status,
-    impacts recorded)."""
+def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter, t_max,
+        control, o_t, o_c, o_x, o_vin, o_vout, o_y):
+    """Up to ``count`` impacts from y0 at t0 (module docstring), the first ``skip`` not
+    recorded (a transient), the others into the outputs; the state after the last impact
+    into ``o_y`` ((x, v): 2n): (status, impacts recorded).  Under a sweep's ``control``
+    (``_jit.Control``; 0: none) told to stop: (STOPPED, 0), its outputs incomplete."""
     m = y0.shape[0]
     nc = gaps.shape[0]
     y = y0.copy()
     t = t0
+    o_y[:] = y[:2 * n]
     tmp = np.empty(m)
     best_y = np.empty(m)
     st_a = np.empty(2 * LEVELS + 4)
     st_k = np.empty(2 * LEVELS + 4, np.int64)
     st_y = np.empty((2 * LEVELS + 4, m))
     js = np.empty(nc, np.int64)
-    recorded = 0
-    while recorded < count:
+    impacts = 0
+    while impacts < count:
+        if stop_requested(control):
+            return STOPPED, 0
         if t > t_max:
-            return BUDGET, recorded
+            return BUDGET, max(0, impacts - skip)
         # the chunk: at most H, inside one piece of every contact's obstacle
         q = t + H
         for i in range(nc):
@@ -277,18 +282,23 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, count, tol, cha
         ad = 0.0
         for k in range(n):
             ad += gaps[bi, k] * D[bi, k]
+        kept = impacts - skip
         for k in range(n):
-            o_vin[recorded, k] = y[n + k]
+            if kept >= 0:
+                o_vin[kept, k] = y[n + k]
             y[n + k] -= (1.0 + r[bi]) * w * D[bi, k] / ad
-            o_vout[recorded, k] = y[n + k]
-            o_x[recorded, k] = y[k]
-        o_t[recorded] = te
-        o_c[recorded] = bi
-        recorded += 1
+            if kept >= 0:
+                o_vout[kept, k] = y[n + k]
+                o_x[kept, k] = y[k]
+        if kept >= 0:
+            o_t[kept] = te
+            o_c[kept] = bi
+        impacts += 1
+        o_y[:] = y[:2 * n]
         t = te
         if -r[bi] * w <= chatter:
-            return CHATTERS, recorded
-    return OK, recorded
+            return CHATTERS, max(0, impacts - skip)
+    return OK, max(0, impacts - skip)
 
 
 def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4):
@@ -300,8 +310,8 @@ def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4):
     o_c = np.full(count, -1, np.int64)
     o_x, o_vin, o_vout = (np.full((count, n), np.nan) for _ in range(3))
     st, k = run(a["E"], a["H"], a["normA"], a["cA"], a["normc"], a["rows"], a["ds"], a["gaps"],
-                a["D"], a["r"], a["y0"], a["t0"], n, count, tol, chatter, t_max, o_t, o_c, o_x,
-                o_vin, o_vout)
+                a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter, t_max, 0, o_t, o_c,
+                o_x, o_vin, o_vout, np.empty(2 * n))
     names = [system.contacts[i].name for i in o_c[:k]]
     return st, {"t": o_t[:k], "contact": names, "x": o_x[:k], "v_in": o_vin[:k],
                 "v_out": o_vout[:k]}

@@ -1,0 +1,132 @@
+"""The linear model's kernels over a sweep's items (issue 33): ``run_batch`` runs the event
+loop of ``kernel.run`` for each item on its system's arrays (``kernel.prepare``; the systems of
+a block stacked, ``which`` says each item's), and ``detect_contact_cycles`` finds each run's
+cycle in the impacts it recorded.
+
+The arrays of the systems of one block have one shape: their ``[system]`` tables differ only
+in numbers (``LinearModel.check`` refuses a sweep that changes the shape, a forcing's Omega
+through 0).
+
+**Cycles.**  The run's impacts k = 0 .. n-1 (contact c_k, time t_k, the impact height u_k =
+a . x and velocity v_k = a . v- along the contact's gap) repeat with q impacts per cycle when,
+over the whole recorded window (at least two cycles), c_(k+q) = c_k, u and v agree to
+``period_tol`` (relative above 1, as ``analysis.detect_cycle``), and t_(k+q) - t_k is one
+multiple P T of the system's period T (to ``period_tol``): the period P (in periods T, the
+forcing's or the moving obstacles'; where the system has none, T = 0, the period is q, in
+impacts).  The word is the contacts' letters over one cycle, rotated to its lexicographically
+smallest form (``analysis.smallest_rotation``): "LR" for a symmetric motion between two
+stops.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ... import status as S
+from ..._jit import STOPPED, count_done, items_kernel, jit, stop_requested
+from ...analysis import smallest_rotation
+from ...obstacles.dispatch import piece_at, piece_length, piece_start
+from .kernel import BUDGET, CHATTERS, gap_at, run
+
+# the integer settings (``LinearModel.int_settings``)
+I_TRANSIENT, I_RECORD, I_CONTROL = 0, 1, 2
+NINT = 3
+
+# the loop's endings as the file's status codes (cornerbif.status)
+STATUS_OF = {"OK": S.OK, "CHATTERS": S.STUCK, "BUDGET": S.NO_IMPACT}
+
+
+@items_kernel
+def run_batch(k0, k1, which, E, H, normA, cA, normc, rows, ds, gaps, D, r, f_omega, f_phi,
+              f_const, ics, ints, tol, chatter, t_max, o_t, o_c, o_x, o_vin, o_vout, o_status,
+              o_final):
+    """Item i: the system ``which[i]`` (the stacked arrays' first index) from the start ics[i]
+    = (x, v) at t = 0: ``ints[I_TRANSIENT]`` impacts, then up to o_t.shape[1] recorded, within
+    the time ``t_max`` of its system.  A start with a gap below zero: BELOW_OBSTACLE, nothing
+    recorded.  ``f_omega``, ``f_phi`` (per system, per harmonic force) and ``f_const`` (a
+    constant force: its state 1) start the forcing's states (``flight.forcing_state``)."""
+    n = gaps.shape[2]
+    control = ints[I_CONTROL]
+    skip = ints[I_TRANSIENT]
+    rec = o_t.shape[1]
+    m = E.shape[2]
+    y0 = np.empty(m)
+    for i in range(k0, k1):
+        if stop_requested(control):
+            o_status[i] = STOPPED
+            continue
+        s = which[i]
+        y0[:] = 0.0
+        for k in range(2 * n):
+            y0[k] = ics[i, k]
+        for h in range(f_omega.shape[1]):
+            y0[2 * n + 2 * h] = math.cos(f_phi[s, h])
+            y0[2 * n + 2 * h + 1] = math.sin(f_phi[s, h])
+        if f_const[s]:
+            y0[m - 1] = 1.0
+        o_final[i, :] = math.nan
+        inside = False
+        for c in range(gaps.shape[1]):
+            j, _ = piece_at(ds[s, c], 0.0)
+            while piece_start(ds[s, c], j) + piece_length(ds[s, c], j) <= 0.0:
+                j += 1
+            g, _ = gap_at(cA[s], c, y0, rows[s, c], ds[s, c], j, 0.0)
+            if g < 0.0:
+                inside = True
+        if inside:
+            o_status[i] = S.BELOW_OBSTACLE
+            continue
+        st, _ = run(E[s], H[s], normA[s], cA[s], normc[s], rows[s], ds[s], gaps[s], D[s], r[s],
+                    y0, 0.0, n, skip, skip + rec, tol, chatter, t_max[s], control, o_t[i], o_c[i],
+                    o_x[i], o_vin[i], o_vout[i], o_final[i])
+        if st == STOPPED:
+            o_status[i] = STOPPED
+            continue
+        o_status[i] = S.STUCK if st == CHATTERS else (S.NO_IMPACT if st == BUDGET else S.OK)
+        count_done(control)
+
+
+@jit
+def detect_contact_cycle(t, c, u, v, period, tol, letters, sym_out):
+    """(period, impacts per cycle) of one run's impacts and its word into ``sym_out``
+    (module docstring); (0, 0) when no cycle repeats twice in the window."""
+    n = 0
+    while n < t.shape[0] and t[n] == t[n]:
+        n += 1
+    sym_out[:] = 0
+    for q in range(1, n // 2 + 1):
+        ok = True
+        whole = -1.0
+        for k in range(n - q):
+            e = k + q
+            if c[k] != c[e] or abs(u[k] - u[e]) > tol * (1.0 + abs(u[k])) \
+                    or abs(v[k] - v[e]) > tol * (1.0 + abs(v[k])):
+                ok = False
+                break
+            if period > 0.0:
+                dt = t[e] - t[k]
+                p = math.floor(dt / period + 0.5)
+                if p < 1.0 or abs(dt - p * period) > tol or (whole >= 0.0 and p != whole):
+                    ok = False
+                    break
+                whole = p
+        if ok:
+            word = np.empty(q, np.uint8)
+            for k in range(q):
+                word[k] = letters[c[n - q + k]]
+            best = smallest_rotation(word, 0, q)
+            for k in range(q):
+                sym_out[k] = word[(best + k) % q]
+            return (int(whole) if period > 0.0 else q), q
+    return 0, 0
+
+
+@items_kernel
+def detect_contact_cycles(k0, k1, t, c, u, v, period, tol, letters, o_period, o_ipc, o_sym):
+    """``detect_contact_cycle`` over all items (``period``: each item's system period T)."""
+    for i in range(k0, k1):
+        p, q = detect_contact_cycle(t[i], c[i], u[i], v[i], period[i], tol, letters, o_sym[i])
+        o_period[i] = p
+        o_ipc[i] = q

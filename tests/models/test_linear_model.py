@@ -1,0 +1,289 @@
+"""The ``linear`` model as a model: a scene declares the system, and sweeps, files, figures and
+``simulate`` run it (docs/linear.md).
+
+Checked against computations independent of it:
+
+- the bouncing ball's period-one orbit and its period doubling, in closed form (derived in
+  ``_ball_closed_form`` and ``test_the_bouncing_ball_doubles_its_period_where_the_closed_form_says``);
+- one mass against a rectified sine: the ``flow`` model's kernel, a different code for the
+  same physics (its closed-form oscillator and its own certified search);
+- what the scene may not say, refused naming the key and the value.
+"""
+
+import math
+import os
+import tomllib
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import cornerbif
+from cornerbif import config, registry
+from cornerbif.cli import main
+from cornerbif.config import SceneError
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+# a ball (unit mass, gravity g = 1: the constant force -1) on a table z = beta sin(omega t)
+BALL = """
+[scene]
+name = "ball"
+model = "linear"
+
+[system]
+dofs = ["x"]
+mass = [1.0]
+stiffness = [0.0]
+forcing = [{ on = "x", F = -1.0 }]
+
+[[system.contact]]
+name = "T"
+gap = { x = 1.0 }
+obstacle = "sine"
+kappa = 0.0
+beta = 0.036
+omega = 6.0
+r = 0.5
+"""
+G, OMEGA, R = 1.0, 6.0, 0.5
+
+
+def _ball_table():
+    return tomllib.loads(BALL)["system"]
+
+
+def _ball_closed_form(beta):
+    """The period-one orbit of the bouncing ball, one impact per table period T = 2 pi /
+    omega (derived here).  The ball leaves the table at t* with velocity v+ and meets it
+    again at t* + T, where the table is back at z(t*): v+ T - g T^2 / 2 = 0, so v+ = g T / 2
+    and v- = v+ - g T = -g T / 2.  The impact law relative to the table, v+ - z' = -r (v- -
+    z'), then gives z'(t*) = g T (1 - r) / (2 (1 + r)): beta omega cos(omega t*) = that, so
+    cos(omega t*) = pi (1 - r) / ((1 + r) Gamma), Gamma = beta omega^2 / g.  Of its two
+    solutions the stable one has sin(omega t*) > 0 (the doubling test below): the impact
+    height u = z(t*) = beta sqrt(1 - cos^2)."""
+    gamma = beta * OMEGA ** 2 / G
+    c = math.pi * (1 - R) / ((1 + R) * gamma)
+    return beta * math.sqrt(1 - c * c), -G * math.pi / OMEGA, G * math.pi / OMEGA
+
+
+def test_the_bouncing_balls_period_one_orbit_is_the_closed_form():
+    rng = np.random.default_rng(3)
+    x0, v0 = rng.uniform(0.2, 0.5, 48), rng.uniform(-0.5, 0.5, 48)
+    for beta in (0.031, 0.036, 0.041):                 # Gamma = 1.12, 1.30, 1.48
+        r = cornerbif.simulate(x0, v0, model="linear", table=_ball_table(), transient=300,
+                               record=12, **{"contact.T.beta": beta})
+        one = np.flatnonzero(r["period"] == 1)
+        assert one.size >= 2, (beta, r["status"])       # most starts chatter to rest (STUCK)
+        u, v_in, v_out = _ball_closed_form(beta)
+        for i in one:
+            assert r["symbols"][i] == "T" and r["impacts_per_cycle"][i] == 1
+            np.testing.assert_allclose(r["u"][i], u, atol=1e-9)
+            np.testing.assert_allclose(r["v_in"][i], v_in, atol=1e-9)
+            np.testing.assert_allclose(r["v_out"][i], v_out, atol=1e-9)
+
+
+def test_the_bouncing_ball_doubles_its_period_where_the_closed_form_says():
+    """Linearised about the period-one orbit (impact times t_k, velocities v_k after each
+    impact; a = z'(t*), b = z''(t*), D = g T / 2 + a = g T / (1 + r)), the impact map has
+    J = [[1, T / D], [(1 + r) b, ((1 + r) b + r g) T / D - r]]: det J = r^2 and
+    tr J = 1 + r^2 + (1 + r)^2 b / g.  An eigenvalue -1 (1 + tr + det = 0) needs b / g =
+    -2 (1 + r^2) / (1 + r)^2, i.e. Gamma sin(omega t*) = 2 (1 + r^2) / (1 + r)^2: with the
+    orbit's Gamma cos(omega t*) = pi (1 - r) / (1 + r),
+    Gamma_PD^2 = (pi (1 - r) / (1 + r))^2 + (2 (1 + r^2) / (1 + r)^2)^2 (1.5268 at r = 0.5).
+    The sweep finds period 1 below Gamma_PD and period 2 above it, to its grid spacing (the
+    multiplier near -1 converges slowly: the points within 0.02 of it are not judged)."""
+    g_pd = math.hypot(math.pi * (1 - R) / (1 + R), 2 * (1 + R * R) / (1 + R) ** 2)
+    gammas = np.linspace(1.2, 1.64, 23)
+    betas = gammas * G / OMEGA ** 2
+    rng = np.random.default_rng(5)
+    x0, v0 = rng.uniform(0.2, 0.5, 12), rng.uniform(-0.5, 0.5, 12)
+    B, X, V = np.meshgrid(betas, x0, v0, indexing="ij", sparse=False)
+    r = cornerbif.simulate(X[:, :, 0], V[:, :, 0], model="linear", table=_ball_table(),
+                           transient=600, record=16, **{"contact.T.beta": B[:, :, 0]})
+    for gamma, period in zip(gammas, r["period"]):
+        found = set(int(p) for p in period if p > 0)
+        if gamma < g_pd - 0.02:
+            assert found == {1}, (gamma, found)
+        elif gamma > g_pd + 0.02:
+            assert found == {2}, (gamma, found)
+
+
+FLOW_SCENE = """
+[scene]
+name = "one_mass_flow"
+model = "flow"
+[system]
+obstacle = "rectified_sine"
+omega = 1.8
+kappa = 0.0
+beta = 1.0
+r = 0.8
+sigma = 0.05
+k = 1.0
+"""
+
+LINEAR_SCENE = """
+[scene]
+name = "one_mass_linear"
+model = "linear"
+[system]
+dofs = ["u"]
+mass = [1.0]
+stiffness = [1.0]
+damping = [0.1]
+[[system.contact]]
+name = "W"
+gap = { u = 1.0 }
+obstacle = "rectified_sine"
+kappa = 0.0
+beta = 1.0
+omega = 1.8
+r = 0.8
+"""
+
+
+def test_one_mass_against_a_rectified_sine_is_the_flow_model():
+    """The flow model's eq (4) with k = 1, sigma = 0.05 against |sin omega t| is the linear
+    system m = 1, K = k^2, C = 2 sigma with one contact: over the first 20 impacts the two
+    kernels (different codes: the flow's closed-form oscillator and Sturm bounds, the
+    linear model's matrix exponentials and Taylor bounds) give the same impacts to 1e-9."""
+    omegas = np.array([1.6, 1.8, 1.95, 2.1, 2.4])
+    u0 = np.array([5.0, 3.0, 8.0, 1.5, 12.0])
+    v0 = np.array([0.0, 1.0, -2.0, 0.5, 3.0])
+    f = cornerbif.simulate(u0[:, None], v0[:, None], model="flow", omega=omegas[None, :],
+                           obstacle="rectified_sine", kappa=0.0, beta=1.0, r=0.8, sigma=0.05,
+                           k=1.0, transient=0, record=20)
+    lin = cornerbif.simulate(model="linear", table=tomllib.loads(LINEAR_SCENE)["system"],
+                             u0=u0[:, None], v_u0=v0[:, None], transient=0, record=20,
+                             **{"contact.W.omega": omegas[None, :]})
+    assert np.array_equal(np.isfinite(f["t"]), np.isfinite(lin["t"]))
+    for k in ("t", "u", "v_in", "v_out"):
+        np.testing.assert_allclose(lin[k], f[k], atol=1e-9, rtol=1e-9, err_msg=k)
+
+
+def test_one_mass_cycles_have_the_flows_impacts_per_cycle():
+    """After a transient, runs of both models that reach a cycle find it with the same
+    impacts per cycle and the same impacts (the flow counts its period in corner clusters,
+    the linear model in periods of the obstacle: both count the impacts)."""
+    omegas = np.linspace(1.6, 2.4, 9)
+    f = cornerbif.simulate(5.0, 0.0, model="flow", omega=omegas, obstacle="rectified_sine",
+                           kappa=0.0, beta=1.0, r=0.8, sigma=0.05, k=1.0, transient=300,
+                           record=40)
+    lin = cornerbif.simulate(model="linear", table=tomllib.loads(LINEAR_SCENE)["system"],
+                             u0=5.0, v_u0=0.0, transient=300, record=40,
+                             **{"contact.W.omega": omegas})
+    both = (f["impacts_per_cycle"] > 0) & (lin["impacts_per_cycle"] > 0)
+    assert both.sum() >= 6
+    assert np.array_equal(f["impacts_per_cycle"][both], lin["impacts_per_cycle"][both])
+    np.testing.assert_allclose(lin["u"][both], f["u"][both], atol=1e-7)
+    assert all(set(w) == {"W"} for w in lin["symbols"][both])
+
+
+def _scene(text, *sets):
+    raw = tomllib.loads(text)
+    return config.from_dict(raw) if not sets else config.loads(text, list(sets))
+
+
+@pytest.mark.parametrize("edit, needle", [
+    (("mass = [1.0]", "mass = [-1.0]"), "system.mass"),
+    (("dofs = [\"x\"]", "dofs = [\"x\", \"x\"]"), "system.dofs"),
+    (("name = \"T\"", "name = \"TT\""), "system.contact"),
+    (("r = 0.5", "r = 1.5"), "1.5"),
+    (("r = 0.5", "law = \"spring\"\nk = 10.0"), "spring"),
+])
+def test_a_bad_system_is_refused_naming_the_key_and_value(edit, needle):
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL.replace(*edit))
+    assert needle in str(e.value), str(e.value)
+
+
+def test_a_sweep_through_a_bad_system_is_refused_naming_the_point():
+    """A value out of its own range is refused by its axis; values each allowed that make a
+    system that is not (an off-diagonal mass entry of 2 between masses of 1: M is not
+    positive-definite) are refused naming the point."""
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL + '[sweep]\n"mass.x" = { values = [1.0, 0.5, -0.5] }\n')
+    assert "mass.x" in str(e.value) and "-0.5" in str(e.value), str(e.value)
+    two = BALL.replace('dofs = ["x"]', 'dofs = ["x", "y"]').replace(
+        "mass = [1.0]", "mass = [[1.0, 0.5], [0.5, 1.0]]").replace(
+        "stiffness = [0.0]", "stiffness = [0.0, 1.0]")
+    config.loads(two)
+    with pytest.raises(SceneError) as e:
+        config.loads(two + '[sweep]\n"mass.x.y" = { values = [0.5, 0.9, 2.0] }\n')
+    assert "system.mass" in str(e.value) and "sweep.mass.x.y = 2.0" in str(e.value), str(e.value)
+
+
+def test_unknown_coordinates_and_axes_are_refused():
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL + "[initial]\ny = [0.0, 1.0]\n")
+    assert "initial.y" in str(e.value)
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL + '[sweep]\n"contact.T.bta" = { values = [0.03] }\n')
+    assert "contact.T.bta" in str(e.value)
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL + '[sweep]\n"contact.T.beta" = { values = [0.03, 0.04] }\n'
+                     'follow = "up"\n')
+    assert "follow" in str(e.value)
+
+
+def test_the_scene_as_run_reads_back_to_the_same_model():
+    """The scene a file stores (its [system] as given, its axes' paths quoted) is read back
+    to the same coordinates, parameters and values."""
+    s = config.loads(BALL + '[sweep]\n"contact.T.beta" = { values = [0.03, 0.04] }\n'
+                     '[initial]\nx = [0.2, 0.5]\nv_x = [-0.5, 0.5]\n')
+    again = config.loads(s.text)
+    assert again.spec.start_names == s.spec.start_names == ("x", "v_x")
+    assert list(again.spec.params) == list(s.spec.params)
+    assert again.axes == s.axes and again.system == s.system and again.text == s.text
+    assert s.spec is not registry.get("linear")
+
+
+def test_sweep_plot_info_and_resume_end_to_end(tmp_path, monkeypatch):
+    """``cornerbif sweep`` writes the file, ``info`` and ``plot`` read it, and a sweep cut
+    after its first block and resumed writes the same bytes as one run whole."""
+    from cornerbif import engine
+    from cornerbif import sweep as sweep_mod
+    scene = tmp_path / "ball.toml"
+    scene.write_text(BALL + '[sweep]\n"contact.T.beta" = { start = 0.031, stop = 0.05, num = 6 }\n'
+                     '[initial]\ncount = 3\nx = [0.2, 0.5]\nv_x = [-0.5, 0.5]\n'
+                     '[run]\ntransient = 100\nrecord = 16\n')
+    runner = CliRunner()
+    full = tmp_path / "full.h5"
+    r = runner.invoke(main, ["sweep", str(scene), "-o", str(full), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(main, ["info", str(full)])
+    assert r.exit_code == 0 and "model linear" in r.output, r.output
+    r = runner.invoke(main, ["plot", str(full), "-o", str(tmp_path / "ball.png")])
+    assert r.exit_code == 0 and os.path.getsize(tmp_path / "ball.png") > 10_000, r.output
+    monkeypatch.setattr(engine, "BLOCK_BYTES", 2 * 3 * engine.item_bytes(config.load(scene)))
+    calls = {"n": 0}
+    real = sweep_mod.io.write_block
+
+    def flaky(f, index, block):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        real(f, index, block)
+
+    monkeypatch.setattr(sweep_mod.io, "write_block", flaky)
+    part = tmp_path / "part.h5"
+    r = runner.invoke(main, ["sweep", str(scene), "-o", str(part), "--no-progress"])
+    assert r.exit_code == 130, r.output
+    monkeypatch.setattr(sweep_mod.io, "write_block", real)
+    r = runner.invoke(main, ["sweep", str(scene), "-o", str(part), "--no-progress", "--resume"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(full) as f, h5py.File(part) as g:
+        names = []
+        f.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        assert "impacts/u" in names and "impacts/contact" in names and "initial/v_x" in names
+        for n in names:
+            a, b = f[n][...], g[n][...]
+            assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), n
+        assert f["period"][...].max() >= 1
+
+
+def test_the_control_slot_is_the_kernels():
+    from cornerbif.models.linear import batch
+    assert registry.get("linear").control_slot == batch.I_CONTROL
