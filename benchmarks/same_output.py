@@ -130,6 +130,7 @@ def smoke_sets(raw):
     for k, spec in raw.get("sweep", {}).items():
         if k == "follow" or not isinstance(spec, dict):
             continue
+        k = f'"{k}"' if "." in k else k        # a parameter by its path (linear): one key
         if "num" in spec:
             shape.append(min(spec["num"], SMOKE["axis_num"]))
             sets.append(f"sweep.{k}.num={shape[-1]}")

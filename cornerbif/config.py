@@ -346,14 +346,32 @@ _fmt = shown
 AXIS_FORMS = (("values",), ("start", "stop", "num"))
 
 
+def key_parts(key: str) -> list:
+    """The parts of a dotted key as TOML reads it: ``system.omega`` -> [system, omega], and a
+    quoted part whole, ``sweep."contact.R.kappa".num`` -> [sweep, contact.R.kappa, num] (the
+    linear model's parameters are paths); a key TOML cannot read is split at its dots."""
+    if '"' in key or "'" in key:
+        try:
+            node, parts = tomllib.loads(f"{key} = 0"), []
+            while isinstance(node, dict) and len(node) == 1:
+                (k, node), = node.items()
+                parts.append(k)
+            if node == 0:
+                return parts
+        except (tomllib.TOMLDecodeError, ValueError):
+            pass
+    return key.split(".")
+
+
 def set_dotted(raw: dict, key: str, value):
     """Apply one ``--set a.b.c=value`` override to a raw TOML dict.
 
     On a ``[sweep]`` axis a key of one form replaces the other form: ``--set
     sweep.kappa.values=[0.005]`` on a start/stop/num axis drops start, stop and num (and
     ``--set sweep.kappa.num=5`` on a values axis drops values); ``--set
-    sweep.kappa={values=[0.005]}`` replaces the whole axis."""
-    parts = key.split(".")
+    sweep.kappa={values=[0.005]}`` replaces the whole axis.  A quoted part is one key
+    (``key_parts``)."""
+    parts = key_parts(key)
     node = raw
     for p in parts[:-1]:
         nxt = node.get(p)
@@ -383,7 +401,7 @@ def parse_override(text: str):
     key, val = text.split("=", 1)
     key = key.strip()
     val = val.strip()
-    parts = key.split(".")
+    parts = key_parts(key)
     if not all(p.strip() for p in parts):
         raise SceneError([f"--set {shown(text)}: the key {shown(key)} has an empty part; keys "
                           "are dotted names such as system.omega"])
@@ -501,7 +519,12 @@ def _toml_key(k) -> str:
     """A key as TOML writes it: bare where it can be, else quoted (a path such as
     "contact.R.kappa", unquoted, would be read back as nested tables)."""
     k = str(k)
-    return k if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k) else _toml_value(k)
+    bare = k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k)
+    # a swept start coordinate keeps the dotted form it has always been written in
+    # (``sweep_items`` reads ``initial.u`` as the nested table it is)
+    if bare or (k.startswith(IC_PREFIX) and _toml_key(k[len(IC_PREFIX):]) == k[len(IC_PREFIX):]):
+        return k
+    return _toml_value(k)
 
 
 def dumps(raw: dict) -> str:
@@ -620,7 +643,8 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
             problems += e.problems
             continue
         set_dotted(raw, key, val)
-        given.append((key, cut(ov) if isinstance(ov, str) else f"{key}={shown(val)}"))
+        given.append((".".join(key_parts(key)),
+                      cut(ov) if isinstance(ov, str) else f"{key}={shown(val)}"))
     if problems:
         raise SceneError(problems)
     try:

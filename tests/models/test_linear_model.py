@@ -287,3 +287,49 @@ def test_sweep_plot_info_and_resume_end_to_end(tmp_path, monkeypatch):
 def test_the_control_slot_is_the_kernels():
     from cornerbif.models.linear import batch
     assert registry.get("linear").control_slot == batch.I_CONTROL
+
+
+def _two_stop_flight(x0, v0, t0, s, W, zeta=0.02, F=0.7):
+    """x'' + 2 zeta x' + x = F cos(W t) from (x0, v0) at t0, a time s later: the damped
+    homogeneous part and the harmonic particular solution X cos(W t - psi), written here."""
+    X, psi = F / math.hypot(1 - W * W, 2 * zeta * W), math.atan2(2 * zeta * W, 1 - W * W)
+    wd = math.sqrt(1 - zeta * zeta)
+    A = x0 - X * math.cos(W * t0 - psi)
+    B = (v0 + X * W * math.sin(W * t0 - psi) + zeta * A) / wd
+    e, c, sn = math.exp(-zeta * s), math.cos(wd * s), math.sin(wd * s)
+    x = e * (A * c + B * sn) + X * math.cos(W * (t0 + s) - psi)
+    v = e * (-zeta * (A * c + B * sn) - A * wd * sn + B * wd * c) - X * W * math.sin(W * (t0 + s) - psi)
+    return x, v
+
+
+@pytest.mark.parametrize("W", [1.3, 1.6, 2.0, 2.3])
+def test_the_two_stop_oscillators_symmetric_motion_is_the_shooting_solution(W):
+    """configs/two_stops.toml: the symmetric motion LR (x(t + pi / W) = -x(t)) is, by its
+    symmetry, an impact at x = 1 at t0 with incoming speed v, the rebound -r v, and a free
+    flight of half a forcing period to x = -1 arriving with speed v: two equations in (t0, v),
+    solved here by scipy's fsolve on the closed-form flight above from a grid of guesses.
+    The sweep's LR runs have that speed and time (mod the period) to 1e-9."""
+    from scipy.optimize import fsolve
+    table = tomllib.loads(open(os.path.join(ROOT, "configs", "two_stops.toml")).read())["system"]
+    rng = np.random.default_rng(2)
+    res = cornerbif.simulate(rng.uniform(-0.9, 0.9, 32), rng.uniform(-2, 2, 32), model="linear",
+                             table=table, transient=400, record=8, max_periods=2000,
+                             **{"forcing.0.Omega": W})
+    lr = np.flatnonzero(res["symbols"] == "LR")
+    assert lr.size >= 4
+    r, P = 0.8, 2 * math.pi / W
+    roots = []
+    for guess in np.linspace(0.0, P, 24, endpoint=False):
+        for v in (0.5, 1.0, 1.5, 2.0):
+            z, _, ok, _ = fsolve(lambda z: [a + b for a, b in zip(
+                _two_stop_flight(1.0, -r * z[1], z[0], P / 2, W), (1.0, z[1]))],
+                [guess, v], full_output=True, xtol=1e-14)
+            if ok == 1 and z[1] > 0:
+                roots.append((z[0] % P, z[1]))
+    for i in lr:
+        k = np.flatnonzero(res["contact"][i] == 1)          # impacts on R (x = 1)
+        t_R, v_R = res["t"][i, k], -res["v_in"][i, k]       # a . v = -v on R
+        assert np.allclose(res["u"][i, k], -1.0, atol=1e-9)  # u = a . x = -1 there
+        near = min(roots, key=lambda z: min(abs(z[0] - t_R[0] % P), P - abs(z[0] - t_R[0] % P)))
+        dt = abs(near[0] - t_R[0] % P)
+        assert min(dt, P - dt) < 1e-9 and np.allclose(v_R, near[1], atol=1e-9), (near, t_R, v_R)
