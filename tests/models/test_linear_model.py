@@ -13,6 +13,7 @@ Checked against computations independent of it:
 import math
 import os
 import tomllib
+import warnings
 
 import h5py
 import numpy as np
@@ -333,3 +334,52 @@ def test_the_two_stop_oscillators_symmetric_motion_is_the_shooting_solution(W):
         near = min(roots, key=lambda z: min(abs(z[0] - t_R[0] % P), P - abs(z[0] - t_R[0] % P)))
         dt = abs(near[0] - t_R[0] % P)
         assert min(dt, P - dt) < 1e-9 and np.allclose(v_R, near[1], atol=1e-9), (near, t_R, v_R)
+
+
+@pytest.mark.parametrize("W", [1.3, 1.45, 1.6])
+def test_the_impact_dampers_symmetric_motion_is_the_shooting_solution(W):
+    """configs/impact_damper.toml: the symmetric motion LR of Masri and Caughey (1966), two
+    impacts per period on alternate walls, is x(t + pi/W) = -x(t), y(t + pi/W) = -y(t).  Just
+    before an impact on R (y = x + 1/2) the state is (t0, x0, x', y'); the generalised Newton
+    law with masses M = 1, m = 0.1 (momentum kept, relative velocity reversed with r = 0.6,
+    written out here), then half a period of flight (the primary's closed form above, the ball
+    in a straight line) must give the mirrored state: four equations, solved by fsolve.  The
+    sweep's LR runs have that state just after each R impact, to 1e-9."""
+    from scipy.optimize import fsolve
+    table = tomllib.loads(open(os.path.join(ROOT, "configs", "impact_damper.toml")).read())["system"]
+    M, m, r, d = 1.0, 0.1, 0.6, 0.5
+    rng = np.random.default_rng(4)
+    n = 16
+    res = cornerbif.simulate(model="linear", table=table, x0=rng.uniform(-0.2, 0.2, n),
+                             y0=rng.uniform(-0.2, 0.2, n), v_x0=rng.uniform(-0.5, 0.5, n),
+                             v_y0=rng.uniform(-0.5, 0.5, n), transient=400, record=8,
+                             **{"forcing.0.Omega": W})
+    lr = np.flatnonzero(res["symbols"] == "LR")
+    assert lr.size >= 4
+    P = 2 * math.pi / W
+
+    def after_R(x0, vx, vy):
+        w = vx - vy                                   # a . v with a = (1, -1): w < 0
+        k = (1 + r) * w / (1 / M + 1 / m)
+        return vx - k / M, vy + k / m
+
+    def residual(z):
+        t0, x0, vx, vy = z
+        ux, uy = after_R(x0, vx, vy)
+        x1, vx1 = _two_stop_flight(x0, ux, t0, P / 2, W, zeta=0.05, F=0.3)
+        y1 = x0 + d + uy * P / 2
+        return [x1 + x0, vx1 + vx, uy + vy, y1 + (x0 + d)]
+
+    for i in lr:
+        k = int(np.flatnonzero(res["contact"][i] == 0)[-1])        # the last impact on R
+        t, x, ux, uy = res["t"][i, k], res["x_x"][i, k], res["v_x"][i, k], res["v_y"][i, k]
+        w = (ux - uy) / -r                                           # back to before the impact
+        guess = [t % P + 1e-3, x + 1e-3, ux - 0.01, uy + 0.01]
+        with warnings.catch_warnings():       # fsolve says when rounding stops its progress
+            warnings.simplefilter("ignore", RuntimeWarning)
+            z = fsolve(residual, guess, xtol=1e-14)
+        assert np.max(np.abs(residual(z))) < 1e-12, z           # solved (to rounding)
+        sx, sy = after_R(z[1], z[2], z[3])
+        dt = abs(z[0] % P - t % P)
+        assert min(dt, P - dt) < 1e-9 and abs(z[1] - x) < 1e-9, (z, t, x)
+        assert abs(sx - ux) < 1e-9 and abs(sy - uy) < 1e-9 and abs(z[2] - z[3] - w) < 1e-9
