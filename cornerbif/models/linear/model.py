@@ -201,6 +201,10 @@ class LinearModel(Model):
                 break
         return problems
 
+    def orbit_seed(self, values, scene, param, word, run):
+        raise NotImplementedError("the linear model does not solve its periodic orbits yet "
+                                  "(docs/linear.md, \"What remains\")")
+
     def wall_at_start(self, params):
         return np.full(params.shape[0], -np.inf)      # no start is drawn above an obstacle
 
