@@ -66,6 +66,7 @@ ENTRIES = [
     ("map2d", sweep("fig15b", axis="kappa"), sweep("fig04c", axis="omega")),
     ("map2d stability", sweep("fig15b", 'output.keep=["section", "stability"]', axis="kappa"),
      sweep("fig15b", axis="kappa")),
+    ("linear", sweep("bouncing_ball", axis='"contact.T.beta"'), ANALYSIS),
     ("flow continuation", cont("cont_beta"), sweep("fig04c", axis="omega")),
     ("two_particle continuation", cont("cont_fig19"), sweep("fig19a", axis="omega0")),
 ]

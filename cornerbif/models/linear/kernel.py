@@ -82,6 +82,14 @@ def prepare(system, t0, x0, v0):
 
 
 @jit
+def copy_to(dst, src, n):
+    """dst[:n] = src[:n], element by element: an array assignment compiles numba's
+    shape-mismatch message (2 s of the loop's first compile)."""
+    for i in range(n):
+        dst[i] = src[i]
+
+
+@jit
 def matvec(E, k, y, out):
     """out = E[k] y."""
     m = y.shape[0]
@@ -103,12 +111,12 @@ def advance(E, H, y, length, tmp):
     f = x - whole
     for _ in range(whole):
         matvec(E, 0, y, tmp)
-        y[:] = tmp
+        copy_to(y, tmp, y.shape[0])
     for k in range(1, E.shape[0]):
         f *= 2.0
         if f >= 1.0:
             matvec(E, k, y, tmp)
-            y[:] = tmp
+            copy_to(y, tmp, y.shape[0])
             f -= 1.0
 
 
@@ -161,7 +169,7 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
     top = 0
     st_a[0] = p
     st_k[0] = 0
-    st_y[0, :] = yp
+    copy_to(st_y[0], yp, yp.shape[0])
     while top >= 0:
         a = st_a[top]
         k = st_k[top]
@@ -175,18 +183,18 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
         if min(ga, ga + g1 * h - B * h * h / 2.0) > 0.0:
             continue
         if ga <= 0.0:
-            tmp[:] = ya
+            copy_to(tmp, ya, ya.shape[0])
             return IMPACT, a
         if h <= tol or k == LEVELS:
             # as fine as asked: the right end's sign (at q where the interval passes it)
             b = min(a + h, q)
-            tmp[:] = ya
+            copy_to(tmp, ya, ya.shape[0])
             advance(E, H, tmp, b - a, st_y[top + 1])
             gb, _ = gap_at(cA, i, tmp, row, d, j, b)
             if gb <= 0.0:
                 return IMPACT, b
             if b < q:
-                tmp[:] = ya
+                copy_to(tmp, ya, ya.shape[0])
                 return GRAZE, a
             continue
         # the right half under the left
@@ -194,11 +202,11 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
         top += 1
         st_a[top] = a + h / 2.0
         st_k[top] = k + 1
-        st_y[top, :] = tmp
+        copy_to(st_y[top], tmp, tmp.shape[0])
         top += 1
         st_a[top] = a
         st_k[top] = k + 1
-        st_y[top, :] = ya
+        copy_to(st_y[top], ya, ya.shape[0])
     return NONE, math.inf
 
 
@@ -213,7 +221,7 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
     nc = gaps.shape[0]
     y = y0.copy()
     t = t0
-    o_y[:] = y[:2 * n]
+    copy_to(o_y, y, 2 * n)
     tmp = np.empty(m)
     best_y = np.empty(m)
     st_a = np.empty(2 * LEVELS + 4)
@@ -245,7 +253,7 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
                 if g1 <= 0.0:
                     if 0.0 < best:
                         best, bi = 0.0, i
-                        best_y[:] = y
+                        copy_to(best_y, y, m)
                     continue
                 # leaving the obstacle: free until g' / B at least (events.py)
                 B = bound2(cA, i, y, q - t, normc[i], normA, piece_zpp(rows[i], js[i]))
@@ -258,13 +266,13 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
                               tol, st_a, st_k, st_y, tmp)
             if kind != NONE and te - t < best:
                 best, bi = te - t, i
-                best_y[:] = tmp
+                copy_to(best_y, tmp, m)
         if bi < 0:
             advance(E, H, y, q - t, tmp)
             t = q
             continue
         te = t + best                 # (a graze: its interval's start, where best_y is)
-        y[:] = best_y
+        copy_to(y, best_y, m)
         j = js[bi]
         _, zp, _, _ = z_state(rows[bi], j, te - piece_start(ds[bi], j))
         w = 0.0
@@ -294,7 +302,7 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
             o_t[kept] = te
             o_c[kept] = bi
         impacts += 1
-        o_y[:] = y[:2 * n]
+        copy_to(o_y, y, 2 * n)
         t = te
         if -r[bi] * w <= chatter:
             return CHATTERS, max(0, impacts - skip)
