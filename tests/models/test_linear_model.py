@@ -383,3 +383,16 @@ def test_the_impact_dampers_symmetric_motion_is_the_shooting_solution(W):
         dt = abs(z[0] % P - t % P)
         assert min(dt, P - dt) < 1e-9 and abs(z[1] - x) < 1e-9, (z, t, x)
         assert abs(sx - ux) < 1e-9 and abs(sy - uy) < 1e-9 and abs(z[2] - z[3] - w) < 1e-9
+
+
+def test_starts_not_finite_or_past_the_escape_bound_end_with_their_status():
+    """A start that is not a number ends at once (NONFINITE), one past ``run.escape`` (or
+    infinite) as ESCAPED, as the flow model's do; none of them runs on (a NaN start once
+    looped for ever: no time comparison with NaN ends a loop)."""
+    from cornerbif import status as S
+    r = cornerbif.simulate(model="linear", table=_ball_table(),
+                           x0=np.array([np.nan, 0.1, 1e300, 0.1]),
+                           v_x0=np.array([0.0, np.inf, 0.0, 0.0]), record=4, escape=1e6)
+    assert list(r["status"][:3]) == [S.NONFINITE, S.ESCAPED, S.ESCAPED]
+    assert r["status"][3] == S.OK and np.isfinite(r["t"][3]).all()     # a start that runs
+    assert np.isnan(r["t"][:3]).all()

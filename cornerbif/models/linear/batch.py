@@ -28,20 +28,18 @@ from ... import status as S
 from ..._jit import STOPPED, count_done, items_kernel, jit, stop_requested
 from ...analysis import smallest_rotation
 from ...obstacles.dispatch import piece_at, piece_length, piece_start
-from .kernel import BUDGET, CHATTERS, gap_at, run
+from .kernel import BUDGET, CHATTERS, ESCAPED, NONFINITE, gap_at, run
 
 # the integer settings (``LinearModel.int_settings``)
 I_TRANSIENT, I_RECORD, I_CONTROL = 0, 1, 2
 NINT = 3
 
-# the loop's endings as the file's status codes (cornerbif.status)
-STATUS_OF = {"OK": S.OK, "CHATTERS": S.STUCK, "BUDGET": S.NO_IMPACT}
 
 
 @items_kernel
 def run_batch(k0, k1, which, E, H, normA, cA, normc, rows, ds, gaps, D, r, f_omega, f_phi,
-              f_const, ics, ints, tol, chatter, t_max, o_t, o_c, o_x, o_vin, o_vout, o_status,
-              o_final):
+              f_const, ics, ints, tol, chatter, escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
+              o_status, o_final):
     """Item i: the system ``which[i]`` (the stacked arrays' first index) from the start ics[i]
     = (x, v) at t = 0: ``ints[I_TRANSIENT]`` impacts, then up to o_t.shape[1] recorded, within
     the time ``t_max`` of its system.  A start with a gap below zero: BELOW_OBSTACLE, nothing
@@ -79,13 +77,27 @@ def run_batch(k0, k1, which, E, H, normA, cA, normc, rows, ds, gaps, D, r, f_ome
             o_status[i] = S.BELOW_OBSTACLE
             continue
         st, _ = run(E[s], H[s], normA[s], cA[s], normc[s], rows[s], ds[s], gaps[s], D[s], r[s],
-                    y0, 0.0, n, skip, skip + rec, tol, chatter, t_max[s], control, o_t[i], o_c[i],
-                    o_x[i], o_vin[i], o_vout[i], o_final[i])
+                    y0, 0.0, n, skip, skip + rec, tol, chatter, escape, t_max[s], control,
+                    o_t[i], o_c[i], o_x[i], o_vin[i], o_vout[i], o_final[i])
         if st == STOPPED:
             o_status[i] = STOPPED
             continue
-        o_status[i] = S.STUCK if st == CHATTERS else (S.NO_IMPACT if st == BUDGET else S.OK)
+        o_status[i] = status_of(st)
         count_done(control)
+
+
+@jit
+def status_of(st):
+    """The file's status code (cornerbif.status) of an ending of ``kernel.run``."""
+    if st == CHATTERS:
+        return S.STUCK                 # chattering to rest: sticking is not followed yet
+    if st == BUDGET:
+        return S.NO_IMPACT
+    if st == ESCAPED:
+        return S.ESCAPED
+    if st == NONFINITE:
+        return S.NONFINITE
+    return S.OK
 
 
 @jit

@@ -46,7 +46,7 @@ from .flight import augmented, expm, forcing_state
 
 LEVELS = 52                 # the ladder E_0 .. E_LEVELS: H / 2^52 resolves a chunk to its bit
 NONE, IMPACT, GRAZE = 0, 1, 2
-OK, CHATTERS, BUDGET = 0, 1, 2
+OK, CHATTERS, BUDGET, ESCAPED, NONFINITE = 0, 1, 2, 3, 4
 
 
 def prepare(system, t0, x0, v0):
@@ -211,12 +211,14 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
 
 
 @jit
-def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter, t_max,
-        control, o_t, o_c, o_x, o_vin, o_vout, o_y):
+def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter, escape,
+        t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y):
     """Up to ``count`` impacts from y0 at t0 (module docstring), the first ``skip`` not
     recorded (a transient), the others into the outputs; the state after the last impact
-    into ``o_y`` ((x, v): 2n): (status, impacts recorded).  Under a sweep's ``control``
-    (``_jit.Control``; 0: none) told to stop: (STOPPED, 0), its outputs incomplete."""
+    into ``o_y`` ((x, v): 2n): (status, impacts recorded).  A coordinate or velocity past
+    ``escape`` in size ends the run (ESCAPED), one not a number (NONFINITE), as a start that
+    is either.  Under a sweep's ``control`` (``_jit.Control``; 0: none) told to stop:
+    (STOPPED, 0), its outputs incomplete."""
     m = y0.shape[0]
     nc = gaps.shape[0]
     y = y0.copy()
@@ -234,6 +236,12 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
             return STOPPED, 0
         if t > t_max:
             return BUDGET, max(0, impacts - skip)
+        for k in range(2 * n):
+            a = abs(y[k])
+            if not (a == a):
+                return NONFINITE, max(0, impacts - skip)
+            if a > escape:
+                return ESCAPED, max(0, impacts - skip)
         # the chunk: at most H, inside one piece of every contact's obstacle
         q = t + H
         for i in range(nc):
@@ -309,7 +317,7 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
     return OK, max(0, impacts - skip)
 
 
-def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4):
+def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4, escape=1e6):
     """``run`` for one system and start: (status, dict of the recorded impacts: t, contact
     (names), x, v_in, v_out)."""
     a = prepare(system, t0, x0, v0)
@@ -318,7 +326,7 @@ def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4):
     o_c = np.full(count, -1, np.int64)
     o_x, o_vin, o_vout = (np.full((count, n), np.nan) for _ in range(3))
     st, k = run(a["E"], a["H"], a["normA"], a["cA"], a["normc"], a["rows"], a["ds"], a["gaps"],
-                a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter, t_max, 0, o_t, o_c,
+                a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter, escape, t_max, 0, o_t, o_c,
                 o_x, o_vin, o_vout, np.empty(2 * n))
     names = [system.contacts[i].name for i in o_c[:k]]
     return st, {"t": o_t[:k], "contact": names, "x": o_x[:k], "v_in": o_vin[:k],

@@ -270,7 +270,7 @@ class LinearModel(Model):
                     np.array([a["normA"] for a in prepared]), stack("cA"), stack("normc"),
                     stack("rows"), stack("ds"), stack("gaps"), stack("D"), stack("r"), f_omega,
                     f_phi, f_const, np.ascontiguousarray(ics, dtype=float), ints, scene.tol,
-                    scene.chatter, t_max, o_t, o_c, o_x, o_vin, o_vout, st, final)
+                    scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout, st, final)
         raise_if_stopped(ints[B.I_CONTROL])
         gaps = np.stack([np.asarray(a["gaps"], float) for a in prepared])[which]   # (n, nc, nd)
         cc = np.where(o_c >= 0, o_c, 0)
