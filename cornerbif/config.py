@@ -370,11 +370,19 @@ def set_dotted(raw: dict, key: str, value):
     sweep.kappa.values=[0.005]`` on a start/stop/num axis drops start, stop and num (and
     ``--set sweep.kappa.num=5`` on a values axis drops values); ``--set
     sweep.kappa={values=[0.005]}`` replaces the whole axis.  A quoted part is one key
-    (``key_parts``)."""
+    (``key_parts``); a part that is a number indexes a list of tables where there is one
+    (``system.forcing.0.F``, ``system.contact.1.r``: a linear scene's)."""
     parts = key_parts(key)
     node = raw
     for p in parts[:-1]:
+        if isinstance(node, list):           # an entry of a list of tables, by its index
+            node = node[int(p)]
+            continue
         nxt = node.get(p)
+        if isinstance(nxt, list) and nxt and all(isinstance(x, dict) for x in nxt) \
+                and _index_of(parts, p, nxt) is not None:
+            node = nxt
+            continue
         if not isinstance(nxt, dict):
             nxt = {}
             node[p] = nxt
@@ -387,6 +395,15 @@ def set_dotted(raw: dict, key: str, value):
                         for k in other:
                             node.pop(k, None)
     node[parts[-1]] = value
+
+
+def _index_of(parts, p, tables):
+    """The index the part after ``p`` gives into its list of ``tables`` (None: it gives
+    none: not a number, or past the list's end)."""
+    k = parts.index(p) + 1
+    if k >= len(parts) - 1 or not parts[k].isdigit() or int(parts[k]) >= len(tables):
+        return None
+    return int(parts[k])
 
 
 def parse_override(text: str):
@@ -780,9 +797,11 @@ def _read_system(w):
         # a model whose [system] declares the model itself (the linear model's coordinates,
         # matrices and contacts): its own reader, which names each problem's key and value
         specific, problems = w.spec.for_system(sy)
-        w.problems.extend(problems)
-        if specific is not None:
-            w.spec = specific
+        if specific is None:
+            # the rest of the scene (its axes, its starts) is read against the system it
+            # declares: said once the system is valid, not against a model with none
+            raise SceneError(w.problems + problems)
+        w.spec = specific
     spec = w.spec
     w.unknown("system", tuple(spec.params) + tuple(spec.system_extra))
     obstacle = sy.get("obstacle", spec.system_extra.get("obstacle", obstacles.DEFAULT))

@@ -84,13 +84,18 @@ def y_label(kind: str, model: str | None = None) -> str:
 WORD_LETTERS = b"abgx"
 
 
+# every letter a kernel may write: the corner clusters' and a linear model's contact names
+# (one ASCII letter each: models/linear/declare.py)
+SYMBOL_LETTERS = b"abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+
+
 def symbol_words(sym):
     """The file's cycle words (``symbols``) as str no wider than the longest (the file's
     field may be many times wider: memory per run).  A word holding a character no kernel
-    writes (a crafted file's) reads as no word: a figure never draws it."""
+    writes (a crafted file's: not a letter) reads as no word: a figure never draws it."""
     width = sym.dtype.itemsize
     allowed = np.zeros(256, bool)
-    allowed[list(b"\0" + WORD_LETTERS)] = True
+    allowed[list(b"\0" + SYMBOL_LETTERS)] = True
     ok = allowed[np.ascontiguousarray(sym).view(np.uint8)]
     if width and not ok.all():
         sym = np.where(ok.reshape(sym.shape + (width,)).all(axis=-1), sym, b"")

@@ -23,7 +23,7 @@ from .plot_style import Rows, slab_rows
 
 # the per-event datasets a figure may draw (read when first drawn: ``RecordedData``)
 RECORDED = ("impacts/u", "impacts/v_in", "section/u", "section/v", "impacts/t",
-            "impacts/corner_offset")
+            "impacts/corner_offset", "impacts/contact")
 # the dataset each y of a diagram is made from (winding and period: the per-run words
 # and periods)
 Y_DATASETS = {"impact_u": "impacts/u", "impact_v": "impacts/v_in",
@@ -117,6 +117,9 @@ class PlotData:
             self.symbols = symbol_words(f["symbols"][...])
             self.model = self.scene.get("scene", {}).get("model", registry.DEFAULT_MODEL)
             self.spec = registry.models().get(self.model)
+            if self.spec is not None and self.spec.for_system is not None:
+                # a model its scene declares (linear): the model of the stored [system]
+                self.spec = self.spec.for_system(self.scene.get("system", {}))[0] or self.spec
             # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
             self.normal_form = self.spec.normal_form if self.spec else None
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
@@ -287,6 +290,14 @@ class PlotData:
             un = self.unfinished[rows]
             v = np.where(un.reshape(un.shape + (1,) * (v.ndim - un.ndim)), np.nan, v)
         v = beyond_drawing(v)
+        contacts = self.scene.get("system", {}).get("contact")
+        if kind == "impact_height" and isinstance(contacts, list) and "impacts/contact" in self.data:
+            # a model with contacts (linear): u - kappa of each impact's own contact
+            kap = np.array([float(c.get("kappa", 0.0)) if isinstance(c, dict) else np.nan
+                            for c in contacts] + [np.nan])
+            idx = (self.data["impacts/contact"] if rows == slice(None)
+                   else self.data.rows("impacts/contact", rows)).astype(int)
+            return v - kap[np.where((idx >= 0) & (idx < len(contacts)), idx, len(contacts))]
         if kind == "impact_height":
             # u - kappa: the impact's height above the corners of z = kappa + beta |sin|
             # (and the triangle's valleys), where a kappa sweep's cascade lies

@@ -193,6 +193,9 @@ def _scene(text, *sets):
     (("name = \"T\"", "name = \"TT\""), "system.contact"),
     (("r = 0.5", "r = 1.5"), "1.5"),
     (("r = 0.5", "law = \"spring\"\nk = 10.0"), "spring"),
+    (("[[system.contact]]", "[[system.contactx]]"), "system.contact"),
+    (("dofs = [\"x\"]", "dofs = [\"v_x\"]"), "system.dofs.0"),
+    (("dofs = [\"x\"]", "dofs = [\"count\"]"), "system.dofs.0"),
 ])
 def test_a_bad_system_is_refused_naming_the_key_and_value(edit, needle):
     with pytest.raises(SceneError) as e:
@@ -396,3 +399,110 @@ def test_starts_not_finite_or_past_the_escape_bound_end_with_their_status():
     assert list(r["status"][:3]) == [S.NONFINITE, S.ESCAPED, S.ESCAPED]
     assert r["status"][3] == S.OK and np.isfinite(r["t"][3]).all()     # a start that runs
     assert np.isnan(r["t"][:3]).all()
+
+
+TWO_MASSES = """
+[scene]
+name = "two_masses"
+model = "linear"
+[system]
+dofs = ["x", "y"]
+mass = [[1.0, 0.0], [0.0, 1.0]]
+stiffness = [[2.0, -0.5], [-0.5, 1.0]]
+forcing = [{ on = "x", F = 0.4, Omega = 1.3 }]
+[[system.contact]]
+name = "S"
+gap = { x = -1.0 }
+kappa = -1.0
+r = 0.7
+"""
+
+
+def test_a_swept_matrix_entry_is_the_system_with_that_entry():
+    """Sweeping "stiffness.x.y" runs the system whose K has that entry and its mirror (the
+    review found the mirror path's old value written back over it: every value ran alike)."""
+    table = tomllib.loads(TWO_MASSES)["system"]
+    swept = cornerbif.simulate(model="linear", table=table, x0=0.5, y0=0.0, v_x0=0.0, v_y0=0.0,
+                               transient=0, record=10, **{"stiffness.x.y": np.array([-0.5, -0.2])})
+    direct = dict(table, stiffness=[[2.0, -0.2], [-0.2, 1.0]])
+    one = cornerbif.simulate(model="linear", table=direct, x0=0.5, y0=0.0, v_x0=0.0, v_y0=0.0,
+                             transient=0, record=10)
+    assert not np.allclose(swept["t"][0], swept["t"][1])
+    np.testing.assert_array_equal(swept["t"][1], one["t"][0])
+    with pytest.raises(SceneError) as e:
+        config.loads(TWO_MASSES + '[sweep]\n"stiffness.x.y" = { values = [-0.5, -0.2] }\n'
+                     '"stiffness.y.x" = { values = [-0.5, -0.3] }\n')
+    assert "mirror" in str(e.value)
+
+
+def test_a_forcing_swept_through_zero_frequency_runs_both_sides():
+    """Omega = 0 is a constant force, Omega > 0 a harmonic one: their augmented states differ
+    in size, and the points of each run in a call of their own."""
+    table = tomllib.loads(TWO_MASSES)["system"]
+    r = cornerbif.simulate(model="linear", table=table, x0=0.9, y0=0.0, v_x0=1.0, v_y0=0.0,
+                           transient=0, record=6, **{"forcing.0.Omega": np.array([1.3, 0.0])})
+    alone = cornerbif.simulate(model="linear", table=table, x0=0.9, y0=0.0, v_x0=1.0, v_y0=0.0,
+                               transient=0, record=6, **{"forcing.0.Omega": 0.0})
+    assert np.isfinite(r["t"]).all()
+    np.testing.assert_array_equal(r["t"][1], alone["t"][0])
+    assert not np.allclose(r["t"][0], r["t"][1])
+    config.loads(TWO_MASSES + '[sweep]\n"forcing.0.Omega" = { values = [0.0, 1.3] }\n')
+
+
+def test_combinations_of_matrix_entries_are_checked_before_the_run():
+    """Entries of M each allowed whose combination is not positive-definite are refused by
+    validation (the review's 101 x 101 sweep passed validate and failed mid-sweep), in a
+    simulate() array too, naming the element; past MAX_CHECKED_COMBINATIONS they are refused."""
+    from cornerbif.models.linear.model import MAX_CHECKED_COMBINATIONS
+    grid = '[sweep]\n"mass.x.x" = { start = 0.5, stop = 1.5, num = 101 }\n' \
+           '"mass.x.y" = { start = -0.9, stop = 0.9, num = 101 }\n'
+    with pytest.raises(SceneError) as e:
+        config.loads(TWO_MASSES + grid)
+    assert "system.mass" in str(e.value) and "sweep.mass.x.x" in str(e.value), str(e.value)
+    big = grid.replace("num = 101", "num = 151")
+    with pytest.raises(SceneError) as e:
+        config.loads(TWO_MASSES + big)
+    assert f"at most {MAX_CHECKED_COMBINATIONS}" in str(e.value)
+    with pytest.raises(SceneError) as e:
+        cornerbif.simulate(model="linear", table=tomllib.loads(TWO_MASSES)["system"], x0=0.5,
+                           y0=0.0, v_x0=0.0, v_y0=0.0, **{"mass.x.x": np.array([1.0, 0.5]),
+                                                          "mass.x.y": np.array([0.2, 0.9])})
+    assert "system.mass" in str(e.value) and "element 1" in str(e.value), str(e.value)
+
+
+def test_a_bad_system_is_the_only_problem_said():
+    """Once the system is refused, its axes and starts are not judged against a model with
+    none (the review saw "not a parameter" and "unknown key" beside the real problem)."""
+    text = BALL.replace("r = 0.5", "r = 1.5") + '[sweep]\n"contact.T.beta" = { values = [0.03] }\n' \
+        '[initial]\nx = [0.1, 0.2]\n'
+    with pytest.raises(SceneError) as e:
+        config.loads(text)
+    assert len(e.value.problems) == 1 and "1.5" in e.value.problems[0], e.value.problems
+
+
+def test_set_reaches_an_entry_of_a_list_of_tables():
+    s = config.loads(BALL, ["system.forcing.0.F=-2.0", "system.contact.0.r=0.25"])
+    assert s.system["forcing.0.F"] == -2.0 and s.system["contact.T.r"] == 0.25
+
+
+def test_the_figures_read_its_words_and_heights(tmp_path):
+    """The plots' reader keeps the contacts' letters as words (it kept only the corner
+    clusters' a, b, g, x), and impact_height is each impact's height above its own
+    contact's kappa (0 on a fixed stop); info names the scene's coordinates."""
+    from cornerbif.plot_data import PlotData
+    scene = tmp_path / "two.toml"
+    scene.write_text(open(os.path.join(ROOT, "configs", "two_stops.toml")).read())
+    out = tmp_path / "two.h5"
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress",
+                                  "--set", 'sweep."forcing.0.Omega".num=3',
+                                  "--set", 'sweep."forcing.0.Omega".start=1.5',
+                                  "--set", "initial.count=4"])
+    assert r.exit_code == 0, r.output
+    d = PlotData(str(out))
+    assert "LR" in set(d.symbols.ravel())
+    h = d.y("impact_height")
+    assert np.nanmax(np.abs(h)) < 1e-9 and np.isfinite(h).any()
+    assert d.spec.coords == ("x", "v_x")
+    r = CliRunner().invoke(main, ["info", str(out)])
+    assert "state x, v_x" in r.output, r.output
+

@@ -3,9 +3,9 @@ loop of ``kernel.run`` for each item on its system's arrays (``kernel.prepare``;
 a block stacked, ``which`` says each item's), and ``detect_contact_cycles`` finds each run's
 cycle in the impacts it recorded.
 
-The arrays of the systems of one block have one shape: their ``[system]`` tables differ only
-in numbers (``LinearModel.check`` refuses a sweep that changes the shape, a forcing's Omega
-through 0).
+The arrays of the systems of one call have one shape: their ``[system]`` tables differ only
+in numbers (``LinearModel.run_items`` runs the systems of each augmented size, a forcing's
+Omega 0 or not, in a call of its own).
 
 **Cycles.**  The run's impacts k = 0 .. n-1 (contact c_k, time t_k, the impact height u_k =
 a . x and velocity v_k = a . v- along the contact's gap) repeat with q impacts per cycle when,

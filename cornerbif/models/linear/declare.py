@@ -56,6 +56,8 @@ SYSTEM_KEYS = ("dofs", "mass", "stiffness", "damping", "forcing", "contact")
 FORCING_KEYS = ("on", "F", "Omega", "phi")
 CONTACT_KEYS = ("name", "gap", "obstacle", "kappa", "beta", "omega", "law", "r", "k", "c")
 FIXED = "fixed"
+# names a dof may not take: the keys of [initial] beside the coordinates (config.py)
+RESERVED_DOFS = ("count", "seed", "points", "points_file", "t")
 LAWS = ("impact", "spring")
 LAW_KEYS = {"impact": ("r",), "spring": ("k", "c")}
 SYMMETRY_TOL = 1e-12      # |M - M^T| <= SYMMETRY_TOL max |M|
@@ -114,6 +116,10 @@ class _Reader:
                 ok = False
             elif d in v[:i]:
                 self.bad(f"dofs.{i}", d, "is named twice; coordinate names must be distinct")
+                ok = False
+            elif d.startswith("v_") or d in RESERVED_DOFS:
+                self.bad(f"dofs.{i}", d, "is a name the scene uses for something else (v_<dof> "
+                         f"is a velocity; {', '.join(RESERVED_DOFS)} are [initial] keys)")
                 ok = False
         return tuple(v) if ok else None
 
@@ -348,6 +354,9 @@ def read_system(table: dict) -> tuple[LinearSystem | None, list[str]]:
         c = got and got[0]
     forcing = r.forcing(table.get("forcing", []), dofs)
     contacts = r.contacts(table.get("contact", []), dofs)
+    if not contacts and not r.problems:
+        r.problems.append("system.contact: none declared; a vibro-impact system needs at least "
+                          "one [[system.contact]] (its gap, obstacle and law)")
     if r.problems:
         return None, r.problems
     for a in (m, k, c, *(x.gap for x in contacts)):

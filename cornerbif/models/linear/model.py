@@ -36,8 +36,9 @@ from .system import LinearSystem
 # cold compile seconds of the linear kernels (the event loop and the cycle detection),
 # measured by ``python benchmarks/compile_time.py`` (announced rounded)
 COMPILE_SECONDS = 14.0
-# combinations of swept values checked one by one before a sweep (beyond: each axis alone)
-MAX_CHECKED_COMBINATIONS = 10_000
+# combinations of the swept numbers checked together (matrix entries, gap coefficients),
+# each a system read and checked before a sweep (about 0.2 ms each): more are refused
+MAX_CHECKED_COMBINATIONS = 20_000
 # the time budget of a run: run.max_periods units of the system's time scale
 # (``time_scale``)
 
@@ -54,14 +55,11 @@ BASE_FIELDS = (
 )
 
 
-def system_at(table: dict, values: dict) -> LinearSystem:
-    """The system of ``table`` with its numbers at ``values`` (paths, ``numeric_paths``)."""
-    for path, v in values.items():
-        table = declare.with_value(table, path, v)
-    system, problems = declare.read_system(table)
-    if problems:
-        raise ValueError("; ".join(problems))
-    return system
+def _checked_together(path: str) -> bool:
+    """Whether a swept number's validity depends on others swept with it: an entry of M or K
+    (positive-definite, semi-definite) or a gap's coefficient (not all zero)."""
+    k = path.split(".")
+    return k[0] in ("mass", "stiffness") or (k[0] == "contact" and len(k) == 4 and k[2] == "gap")
 
 
 def system_period(system: LinearSystem) -> float:
@@ -164,11 +162,19 @@ class LinearModel(Model):
                 table = declare.with_value(table, path, v)
         return table
 
+    def system_of(self, values: dict):
+        """(the system at the numbers ``values``, by path; problems): the scene's table with
+        the values that differ from it written in (``system_table_with``: a mirrored matrix
+        entry at its table value does not write its old value back over its mirror)."""
+        return declare.read_system(self.system_table_with(values))
+
     def check(self, ctx):
-        """Every point's system is a valid one (each combination of swept values, or each
-        axis's values alone beyond MAX_CHECKED_COMBINATIONS), of one shape (no forcing's
-        Omega swept through 0); a followed sweep is refused (a run ends at an impact, not at
-        a section)."""
+        """Every point's system is a valid one, checked before any run: each value by its
+        own range (``RANGES``, by config), each axis alone with the others at the table's
+        values, and every combination of the swept numbers that are checked together (the
+        entries of M and K: positive-definite; a gap's coefficients: not all zero) up to
+        MAX_CHECKED_COMBINATIONS, more refused; a mirrored pair of matrix entries swept
+        together and a followed sweep are refused."""
         problems = []
         if self.system_table is None:
             return problems
@@ -176,30 +182,36 @@ class LinearModel(Model):
             problems.append("sweep.follow: the linear model does not follow attractors yet "
                             "(its runs end at an impact, not at a section); remove it")
         swept = [a for a in ctx.axes if a.name in self.params]
-        n_comb = math.prod(len(a.values) for a in swept) if swept else 1
-        if n_comb <= MAX_CHECKED_COMBINATIONS:
-            combos = itertools.product(*[a.values for a in swept])
-        else:
-            combos = ([v if b is a else self.params[b.name].default for b in swept]
-                      for a in swept for v in a.values)
-        for combo in combos:
-            values = dict(zip((a.name for a in swept), combo))
-            table = self.system_table
-            for path, v in values.items():
-                table = declare.with_value(table, path, v)
-            system, bad = declare.read_system(table)
-            where = ", ".join(f"sweep.{k} = {v!r}" for k, v in values.items())
+        names = {a.name for a in swept}
+        for a in swept:
+            k = a.name.split(".")
+            if k[0] in ("mass", "stiffness") and len(k) == 3 and k[1] < k[2] \
+                    and f"{k[0]}.{k[2]}.{k[1]}" in names:
+                problems.append(f"sweep.{a.name}: swept with its mirror {k[0]}.{k[2]}.{k[1]}, "
+                                f"one number of the symmetric {k[0]} matrix; sweep one of them")
+        joint = [a for a in swept if _checked_together(a.name)]
+        n_comb = math.prod(len(a.values) for a in joint) if joint else 1
+        if n_comb > MAX_CHECKED_COMBINATIONS:
+            problems.append(f"sweep: {n_comb} combinations of {', '.join(a.name for a in joint)} "
+                            f"(entries of M and K, or a gap's coefficients, each combination a "
+                            f"system to check before the run); at most {MAX_CHECKED_COMBINATIONS}")
+            return problems
+        combos = [dict(zip((a.name for a in joint), c))
+                  for c in itertools.product(*[a.values for a in joint])]
+        combos += [{a.name: v} for a in swept if a not in joint for v in a.values]
+        for values in combos:
+            system, bad = self.system_of(values)
             if bad:
+                where = ", ".join(f"sweep.{k} = {v!r}" for k, v in values.items())
                 problems.append(f"{bad[0]} (at {where})")
                 break
-            zero = [f"forcing.{i}.Omega" for i, f in enumerate(system.forcing)
-                    if (f.Omega == 0.0) != (self.params.get(f"forcing.{i}.Omega",
-                                                            Param("", 0.0, "")).default == 0.0)]
-            if zero:
-                problems.append(f"sweep.{zero[0]}: Omega = 0 (a constant force) and Omega > 0 "
-                                f"(a harmonic one) in one sweep (at {where}); sweep one side")
-                break
         return problems
+
+    def check_point(self, values: dict):
+        """The problem of the system at one point (``cornerbif.simulate``'s elements), or
+        None."""
+        _, bad = self.system_of({k: v for k, v in values.items() if k in self.params})
+        return f"linear: {bad[0]}" if bad else None
 
     def orbit_seed(self, values, scene, param, word, run):
         raise NotImplementedError("the linear model does not solve its periodic orbits yet "
@@ -239,40 +251,44 @@ class LinearModel(Model):
 
     def run_items(self, params, ics, ints, scene):
         """The linear event loop (``batch.run_batch``) on n items, each system prepared once
-        (``kernel.prepare``), and each run's cycle (``batch.detect_contact_cycles``)."""
+        (``kernel.prepare``), and each run's cycle (``batch.detect_contact_cycles``).  Systems
+        whose augmented states differ in size (a forcing's Omega 0 at some points, > 0 at
+        others) run in separate calls, each on its items."""
         from ..._jit import raise_if_stopped  # start-up: loads numba
         from ...numerics.fill import full  # start-up: loads numba
         from . import batch as B  # start-up: loads numba
-        from .kernel import prepare  # start-up: loads numba
         n = params.shape[0]
         rec = scene.record
         uniq, which = np.unique(params, axis=0, return_inverse=True)
-        which = np.ascontiguousarray(which.reshape(-1), dtype=np.int64)
+        which = which.reshape(-1)
         names = list(self.params)
-        systems = [system_at(self.system_table, dict(zip(names, row))) for row in uniq]
+        systems = []
+        for row in uniq:
+            system, bad = self.system_of(dict(zip(names, row)))
+            if bad:              # (config and simulate check every point before a run)
+                raise ValueError("; ".join(bad))
+            systems.append(system)
         nd = systems[0].n
-        prepared = [prepare(s, 0.0, np.zeros(nd), np.zeros(nd)) for s in systems]
-
-        def stack(key, dtype=float):
-            return np.ascontiguousarray(np.stack([np.asarray(a[key], dtype) for a in prepared]))
-
-        harmonic = [[f for f in s.forcing if f.Omega > 0.0] for s in systems]
-        f_omega = np.array([[f.Omega for f in h] for h in harmonic], float).reshape(len(systems), -1)
-        f_phi = np.array([[f.phi for f in h] for h in harmonic], float).reshape(len(systems), -1)
-        f_const = np.array([any(f.Omega == 0.0 for f in s.forcing) for s in systems], np.bool_)
-        t_max = np.array([scene.max_periods * time_scale(s) for s in systems], float)
         o_t = full((n, rec), np.nan)
         o_c = full((n, rec), -1, np.int64)
         o_x, o_vin, o_vout = (full((n, rec, nd), np.nan) for _ in range(3))
         st = np.zeros(n, np.int8)
         final = np.full((n, 2 * nd), np.nan)
-        B.run_batch(which, stack("E"), np.array([a["H"] for a in prepared]),
-                    np.array([a["normA"] for a in prepared]), stack("cA"), stack("normc"),
-                    stack("rows"), stack("ds"), stack("gaps"), stack("D"), stack("r"), f_omega,
-                    f_phi, f_const, np.ascontiguousarray(ics, dtype=float), ints, scene.tol,
-                    scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout, st, final)
+        gaps = np.empty((n, len(systems[0].contacts), nd))
+        shapes = {}
+        for k, s in enumerate(systems):
+            shapes.setdefault((sum(f.Omega > 0.0 for f in s.forcing),
+                               any(f.Omega == 0.0 for f in s.forcing)), []).append(k)
+        for members in shapes.values():
+            items = np.flatnonzero(np.isin(which, members))
+            local = np.searchsorted(members, which[items])
+            outs = [a[items] for a in (o_t, o_c, o_x, o_vin, o_vout, st, final)]
+            gaps[items] = self._run_group([systems[k] for k in members], local,
+                                          np.ascontiguousarray(ics[items], dtype=float), ints,
+                                          scene, outs, B)
+            for a, b in zip((o_t, o_c, o_x, o_vin, o_vout, st, final), outs):
+                a[items] = b
         raise_if_stopped(ints[B.I_CONTROL])
-        gaps = np.stack([np.asarray(a["gaps"], float) for a in prepared])[which]   # (n, nc, nd)
         cc = np.where(o_c >= 0, o_c, 0)
         a_k = np.take_along_axis(gaps, cc[:, :, None], axis=1)                   # (n, rec, nd)
         out = {"t": o_t, "contact": np.where(o_c >= 0, o_c, -1).astype(np.int8),
@@ -291,6 +307,30 @@ class LinearModel(Model):
                                 np.ascontiguousarray(out["v_in"]), period_T, scene.period_tol,
                                 letters, period, ipc, sym)
         return RunResult(out, st, final, period, ipc, sym)
+
+    @staticmethod
+    def _run_group(systems, which, ics, ints, scene, outs, B):
+        """``batch.run_batch`` on the items of systems of one augmented size (``which``:
+        each item's index into ``systems``), into ``outs``; each item's gap vectors."""
+        from .kernel import prepare  # start-up: loads numba
+        nd = systems[0].n
+        prepared = [prepare(s, 0.0, np.zeros(nd), np.zeros(nd)) for s in systems]
+
+        def stack(key, dtype=float):
+            return np.ascontiguousarray(np.stack([np.asarray(a[key], dtype) for a in prepared]))
+
+        harmonic = [[f for f in s.forcing if f.Omega > 0.0] for s in systems]
+        f_omega = np.array([[f.Omega for f in h] for h in harmonic], float).reshape(len(systems), -1)
+        f_phi = np.array([[f.phi for f in h] for h in harmonic], float).reshape(len(systems), -1)
+        f_const = np.array([any(f.Omega == 0.0 for f in s.forcing) for s in systems], np.bool_)
+        t_max = np.array([scene.max_periods * time_scale(s) for s in systems], float)
+        o_t, o_c, o_x, o_vin, o_vout, st, final = outs
+        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), stack("E"),
+                    np.array([a["H"] for a in prepared]), np.array([a["normA"] for a in prepared]),
+                    stack("cA"), stack("normc"), stack("rows"), stack("ds"), stack("gaps"),
+                    stack("D"), stack("r"), f_omega, f_phi, f_const, ics, ints, scene.tol,
+                    scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout, st, final)
+        return stack("gaps")[which]
 
 
 # ``cornerbif warm``: what a first sweep compiles; its [system] is also the model's example
