@@ -354,9 +354,6 @@ def read_system(table: dict) -> tuple[LinearSystem | None, list[str]]:
         c = got and got[0]
     forcing = r.forcing(table.get("forcing", []), dofs)
     contacts = r.contacts(table.get("contact", []), dofs)
-    if not contacts and not r.problems:
-        r.problems.append("system.contact: none declared; a vibro-impact system needs at least "
-                          "one [[system.contact]] (its gap, obstacle and law)")
     if r.problems:
         return None, r.problems
     for a in (m, k, c, *(x.gap for x in contacts)):

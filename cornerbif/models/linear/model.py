@@ -132,6 +132,9 @@ class LinearModel(Model):
         system, problems = declare.read_system(table)
         if problems:
             return None, problems
+        if not system.contacts:
+            return None, ["system.contact: none declared; a vibro-impact scene needs at least "
+                          "one [[system.contact]] (its gap, obstacle and law)"]
         soft = [c.name for c in system.contacts if c.law != "impact"]
         if soft:
             return None, [f"system.contact.{soft[0]}.law: \"spring\" (a soft stop) is declared "
