@@ -89,6 +89,9 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                          f"shape {shape})")
     flat = {k: np.broadcast_to(a, shape).ravel() for k, a in arrays.items()}
     n = int(np.prod(shape))
+    given = getattr(spec, "given_problem", None)
+    if given is not None and given(list(flat)):
+        raise SceneError([f"simulate(): {given(list(flat))}"])
     first = {k: float(a[0]) for k, a in flat.items()}
     raw["system"] = _with(spec, raw["system"], first)
     scene = from_dict(raw, drawn_starts=False)
@@ -105,7 +108,7 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
     table = np.stack([flat[k] for k in names], -1) if names else np.zeros((n, 0))
     rows, first = np.unique(table, axis=0, return_index=True) if n else (table, [])
     for row, i in zip(rows, first):
-        problem = spec.check_point(dict(scene.system) | dict(zip(names, row)))
+        problem = spec.check_point(dict(scene.system) | dict(zip(names, map(float, row))))
         if problem:
             raise SceneError([f"{problem} (at element {int(i)})"])
     params = np.stack([spec.pack_values(dict(scene.system)

@@ -370,23 +370,27 @@ def set_dotted(raw: dict, key: str, value):
     sweep.kappa.values=[0.005]`` on a start/stop/num axis drops start, stop and num (and
     ``--set sweep.kappa.num=5`` on a values axis drops values); ``--set
     sweep.kappa={values=[0.005]}`` replaces the whole axis.  A quoted part is one key
-    (``key_parts``); a part that is a number indexes a list of tables where there is one
-    (``system.forcing.0.F``, ``system.contact.1.r``: a linear scene's)."""
+    (``key_parts``).  Inside a list the next part picks an entry: by its index
+    (``system.forcing.0.F``, ``system.mass.1``) or, in a list of tables, by the entry's
+    ``name`` (``system.contact.R.r``: a linear scene's); a part that picks none is refused
+    (``SceneError``, naming the key), as is a named key inside a list of numbers."""
     parts = key_parts(key)
     node = raw
-    for p in parts[:-1]:
-        if isinstance(node, list):           # an entry of a list of tables, by its index
-            node = node[int(p)]
+    for k, p in enumerate(parts[:-1]):
+        if isinstance(node, list):
+            node = node[_list_entry(node, p, parts, k)]
             continue
         nxt = node.get(p)
-        if isinstance(nxt, list) and nxt and all(isinstance(x, dict) for x in nxt) \
-                and _index_of(parts, p, nxt) is not None:
+        if isinstance(nxt, list):
             node = nxt
             continue
         if not isinstance(nxt, dict):
             nxt = {}
             node[p] = nxt
         node = nxt
+    if isinstance(node, list):
+        node[_list_entry(node, parts[-1], parts, len(parts) - 1)] = value
+        return
     if parts[0] == "sweep" and len(parts) >= 3:
         for form in AXIS_FORMS:
             if parts[-1] in form:
@@ -397,13 +401,19 @@ def set_dotted(raw: dict, key: str, value):
     node[parts[-1]] = value
 
 
-def _index_of(parts, p, tables):
-    """The index the part after ``p`` gives into its list of ``tables`` (None: it gives
-    none: not a number, or past the list's end)."""
-    k = parts.index(p) + 1
-    if k >= len(parts) - 1 or not parts[k].isdigit() or int(parts[k]) >= len(tables):
-        return None
-    return int(parts[k])
+def _list_entry(entries: list, part: str, parts: list, k: int) -> int:
+    """The index of the entry of ``entries`` that ``part`` (``parts[k]``) picks: an index
+    (ASCII digits) in range, or in a list of tables the one whose ``name`` it is."""
+    if part.isascii() and part.isdigit() and int(part) < len(entries):
+        return int(part)
+    named = [i for i, e in enumerate(entries) if isinstance(e, dict) and e.get("name") == part]
+    if named:
+        return named[0]
+    where = ".".join(parts[:k])
+    names = [e.get("name") for e in entries if isinstance(e, dict) and "name" in e]
+    raise SceneError([f"--set {'.'.join(parts)}: {where} is a list of {len(entries)} "
+                      f"entries; {shown(part)} picks none (an index 0 .. {len(entries) - 1}"
+                      + (f", or a name: {', '.join(map(str, names))}" if names else "") + ")"])
 
 
 def parse_override(text: str):

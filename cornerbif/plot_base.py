@@ -89,13 +89,15 @@ WORD_LETTERS = b"abgx"
 SYMBOL_LETTERS = b"abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
 
 
-def symbol_words(sym):
+def symbol_words(sym, letters=WORD_LETTERS):
     """The file's cycle words (``symbols``) as str no wider than the longest (the file's
     field may be many times wider: memory per run).  A word holding a character no kernel
-    writes (a crafted file's: not a letter) reads as no word: a figure never draws it."""
+    of its model writes (``letters``: the corner clusters' WORD_LETTERS, or any letter for a
+    linear model's contacts; a crafted file's other bytes) reads as no word: a figure never
+    draws it."""
     width = sym.dtype.itemsize
     allowed = np.zeros(256, bool)
-    allowed[list(b"\0" + SYMBOL_LETTERS)] = True
+    allowed[list(b"\0" + letters)] = True
     ok = allowed[np.ascontiguousarray(sym).view(np.uint8)]
     if width and not ok.all():
         sym = np.where(ok.reshape(sym.shape + (width,)).all(axis=-1), sym, b"")

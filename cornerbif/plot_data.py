@@ -18,7 +18,7 @@ from .continuation_run import FORMAT, FORMAT_VERSION, read
 from .io import check_readable
 from .model import cut
 from .outputs import CONTINUATION_FORMAT, hdf5_format
-from .plot_base import DRAW_LIMIT, beyond_drawing, symbol_words
+from .plot_base import DRAW_LIMIT, SYMBOL_LETTERS, WORD_LETTERS, beyond_drawing, symbol_words
 from .plot_style import Rows, slab_rows
 
 # the per-event datasets a figure may draw (read when first drawn: ``RecordedData``)
@@ -114,12 +114,15 @@ class PlotData:
             self.status = f["status"][...]
             self.period = f["period"][...]
             self.ipc = f["impacts_per_cycle"][...]
-            self.symbols = symbol_words(f["symbols"][...])
             self.model = self.scene.get("scene", {}).get("model", registry.DEFAULT_MODEL)
             self.spec = registry.models().get(self.model)
-            if self.spec is not None and self.spec.for_system is not None:
+            declared = self.spec is not None and self.spec.for_system is not None
+            if declared:
                 # a model its scene declares (linear): the model of the stored [system]
                 self.spec = self.spec.for_system(self.scene.get("system", {}))[0] or self.spec
+            # its words: the corner clusters' letters, or (linear) its contacts' names
+            self.symbols = symbol_words(f["symbols"][...],
+                                        SYMBOL_LETTERS if declared else WORD_LETTERS)
             # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
             self.normal_form = self.spec.normal_form if self.spec else None
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
@@ -273,12 +276,37 @@ class PlotData:
         return Rows(self.data.shapes[Y_DATASETS[kind]],
                     lambda a, b: self._compute_y(kind, slice(a, b)), self.data.opened)
 
+    def _contact_kappas(self, contacts, rows):
+        """Per impact (grid slab ``rows`` + (ic, record)), the kappa of its own contact (a
+        model with contacts, linear: u - kappa is the height above that contact's corners),
+        at each grid point where the sweep varies it (axis "contact.<name>.kappa")."""
+        idx = (self.data["impacts/contact"] if rows == slice(None)
+               else self.data.rows("impacts/contact", rows)).astype(int)
+        G = self.done[rows].shape
+        kap = np.full(G + (len(contacts) + 1,), np.nan)
+        for c, entry in enumerate(contacts):
+            name = entry.get("name") if isinstance(entry, dict) else None
+            axis = f"contact.{name}.kappa"
+            if axis in self.axes:
+                pos = self.axes.index(axis)
+                vals = self.values[axis][rows] if pos == 0 else self.values[axis]
+                kap[..., c] = vals.reshape((-1,) + (1,) * (len(G) - 1 - pos))
+            elif isinstance(entry, dict):
+                kap[..., c] = float(entry.get("kappa", 0.0))
+        idx = np.where((idx >= 0) & (idx < len(contacts)), idx, len(contacts))
+        kap = kap.reshape(G + (1, 1, len(contacts) + 1))
+        return np.take_along_axis(np.broadcast_to(kap, idx.shape + (len(contacts) + 1,)),
+                                  idx[..., None], axis=-1)[..., 0]
+
     def _compute_y(self, kind, rows=slice(None)):
         """``kind``'s values in ``rows`` of the first axis (all by default; a slab is read
         alone, ``RecordedData.rows``), or None when the file holds none."""
         if kind == "winding":
             from .analysis import winding_number  # start-up: loads numba
-            return np.vectorize(winding_number, otypes=[float])(self.symbols[rows])
+            corner = set(WORD_LETTERS.decode())
+            # the share of gamma clusters of a corner word; a contact word (linear) has none
+            return np.vectorize(lambda w: np.nan if set(w) - corner else winding_number(w),
+                                otypes=[float])(self.symbols[rows])
         if kind == "period":
             per = self.period[rows]
             return np.where(per > 0, per, np.nan).astype(float)
@@ -292,12 +320,7 @@ class PlotData:
         v = beyond_drawing(v)
         contacts = self.scene.get("system", {}).get("contact")
         if kind == "impact_height" and isinstance(contacts, list) and "impacts/contact" in self.data:
-            # a model with contacts (linear): u - kappa of each impact's own contact
-            kap = np.array([float(c.get("kappa", 0.0)) if isinstance(c, dict) else np.nan
-                            for c in contacts] + [np.nan])
-            idx = (self.data["impacts/contact"] if rows == slice(None)
-                   else self.data.rows("impacts/contact", rows)).astype(int)
-            return v - kap[np.where((idx >= 0) & (idx < len(contacts)), idx, len(contacts))]
+            return v - self._contact_kappas(contacts, rows)
         if kind == "impact_height":
             # u - kappa: the impact's height above the corners of z = kappa + beta |sin|
             # (and the triangle's valleys), where a kappa sweep's cascade lies

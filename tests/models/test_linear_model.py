@@ -506,3 +506,58 @@ def test_the_figures_read_its_words_and_heights(tmp_path):
     r = CliRunner().invoke(main, ["info", str(out)])
     assert "state x, v_x" in r.output, r.output
 
+
+
+@pytest.mark.parametrize("key, needle", [
+    ("system.contact.5.r=0.5", "picks none"),
+    ("system.contact.\u00b2.r=0.5", "picks none"),        # a superscript digit is no index
+    ("system.contact.X.r=0.5", "a name: T"),
+])
+def test_set_into_a_list_picks_an_entry_or_is_refused(key, needle):
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL, [key])
+    assert needle in str(e.value), str(e.value)
+    s = config.loads(BALL, ["system.contact.T.r=0.25"])          # by the contact's name
+    assert s.system["contact.T.r"] == 0.25
+    listed = BALL.replace("gap = { x = 1.0 }", "gap = [1.0]")
+    with pytest.raises(SceneError) as e:                            # a name inside a list of numbers
+        config.loads(listed, ["system.contact.0.gap.x=2.0"])
+    assert "picks none" in str(e.value)
+
+
+def test_simulate_refuses_a_matrix_entry_and_its_mirror_given_together():
+    with pytest.raises(SceneError) as e:
+        cornerbif.simulate(model="linear", table=tomllib.loads(TWO_MASSES)["system"], x0=0.5,
+                           y0=0.0, v_x0=0.0, v_y0=0.0, **{"stiffness.x.y": 0.1, "stiffness.y.x": 0.3})
+    assert "mirror" in str(e.value) or "given together" in str(e.value)
+
+
+def test_impact_height_follows_a_swept_contact_kappa(tmp_path):
+    """u - kappa of each impact's contact, at each grid point where the sweep moves it: the
+    two stops moved together keep their impacts at height 0 above their own stop."""
+    from cornerbif.plot_data import PlotData
+    text = open(os.path.join(ROOT, "configs", "two_stops.toml")).read()
+    scene = tmp_path / "two.toml"
+    scene.write_text(text.replace('"forcing.0.Omega" = { start = 0.4, stop = 3.0, num = 261 }',
+                                  '"contact.L.kappa" = { values = [-1.0, -0.8] }'))
+    out = tmp_path / "two.h5"
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress",
+                                  "--set", "initial.count=3",
+                                  "--set", "system.forcing.0.Omega=1.5"])
+    assert r.exit_code == 0, r.output
+    d = PlotData(str(out))
+    u, h = d.y("impact_u"), d.y("impact_height")
+    c = h5py.File(out)["impacts/contact"][...]
+    on_L = c == 0
+    assert on_L[1].any() and np.allclose(u[1][on_L[1]], -0.8, atol=1e-9)
+    assert np.nanmax(np.abs(h)) < 1e-9
+    assert np.isnan(d.y("winding")).all()          # contact words have no winding number
+
+
+def test_a_flow_files_words_keep_the_corner_letters(tmp_path):
+    """The plots' reader takes any letter as a word only for a linear model's file; a flow
+    file's word with another letter (a crafted file) still reads as no word."""
+    from cornerbif.plot_base import SYMBOL_LETTERS, WORD_LETTERS, symbol_words
+    sym = np.array([b"ab", b"aZ", b"L\\x01"], dtype="S4")
+    assert list(symbol_words(sym, WORD_LETTERS)) == ["ab", "", ""]
+    assert list(symbol_words(sym, SYMBOL_LETTERS)) == ["ab", "aZ", ""]

@@ -171,6 +171,17 @@ class LinearModel(Model):
         entry at its table value does not write its old value back over its mirror)."""
         return declare.read_system(self.system_table_with(values))
 
+    def given_problem(self, names) -> str | None:
+        """A problem of the numbers given together by name (``cornerbif.simulate``'s
+        keywords), or None: a matrix entry and its mirror are one number."""
+        for path in names:
+            k = path.split(".")
+            if k[0] in ("mass", "stiffness") and len(k) == 3 and k[1] != k[2] \
+                    and f"{k[0]}.{k[2]}.{k[1]}" in names:
+                return (f"{path} and {k[0]}.{k[2]}.{k[1]} given together: one number of the "
+                        f"symmetric {k[0]} matrix; give one of them")
+        return None
+
     def check(self, ctx):
         """Every point's system is a valid one, checked before any run: each value by its
         own range (``RANGES``, by config), each axis alone with the others at the table's
