@@ -89,9 +89,9 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                          f"shape {shape})")
     flat = {k: np.broadcast_to(a, shape).ravel() for k, a in arrays.items()}
     n = int(np.prod(shape))
-    given = getattr(spec, "given_problem", None)
-    if given is not None and given(list(flat)):
-        raise SceneError([f"simulate(): {given(list(flat))}"])
+    problem = spec.given_problem(list(flat))
+    if problem:
+        raise SceneError([f"simulate(): {problem}"])
     first = {k: float(a[0]) for k, a in flat.items()}
     raw["system"] = _with(spec, raw["system"], first)
     scene = from_dict(raw, drawn_starts=False)

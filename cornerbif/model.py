@@ -400,6 +400,11 @@ class Model:
     for_system = None
     system_table: dict | None = None
 
+    def given_problem(self, names) -> str | None:
+        """A problem of the parameters ``names`` given together (``cornerbif.simulate``'s
+        keywords), or None (a model declared by its scene: a matrix entry and its mirror)."""
+        return None
+
     def system_table_with(self, values: dict) -> dict:
         """The ``[system]`` table of a model declared by its scene, with ``values`` (its
         numbers by path) written in: the scene as run."""

@@ -192,7 +192,7 @@ class LinearModel(Model):
         problems = []
         if self.system_table is None:
             return problems
-        if getattr(ctx, "follow", "none") not in (None, "none"):
+        if ctx.follow not in (None, "none"):
             problems.append("sweep.follow: the linear model does not follow attractors yet "
                             "(its runs end at an impact, not at a section); remove it")
         swept = [a for a in ctx.axes if a.name in self.params]
