@@ -684,6 +684,17 @@ def shown(x, limit: int = SHOWN_CHARS) -> str:
     return s if len(s) <= 2 * limit else s[:2 * limit] + "...>"
 
 
+def shown_path(path, limit: int = SHOWN_CHARS) -> str:
+    """A path for a message, quoted: whole up to ``limit`` characters, else its start and
+    its end around the size of what was cut (a file is known by its name: a long temporary
+    folder must not hide it)."""
+    text = str(path)
+    if len(text) <= limit:
+        return repr(text)
+    k = limit // 2
+    return f"{cut(text, k, quote=True, mark='')}...<{len(text)} characters>...{cut(text[-k:], k, quote=True)}"
+
+
 def is_number(x) -> bool:
     """An int or a float (not a bool) that a float can hold (10**400 cannot)."""
     if not isinstance(x, (int, float)) or isinstance(x, bool):

@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 
 from .errors import SweepError
-from .model import cut, did_you_mean, shown
+from .model import cut, did_you_mean, shown, shown_path
 from .outputs import save_figure
 
 # one style for every figure: serif text in the paper's sizes, thin frames, vector fonts
@@ -93,7 +93,8 @@ def style_problem(style, key: str) -> str | None:
     except OSError:
         st = None
     if st is None and ("/" in style or os.sep in style or style.endswith(".mplstyle")):
-        return f"{key}: {shown(style)}: no such style sheet (a path, relative to the working directory)"
+        return (f"{key}: {shown_path(style)}: no such style sheet (a path, relative to the "
+                "working directory)")
     if st is not None:
         if not stat.S_ISREG(st.st_mode):
             return f"{key}: {shown(style)} is not a regular file (a .mplstyle style sheet)"

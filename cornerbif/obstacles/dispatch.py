@@ -439,8 +439,8 @@ def zpp_range(p, j):
         return profile_zpp_range(p, j)
     a = p[P.BETA] * p[P.OMEGA] * p[P.OMEGA]
     if ob == SINE and j % 2 == 1:
-        return 0.0, a
-    return -a, 0.0
+        return min(0.0, a), max(0.0, a)      # (a beta < 0: a linear model's contact)
+    return min(-a, 0.0), max(-a, 0.0)
 
 
 @jit
@@ -449,8 +449,8 @@ def zppp_max(p):
     if p[P.OBSTACLE] == TRIANGLE:
         return 0.0
     if is_profile(p):
-        return p[P.BETA] * p[P.OMEGA] ** 3 * profile_bound(p, P.PC_G3)
-    return p[P.BETA] * p[P.OMEGA] ** 3
+        return abs(p[P.BETA]) * p[P.OMEGA] ** 3 * profile_bound(p, P.PC_G3)
+    return abs(p[P.BETA]) * p[P.OMEGA] ** 3      # (beta of either sign: a linear contact)
 
 
 @jit
@@ -459,7 +459,7 @@ def zpppp_max(p):
     if p[P.OBSTACLE] == TRIANGLE:
         return 0.0
     if is_profile(p):
-        return p[P.BETA] * p[P.OMEGA] ** 4 * profile_bound(p, P.PC_G4)
+        return abs(p[P.BETA]) * p[P.OMEGA] ** 4 * profile_bound(p, P.PC_G4)
     return zppp_max(p) * p[P.OMEGA]
 
 

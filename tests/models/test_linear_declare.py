@@ -51,9 +51,9 @@ def sketch() -> dict:
 def paper_flow(obstacle="rectified_sine") -> dict:
     """The flow model's u'' + 2 sigma u' + u = F cos(Omega t) against z = kappa + beta
     shape(omega t), written as a linear system with N = 1."""
-    return {"dofs": ["u"], "mass": [1.0], "stiffness": [[1.0]], "damping": [[0.1]],
-            "forcing": [{"on": "u", "F": 0.3, "Omega": 1.5}],
-            "contact": [{"name": "A", "gap": {"u": 1.0}, "obstacle": obstacle, "kappa": -0.1,
+    return {"dofs": ["x"], "mass": [1.0], "stiffness": [[1.0]], "damping": [[0.1]],
+            "forcing": [{"on": "x", "F": 0.3, "Omega": 1.5}],
+            "contact": [{"name": "A", "gap": {"x": 1.0}, "obstacle": obstacle, "kappa": -0.1,
                          "beta": 1.0, "omega": 2.2, "r": 0.8}]}
 
 
@@ -140,6 +140,8 @@ REFUSALS = [
     ("dofs twice", _set(["dofs"], ["x", "x"]), "system.dofs.1", "'x'"),
     ("dofs not a name", _set(["dofs"], ["x", "2y"]), "system.dofs.1", "'2y'"),
     ("dofs not a string", _set(["dofs"], ["x", 3]), "system.dofs.1", "3"),
+    ("dofs an impact's dataset", _set(["dofs"], ["x", "u"]), "system.dofs.1", "'u'"),
+    ("dofs the contact dataset", _set(["dofs"], ["contact", "y"]), "system.dofs.0", "'contact'"),
     ("dofs too many", _set(["dofs"], SEVEN[:MAX_DOFS + 1]), "system.dofs", "'g'"),
     ("mass not symmetric", _set(["mass"], [[1.0, 2.0], [3.0, 1.0]]), "system.mass",
      "[[1.0, 2.0], [3.0, 1.0]] is not symmetric"),
@@ -275,7 +277,7 @@ def test_with_value_sweeps_a_list_gap_and_a_moving_obstacle():
     """A gap given as a list is still named by dof; the paper's flow's omega is a path."""
     t = paper_flow()
     t["contact"][0]["gap"] = [1.0]
-    assert with_value(t, "contact.A.gap.u", 2.0)["contact"][0]["gap"] == [2.0]
+    assert with_value(t, "contact.A.gap.x", 2.0)["contact"][0]["gap"] == [2.0]
     assert read_system(with_value(t, "contact.A.omega", 1.9))[0].contacts[0].omega == 1.9
 
 
@@ -288,6 +290,15 @@ def test_an_unknown_path_raises_a_key_error_naming_it(path):
     assert repr(path) in str(e.value)
     if path == "contact.R.kapa":
         assert "contact.R.kappa" in str(e.value)
+
+
+def test_a_dof_cannot_take_an_impacts_dataset_name():
+    """The names refused for a coordinate (declare.IMPACT_NAMES) are exactly the impacts'
+    own datasets beside the coordinates' (model.BASE_FIELDS): impacts/<dof> would be
+    written twice (seen: a dof named u crashed the writer with "name already exists")."""
+    from cornerbif.models.linear.declare import IMPACT_NAMES
+    from cornerbif.models.linear.model import BASE_FIELDS
+    assert set(IMPACT_NAMES) == {f.name.split("/", 1)[1] for f in BASE_FIELDS}
 
 
 def test_no_numba_is_loaded():
@@ -366,8 +377,8 @@ def test_a_moving_obstacle_of_no_height_is_refused():
     slopes 0 and pieces of 0 / 0 time (seen in review: NaN pieces, an impact at the start).
     Refused, naming the key and the value, for every moving kind."""
     for kind in ("sine", "rectified_sine", "triangle"):
-        table = {"dofs": ["u"], "mass": [1.0], "stiffness": [1.0],
-                 "contact": [{"name": "R", "gap": {"u": 1.0}, "obstacle": kind, "beta": 0.0,
+        table = {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0],
+                 "contact": [{"name": "R", "gap": {"x": 1.0}, "obstacle": kind, "beta": 0.0,
                               "omega": 2.0}]}
         system, problems = read_system(table)
         assert system is None

@@ -130,13 +130,13 @@ LINEAR_SCENE = """
 name = "one_mass_linear"
 model = "linear"
 [system]
-dofs = ["u"]
+dofs = ["x"]
 mass = [1.0]
 stiffness = [1.0]
 damping = [0.1]
 [[system.contact]]
 name = "W"
-gap = { u = 1.0 }
+gap = { x = 1.0 }
 obstacle = "rectified_sine"
 kappa = 0.0
 beta = 1.0
@@ -157,7 +157,7 @@ def test_one_mass_against_a_rectified_sine_is_the_flow_model():
                            obstacle="rectified_sine", kappa=0.0, beta=1.0, r=0.8, sigma=0.05,
                            k=1.0, transient=0, record=20)
     lin = cornerbif.simulate(model="linear", table=tomllib.loads(LINEAR_SCENE)["system"],
-                             u0=u0[:, None], v_u0=v0[:, None], transient=0, record=20,
+                             x0=u0[:, None], v_x0=v0[:, None], transient=0, record=20,
                              **{"contact.W.omega": omegas[None, :]})
     assert np.array_equal(np.isfinite(f["t"]), np.isfinite(lin["t"]))
     for k in ("t", "u", "v_in", "v_out"):
@@ -173,7 +173,7 @@ def test_one_mass_cycles_have_the_flows_impacts_per_cycle():
                            kappa=0.0, beta=1.0, r=0.8, sigma=0.05, k=1.0, transient=300,
                            record=40)
     lin = cornerbif.simulate(model="linear", table=tomllib.loads(LINEAR_SCENE)["system"],
-                             u0=5.0, v_u0=0.0, transient=300, record=40,
+                             x0=5.0, v_x0=0.0, transient=300, record=40,
                              **{"contact.W.omega": omegas})
     both = (f["impacts_per_cycle"] > 0) & (lin["impacts_per_cycle"] > 0)
     assert both.sum() >= 6

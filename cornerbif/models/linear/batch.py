@@ -37,7 +37,7 @@ NINT = 3
 
 
 @items_kernel
-def run_batch(k0, k1, which, E, H, normA, cA, normc, rows, ds, gaps, D, r, f_omega, f_phi,
+def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, f_omega, f_phi,
               f_const, ics, ints, tol, chatter, escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
               o_status, o_final):
     """Item i: the system ``which[i]`` (the stacked arrays' first index) from the start ics[i]
@@ -76,8 +76,9 @@ def run_batch(k0, k1, which, E, H, normA, cA, normc, rows, ds, gaps, D, r, f_ome
         if inside:
             o_status[i] = S.BELOW_OBSTACLE
             continue
-        st, _ = run(E[s], H[s], normA[s], cA[s], normc[s], rows[s], ds[s], gaps[s], D[s], r[s],
-                    y0, 0.0, n, skip, skip + rec, tol, chatter, escape, t_max[s], control,
+        st, _ = run(E[s], A[s], H[s], normA[s], cA[s], cAs[s], N[s], normc[s], rows[s], ds[s], gaps[s],
+                    D[s], r[s], y0, 0.0, n, skip, skip + rec, tol, chatter, escape, t_max[s],
+                    control,
                     o_t[i], o_c[i], o_x[i], o_vin[i], o_vout[i], o_final[i])
         if st == STOPPED:
             o_status[i] = STOPPED

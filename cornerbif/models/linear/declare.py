@@ -58,6 +58,9 @@ CONTACT_KEYS = ("name", "gap", "obstacle", "kappa", "beta", "omega", "law", "r",
 FIXED = "fixed"
 # names a dof may not take: the keys of [initial] beside the coordinates (config.py)
 RESERVED_DOFS = ("count", "seed", "points", "points_file", "t")
+# ... nor an impact's own datasets beside the coordinates' (model.BASE_FIELDS: impacts/<dof>
+# would be written twice)
+IMPACT_NAMES = ("t", "contact", "u", "v_in", "v_out")
 LAWS = ("impact", "spring")
 LAW_KEYS = {"impact": ("r",), "spring": ("k", "c")}
 SYMMETRY_TOL = 1e-12      # |M - M^T| <= SYMMETRY_TOL max |M|
@@ -120,6 +123,11 @@ class _Reader:
             elif d.startswith("v_") or d in RESERVED_DOFS:
                 self.bad(f"dofs.{i}", d, "is a name the scene uses for something else (v_<dof> "
                          f"is a velocity; {', '.join(RESERVED_DOFS)} are [initial] keys)")
+                ok = False
+            elif d in IMPACT_NAMES:
+                self.bad(f"dofs.{i}", d, "is the name of an impact's own dataset (impacts/"
+                         f"{d}: {', '.join(IMPACT_NAMES)}); name the coordinate otherwise, "
+                         "for example x")
                 ok = False
         return tuple(v) if ok else None
 

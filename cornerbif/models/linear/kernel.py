@@ -1,35 +1,43 @@
-"""The event loop of a linear vibro-impact system, jitted (issue 33; not yet a model's kernel:
-``run`` is called with the arrays ``prepare`` builds).  The method of ``events.py`` and
-``simulate.py``, with no matrix exponential inside the loop:
+"""The event loop of a linear vibro-impact system, jitted (issue 33): ``run`` with the arrays
+``prepare`` builds, per item of a sweep by ``batch.run_batch``.  Flights are exact (y' = A y
+on the augmented state, flight.py); events are certified.
 
-**A ladder of flights.**  Every interval the certified search looks at is a dyadic part of a
-chunk of length H = 1 / |A|: [p + i H / 2^k, p + (i + 1) H / 2^k].  So the flights it needs
-are E_k = expm(A H / 2^k), k = 0 .. LEVELS, computed once per system (``prepare``, by
-``flight.expm``); the state at the right half's start is E_(k+1) y at the left's.  A flight
-of any length L = H (m + f) is E_0^m times the E_k of f's binary digits (``advance``): 52
-digits resolve f to the last bit, so the loop multiplies matrices by vectors and nothing
-else.
+**Chunks.**  Time goes in chunks of at most H = 1 / |A|, each inside one smooth piece of
+every contact's obstacle.  On a chunk from p, a contact's flight gap is a polynomial:
+a . x(p + s) = sum_k b_k (s / H)^k, b_k = c (A H)^k y(p) / k! (``gap_poly``, k < 24; the
+tail beyond is below e / 20! of |c| |y| for the derivatives up to the fourth, under the
+sum's rounding).  The gap g = a . x - z is that polynomial minus the obstacle's own formula
+on the piece (``obstacles.dispatch``).
 
-**The search** (per contact, per chunk [p, q], q - p <= H, inside one smooth piece of every
-contact's obstacle) is ``events._search``'s halving on the ladder: the Taylor bound of |g''|
-with its remainder, no root where the concave lower bound stays positive, the left half
-first.  The chunk's dyadic intervals may pass q (the piece's end): there the piece's own
-formula is continued, whose |z''| stays within the sinusoid's beta omega^2 (a triangle's
-0), so a proof of no root holds on [a, q]; a sign change past q is not an event of the
-piece (the next chunk's piece decides).  A root resolved to an interval of width ``tol``:
-an impact at its right end; a touch whose ends are both above zero: a graze, applied as an
-impact when the relative velocity there approaches (w- < 0).  An event where the contact
-moves away (w >= 0: a graze, or a gap left below zero by the last impact's resolution) is
-no impact: the loop steps past it by the leaving rule's free step w / B.
+**The search** (``first_event``) is the flow kernel's certified step, ``roots.bracket``: from
+a point with g and its first three derivatives it steps by the first root of the concave
+lower quadratic, so no root is skipped, and it brackets and polishes a transversal root to
+``tol``.  Its bounds over the chunk: the flight part's d-th derivative (d = 2, 3, 4) is at
+most N_d |y(p)|, with N_d >= max over s in [0, H] of |c A^d expm(A s)| (``flight_bounds``,
+once per system), plus the piece's bounds of z's derivatives.  A chunk's first step reads g
+and its derivatives off the polynomial's first coefficients; a chunk that the first step
+proves free costs four dot products.  Where 60 steps do not settle (a slow approach to a
+near-graze), the halving of ``search`` takes over from there (the method of events.py: the
+Taylor bound of |g''|, no root where the concave lower bound stays positive, left half
+first).
+
+**Flights of any length** (``advance``): E_0 = expm(A H) for whole chunks, the ladder E_k =
+expm(A H / 2^k), k <= 12 (``ladder``: Taylor series to the term 20, |A H / 2^k| <= 1), for
+the first 12 binary digits of the rest, and the last part (|A| d <= 2^-12) by its series
+to order 5.  The loop multiplies matrices by vectors and nothing else.
+
+At an event: the earliest over the contacts (ties within ``tol``: the contacts' order).  An
+event where the contact moves away (w >= 0: a graze, or a gap left below zero by the last
+impact's resolution) is no impact: the loop steps past it by the leaving rule's free step
+w / B.  A contact found with g <= 0 and g' > 0 at a chunk's start (just after its impact) is
+free until g' / B (B >= |g''| on the chunk).
 
 Obstacles are evaluated by ``obstacles.dispatch`` on each contact's packed row (the flow's
-kinds; a cam profile not yet).  Simultaneous events: the earliest, ties (events within
-``tol`` of each other) in the order of the contacts.  The certification is exact
-arithmetic's: the ladder's products drift by rounding (about 1e-12 over 80 chunks, measured),
-and a dip shallower than that drift is decided by rounding; time is absolute, so past
-t ~ 1e4 impact times are resolved to ulp(t) rather than ``tol``.  Chattering (a rebound
-w+ <= ``chatter``) ends the run (CHATTERS), as do soft stops (not here) and the time
-budget.
+kinds, beta of either sign; a cam profile not yet).  The certification is exact
+arithmetic's: flights drift by rounding (about 1e-12 over 80 chunks, measured), and a dip
+shallower than that drift is decided by rounding; time is absolute, so past t ~ 1e4 impact
+times are resolved to ulp(t) rather than ``tol``.  Chattering (a rebound w+ <= ``chatter``)
+ends the run (CHATTERS), as does the time budget.
 """
 
 from __future__ import annotations
@@ -39,13 +47,31 @@ import math
 import numpy as np
 
 from ..._jit import STOPPED, jit, stop_requested
-from ...obstacles.dispatch import NDERIVED, piece_at, piece_length, piece_start, z_state, zpp_range
+from ...numerics.roots import FAIL, FOUND, bracket
+from ...numerics.roots import NONE as ROOT_NONE
+from ...obstacles.dispatch import (
+    NDERIVED,
+    piece_at,
+    piece_length,
+    piece_start,
+    z_state,
+    zpp_range,
+    zppp_max,
+    zpppp_max,
+)
 from ..flow.params import NPARAM
 from .events import TAYLOR_TERMS, ContactObstacle
-from .flight import augmented, expm, forcing_state
+from .flight import augmented, forcing_state
 
-LEVELS = 52                 # the ladder E_0 .. E_LEVELS: H / 2^52 resolves a chunk to its bit
+LEVELS = 52                 # ``search``'s deepest halving: H / 2^52 resolves a chunk to its bit
+LADDER_BITS = 12            # ``advance``: the ladder's first bits, then Taylor's series of A
+TAYLOR_FINISH = 5           # ... to this order: (|A| d)^6 / 6! <= 2^-72 / 720 for d <= H 2^-12
+POLY_TERMS = 24             # the gap's Taylor polynomial over a chunk (``gap_poly``)
+# its tail after 24 terms, for the derivatives d <= 4 over u = s / H <= 1:
+# |c| |y| |A|^d u^(24 - d) / (24 - d)! e^u <= |c| |y| H^-d e / 20!
+POLY_STEPS = 60             # certified steps on the polynomial before the halving takes over
 NONE, IMPACT, GRAZE = 0, 1, 2
+STEPS_OUT = 3               # ``first_event``: its step budget spent
 OK, CHATTERS, BUDGET, ESCAPED, NONFINITE = 0, 1, 2, 3, 4
 
 
@@ -55,11 +81,10 @@ def prepare(system, t0, x0, v0):
     m = A.shape[0]
     normA = float(np.linalg.norm(A, 2))
     H = 1.0 / max(normA, 1e-300)
-    E = np.empty((LEVELS + 1, m, m))
-    for k in range(LEVELS + 1):
-        E[k] = expm(A * (H / 2.0 ** k))
+    E = ladder(A, H)
     nc = len(system.contacts)
     cA = np.zeros((nc, TAYLOR_TERMS + 3, m))
+    cAs = np.zeros((nc, POLY_TERMS, m))
     rows = np.zeros((nc, NPARAM))
     ds = np.zeros((nc, NDERIVED))
     D = np.zeros((nc, system.n))
@@ -69,12 +94,18 @@ def prepare(system, t0, x0, v0):
         for k in range(TAYLOR_TERMS + 3):
             cA[i, k] = row
             row = row @ A
+        row = np.zeros(m)
+        row[:system.n] = c.gap
+        for k in range(POLY_TERMS):          # c (A H)^k / k!: each of norm <= |c| / k!
+            cAs[i, k] = row
+            row = row @ (A * H) / (k + 1)
         ob = ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega)
         rows[i], ds[i] = ob.row, ob.d
         D[i] = np.linalg.solve(system.mass, c.gap)
     y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float),
                          forcing_state(system, t0)])
-    return {"E": E, "H": H, "normA": normA, "cA": cA,
+    N = np.array([flight_bounds(cA[i, 0], A, E, H, normA) for i in range(nc)]).reshape(nc, 3)
+    return {"E": E, "A": A, "H": H, "normA": normA, "cA": cA, "cAs": cAs, "N": N,
             "normc": np.array([np.linalg.norm(c.gap) for c in system.contacts]),
             "rows": rows, "ds": ds, "gaps": np.array([c.gap for c in system.contacts], float),
             "D": D, "r": np.array([c.r for c in system.contacts], float), "y0": y0,
@@ -101,23 +132,136 @@ def matvec(E, k, y, out):
 
 
 @jit
-def advance(E, H, y, length, tmp):
-    """y <- the state ``length`` later: E_0^floor(length / H), then the E_k of the binary
-    digits of the rest (module docstring)."""
+def advance(E, A, H, y, length, tmp, tmp2):
+    """y <- the state ``length`` later: E_0^floor(length / H), the E_k of the first
+    LADDER_BITS binary digits of the rest, and the last part d < H 2^-LADDER_BITS by the
+    series y + d A (y + d/2 A (y + ...)) to order TAYLOR_FINISH (its remainder below
+    2^-72 / 720 of |y|: exact to rounding)."""
     if length < 0.0:
         raise ValueError("advance: a flight of negative length")
+    m = y.shape[0]
     x = length / H
     whole = int(math.floor(x))
     f = x - whole
     for _ in range(whole):
         matvec(E, 0, y, tmp)
-        copy_to(y, tmp, y.shape[0])
-    for k in range(1, E.shape[0]):
+        copy_to(y, tmp, m)
+    for k in range(1, LADDER_BITS + 1):
         f *= 2.0
         if f >= 1.0:
             matvec(E, k, y, tmp)
-            copy_to(y, tmp, y.shape[0])
+            copy_to(y, tmp, m)
             f -= 1.0
+    d = f * H / 2.0 ** LADDER_BITS
+    if d > 0.0:
+        short_flight(A, y, d, tmp, tmp2)
+
+
+@jit
+def short_flight(A, y, d, tmp, tmp2):
+    """y <- the state d later, for |A| d <= 2^-LADDER_BITS: the series y + d A (y + d/2 A
+    (y + ...)) to order TAYLOR_FINISH (its remainder below 2^-72 / 720 of |y|)."""
+    m = y.shape[0]
+    copy_to(tmp2, y, m)
+    for k in range(TAYLOR_FINISH, 0, -1):
+        for i in range(m):
+            s = 0.0
+            for jj in range(m):
+                s += A[i, jj] * tmp2[jj]
+            tmp[i] = s
+        for i in range(m):
+            tmp2[i] = y[i] + (d / k) * tmp[i]
+    copy_to(y, tmp2, m)
+
+
+@jit
+def ladder(A, H):
+    """The flights E_k = expm(A H / 2^k), k = 0 .. LADDER_BITS, each by its Taylor series
+    to the term 20 (|A H / 2^k| <= 1: the remainder is below e / 21! < 6e-20 of the norm,
+    under rounding; checked against flight.expm in tests/models/test_linear_kernel.py)."""
+    m = A.shape[0]
+    E = np.zeros((LADDER_BITS + 1, m, m))
+    term = np.empty((m, m))
+    nxt = np.empty((m, m))
+    for k in range(LADDER_BITS + 1):
+        h = H / 2.0 ** k
+        for i in range(m):
+            for jj in range(m):
+                term[i, jj] = 1.0 if i == jj else 0.0
+        for n in range(1, 21):
+            for i in range(m):
+                for jj in range(m):
+                    E[k, i, jj] += term[i, jj]
+            for i in range(m):
+                for jj in range(m):
+                    acc = 0.0
+                    for q in range(m):
+                        acc += term[i, q] * A[q, jj]
+                    nxt[i, jj] = acc * h / n
+            term, nxt = nxt, term
+        for i in range(m):
+            for jj in range(m):
+                E[k, i, jj] += term[i, jj]
+    return E
+
+
+@jit
+def flight_bounds(c, A, E, H, normA):
+    """N[d - 2] >= max over s in [0, H] of |c A^d expm(A s)| (2-norms), d = 2, 3, 4: so that
+    |g^(d)| <= N[d - 2] |y| along a flight of length <= H from the state y, for the flight
+    part of the gap g = c . y - z.  On each eighth [s_i, s_i + H/8] (s_i = i H / 8, expm(A
+    s_i) = E_3^i): c A^d expm(A (s_i + r)) = sum_k c A^(d+k) E_3^i r^k / k!, whose norm is
+    at most sum_(k < 16) |c A^(d+k) E_3^i| (H/8)^k / k! plus the tail's |c A^(d+16)|
+    |E_3^i|_F (H/8)^16 / 16! e^(|A| H / 8), times 1 + 1e-12 for the rounding of the
+    products.  About e^(1/8) of the true maximum for a rotation, where the series of
+    |c A^(d+k) y| about the chunk's start gives e."""
+    m = A.shape[0]
+    N = np.zeros(3)
+    P = np.eye(m)
+    u = np.empty(m)
+    row = np.empty(m)
+    sig = H / 8.0
+    for _ in range(8):
+        pf = 0.0
+        for a in range(m):
+            for b in range(m):
+                pf += P[a, b] * P[a, b]
+        pf = math.sqrt(pf)
+        for d in range(2, 5):
+            for a in range(m):
+                u[a] = c[a]
+            for _ in range(d):
+                _row_times(u, A, row)
+                copy_to(u, row, m)
+            total = 0.0
+            fact = 1.0
+            for k in range(16):
+                _row_times(u, P, row)
+                nr = 0.0
+                for a in range(m):
+                    nr += row[a] * row[a]
+                total += math.sqrt(nr) * fact
+                fact *= sig / (k + 1)
+                _row_times(u, A, row)
+                copy_to(u, row, m)
+            nu = 0.0
+            for a in range(m):
+                nu += u[a] * u[a]
+            total += math.sqrt(nu) * pf * fact * math.exp(normA * sig)
+            N[d - 2] = max(N[d - 2], total * (1.0 + 1e-12))
+        P = P @ E[3]
+    return N
+
+
+@jit
+def _row_times(u, M, out):
+    """out = u M (a row vector times a matrix)."""
+    m = u.shape[0]
+    for b in range(m):
+        acc = 0.0
+        for a in range(m):
+            acc += u[a] * M[a, b]
+        out[b] = acc
 
 
 @jit
@@ -162,9 +306,10 @@ def piece_zpp(row, j):
 
 
 @jit
-def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y, tmp):
+def search(E, A, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y, tmp, tmp2):
     """The first event of contact i in [p, q] (q - p <= H) on its piece j from the state yp
-    at p: (kind, time, state there in tmp)."""
+    at p, by halving on the ladder (module docstring): (kind, time, state there in tmp).
+    The loop's fallback where ``first_event``'s certified steps do not settle."""
     zpp = piece_zpp(row, j)
     top = 0
     st_a[0] = p
@@ -189,7 +334,7 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
             # as fine as asked: the right end's sign (at q where the interval passes it)
             b = min(a + h, q)
             copy_to(tmp, ya, ya.shape[0])
-            advance(E, H, tmp, b - a, st_y[top + 1])
+            advance(E, A, H, tmp, b - a, st_y[top + 1], tmp2)
             gb, _ = gap_at(cA, i, tmp, row, d, j, b)
             if gb <= 0.0:
                 return IMPACT, b
@@ -197,8 +342,12 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
                 copy_to(tmp, ya, ya.shape[0])
                 return GRAZE, a
             continue
-        # the right half under the left
-        matvec(E, k + 1, ya, tmp)
+        # the right half under the left (past the ladder's levels: the short flight's series)
+        if k + 1 < E.shape[0]:
+            matvec(E, k + 1, ya, tmp)
+        else:
+            copy_to(tmp, ya, ya.shape[0])
+            short_flight(A, tmp, h / 2.0, st_y[top + 1], tmp2)
         top += 1
         st_a[top] = a + h / 2.0
         st_k[top] = k + 1
@@ -211,8 +360,77 @@ def search(E, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, st_y
 
 
 @jit
-def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter, escape,
-        t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y):
+def gap_poly(cAs, i, y, b, k0, k1):
+    """b[k] = c (A H)^k y / k!, k0 <= k < k1: of contact i's flight gap a . x(p + s) =
+    sum_k b[k] (s / H)^k over a chunk from the state y at p (s <= H; its tail: the module
+    docstring).  The loop makes b[:4] first (a chunk's first step needs no more), the rest
+    when the chunk needs more steps."""
+    for k in range(k0, k1):
+        acc = 0.0
+        for jj in range(y.shape[0]):
+            acc += cAs[i, k, jj] * y[jj]
+        b[k] = acc
+
+
+@jit
+def poly_derivs(b, u, absolute):
+    """The polynomial sum_k b[k] u^k and its first four derivatives in u, by Horner (of the
+    |b[k]| when ``absolute``: the bounds of those derivatives over [0, u])."""
+    p0 = p1 = p2 = p3 = p4 = 0.0
+    for k in range(b.shape[0] - 1, -1, -1):
+        c = abs(b[k]) if absolute else b[k]
+        p4 = p4 * u + p3
+        p3 = p3 * u + p2
+        p2 = p2 * u + p1
+        p1 = p1 * u + p0
+        p0 = p0 * u + c
+    return p0, p1, 2.0 * p2, 6.0 * p3, 24.0 * p4
+
+
+@jit
+def first_event(cAs, i, y, b, H, B2, B3, B4, row, d, j, p, s0, L, tol):
+    """The first root of contact i's gap g(s) = P(s / H) - z(p + s) on [s0, L] (a chunk from
+    p, L <= H, inside the obstacle's piece j; P the polynomial ``gap_poly`` of the state y
+    at p, its first four coefficients already in b): the
+    certified steps of ``roots.bracket`` on g and its derivatives up to the third at each
+    point, with bounds over the chunk of g'' (lo2, hi2), of |g'''| and of |g''''|: the
+    flight part's B2, B3, B4 (``flight_bounds`` times |y(p)|) and the piece's bounds of
+    z's derivatives.  Returns (code, s): roots.FOUND with the event at s, roots.NONE (no
+    root), roots.FAIL (a value not a number), or STEPS_OUT after POLY_STEPS steps (the
+    caller halves instead)."""
+    h2 = H * H
+    zlo, zhi = zpp_range(row, j)
+    lo2 = -B2 - zhi
+    hi2 = B2 - zlo
+    m3 = B3 + zppp_max(row)
+    m4 = B4 + zpppp_max(row)
+    start = piece_start(d, j)
+    s = s0
+    whole = False
+    for _ in range(POLY_STEPS):
+        if s == 0.0:            # the chunk's start: the coefficients are the derivatives
+            g, g1, g2, g3 = b[0], b[1], 2.0 * b[2], 6.0 * b[3]
+        else:
+            if not whole:
+                gap_poly(cAs, i, y, b, 4, cAs.shape[1])
+                whole = True
+            g, g1, g2, g3, _ = poly_derivs(b, s / H, False)
+        z, zp, zpp, zppp = z_state(row, j, p + s - start)
+        code, h, _ = bracket(g - z, g1 / H - zp, g2 / h2 - zpp, g3 / (h2 * H) - zppp, False,
+                             L - s, lo2, hi2, m3, m4, tol, -1.0)
+        if code == ROOT_NONE:
+            return ROOT_NONE, L
+        if code == FOUND or code == FAIL:
+            return code, s + h
+        s += h
+        if s >= L:
+            return ROOT_NONE, L
+    return STEPS_OUT, s
+
+
+@jit
+def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter,
+        escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y):
     """Up to ``count`` impacts from y0 at t0 (module docstring), the first ``skip`` not
     recorded (a transient), the others into the outputs; the state after the last impact
     into ``o_y`` ((x, v): 2n): (status, impacts recorded).  A coordinate or velocity past
@@ -225,7 +443,9 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
     t = t0
     copy_to(o_y, y, 2 * n)
     tmp = np.empty(m)
-    best_y = np.empty(m)
+    tmp2 = np.empty(m)
+    yp = np.empty(m)
+    b = np.empty(cAs.shape[1])
     st_a = np.empty(2 * LEVELS + 4)
     st_k = np.empty(2 * LEVELS + 4, np.int64)
     st_y = np.empty((2 * LEVELS + 4, m))
@@ -236,12 +456,16 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
             return STOPPED, 0
         if t > t_max:
             return BUDGET, max(0, impacts - skip)
+        ny = 0.0
         for k in range(2 * n):
             a = abs(y[k])
             if not (a == a):
                 return NONFINITE, max(0, impacts - skip)
             if a > escape:
                 return ESCAPED, max(0, impacts - skip)
+        for k in range(m):
+            ny += y[k] * y[k]
+        ny = math.sqrt(ny)
         # the chunk: at most H, inside one piece of every contact's obstacle
         q = t + H
         for i in range(nc):
@@ -251,36 +475,45 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
                 j += 1
             js[i] = j
             q = min(q, piece_start(ds[i], j) + piece_length(ds[i], j))
+        L = q - t
         best = math.inf
         bi = -1
         for i in range(nc):
-            p = t
-            yp = y.copy()
-            g0, g1 = gap_at(cA, i, y, rows[i], ds[i], js[i], t)
+            j = js[i]
+            gap_poly(cAs, i, y, b, 0, 4)
+            z, zp, _, _ = z_state(rows[i], j, t - piece_start(ds[i], j))
+            g0 = b[0] - z
+            g1 = b[1] / H - zp
+            s0 = 0.0
             if g0 <= 0.0:
                 if g1 <= 0.0:
                     if 0.0 < best:
                         best, bi = 0.0, i
-                        copy_to(best_y, y, m)
                     continue
                 # leaving the obstacle: free until g' / B at least (events.py)
-                B = bound2(cA, i, y, q - t, normc[i], normA, piece_zpp(rows[i], js[i]))
-                s = g1 / B
-                if t + s >= q:
-                    continue
-                advance(E, H, yp, s, tmp)
-                p = t + s
-            kind, te = search(E, H, cA, i, normc[i], normA, rows[i], ds[i], js[i], p, yp, q,
-                              tol, st_a, st_k, st_y, tmp)
-            if kind != NONE and te - t < best:
-                best, bi = te - t, i
-                copy_to(best_y, tmp, m)
+                s0 = g1 / (N[i, 0] * ny + piece_zpp(rows[i], j))
+            end = min(L, best)       # a later contact's event must come before the best
+            if s0 >= end:
+                continue
+            code, s = first_event(cAs, i, y, b, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, rows[i], ds[i],
+                                  j, t, s0, end, tol)
+            if code == STEPS_OUT:
+                # a slow approach (a near-graze): halving on the ladder from there
+                copy_to(yp, y, m)
+                advance(E, A, H, yp, s, tmp, tmp2)
+                kind, te = search(E, A, H, cA, i, normc[i], normA, rows[i], ds[i], j, t + s, yp,
+                                  t + end, tol, st_a, st_k, st_y, tmp, tmp2)
+                code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, end)
+            if code == FAIL:
+                return NONFINITE, max(0, impacts - skip)
+            if code == FOUND and s < best:
+                best, bi = s, i
         if bi < 0:
-            advance(E, H, y, q - t, tmp)
+            advance(E, A, H, y, L, tmp, tmp2)
             t = q
             continue
-        te = t + best                 # (a graze: its interval's start, where best_y is)
-        copy_to(y, best_y, m)
+        te = t + best
+        advance(E, A, H, y, best, tmp, tmp2)
         j = js[bi]
         _, zp, _, _ = z_state(rows[bi], j, te - piece_start(ds[bi], j))
         w = 0.0
@@ -292,7 +525,7 @@ def run(E, H, normA, cA, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, to
             # resolution): no impact; on past it by the leaving rule's free step
             B = bound2(cA, bi, y, H, normc[bi], normA, piece_zpp(rows[bi], j))
             s = max(2.0 * tol, w / B)
-            advance(E, H, y, s, tmp)
+            advance(E, A, H, y, s, tmp, tmp2)
             t = te + s
             continue
         ad = 0.0
@@ -325,9 +558,9 @@ def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4, es
     o_t = np.full(count, np.nan)
     o_c = np.full(count, -1, np.int64)
     o_x, o_vin, o_vout = (np.full((count, n), np.nan) for _ in range(3))
-    st, k = run(a["E"], a["H"], a["normA"], a["cA"], a["normc"], a["rows"], a["ds"], a["gaps"],
-                a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter, escape, t_max, 0, o_t, o_c,
-                o_x, o_vin, o_vout, np.empty(2 * n))
+    st, k = run(a["E"], a["A"], a["H"], a["normA"], a["cA"], a["cAs"], a["N"], a["normc"], a["rows"],
+                a["ds"], a["gaps"], a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter,
+                escape, t_max, 0, o_t, o_c, o_x, o_vin, o_vout, np.empty(2 * n))
     names = [system.contacts[i].name for i in o_c[:k]]
     return st, {"t": o_t[:k], "contact": names, "x": o_x[:k], "v_in": o_vin[:k],
                 "v_out": o_vout[:k]}

@@ -339,11 +339,12 @@ class LinearModel(Model):
         f_const = np.array([any(f.Omega == 0.0 for f in s.forcing) for s in systems], np.bool_)
         t_max = np.array([scene.max_periods * time_scale(s) for s in systems], float)
         o_t, o_c, o_x, o_vin, o_vout, st, final = outs
-        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), stack("E"),
+        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), stack("E"), stack("A"),
                     np.array([a["H"] for a in prepared]), np.array([a["normA"] for a in prepared]),
-                    stack("cA"), stack("normc"), stack("rows"), stack("ds"), stack("gaps"),
-                    stack("D"), stack("r"), f_omega, f_phi, f_const, ics, ints, scene.tol,
-                    scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout, st, final)
+                    stack("cA"), stack("cAs"), stack("N"), stack("normc"), stack("rows"),
+                    stack("ds"), stack("gaps"), stack("D"), stack("r"), f_omega, f_phi, f_const,
+                    ics, ints, scene.tol, scene.chatter, scene.escape, t_max, o_t, o_c, o_x,
+                    o_vin, o_vout, st, final)
         return stack("gaps")[which]
 
 
