@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import hashlib
 import json
 import os
 import subprocess
@@ -40,15 +41,20 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 
 def _revision():
-    """The checkout's commit and whether the package's files differ from it."""
+    """The checkout's commit, whether the package's files differ from it, and the sha1 of the
+    kernel's source as imported (taken at the start: the tree may change during a run)."""
     def git(*args):
         try:
             return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
                                   timeout=30).stdout.strip()
         except (OSError, subprocess.SubprocessError):
             return ""
+    from cornerbif.models.linear import kernel
+    with open(kernel.__file__, "rb") as f:
+        sha = hashlib.sha1(f.read()).hexdigest()[:12]
     return {"commit": git("log", "-1", "--format=%h"),
-            "changed": git("diff", "--stat", "--", "cornerbif").splitlines()}
+            "changed": git("diff", "--stat", "--", "cornerbif").splitlines(),
+            "kernel": kernel.__file__, "kernel_sha1": sha}
 
 
 def _worst(acc, key, value, where):
@@ -72,6 +78,7 @@ def main(argv=None):
 
     import cornerbif
 
+    rev = _revision()
     t_start = time.perf_counter()
     bf.check_run(*bf.random_case(a.seed))              # the kernel compiled (or loaded)
     t_compile = time.perf_counter() - t_start
@@ -134,10 +141,10 @@ def main(argv=None):
                  for q in p["problems"] if q["what"].startswith("missed"))
     kinds = collections.Counter(q["what"] for p in problems for q in p["problems"])
     offs = ", ".join(f"{e[0]:+.2g} (seed {e[1]})" for e in gz_err[:6])
-    rev = _revision()
     print()
     print(f"cornerbif {cornerbif.__file__}  commit {rev['commit']}"
-          + (f" with changes: {rev['changed'][-1]}" if rev["changed"] else " (clean)"))
+          + (f" with changes: {rev['changed'][-1]}" if rev["changed"] else " (clean)")
+          + f"; kernel.py sha1 {rev['kernel_sha1']} (at the start)")
     rows = [
         ("systems", f"{a.systems} (seeds {a.seed}..{a.seed + a.systems - 1}): "
                     + ", ".join(f"{k} {v}" for k, v in sorted(status.items()))),

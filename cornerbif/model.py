@@ -360,7 +360,8 @@ class Model:
     ``axis_labels`` (a figure's labels of its own axes and diagram values where they are not
     the flow's: the maps' start (a_0, b_1) and section (a_n, b_n)), ``warmups`` (``Warmup``s:
     tiny scenes whose runs compile what a first run of the model compiles, for ``cornerbif
-    warm``).
+    warm``), ``contact_words`` (its words are its contacts' names, a linear system's, not
+    the corner clusters' a, b, g, x: no winding number).
 
     Methods (implemented by each model): ``check`` (and ``check_point``, the same checks
     at one point, for ``simulate``), ``wall_at_start``, ``pack_values``, ``pack_points``,
@@ -393,6 +394,7 @@ class Model:
     start_time: Coord | None = None
     axis_labels: dict = field(default_factory=dict)
     warmups: tuple = ()
+    contact_words: bool = False
     # a model declared by its scene's [system] (the linear model): its method
     # ``for_system(table)`` gives (the model of that table, problems); ``system_table`` is that
     # table, which the scene as run writes back (``system_table_with``).  None for a model

@@ -121,8 +121,9 @@ class PlotData:
                 # a model its scene declares (linear): the model of the stored [system]
                 self.spec = self.spec.for_system(self.scene.get("system", {}))[0] or self.spec
             # its words: the corner clusters' letters, or (linear) its contacts' names
+            self.contact_words = self.spec is not None and self.spec.contact_words
             self.symbols = symbol_words(f["symbols"][...],
-                                        SYMBOL_LETTERS if declared else WORD_LETTERS)
+                                        SYMBOL_LETTERS if self.contact_words else WORD_LETTERS)
             # its part in the flow-against-map figures of sections 4-5 ("flow", "map", None)
             self.normal_form = self.spec.normal_form if self.spec else None
             self.initial = {k: f[f"initial/{k}"][...] for k in ("u", "v") if f"initial/{k}" in f}
@@ -303,10 +304,10 @@ class PlotData:
         alone, ``RecordedData.rows``), or None when the file holds none."""
         if kind == "winding":
             from .analysis import winding_number  # start-up: loads numba
-            corner = set(WORD_LETTERS.decode())
             # the share of gamma clusters of a corner word; a contact word (linear) has none
-            return np.vectorize(lambda w: np.nan if set(w) - corner else winding_number(w),
-                                otypes=[float])(self.symbols[rows])
+            if self.contact_words:
+                return np.full(self.symbols[rows].shape, np.nan)
+            return np.vectorize(winding_number, otypes=[float])(self.symbols[rows])
         if kind == "period":
             per = self.period[rows]
             return np.where(per > 0, per, np.nan).astype(float)

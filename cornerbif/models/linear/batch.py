@@ -27,7 +27,7 @@ import numpy as np
 from ... import status as S
 from ..._jit import STOPPED, count_done, items_kernel, jit, stop_requested
 from ...analysis import smallest_rotation
-from ...obstacles.dispatch import piece_at, piece_length, piece_start
+from ...obstacles.dispatch import corner_of, piece_at, piece_length, piece_start
 from .kernel import BUDGET, CHATTERS, ESCAPED, NONFINITE, gap_at, run
 
 # the integer settings (``LinearModel.int_settings``)
@@ -143,3 +143,23 @@ def detect_contact_cycles(k0, k1, t, c, u, v, period, tol, letters, o_period, o_
         p, q = detect_contact_cycle(t[i], c[i], u[i], v[i], period[i], tol, letters, o_sym[i])
         o_period[i] = p
         o_ipc[i] = q
+
+
+@items_kernel
+def corner_offsets(k0, k1, t, rows, ds, o_off, o_corner):
+    """Each recorded impact's nearest corner of the (one) contact's obstacle and its signed
+    offset t - t_corner (``obstacles.dispatch.corner_of``, the flow kernel's grouping): the
+    paper's corner clusters, for ``analysis.detect_cycles`` (``model.paper_words``).
+    ``rows``, ``ds``: each item's packed obstacle row and its derived row."""
+    for i in range(k0, k1):
+        for k in range(t.shape[1]):
+            tk = t[i, k]
+            if not (tk == tk):
+                break
+            j, tau = piece_at(ds[i], tk)
+            # at a piece's end, tk rounds into either piece: the one that goes on past it
+            while piece_start(ds[i], j) + piece_length(ds[i], j) <= tk:
+                j += 1
+            c, off = corner_of(rows[i], ds[i], j, tk - piece_start(ds[i], j))
+            o_corner[i, k] = c
+            o_off[i, k] = off

@@ -29,7 +29,7 @@ import numpy as np
 
 from ... import obstacles
 from ...model import Coord, Field, Model, Param, RunResult, Warmup
-from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS, IMPACT_CYCLE
+from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS, IMPACT_CYCLE, IMPACT_FIELDS
 from . import declare
 from .system import LinearSystem
 
@@ -54,12 +54,29 @@ BASE_FIELDS = (
           "(the generalised Newton law)", "length/time"),
 )
 
+# with the paper's words (``paper_words``): each impact's offset to its nearest corner, as
+# the flow's file holds it
+CORNER_FIELDS = tuple(f for f in IMPACT_FIELDS if f.name == "impacts/corner_offset")
+
 
 def _checked_together(path: str) -> bool:
     """Whether a swept number's validity depends on others swept with it: an entry of M or K
     (positive-definite, semi-definite) or a gap's coefficient (not all zero)."""
     k = path.split(".")
     return k[0] in ("mass", "stiffness") or (k[0] == "contact" and len(k) == 4 and k[2] == "gap")
+
+
+def paper_words(system: LinearSystem) -> bool:
+    """Whether the system's words are the paper's corner clusters (a, b, g, x: the flow's
+    ``analysis.detect_cycle``, its period in clusters) rather than its contacts' names: one
+    contact, on an obstacle kind with corners, with beta > 0 (corners at z's valleys, as
+    the paper's |sin|).  The paper's flow written as a linear scene then has the flow's
+    words and periods."""
+    if len(system.contacts) != 1:
+        return False
+    c = system.contacts[0]
+    return (c.obstacle != declare.FIXED and c.beta > 0.0
+            and obstacles.registered()[c.obstacle].has_corners(None))
 
 
 def system_period(system: LinearSystem) -> float:
@@ -149,13 +166,24 @@ class LinearModel(Model):
         for k, d in enumerate(system.dofs):
             state.append(Coord(f"v_{d}", (-1.0, 1.0), 2 * k + 1, None, f"initial {d}'(0)",
                                f"{d}' just after the last impact"))
+        corner_words = paper_words(system)
+        if corner_words:
+            # z's corners are valleys only for beta > 0: a sweep of beta stays there
+            c = system.contacts[0]
+            params[f"contact.{c.name}.beta"] = Param(
+                f"contact.{c.name}.beta", c.beta, "> 0 (one contact on a cornered obstacle: "
+                "its words are the paper's corner clusters, about z's valleys)",
+                lambda v: v > 0.0, doc=f"the number at contact.{c.name}.beta of [system]",
+                equation="M x'' + C x' + K x = f (docs/linear.md)")
         per_dof = tuple(
             f for d in system.dofs for f in (
                 Field(f"impacts/{d}", f"x_{d}", f"{d} at the impact", "length"),
                 Field(f"impacts/v_{d}", f"v_{d}", f"{d}' just after the impact", "length/time")))
         return dataclasses.replace(
             self, params=params, state=tuple(state),
-            observables={"impacts": BASE_FIELDS + per_dof},
+            observables={"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
+                                                              else ())},
+            contact_words=not corner_words,
             system_table=table), []
 
     def system_table_with(self, values: dict) -> dict:
@@ -254,18 +282,24 @@ class LinearModel(Model):
         """What a first run of ``scene`` compiles: the file's analysis kernels (a sweep) and
         the linear event loop with its cycle detection."""
         from ..._jit import dispatchers  # start-up: loads numba
-        from .batch import detect_contact_cycles, run_batch  # start-up: loads numba
+        from .batch import corner_offsets, detect_contact_cycles, run_batch  # start-up: loads numba
+        # its cycles: the contacts' (``batch``) or, with the paper's words, the flow's
+        cycles = [detect_contact_cycles] if self.contact_words else [corner_offsets]
         out = []
-        if "sweep" in what:          # the file's analysis but the flow's cycles (its own here)
+        if "sweep" in what:          # the file's analysis
             out.append(("the cycle analysis", ANALYSIS_SECONDS,
-                        dispatchers(*(k for k in ANALYSIS_KERNELS if k != "analysis.detect_cycles"))))
+                        dispatchers(*(k for k in ANALYSIS_KERNELS
+                                      if k != "analysis.detect_cycles" or not self.contact_words))))
+        elif not self.contact_words:
+            cycles += dispatchers("analysis.detect_cycles")
         if "sweep" in what or "simulate" in what:
-            out.append(("the linear kernel", COMPILE_SECONDS, [run_batch, detect_contact_cycles]))
+            out.append(("the linear kernel", COMPILE_SECONDS, [run_batch] + cycles))
         return out
 
     def run_items(self, params, ics, ints, scene):
         """The linear event loop (``batch.run_batch``) on n items, each system prepared once
-        (``kernel.prepare``), and each run's cycle (``batch.detect_contact_cycles``).  Systems
+        (``kernel.prepare``), and each run's cycle (``batch.detect_contact_cycles``; with the
+        paper's words, ``batch.corner_offsets`` and the flow's ``analysis.detect_cycles``).  Systems
         whose augmented states differ in size (a forcing's Omega 0 at some points, > 0 at
         others) run in separate calls, each on its items."""
         from ..._jit import raise_if_stopped  # start-up: loads numba
@@ -289,6 +323,7 @@ class LinearModel(Model):
         st = np.zeros(n, np.int8)
         final = np.full((n, 2 * nd), np.nan)
         gaps = np.empty((n, len(systems[0].contacts), nd))
+        rows0 = ds0 = None                  # each item's first contact's obstacle rows
         shapes = {}
         for k, s in enumerate(systems):
             shapes.setdefault((sum(f.Omega > 0.0 for f in s.forcing),
@@ -297,9 +332,13 @@ class LinearModel(Model):
             items = np.flatnonzero(np.isin(which, members))
             local = np.searchsorted(members, which[items])
             outs = [a[items] for a in (o_t, o_c, o_x, o_vin, o_vout, st, final)]
-            gaps[items] = self._run_group([systems[k] for k in members], local,
-                                          np.ascontiguousarray(ics[items], dtype=float), ints,
-                                          scene, outs, B)
+            g, r0, d0 = self._run_group([systems[k] for k in members], local,
+                                        np.ascontiguousarray(ics[items], dtype=float), ints,
+                                        scene, outs, B)
+            if rows0 is None:
+                rows0 = np.empty((n,) + r0.shape[1:])
+                ds0 = np.empty((n,) + d0.shape[1:])
+            gaps[items], rows0[items], ds0[items] = g, r0, d0
             for a, b in zip((o_t, o_c, o_x, o_vin, o_vout, st, final), outs):
                 a[items] = b
         raise_if_stopped(ints[B.I_CONTROL])
@@ -317,15 +356,26 @@ class LinearModel(Model):
         period = np.zeros(n, np.int64)
         ipc = np.zeros(n, np.int64)
         sym = np.zeros((n, rec), np.uint8)
-        B.detect_contact_cycles(o_t, np.ascontiguousarray(o_c), np.ascontiguousarray(out["u"]),
-                                np.ascontiguousarray(out["v_in"]), period_T, scene.period_tol,
-                                letters, period, ipc, sym)
+        if paper_words(systems[0]):     # (every point: beta's range keeps it > 0)
+            from ...analysis import detect_cycles  # start-up: loads numba
+            off = np.full((n, rec), np.nan)
+            corner = np.zeros((n, rec), np.int64)
+            B.corner_offsets(o_t, rows0, ds0, off, corner)
+            out["corner_offset"] = off
+            detect_cycles(o_t, np.ascontiguousarray(out["v_in"]), off, corner, np.ones(n, np.bool_),
+                          scene.period_tol, period, ipc, sym)
+        else:
+            B.detect_contact_cycles(o_t, np.ascontiguousarray(o_c),
+                                    np.ascontiguousarray(out["u"]),
+                                    np.ascontiguousarray(out["v_in"]), period_T,
+                                    scene.period_tol, letters, period, ipc, sym)
         return RunResult(out, st, final, period, ipc, sym)
 
     @staticmethod
     def _run_group(systems, which, ics, ints, scene, outs, B):
         """``batch.run_batch`` on the items of systems of one augmented size (``which``:
-        each item's index into ``systems``), into ``outs``; each item's gap vectors."""
+        each item's index into ``systems``), into ``outs``; each item's gap vectors, and its
+        first contact's packed obstacle row and derived row (``batch.corner_offsets``)."""
         from .kernel import prepare  # start-up: loads numba
         nd = systems[0].n
         prepared = [prepare(s, 0.0, np.zeros(nd), np.zeros(nd)) for s in systems]
@@ -345,7 +395,7 @@ class LinearModel(Model):
                     stack("ds"), stack("gaps"), stack("D"), stack("r"), f_omega, f_phi, f_const,
                     ics, ints, scene.tol, scene.chatter, scene.escape, t_max, o_t, o_c, o_x,
                     o_vin, o_vout, st, final)
-        return stack("gaps")[which]
+        return stack("gaps")[which], stack("rows")[which, 0], stack("ds")[which, 0]
 
 
 # ``cornerbif warm``: what a first sweep compiles; its [system] is also the model's example
@@ -396,6 +446,7 @@ MODEL = LinearModel(
     events_per_impact=40,
     bytes_per_event=8 * 40,
     # impacts per second on one core, benchmarks/linear_kernel.py (one mass, rectified sine)
-    events_per_second=1.1e5,
+    events_per_second=7e5,
     warmups=WARMUPS,
+    contact_words=True,
 )
