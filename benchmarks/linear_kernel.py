@@ -1,20 +1,28 @@
 """The linear model's jitted event loop (cornerbif/models/linear/kernel.py, issue 33) against
-the flow kernel on the same system, measured in one run:
+the paper's kernels on the same systems, measured in one run:
 
     python benchmarks/linear_kernel.py [--impacts N] [--rounds R]
 
-One mass against the rectified sine at omega = 1.8 (Fig. 4's obstacle, a period-4 orbit)
-from (5, 0): N impacts by each kernel, one thread, compiled before timing; the median of R
-paired rounds and the ratio linear / flow.  The linear loop resolves each impact by halving
-on its ladder of flights (about 40 levels); the flow kernel by its certified closed-form
-search.
+Two rows, each the median of R paired rounds (one thread, compiled before timing) and the
+ratio linear / other in impacts per second:
+
+* one mass against the rectified sine at omega = 1.8 (Fig. 4's obstacle, a period-4 orbit)
+  from (5, 0), against the flow kernel (through ``cornerbif.simulate``, with its analysis):
+  N impacts each;
+* Fig. 19(a)'s two particles at omega0 = 2 (z on the wall W, u on z), against the
+  two-particle kernel: the two-particle kernel records N u-z impacts and resolves the w-z
+  impacts between them (both counted: its recorded u-z and w-z impacts over the same time);
+  the linear loop resolves both contacts' impacts alike, N of them.
+
+The linear loop resolves each impact by certified steps on a chunk's gap polynomial
+(kernel.py).
 
     python benchmarks/linear_kernel.py --dofs [--impacts N]
 
 The throughput against the number of coordinates N = 1 .. 6 (MAX_DOFS): a chain of N unit
 masses (K tridiagonal 2, -1: springs between neighbours and to the ground at both ends),
 the first against the rectified sine at omega = 1.8, r = 0.8, from rest at x_1 = 5: the
-augmented state has 2N coordinates, and each flight's ladder products grow as N^2."""
+augmented state has 2N coordinates."""
 
 from __future__ import annotations
 
@@ -39,13 +47,17 @@ def main(argv=None):
     numba.set_num_threads(1)
     if a.dofs:
         return scan_dofs(a.impacts)
-    s = LinearSystem(("u",), np.array([[1.0]]), np.array([[1.0]]), np.array([[0.0]]), (),
+    s = LinearSystem(("x",), np.array([[1.0]]), np.array([[1.0]]), np.array([[0.0]]), (),
                      (Contact("R", np.array([1.0]), "rectified_sine", 0.0, 1.0, 1.8, r=0.8),))
     flow = dict(model="flow", obstacle="rectified_sine", omega=1.8, kappa=0.0, beta=1.0, r=0.8)
+    tp = dict(model="two_particle", omega0=2.0, omega1=OMEGA1, omega2=OMEGA2, mu=MU, r1=0.8,
+              r2=0.8, kappa=0.0, beta=1.0)
     t0 = time.perf_counter()
     run_system(s, 0.0, [5.0], [0.0], 10)
     compile_linear = time.perf_counter() - t0
     cornerbif.simulate(5.0, 0.0, record=10, **flow)
+    cornerbif.simulate(1.0, 0.5, 15.0, 0.0, record=10, **tp)
+    pair = two_particles()
     rows = []
     for _ in range(a.rounds):
         t0 = time.perf_counter()
@@ -55,13 +67,26 @@ def main(argv=None):
         ref = cornerbif.simulate(5.0, 0.0, record=a.impacts, **flow)
         fl = time.perf_counter() - t0
         assert len(out["t"]) == a.impacts and np.isfinite(np.ravel(ref["t"])).all()
-        rows.append((a.impacts / lin, a.impacts / fl))
-    lin = statistics.median(r[0] for r in rows)
-    fl = statistics.median(r[1] for r in rows)
-    print(f"linear kernel: {lin / 1e6:.3f} M impacts/s; flow kernel (cornerbif.simulate, with "
-          f"its analysis): {fl / 1e6:.3f} M impacts/s; ratio {lin / fl:.3f} "
-          f"({a.impacts} impacts, median of {a.rounds} rounds, one thread; the linear loop's "
-          f"first call took {compile_linear:.1f} s with its compile, if not cached)")
+        t0 = time.perf_counter()
+        st, out2 = run_system(pair, 0.0, [1.0, 15.0], [0.5, 0.0], a.impacts, t_max=1e12)
+        lin2 = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        ref2 = cornerbif.simulate(1.0, 0.5, 15.0, 0.0, record=a.impacts // 2, **tp)
+        tp_s = time.perf_counter() - t0
+        assert len(out2["t"]) == a.impacts
+        uz = np.ravel(ref2["t"])
+        wz = np.ravel(ref2["wz_t"])
+        tp_impacts = np.isfinite(uz).sum() + np.count_nonzero(wz <= uz[-1])
+        rows.append((a.impacts / lin, a.impacts / fl, a.impacts / lin2, tp_impacts / tp_s))
+    m = [statistics.median(r[k] for r in rows) for k in range(4)]
+    print(f"| system | linear loop | other kernel | ratio |\n|---|---|---|---|\n"
+          f"| one mass, rectified sine (flow) | {m[0] / 1e6:.3f} M/s | {m[1] / 1e6:.3f} M/s | "
+          f"{m[0] / m[1]:.3f} |\n"
+          f"| Fig. 19(a)'s two particles (two_particle) | {m[2] / 1e6:.3f} M/s | "
+          f"{m[3] / 1e6:.3f} M/s | {m[2] / m[3]:.3f} |\n"
+          f"(impacts per second, every contact's; {a.impacts} impacts, median of {a.rounds} "
+          f"rounds, one thread; the linear loop's first call took {compile_linear:.1f} s with "
+          f"its compile, if not cached)")
 
 
 
@@ -79,6 +104,19 @@ def scan_dofs(impacts):
         dt = time.perf_counter() - t0
         k = len(out["t"])
         print(f"| {n} | {k / dt / 1e6:.3f} M | {dt / k * 1e6:.1f} |")
+
+
+MU, OMEGA1, OMEGA2 = 1000.0, 1.001, 1.0      # Fig. 19(a)'s two particles
+
+
+def two_particles(omega0=2.0):
+    """Fig. 19(a)'s system (tests/linear_systems.py): z (mass 1, omega1) above the wall
+    sin(omega0 t) (contact W, law 5) and u (mass 1 / mu, omega2) above z (contact U, law
+    74), r1 = r2 = 0.8."""
+    return LinearSystem(("z", "x"), np.diag([1.0, 1.0 / MU]),
+                        np.diag([OMEGA1 * OMEGA1, OMEGA2 * OMEGA2 / MU]), np.zeros((2, 2)), (),
+                        (Contact("W", np.array([1.0, 0.0]), "sine", 0.0, 1.0, omega0, r=0.8),
+                         Contact("U", np.array([-1.0, 1.0]), "fixed", 0.0, r=0.8)))
 
 
 def chain(n):

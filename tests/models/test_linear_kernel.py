@@ -111,3 +111,21 @@ def test_an_impact_resolved_just_before_a_piece_end_is_not_found_again():
     want = [np.pi - 1e-12, np.pi - 1e-12 + 2 * 0.8 * v, np.pi - 1e-12 + 2 * 0.8 * v * 1.8]
     np.testing.assert_allclose(out["t"], want, atol=1e-9, rtol=0)
     np.testing.assert_allclose([i.t for i in imp], want, atol=1e-9, rtol=0)
+
+
+def test_the_loops_obstacle_tuples_are_the_obstacle_functions_tuples():
+    """``kernel.contact_tuples`` reads a contact's packed and derived rows off the stacked
+    arrays as the tuples of ``flow.packed.as_tuple`` and ``dispatch.derived_tuple`` (the
+    types every obstacle function is called with): element for element, for each kind."""
+    from cornerbif.models.flow.packed import as_tuple
+    from cornerbif.models.linear.kernel import contact_tuples, prepare
+    from cornerbif.obstacles.dispatch import derived_tuple
+    s = LinearSystem(("x", "y"), np.eye(2), np.eye(2), np.zeros((2, 2)), (),
+                     tuple(Contact(n, np.array([1.0, -1.0]), kind, 0.1, 0.7, 1.9, r=0.5)
+                           for n, kind in zip("ABC", ("rectified_sine", "sine", "triangle")))
+                     + (Contact("D", np.array([0.0, 1.0]), "fixed", -0.2, r=0.5),))
+    a = prepare(s, 0.0, np.zeros(2), np.zeros(2))
+    for i in range(4):
+        row, d = contact_tuples(a["rows"], a["ds"], i)
+        assert row == as_tuple(a["rows"][i]) and len(row) == a["rows"].shape[1]
+        assert d == derived_tuple(a["ds"][i])

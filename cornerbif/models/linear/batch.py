@@ -27,7 +27,8 @@ import numpy as np
 from ... import status as S
 from ..._jit import STOPPED, count_done, items_kernel, jit, stop_requested
 from ...analysis import smallest_rotation
-from ...obstacles.dispatch import corner_of, piece_at, piece_length, piece_start
+from ...obstacles.dispatch import corner_of, derived_tuple, piece_at, piece_length, piece_start
+from ..flow.packed import as_tuple
 from .kernel import BUDGET, CHATTERS, ESCAPED, NONFINITE, gap_at, run
 
 # the integer settings (``LinearModel.int_settings``)
@@ -67,10 +68,11 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
         o_final[i, :] = math.nan
         inside = False
         for c in range(gaps.shape[1]):
-            j, _ = piece_at(ds[s, c], 0.0)
-            while piece_start(ds[s, c], j) + piece_length(ds[s, c], j) <= 0.0:
+            row, d = as_tuple(rows[s, c]), derived_tuple(ds[s, c])   # (kernel.run's types)
+            j, _ = piece_at(d, 0.0)
+            while piece_start(d, j) + piece_length(d, j) <= 0.0:
                 j += 1
-            g, _ = gap_at(cA[s], c, y0, rows[s, c], ds[s, c], j, 0.0)
+            g, _ = gap_at(cA[s], c, y0, row, d, j, 0.0)
             if g < 0.0:
                 inside = True
         if inside:
@@ -152,14 +154,15 @@ def corner_offsets(k0, k1, t, rows, ds, o_off, o_corner):
     paper's corner clusters, for ``analysis.detect_cycles`` (``model.paper_words``).
     ``rows``, ``ds``: each item's packed obstacle row and its derived row."""
     for i in range(k0, k1):
+        row, d = as_tuple(rows[i]), derived_tuple(ds[i])      # (kernel.run's types)
         for k in range(t.shape[1]):
             tk = t[i, k]
             if not (tk == tk):
                 break
-            j, tau = piece_at(ds[i], tk)
+            j, tau = piece_at(d, tk)
             # at a piece's end, tk rounds into either piece: the one that goes on past it
-            while piece_start(ds[i], j) + piece_length(ds[i], j) <= tk:
+            while piece_start(d, j) + piece_length(d, j) <= tk:
                 j += 1
-            c, off = corner_of(rows[i], ds[i], j, tk - piece_start(ds[i], j))
+            c, off = corner_of(row, d, j, tk - piece_start(d, j))
             o_corner[i, k] = c
             o_off[i, k] = off

@@ -2,12 +2,13 @@
 ``prepare`` builds, per item of a sweep by ``batch.run_batch``.  Flights are exact (y' = A y
 on the augmented state, flight.py); events are certified.
 
-**Chunks.**  Time goes in chunks of at most H = 1 / |A|, each inside one smooth piece of
-every contact's obstacle.  On a chunk from p, a contact's flight gap is a polynomial:
+**Chunks.**  Time goes in chunks of H = 1 / |A| (from each impact).  On a chunk from p, a
+contact's flight gap is a polynomial:
 a . x(p + s) = sum_k b_k (s / H)^k, b_k = c (A H)^k y(p) / k! (``gap_poly``, k < 24; the
 tail beyond is below e / 20! of |c| |y| for the derivatives up to the fourth, under the
 sum's rounding).  The gap g = a . x - z is that polynomial minus the obstacle's own formula
-on the piece (``obstacles.dispatch``).
+on each of its smooth pieces within the chunk, searched in turn (``obstacles.dispatch``;
+each piece named by its index, so that at a corner z' is that piece's own).
 
 **The search** (``first_event``) is the flow kernel's certified step, ``roots.bracket``: from
 a point with g and its first three derivatives it steps by the first root of the concave
@@ -46,7 +47,7 @@ import math
 
 import numpy as np
 
-from ..._jit import STOPPED, jit, stop_requested
+from ..._jit import STOPPED, jit, jit_inline, stop_requested
 from ...numerics.roots import FAIL, FOUND, bracket
 from ...numerics.roots import NONE as ROOT_NONE
 from ...obstacles.dispatch import (
@@ -131,12 +132,12 @@ def matvec(E, k, y, out):
         out[i] = s
 
 
-@jit
+@jit_inline
 def advance(E, A, H, y, length, tmp, tmp2):
     """y <- the state ``length`` later: E_0^floor(length / H), the E_k of the first
-    LADDER_BITS binary digits of the rest, and the last part d < H 2^-LADDER_BITS by the
-    series y + d A (y + d/2 A (y + ...)) to order TAYLOR_FINISH (its remainder below
-    2^-72 / 720 of |y|: exact to rounding)."""
+    LADDER_BITS binary digits of the rest, and the last part d < H 2^-LADDER_BITS by
+    ``short_flight`` (exact to rounding).  The products are written out here: as calls,
+    twice the time for a system of one mass (measured)."""
     if length < 0.0:
         raise ValueError("advance: a flight of negative length")
     m = y.shape[0]
@@ -144,34 +145,49 @@ def advance(E, A, H, y, length, tmp, tmp2):
     whole = int(math.floor(x))
     f = x - whole
     for _ in range(whole):
-        matvec(E, 0, y, tmp)
-        copy_to(y, tmp, m)
+        for i in range(m):
+            acc = 0.0
+            for jj in range(m):
+                acc += E[0, i, jj] * y[jj]
+            tmp[i] = acc
+        for i in range(m):
+            y[i] = tmp[i]
     for k in range(1, LADDER_BITS + 1):
+        if f == 0.0:
+            break
         f *= 2.0
         if f >= 1.0:
-            matvec(E, k, y, tmp)
-            copy_to(y, tmp, m)
+            for i in range(m):
+                acc = 0.0
+                for jj in range(m):
+                    acc += E[k, i, jj] * y[jj]
+                tmp[i] = acc
+            for i in range(m):
+                y[i] = tmp[i]
             f -= 1.0
     d = f * H / 2.0 ** LADDER_BITS
     if d > 0.0:
         short_flight(A, y, d, tmp, tmp2)
 
 
-@jit
+@jit_inline
 def short_flight(A, y, d, tmp, tmp2):
     """y <- the state d later, for |A| d <= 2^-LADDER_BITS: the series y + d A (y + d/2 A
     (y + ...)) to order TAYLOR_FINISH (its remainder below 2^-72 / 720 of |y|)."""
     m = y.shape[0]
-    copy_to(tmp2, y, m)
+    for i in range(m):
+        tmp2[i] = y[i]
     for k in range(TAYLOR_FINISH, 0, -1):
+        c = d / k
         for i in range(m):
-            s = 0.0
+            acc = 0.0
             for jj in range(m):
-                s += A[i, jj] * tmp2[jj]
-            tmp[i] = s
+                acc += A[i, jj] * tmp2[jj]
+            tmp[i] = acc
         for i in range(m):
-            tmp2[i] = y[i] + (d / k) * tmp[i]
-    copy_to(y, tmp2, m)
+            tmp2[i] = y[i] + c * tmp[i]
+    for i in range(m):
+        y[i] = tmp2[i]
 
 
 @jit
@@ -262,6 +278,21 @@ def _row_times(u, M, out):
         for a in range(m):
             acc += u[a] * M[a, b]
         out[b] = acc
+
+
+@jit_inline
+def contact_tuples(r, d, i):
+    """Contact i's obstacle as the tuples the obstacle functions take: its packed row
+    (``flow.packed.as_tuple``'s 18 floats) and its derived row (``dispatch.derived_tuple``'s
+    16), read off the stacked arrays ``r``, ``d`` without making a view of a row: a view's
+    reference counting is atomic, and took half the loop's time where each chunk made
+    them (measured with perf; tests/models/test_linear_kernel.py checks these tuples are
+    those functions')."""
+    return ((r[i, 0], r[i, 1], r[i, 2], r[i, 3], r[i, 4], r[i, 5], r[i, 6], r[i, 7], r[i, 8],
+             r[i, 9], r[i, 10], r[i, 11], r[i, 12], r[i, 13], r[i, 14], r[i, 15], r[i, 16],
+             r[i, 17]),
+            (d[i, 0], d[i, 1], d[i, 2], d[i, 3], d[i, 4], d[i, 5], d[i, 6], d[i, 7], d[i, 8],
+             d[i, 9], d[i, 10], d[i, 11], d[i, 12], d[i, 13], d[i, 14], d[i, 15]))
 
 
 @jit
@@ -359,7 +390,7 @@ def search(E, A, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, s
     return NONE, math.inf
 
 
-@jit
+@jit_inline
 def gap_poly(cAs, i, y, b, k0, k1):
     """b[k] = c (A H)^k y / k!, k0 <= k < k1: of contact i's flight gap a . x(p + s) =
     sum_k b[k] (s / H)^k over a chunk from the state y at p (s <= H; its tail: the module
@@ -372,7 +403,7 @@ def gap_poly(cAs, i, y, b, k0, k1):
         b[k] = acc
 
 
-@jit
+@jit_inline
 def poly_derivs(b, u, absolute):
     """The polynomial sum_k b[k] u^k and its first four derivatives in u, by Horner (of the
     |b[k]| when ``absolute``: the bounds of those derivatives over [0, u])."""
@@ -387,17 +418,17 @@ def poly_derivs(b, u, absolute):
     return p0, p1, 2.0 * p2, 6.0 * p3, 24.0 * p4
 
 
-@jit
-def first_event(cAs, i, y, b, H, B2, B3, B4, row, d, j, p, s0, L, tol):
+@jit_inline
+def first_event(cAs, i, y, b, whole, H, B2, B3, B4, row, d, j, p, s0, L, tol):
     """The first root of contact i's gap g(s) = P(s / H) - z(p + s) on [s0, L] (a chunk from
     p, L <= H, inside the obstacle's piece j; P the polynomial ``gap_poly`` of the state y
-    at p, its first four coefficients already in b): the
+    at p, its first four coefficients already in b, all of them if ``whole``): the
     certified steps of ``roots.bracket`` on g and its derivatives up to the third at each
     point, with bounds over the chunk of g'' (lo2, hi2), of |g'''| and of |g''''|: the
     flight part's B2, B3, B4 (``flight_bounds`` times |y(p)|) and the piece's bounds of
-    z's derivatives.  Returns (code, s): roots.FOUND with the event at s, roots.NONE (no
-    root), roots.FAIL (a value not a number), or STEPS_OUT after POLY_STEPS steps (the
-    caller halves instead)."""
+    z's derivatives.  Returns (code, s, whole): roots.FOUND with the event at s, roots.NONE
+    (no root), roots.FAIL (a value not a number), or STEPS_OUT after POLY_STEPS steps (the
+    caller halves instead); ``whole``: whether b now holds every coefficient."""
     h2 = H * H
     zlo, zhi = zpp_range(row, j)
     lo2 = -B2 - zhi
@@ -406,7 +437,6 @@ def first_event(cAs, i, y, b, H, B2, B3, B4, row, d, j, p, s0, L, tol):
     m4 = B4 + zpppp_max(row)
     start = piece_start(d, j)
     s = s0
-    whole = False
     for _ in range(POLY_STEPS):
         if s == 0.0:            # the chunk's start: the coefficients are the derivatives
             g, g1, g2, g3 = b[0], b[1], 2.0 * b[2], 6.0 * b[3]
@@ -419,13 +449,13 @@ def first_event(cAs, i, y, b, H, B2, B3, B4, row, d, j, p, s0, L, tol):
         code, h, _ = bracket(g - z, g1 / H - zp, g2 / h2 - zpp, g3 / (h2 * H) - zppp, False,
                              L - s, lo2, hi2, m3, m4, tol, -1.0)
         if code == ROOT_NONE:
-            return ROOT_NONE, L
+            return ROOT_NONE, L, whole
         if code == FOUND or code == FAIL:
-            return code, s + h
+            return code, s + h, whole
         s += h
         if s >= L:
-            return ROOT_NONE, L
-    return STEPS_OUT, s
+            return ROOT_NONE, L, whole
+    return STEPS_OUT, s, whole
 
 
 @jit
@@ -449,7 +479,6 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
     st_a = np.empty(2 * LEVELS + 4)
     st_k = np.empty(2 * LEVELS + 4, np.int64)
     st_y = np.empty((2 * LEVELS + 4, m))
-    js = np.empty(nc, np.int64)
     impacts = 0
     while impacts < count:
         if stop_requested(control):
@@ -466,65 +495,81 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
         for k in range(m):
             ny += y[k] * y[k]
         ny = math.sqrt(ny)
-        # the chunk: at most H, inside one piece of every contact's obstacle
-        q = t + H
-        for i in range(nc):
-            j, _ = piece_at(ds[i], t)
-            # at a piece's end, t rounds into either piece: the one that goes on past t
-            while piece_start(ds[i], j) + piece_length(ds[i], j) <= t:
-                j += 1
-            js[i] = j
-            q = min(q, piece_start(ds[i], j) + piece_length(ds[i], j))
-        L = q - t
+        # the chunk: H long; each contact's obstacle pieces within it are searched in turn on
+        # the one polynomial of its flight
+        L = H
         best = math.inf
         bi = -1
+        bj = 0
         for i in range(nc):
-            j = js[i]
+            # the contact's obstacle as the tuples the obstacle functions take (values: an
+            # array argument's atomic reference counting took half the loop's time, measured
+            # with perf, as it took a fifth of the flow kernel's: params.as_tuple)
+            row, d = contact_tuples(rows, ds, i)
+            j, _ = piece_at(d, t)
+            # at a piece's end, t rounds into either piece: the one that goes on past t
+            while piece_start(d, j) + piece_length(d, j) <= t:
+                j += 1
             gap_poly(cAs, i, y, b, 0, 4)
-            z, zp, _, _ = z_state(rows[i], j, t - piece_start(ds[i], j))
+            whole = False
+            z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
             g0 = b[0] - z
             g1 = b[1] / H - zp
             s0 = 0.0
             if g0 <= 0.0:
                 if g1 <= 0.0:
                     if 0.0 < best:
-                        best, bi = 0.0, i
+                        best, bi, bj = 0.0, i, j
                     continue
-                # leaving the obstacle: free until g' / B at least (events.py)
-                s0 = g1 / (N[i, 0] * ny + piece_zpp(rows[i], j))
+                # leaving the obstacle: free until g' / B at least (events.py), within the
+                # piece (its end is a corner, where z' jumps)
+                s0 = min(g1 / (N[i, 0] * ny + piece_zpp(row, j)),
+                         piece_start(d, j) + piece_length(d, j) - t)
             end = min(L, best)       # a later contact's event must come before the best
-            if s0 >= end:
-                continue
-            code, s = first_event(cAs, i, y, b, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, rows[i], ds[i],
-                                  j, t, s0, end, tol)
-            if code == STEPS_OUT:
-                # a slow approach (a near-graze): halving on the ladder from there
-                copy_to(yp, y, m)
-                advance(E, A, H, yp, s, tmp, tmp2)
-                kind, te = search(E, A, H, cA, i, normc[i], normA, rows[i], ds[i], j, t + s, yp,
-                                  t + end, tol, st_a, st_k, st_y, tmp, tmp2)
-                code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, end)
+            code = ROOT_NONE
+            s = end
+            while s0 < end:
+                pe = piece_start(d, j) + piece_length(d, j) - t
+                if pe <= s0:
+                    j += 1
+                    continue
+                seg = min(end, pe)
+                code, s, whole = first_event(cAs, i, y, b, whole, H, N[i, 0] * ny, N[i, 1] * ny,
+                                             N[i, 2] * ny, row, d, j, t, s0, seg, tol)
+                if code == STEPS_OUT:
+                    # a slow approach (a near-graze): halving on the ladder from there
+                    copy_to(yp, y, m)
+                    advance(E, A, H, yp, s, tmp, tmp2)
+                    kind, te = search(E, A, H, cA, i, normc[i], normA, row, d, j, t + s,
+                                      yp, t + seg, tol, st_a, st_k, st_y, tmp, tmp2)
+                    code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, seg)
+                if code != ROOT_NONE:
+                    break
+                s0 = seg
+                j += 1
             if code == FAIL:
                 return NONFINITE, max(0, impacts - skip)
             if code == FOUND and s < best:
-                best, bi = s, i
+                best, bi, bj = s, i, j
         if bi < 0:
             advance(E, A, H, y, L, tmp, tmp2)
-            t = q
+            t += L
             continue
         te = t + best
         advance(E, A, H, y, best, tmp, tmp2)
-        j = js[bi]
-        _, zp, _, _ = z_state(rows[bi], j, te - piece_start(ds[bi], j))
+        j = bj
+        row, d = contact_tuples(rows, ds, bi)
+        _, zp, _, _ = z_state(row, j, te - piece_start(d, j))
         w = 0.0
         for k in range(n):
             w += gaps[bi, k] * y[n + k]
         w -= zp
         if w >= 0.0:
             # moving away (a graze, or a gap left slightly below zero by the last impact's
-            # resolution): no impact; on past it by the leaving rule's free step
-            B = bound2(cA, bi, y, H, normc[bi], normA, piece_zpp(rows[bi], j))
-            s = max(2.0 * tol, w / B)
+            # resolution): no impact; on past it by the leaving rule's free step, within the
+            # piece (z' jumps at its end)
+            B = bound2(cA, bi, y, H, normc[bi], normA, piece_zpp(row, j))
+            s = max(2.0 * tol, min(w / B, piece_start(d, j) + piece_length(d, j) - te))
             advance(E, A, H, y, s, tmp, tmp2)
             t = te + s
             continue
