@@ -17,6 +17,14 @@ ratio linear / other in impacts per second:
 The linear loop resolves each impact by certified steps on a chunk's gap polynomial
 (kernel.py).
 
+    python benchmarks/linear_kernel.py --sweeps [--rounds R] [--points P]
+
+Whole sweeps (``sweep.run_sweep``: kernels, cycle analysis, the HDF5 file; the machine's
+threads), paired rounds in one process: Fig. 6(a) (configs/fig06a.toml) against
+configs/fig06a_linear.toml, and Fig. 4(c) (configs/fig04c.toml) against the same system
+written as a linear scene, each on P points of its axis (default 400) with its own starts
+and run settings; the ratio of the sweeps' rates, linear / flow.
+
     python benchmarks/linear_kernel.py --dofs [--impacts N]
 
 The throughput against the number of coordinates N = 1 .. 6 (MAX_DOFS): a chain of N unit
@@ -43,7 +51,11 @@ def main(argv=None):
     ap.add_argument("--impacts", type=int, default=5000)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--dofs", action="store_true", help="throughput against N = 1 .. 6")
+    ap.add_argument("--sweeps", action="store_true", help="whole sweeps, flow against linear")
+    ap.add_argument("--points", type=int, default=400)
     a = ap.parse_args(argv)
+    if a.sweeps:
+        return compare_sweeps(a.rounds, a.points)
     numba.set_num_threads(1)
     if a.dofs:
         return scan_dofs(a.impacts)
@@ -104,6 +116,78 @@ def scan_dofs(impacts):
         dt = time.perf_counter() - t0
         k = len(out["t"])
         print(f"| {n} | {k / dt / 1e6:.3f} M | {dt / k * 1e6:.1f} |")
+
+
+FIG04C_LINEAR = """
+[scene]
+name = "fig04c_linear"
+model = "linear"
+[system]
+dofs = ["x"]
+mass = [1.0]
+stiffness = [1.0]
+[[system.contact]]
+name = "R"
+gap = { x = 1.0 }
+obstacle = "rectified_sine"
+kappa = 0.0
+beta = 1.0
+omega = 2.0
+r = 0.8
+[sweep]
+"contact.R.omega" = { start = 1.5, stop = 2.5, num = 1000 }
+[initial]
+count = 4
+seed = 1
+x = [0.0, 20.0]
+v_x = [-20.0, 20.0]
+[run]
+transient = 500
+record = 100
+tol = 1e-12
+"""
+
+
+def compare_sweeps(rounds, points):
+    """Whole sweeps of the paper's flow scenes against the same systems as linear scenes
+    (module docstring): seconds each, median of ``rounds`` paired rounds, and the ratio of
+    rates linear / flow."""
+    import os
+    import tempfile
+
+    from cornerbif import config
+    from cornerbif.sweep import run_sweep
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+    def scene(text, axis):
+        return config.loads(text, [f"sweep.{axis}.num={points}"])
+
+    pairs = []
+    for name, flow_axis, lin_text, lin_axis in (
+            ("fig06a", "kappa", open(os.path.join(root, "configs", "fig06a_linear.toml")).read(),
+             '"contact.R.kappa"'),
+            ("fig04c", "omega", FIG04C_LINEAR, '"contact.R.omega"')):
+        flow_text = open(os.path.join(root, "configs", f"{name}.toml")).read()
+        pairs.append((name, scene(flow_text, flow_axis), scene(lin_text, lin_axis)))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "s.h5")
+        for _, f, lin in pairs:                       # compiled (or loaded) first
+            run_sweep(f, out, overwrite=True)
+            run_sweep(lin, out, overwrite=True)
+        print("| sweep | points x starts | flow | linear | ratio of rates |\n|---|---|---|---|---|")
+        for name, f, lin in pairs:
+            times = []
+            for _ in range(rounds):
+                t0 = time.perf_counter()
+                run_sweep(f, out, overwrite=True)
+                t1 = time.perf_counter()
+                run_sweep(lin, out, overwrite=True)
+                times.append((t1 - t0, time.perf_counter() - t1))
+            tf = statistics.median(t[0] for t in times)
+            tl = statistics.median(t[1] for t in times)
+            print(f"| {name} | {points} x {f.n_ic} | {tf:.2f} s | {tl:.2f} s | {tf / tl:.3f} |")
+    print(f"(median of {rounds} paired rounds, {numba.get_num_threads()} threads, whole "
+          "sweeps with their files)")
 
 
 MU, OMEGA1, OMEGA2 = 1000.0, 1.001, 1.0      # Fig. 19(a)'s two particles

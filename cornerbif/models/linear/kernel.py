@@ -391,12 +391,10 @@ def search(E, A, H, cA, i, normc, normA, row, d, j, p, yp, q, tol, st_a, st_k, s
 
 
 @jit_inline
-def gap_poly(cAs, i, y, b, k0, k1):
-    """b[k] = c (A H)^k y / k!, k0 <= k < k1: of contact i's flight gap a . x(p + s) =
-    sum_k b[k] (s / H)^k over a chunk from the state y at p (s <= H; its tail: the module
-    docstring).  The loop makes b[:4] first (a chunk's first step needs no more), the rest
-    when the chunk needs more steps."""
-    for k in range(k0, k1):
+def gap_poly(cAs, i, y, b):
+    """b[k] = c (A H)^k y / k!: contact i's flight gap a . x(p + s) = sum_k b[k] (s / H)^k
+    over a chunk from the state y at p (s <= H; its tail: the module docstring)."""
+    for k in range(cAs.shape[1]):
         acc = 0.0
         for jj in range(y.shape[0]):
             acc += cAs[i, k, jj] * y[jj]
@@ -404,31 +402,37 @@ def gap_poly(cAs, i, y, b, k0, k1):
 
 
 @jit_inline
-def poly_derivs(b, u, absolute):
-    """The polynomial sum_k b[k] u^k and its first four derivatives in u, by Horner (of the
-    |b[k]| when ``absolute``: the bounds of those derivatives over [0, u])."""
-    p0 = p1 = p2 = p3 = p4 = 0.0
-    for k in range(b.shape[0] - 1, -1, -1):
-        c = abs(b[k]) if absolute else b[k]
-        p4 = p4 * u + p3
-        p3 = p3 * u + p2
-        p2 = p2 * u + p1
-        p1 = p1 * u + p0
-        p0 = p0 * u + c
-    return p0, p1, 2.0 * p2, 6.0 * p3, 24.0 * p4
+def poly_tuple(b):
+    """The POLY_TERMS coefficients b as a tuple: a value, which the search's many steps
+    read with no reference counting (an array passed to a function with a loop keeps its
+    atomic incref and decref, measured with perf)."""
+    return (b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7], b[8], b[9], b[10], b[11], b[12], b[13],
+            b[14], b[15], b[16], b[17], b[18], b[19], b[20], b[21], b[22], b[23])
 
 
 @jit_inline
-def first_event(cAs, i, y, b, whole, H, B2, B3, B4, row, d, j, p, s0, L, tol):
-    """The first root of contact i's gap g(s) = P(s / H) - z(p + s) on [s0, L] (a chunk from
-    p, L <= H, inside the obstacle's piece j; P the polynomial ``gap_poly`` of the state y
-    at p, its first four coefficients already in b, all of them if ``whole``): the
+def poly_derivs(bt, u):
+    """The polynomial sum_k bt[k] u^k and its first three derivatives in u, by Horner."""
+    p0 = p1 = p2 = p3 = 0.0
+    for k in range(len(bt) - 1, -1, -1):
+        p3 = p3 * u + p2
+        p2 = p2 * u + p1
+        p1 = p1 * u + p0
+        p0 = p0 * u + bt[k]
+    return p0, p1, 2.0 * p2, 6.0 * p3
+
+
+@jit_inline
+def first_event(bt, H, B2, B3, B4, row, d, j, p, s0, L, tol):
+    """The first root of a contact's gap g(s) = P(s / H) - z(p + s) on [s0, L] (a chunk from
+    p, L <= H, within the obstacle's piece j; P the polynomial of the coefficients ``bt``,
+    ``gap_poly`` of the state at p, as ``poly_tuple``): the
     certified steps of ``roots.bracket`` on g and its derivatives up to the third at each
     point, with bounds over the chunk of g'' (lo2, hi2), of |g'''| and of |g''''|: the
     flight part's B2, B3, B4 (``flight_bounds`` times |y(p)|) and the piece's bounds of
-    z's derivatives.  Returns (code, s, whole): roots.FOUND with the event at s, roots.NONE
-    (no root), roots.FAIL (a value not a number), or STEPS_OUT after POLY_STEPS steps (the
-    caller halves instead); ``whole``: whether b now holds every coefficient."""
+    z's derivatives.  Returns (code, s): roots.FOUND with the event at s, roots.NONE (no
+    root), roots.FAIL (a value not a number), or STEPS_OUT after POLY_STEPS steps (the
+    caller halves instead)."""
     h2 = H * H
     zlo, zhi = zpp_range(row, j)
     lo2 = -B2 - zhi
@@ -439,23 +443,20 @@ def first_event(cAs, i, y, b, whole, H, B2, B3, B4, row, d, j, p, s0, L, tol):
     s = s0
     for _ in range(POLY_STEPS):
         if s == 0.0:            # the chunk's start: the coefficients are the derivatives
-            g, g1, g2, g3 = b[0], b[1], 2.0 * b[2], 6.0 * b[3]
+            g, g1, g2, g3 = bt[0], bt[1], 2.0 * bt[2], 6.0 * bt[3]
         else:
-            if not whole:
-                gap_poly(cAs, i, y, b, 4, cAs.shape[1])
-                whole = True
-            g, g1, g2, g3, _ = poly_derivs(b, s / H, False)
+            g, g1, g2, g3 = poly_derivs(bt, s / H)
         z, zp, zpp, zppp = z_state(row, j, p + s - start)
         code, h, _ = bracket(g - z, g1 / H - zp, g2 / h2 - zpp, g3 / (h2 * H) - zppp, False,
                              L - s, lo2, hi2, m3, m4, tol, -1.0)
         if code == ROOT_NONE:
-            return ROOT_NONE, L, whole
+            return ROOT_NONE, L
         if code == FOUND or code == FAIL:
-            return code, s + h, whole
+            return code, s + h
         s += h
         if s >= L:
-            return ROOT_NONE, L, whole
-    return STEPS_OUT, s, whole
+            return ROOT_NONE, L
+    return STEPS_OUT, s
 
 
 @jit
@@ -510,11 +511,11 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
             # at a piece's end, t rounds into either piece: the one that goes on past t
             while piece_start(d, j) + piece_length(d, j) <= t:
                 j += 1
-            gap_poly(cAs, i, y, b, 0, 4)
-            whole = False
+            gap_poly(cAs, i, y, b)
+            bt = poly_tuple(b)
             z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
-            g0 = b[0] - z
-            g1 = b[1] / H - zp
+            g0 = bt[0] - z
+            g1 = bt[1] / H - zp
             s0 = 0.0
             if g0 <= 0.0:
                 if g1 <= 0.0:
@@ -534,8 +535,8 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
                     j += 1
                     continue
                 seg = min(end, pe)
-                code, s, whole = first_event(cAs, i, y, b, whole, H, N[i, 0] * ny, N[i, 1] * ny,
-                                             N[i, 2] * ny, row, d, j, t, s0, seg, tol)
+                code, s = first_event(bt, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, row, d, j,
+                                      t, s0, seg, tol)
                 if code == STEPS_OUT:
                     # a slow approach (a near-graze): halving on the ladder from there
                     copy_to(yp, y, m)
@@ -552,7 +553,15 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
             if code == FOUND and s < best:
                 best, bi, bj = s, i, j
         if bi < 0:
-            advance(E, A, H, y, L, tmp, tmp2)
+            # on by the chunk's flight E_0 (written out: a call with arrays costs their atomic
+            # reference counting, measured with perf)
+            for k in range(m):
+                acc = 0.0
+                for jj in range(m):
+                    acc += E[0, k, jj] * y[jj]
+                tmp[k] = acc
+            for k in range(m):
+                y[k] = tmp[k]
             t += L
             continue
         te = t + best
