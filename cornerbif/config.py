@@ -670,14 +670,32 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
             problems += e.problems
             continue
         set_dotted(raw, key, val)
-        given.append((".".join(key_parts(key)),
-                      cut(ov) if isinstance(ov, str) else f"{key}={shown(val)}"))
+        text_of = cut(ov) if isinstance(ov, str) else f"{key}={shown(val)}"
+        given.append((".".join(key_parts(key)), text_of))
+        named = _named_key(raw, key_parts(key))
+        if named != given[-1][0]:            # problems name a list's entry by its name
+            given.append((named, text_of))
     if problems:
         raise SceneError(problems)
     try:
         return from_dict(raw, source=source)
     except SceneError as e:
         raise SceneError([_from_set(p, given) for p in e.problems]) from None
+
+
+def _named_key(raw: dict, parts: list) -> str:
+    """The dotted key ``parts`` with each index into a list of named tables written as that
+    entry's name (``system.contact.0.r`` -> ``system.contact.L.r``: how a problem names it)."""
+    out, node = [], raw
+    for p in parts:
+        if isinstance(node, list) and p.isascii() and p.isdigit() and int(p) < len(node):
+            node = node[int(p)]
+            name = node.get("name") if isinstance(node, dict) else None
+            out.append(name if isinstance(name, str) else p)
+        else:
+            out.append(p)
+            node = node.get(p) if isinstance(node, dict) else None
+    return ".".join(out)
 
 
 def _from_set(problem: str, given) -> str:
@@ -804,6 +822,10 @@ def _read_scene(w):
 def _read_system(w):
     sy = w.table("system")
     if w.spec.for_system is not None:
+        if not isinstance(w.raw.get("system", {}), dict):
+            # said already ("system: ... must be a table"): no system to read, so no
+            # problem of each of its keys besides
+            raise SceneError(w.problems)
         # a model whose [system] declares the model itself (the linear model's coordinates,
         # matrices and contacts): its own reader, which names each problem's key and value
         specific, problems = w.spec.for_system(sy)

@@ -562,3 +562,18 @@ def test_a_flow_files_words_keep_the_corner_letters(tmp_path):
     sym = np.array([b"ab", b"aZ", b"L\\x01"], dtype="S4")
     assert list(symbol_words(sym, WORD_LETTERS)) == ["ab", "", ""]
     assert list(symbol_words(sym, SYMBOL_LETTERS)) == ["ab", "aZ", ""]
+
+
+def test_a_system_that_is_no_table_is_one_problem_and_set_by_index_is_tagged():
+    """``--set system=3`` on a linear scene is one problem (its keys were each said missing
+    besides, a cascade); a problem of a value set by a list index (system.contact.0.r) says
+    that --set caused it, though the problem names the contact by its name (L)."""
+    with pytest.raises(SceneError) as e:
+        config.loads(BALL, ["system=3"])
+    assert e.value.problems == ["system: 3 must be a table [system] (from --set system=3)"]
+    text = open(os.path.join(ROOT, "configs", "two_stops.toml")).read()
+    with pytest.raises(SceneError) as e:
+        config.loads(text, ["system.contact.0.r=1.5"])
+    (p,) = e.value.problems
+    assert p.startswith("system.contact.L.r: 1.5") and p.endswith(
+        "(from --set system.contact.0.r=1.5)"), p
