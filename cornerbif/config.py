@@ -704,6 +704,13 @@ def _from_set(problem: str, given) -> str:
     for k, text in reversed(given):
         if key == k or key.startswith((k + ".", k + "[")) or k.startswith(key + "."):
             return f"{problem} (from --set {text})"
+        # an entry of a list set by its index, which the problem names otherwise (a dof's
+        # entry of system.mass by the dof's name): the same list
+        parts = k.split(".")
+        at = next((i for i, p in enumerate(parts) if p.isascii() and p.isdigit()), None)
+        if at is not None and key.split(".")[:at + 1][:-1] == parts[:at] \
+                and len(key.split(".")) > at:
+            return f"{problem} (from --set {text})"
     return problem
 
 

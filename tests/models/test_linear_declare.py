@@ -294,11 +294,12 @@ def test_an_unknown_path_raises_a_key_error_naming_it(path):
 
 def test_a_dof_cannot_take_an_impacts_dataset_name():
     """The names refused for a coordinate (declare.IMPACT_NAMES) are exactly the impacts'
-    own datasets beside the coordinates' (model.BASE_FIELDS): impacts/<dof> would be
-    written twice (seen: a dof named u crashed the writer with "name already exists")."""
+    own datasets beside the coordinates' (model.BASE_FIELDS, and CORNER_FIELDS with the
+    paper's words): impacts/<dof> would be written twice (seen: dofs named u and
+    corner_offset crashed the writer with "name already exists")."""
     from cornerbif.models.linear.declare import IMPACT_NAMES
-    from cornerbif.models.linear.model import BASE_FIELDS
-    assert set(IMPACT_NAMES) == {f.name.split("/", 1)[1] for f in BASE_FIELDS}
+    from cornerbif.models.linear.model import BASE_FIELDS, CORNER_FIELDS
+    assert set(IMPACT_NAMES) == {f.name.split("/", 1)[1] for f in BASE_FIELDS + CORNER_FIELDS}
 
 
 def test_no_numba_is_loaded():

@@ -129,3 +129,47 @@ def test_the_loops_obstacle_tuples_are_the_obstacle_functions_tuples():
         row, d = contact_tuples(a["rows"], a["ds"], i)
         assert row == as_tuple(a["rows"][i]) and len(row) == a["rows"].shape[1]
         assert d == derived_tuple(a["ds"][i])
+
+
+def test_impact_times_do_not_drift_with_the_start_time():
+    """An autonomous system (a mass on a spring against a fixed stop, beside a decoupled
+    stiff coordinate that makes |A| = 1e4: short chunks) started at t0 gives the impact times
+    of the start at 0 shifted by t0, to the rounding of t (1e-12 at t0 = 1e4).  Time summed
+    chunk by chunk drifted by 1e-7 at t0 = 1e4 (found in review)."""
+    from cornerbif.models.linear.declare import read_system
+    s, _ = read_system({"dofs": ["x", "y"], "mass": [1.0, 1.0], "stiffness": [1.0, 1e4],
+                        "contact": [{"name": "A", "gap": {"x": 1.0}, "obstacle": "fixed",
+                                     "kappa": -0.5, "r": 0.9}]})
+    _, ref = run_system(s, 0.0, np.zeros(2), np.array([-1.0, 0.0]), 4)
+    # the first impact: x = -sin t reaches -0.5 at pi + asin(0.5)... from x' = -1: x = -sin t
+    assert abs(ref["t"][0] - np.arcsin(0.5)) < 1e-11
+    for t0 in (1000.0, 1e4):
+        _, out = run_system(s, t0, np.zeros(2), np.array([-1.0, 0.0]), 4, t_max=t0 + 100.0)
+        np.testing.assert_allclose(out["t"] - t0, ref["t"], rtol=0, atol=5e-12)
+
+
+def test_a_contact_moving_away_does_not_hide_another_contacts_impact():
+    """A start 1e-14 before a triangle's peak corner (beta < 0) with its gap 1e-14 below zero,
+    leaving it, and a fixed ceiling 0.05 above: the first impact is on the ceiling, at the
+    brute force's time (tests/linear_bruteforce.py).  The free step of the contact moving
+    away once skipped every other contact (the ceiling was passed by 0.25; found in review)."""
+    import math
+
+    import linear_bruteforce as bf
+    beta = -0.1
+    t0 = math.pi - 1e-14
+    z0 = beta * (-(math.pi / 2 - (t0 - math.pi / 2)))
+    x0 = z0 - 1e-14
+    table = {"dofs": ["x"], "mass": [1.0], "stiffness": [0.0],
+             "forcing": [{"on": "x", "F": -0.01}],
+             "contact": [{"name": "A", "gap": {"x": 1.0}, "obstacle": "triangle", "kappa": 0.0,
+                          "beta": beta, "omega": 1.0, "r": 0.8},
+                         {"name": "W", "gap": {"x": -1.0}, "obstacle": "fixed",
+                          "kappa": -(x0 + 0.05), "r": 0.8}]}
+    from cornerbif.models.linear.declare import read_system
+    s, _ = read_system(table)
+    _, out = run_system(s, t0, np.array([x0]), np.array([0.2]), 3, t_max=t0 + 5.0)
+    assert out["contact"][0] == "W" and abs(out["x"][0, 0] - (x0 + 0.05)) < 1e-9
+    res = bf.check_run(table, t0, [x0], [0.2], count=3, t_max=t0 + 5.0)
+    assert res["problems"] == [] and res["bf_contact"][0] == "W"
+    assert abs(out["t"][0] - res["bf_t"][0]) < 1e-9

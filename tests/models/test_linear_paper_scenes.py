@@ -112,3 +112,29 @@ def test_two_contacts_keep_contact_words_and_a_negative_beta_is_refused_for_corn
     two = text.replace('[sweep]', '[[system.contact]]\nname = "L"\ngap = { x = -1.0 }\n'
                        'obstacle = "fixed"\nkappa = -30.0\nr = 0.5\n\n[sweep]')
     assert config.loads(two).spec.contact_words
+
+
+def test_the_words_are_decided_by_the_scenes_system_as_written(tmp_path):
+    """A scene whose [system] has beta < 0 has its contacts' letters at every point, also
+    where its sweep takes beta above 0, and no corner offsets: the file and the figures
+    agree (the words were once decided per run on the first grid point: corner words in a
+    file without corner offsets, read by the plots as contact letters; found in review)."""
+    import h5py
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    text = open(os.path.join(ROOT, "configs", "fig06a_linear.toml")).read()
+    text = text.replace("beta = 1.0", "beta = -1.0").replace(
+        '"contact.R.kappa" = { start = -0.02, stop = 0.002, num = 2001 }',
+        '"contact.R.beta" = { start = 0.5, stop = 1.0, num = 3 }')
+    scene = tmp_path / "neg.toml"
+    scene.write_text(text)
+    out = tmp_path / "neg.h5"
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress",
+                                  "--set", "initial.count=2", "--set", "run.transient=100",
+                                  "--set", "run.record=20"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        words = {w.decode() for w in f["symbols"][...].ravel()} - {""}
+        assert words and all(set(w) == {"R"} for w in words), words
+        assert "impacts/corner_offset" not in f

@@ -58,9 +58,9 @@ CONTACT_KEYS = ("name", "gap", "obstacle", "kappa", "beta", "omega", "law", "r",
 FIXED = "fixed"
 # names a dof may not take: the keys of [initial] beside the coordinates (config.py)
 RESERVED_DOFS = ("count", "seed", "points", "points_file", "t")
-# ... nor an impact's own datasets beside the coordinates' (model.BASE_FIELDS: impacts/<dof>
-# would be written twice)
-IMPACT_NAMES = ("t", "contact", "u", "v_in", "v_out")
+# ... nor an impact's own datasets beside the coordinates' (model.BASE_FIELDS and, with the
+# paper's words, CORNER_FIELDS: impacts/<dof> would be written twice)
+IMPACT_NAMES = ("t", "contact", "u", "v_in", "v_out", "corner_offset")
 LAWS = ("impact", "spring")
 LAW_KEYS = {"impact": ("r",), "spring": ("k", "c")}
 SYMMETRY_TOL = 1e-12      # |M - M^T| <= SYMMETRY_TOL max |M|

@@ -356,7 +356,7 @@ class LinearModel(Model):
         period = np.zeros(n, np.int64)
         ipc = np.zeros(n, np.int64)
         sym = np.zeros((n, rec), np.uint8)
-        if paper_words(systems[0]):     # (every point: beta's range keeps it > 0)
+        if not self.contact_words:      # the model's words, decided once (for_system)
             from ...analysis import detect_cycles  # start-up: loads numba
             off = np.full((n, rec), np.nan)
             corner = np.zeros((n, rec), np.int64)
