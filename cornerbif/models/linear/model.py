@@ -432,7 +432,42 @@ v_x = [0.45, 0.6]
 transient = 10
 record = 8
 """
-WARMUPS = (Warmup("linear", "the linear kernel", "sweep", EXAMPLE_SCENE),)
+# one mass against the rectified sine: the paper's words (``paper_words``: the corner
+# offsets and the flow's cycle analysis), which the example's contact letters do not compile
+CORNER_WORDS_SCENE = """[scene]
+name = "warm_linear_corners"
+model = "linear"
+
+[system]
+dofs = ["x"]
+mass = [1.0]
+stiffness = [1.0]
+
+[[system.contact]]
+name = "R"
+gap = { x = 1.0 }
+obstacle = "rectified_sine"
+kappa = 0.0
+beta = 1.0
+omega = 1.8
+r = 0.8
+
+[sweep]
+"contact.R.kappa" = { values = [0.0, -0.01] }
+
+[initial]
+count = 2
+seed = 1
+x = [1.0, 5.0]
+v_x = [-1.0, 1.0]
+
+[run]
+transient = 10
+record = 8
+"""
+
+WARMUPS = (Warmup("linear", "the linear kernel", "sweep", EXAMPLE_SCENE),
+           Warmup("linear", "the linear kernel's corner words", "sweep", CORNER_WORDS_SCENE))
 
 
 MODEL = LinearModel(
