@@ -63,7 +63,7 @@ from ...obstacles.dispatch import (
     zppp_max,
     zpppp_max,
 )
-from ..flow.params import NPARAM
+from ..flow.params import BETA, KAPPA, NPARAM
 from .events import TAYLOR_TERMS, ContactObstacle
 from .flight import augmented, forcing_state
 
@@ -451,7 +451,10 @@ def first_event(bt, H, B2, B3, B4, row, d, j, p, s0, L, tol):
             g, g1, g2, g3 = bt[0], bt[1], 2.0 * bt[2], 6.0 * bt[3]
         else:
             g, g1, g2, g3 = poly_derivs(bt, s / H)
-        z, zp, zpp, zppp = z_state(row, j, p + s - start)
+        if row[BETA] == 0.0:        # z = kappa (a fixed stop): no formula to evaluate
+            z, zp, zpp, zppp = row[KAPPA], 0.0, 0.0, 0.0
+        else:
+            z, zp, zpp, zppp = z_state(row, j, p + s - start)
         code, h, _ = bracket(g - z, g1 / H - zp, g2 / h2 - zpp, g3 / (h2 * H) - zppp, False,
                              L - s, lo2, hi2, m3, m4, tol, -1.0)
         if code == ROOT_NONE:
