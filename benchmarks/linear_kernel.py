@@ -124,34 +124,20 @@ def scan_dofs(impacts):
         print(f"| {n} | {k / dt / 1e6:.3f} M | {dt / k * 1e6:.2f} | {end} | {prep * 1e3:.2f} |")
 
 
-FIG04C_LINEAR = """
-[scene]
-name = "fig04c_linear"
-model = "linear"
-[system]
-dofs = ["x"]
-mass = [1.0]
-stiffness = [1.0]
-[[system.contact]]
-name = "R"
-gap = { x = 1.0 }
-obstacle = "rectified_sine"
-kappa = 0.0
-beta = 1.0
-omega = 2.0
-r = 0.8
-[sweep]
-"contact.R.omega" = { start = 1.5, stop = 2.5, num = 1000 }
-[initial]
-count = 4
-seed = 1
-x = [0.0, 20.0]
-v_x = [-20.0, 20.0]
-[run]
-transient = 500
-record = 100
-tol = 1e-12
-"""
+
+
+def fig04c_linear(root):
+    """Fig. 4(c) (configs/fig04c.toml) as a linear scene: configs/fig06a_linear.toml's
+    system at kappa = 0, swept over omega in [1.5, 2.5] from 4 starts."""
+    import os
+    text = open(os.path.join(root, "configs", "fig06a_linear.toml")).read()
+    for old, new in (('"contact.R.kappa" = { start = -0.02, stop = 0.002, num = 2001 }',
+                      '"contact.R.omega" = { start = 1.5, stop = 2.5, num = 1000 }'),
+                     ("name = \"fig06a_linear\"", "name = \"fig04c_linear\""),
+                     ("count = 8", "count = 4")):
+        assert old in text, old
+        text = text.replace(old, new)
+    return text
 
 
 def compare_sweeps(rounds, points):
@@ -172,7 +158,7 @@ def compare_sweeps(rounds, points):
     for name, flow_axis, lin_text, lin_axis in (
             ("fig06a", "kappa", open(os.path.join(root, "configs", "fig06a_linear.toml")).read(),
              '"contact.R.kappa"'),
-            ("fig04c", "omega", FIG04C_LINEAR, '"contact.R.omega"')):
+            ("fig04c", "omega", fig04c_linear(root), '"contact.R.omega"')):
         flow_text = open(os.path.join(root, "configs", f"{name}.toml")).read()
         pairs.append((name, scene(flow_text, flow_axis), scene(lin_text, lin_axis)))
     with tempfile.TemporaryDirectory() as tmp:
