@@ -701,6 +701,7 @@ def _named_key(raw: dict, parts: list) -> str:
 def _from_set(problem: str, given) -> str:
     """Say that a problem comes from a ``--set`` override when its key is one given there."""
     key = problem.split(":", 1)[0].strip()
+    key_parts_ = key.split(".")
     for k, text in reversed(given):
         if key == k or key.startswith((k + ".", k + "[")) or k.startswith(key + "."):
             return f"{problem} (from --set {text})"
@@ -708,8 +709,7 @@ def _from_set(problem: str, given) -> str:
         # entry of system.mass by the dof's name): the same list
         parts = k.split(".")
         at = next((i for i, p in enumerate(parts) if p.isascii() and p.isdigit()), None)
-        if at is not None and key.split(".")[:at + 1][:-1] == parts[:at] \
-                and len(key.split(".")) > at:
+        if at is not None and len(key_parts_) > at and key_parts_[:at] == parts[:at]:
             return f"{problem} (from --set {text})"
     return problem
 
