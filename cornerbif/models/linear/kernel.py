@@ -467,6 +467,22 @@ def first_event(bt, H, B2, B3, B4, row, d, j, p, s0, L, tol):
     return STEPS_OUT, s
 
 
+@jit_inline
+def state_norm(y, n, escape):
+    """(OK, |y|) for the augmented state y; (NONFINITE, 0) where a coordinate or velocity is
+    not a number, (ESCAPED, 0) where one is past ``escape`` in size."""
+    for k in range(2 * n):
+        a = abs(y[k])
+        if not (a == a):
+            return NONFINITE, 0.0
+        if a > escape:
+            return ESCAPED, 0.0
+    ny = 0.0
+    for k in range(y.shape[0]):
+        ny += y[k] * y[k]
+    return OK, math.sqrt(ny)
+
+
 @jit
 def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter,
         escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y):
@@ -499,16 +515,9 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
             return STOPPED, 0
         if t > t_max:
             return BUDGET, max(0, impacts - skip)
-        ny = 0.0
-        for k in range(2 * n):
-            a = abs(y[k])
-            if not (a == a):
-                return NONFINITE, max(0, impacts - skip)
-            if a > escape:
-                return ESCAPED, max(0, impacts - skip)
-        for k in range(m):
-            ny += y[k] * y[k]
-        ny = math.sqrt(ny)
+        status, ny = state_norm(y, n, escape)
+        if status != OK:
+            return status, max(0, impacts - skip)
         # the chunk: H long; each contact's obstacle pieces within it are searched in turn on
         # the one polynomial of its flight
         L = H
