@@ -34,6 +34,7 @@ def main():
     try:
         signal.signal(signal.SIGTERM, _interrupt)
         signal.signal(signal.SIGINT, _interrupt)
+        # start-up: the command line loads click and the registries, after the handlers
         from .cli import main as cli_main
     except KeyboardInterrupt:
         _interrupted()

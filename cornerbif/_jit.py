@@ -16,8 +16,7 @@ that short, without costing the warm kernels anything (``benchmarks/ab.py``):
   (``InnerDispatcher``), so tests and the orbit solvers call them as before;
 - ``jit_inline`` asks LLVM to inline (``forceinline``: the ``alwaysinline`` attribute), not
   numba's IR inliner (``inline="always"``), which deep-copied the callee's IR at every call
-  site: 35 % of the flow kernel's cold compile (measured in the commit that made this
-  change; docs in benchmarks/README.md "First compiles").
+  site: 35 % of the flow kernel's cold compile (benchmarks/README.md, "First compiles").
 """
 
 import ctypes

@@ -1,5 +1,5 @@
-"""Branches of attractors across a sweep, and the events where they begin and end (issue 32,
-docs/basins.md "Branches across the sweep").
+"""Branches of attractors across a sweep, and the events where they begin and end
+(docs/basins.md "Branches across the sweep").
 
 The attractor table (``cornerbif.attractors``) names the attractors of each parameter point
 on its own.  Here they are linked across the grid: each attractor's orbit is solved from its

@@ -1,5 +1,5 @@
-"""Chaotic attractors among the runs that reached no cycle (issue 32, docs/basins.md
-"Chaotic attractors").
+"""Chaotic attractors among the runs that reached no cycle (docs/basins.md "Chaotic
+attractors").
 
 A run that ends well without a cycle in its record (``attractors.NO_CYCLE``) is on a chaotic
 attractor, on a cycle longer than its record, on a torus, or still in its transient.  The

@@ -164,17 +164,16 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
           scheduler):
     """Run SCENE.toml and write the diagram to HDF5."""
     # numba's OpenMP threads sleep between a block's parallel regions instead of spinning:
-    # the writer thread then gets the core they leave (2-thread sweep, benchmarks: 1.09-1.12 s
-    # against 1.11-1.25 s spinning, best of 3 in each of 5 alternating turns); libgomp reads
-    # it when numba first starts its threads, after this
+    # the writer thread then gets the core they leave; libgomp reads it when numba first
+    # starts its threads, after this
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     scene = _load(scene_path, sets)
     if scheduler is not None:
         from .distributed import parse_scheduler, require_dask  # start-up: loads numba
         parse_scheduler(scheduler)
         require_dask()
-    from .sweep import default_output, run_sweep  # start-up: loads h5py
-    out = default_output(scene) if out is None else out
+    from .sweep import run_sweep  # start-up: loads h5py
+    out = outputs.default_output(scene) if out is None else out
     cores = _check_threads(threads)
     from .sweep import check_budget, check_directory, plan_output  # start-up: loads h5py
     check_directory(out)
@@ -449,8 +448,7 @@ def continue_(scene_path, out, sets, resume, overwrite):
         _fail(f"{scene_path}: no [continue] table (parameter, range, ...: "
               "docs/continuation.md)")
 
-    from .sweep import default_output  # start-up: loads h5py
-    out = default_output(scene).removesuffix(".h5") + "_continue.h5" if out is None else out
+    out = outputs.default_output(scene).removesuffix(".h5") + "_continue.h5" if out is None else out
     inputs = [("the scene file", scene_path)]
     # what continue will do with its output, refused before anything else is said
     if C.plan_output(scene, out, resume, overwrite, inputs) != "done":
@@ -763,12 +761,11 @@ def gallery(config_dir, out, data, only, smoke, overwrite, threads):
               "every default explicit, every axis value listed).")
 def validate(scene_path, sets, toml):
     """Check a scene: a verdict, what it will do, and with --toml the scene as it would run."""
-    from .sweep import default_output  # start-up: loads h5py
     scene = _load(scene_path, sets)
     click.echo(f"ok: {scene_path} is a valid scene")
     click.echo(f"# run.preset {scene.preset!r} -> transient {scene.transient}, tol {scene.tol!r}, "
                f"chatter {scene.chatter!r} (explicit [run] keys override the preset)")
-    for line in _describe(scene, default_output(scene), _numba_threads()):
+    for line in _describe(scene, outputs.default_output(scene), _numba_threads()):
         click.echo(line)
     if toml:
         click.echo(scene.text)

@@ -106,7 +106,7 @@ MAX_TABLE_KEYS = 100
 MAX_PROBLEMS = 50
 # free text, each refused beyond its limit with its key and its length:
 # scene.name: a short name that labels the run (info, the default title) and names the
-# default output file (its first 100 characters, made safe: sweep.default_output)
+# default output file (its first 100 characters, made safe: outputs.default_output)
 MAX_NAME = 200
 # scene.title and plot.title: a figure's title, broken into lines of 80-100 characters,
 # stored in the file and printed by info; 500 characters are six lines over the figure
@@ -804,7 +804,7 @@ def _read_scene(w):
         name = "scene"
     else:
         name = _text(w, "scene.name", name, MAX_NAME, "a short name: the default output file "
-                     "takes its first 100 characters, sweep.default_output; put a longer "
+                     "takes its first 100 characters, outputs.default_output; put a longer "
                      "text in scene.title") or "scene"
     title = sc.get("title", name)
     if not isinstance(title, str):
@@ -1446,7 +1446,7 @@ def _read_plot_kind(w, plot):
     """``[plot] kind``: one of the registered figure kinds (``registry.figures``), whose own
     ``check`` says what of the scene it needs."""
     kinds = figures.registered()
-    kind = plot.get("kind", "diagram")
+    kind = plot.get("kind", figures.DEFAULT)
     if not (isinstance(kind, str) and kind in kinds):
         w.problems.append(f"plot.kind: {shown(kind)} is not a plot kind"
                           f"{_suggest(str(kind)[:100], kinds)}; allowed: {', '.join(kinds)}")

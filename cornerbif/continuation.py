@@ -249,23 +249,29 @@ def _correct(problem, Y0, T, s, base, W):
 
 
 def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
-    """The arclength s in (s_lo, s_hi) where fun(Y(s)) changes sign (Illinois secant)."""
+    """The arclength s in (s_lo, s_hi) where fun(Y(s)) changes sign (Illinois secant).
+
+    Where the corrector fails at a trial point (near a corner collision the predictor from
+    Ya may leave Newton's reach), the bracket's far end (``s_hi``, the side past the sign
+    change) moves to that point and the search goes on by halving: the sign change lies
+    between the last point solved on the near side and it."""
     side = 0
     Y = None
-    for _ in range(80):
-        s = s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (s_lo + s_hi)
+    halve = False
+    for _ in range(120):
+        s = (s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) if f_hi != f_lo and not halve
+             else 0.5 * (s_lo + s_hi))
         if not (min(s_lo, s_hi) < s < max(s_lo, s_hi)):
             s = 0.5 * (s_lo + s_hi)
+        halve = False
         try:
-            Y = _correct(problem, Ya + s * T, T, s, Ya, W)
+            Y_s = _correct(problem, Ya + s * T, T, s, Ya, W)
         except (OrbitError, np.linalg.LinAlgError):
-            s = 0.5 * (s_lo + s_hi)
-            try:
-                Y = _correct(problem, Ya + s * T, T, s, Ya, W)
-            except (OrbitError, np.linalg.LinAlgError):
-                if Y is None:
-                    raise
+            s_hi, side, halve = s, 0, True
+            if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
                 break         # the best located point so far
+            continue
+        Y = Y_s
         f = fun(Y)
         if f == 0.0 or abs(s_hi - s_lo) <= 1e-15 * (1.0 + abs(s)):
             break
@@ -281,6 +287,8 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
             side = -1
         if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
             break
+    if Y is None:
+        raise OrbitError("no point of the branch was solved between the step's ends")
     return Y
 
 
@@ -772,6 +780,7 @@ def _events_between(problem, Ya, Yb, T, ma, mb, kinds, found, n, W, Tb=None):
                     cd[held] = math.inf
                 if cd.min() <= 1e-9:
                     kind, q = "corner", int(np.argmin(cd))
+
         if kind in ENDING and kind not in watched:
             found.append(Event("end", Y[n], Y[:n].copy(),
                                ENDING_WORDS[kind].format(q=q) + f" (continue.events does "

@@ -54,6 +54,7 @@ import numpy as np
 
 from . import config as C
 from . import engine, outputs
+from . import figures as figure_kinds
 from .analysis import run_length
 from .attractors import read_table
 from .branches import explain_file, has_current_table
@@ -696,7 +697,9 @@ class _Progress:
 def _explained(d: Data, echo):
     """A sweep drawn as its branches (``[plot] kind = "branches"``) explained
     (``cornerbif explain``: the branch table stored in its file) where it is not yet."""
-    if d.kind != "sweep" or d.scene.plot.get("kind") != "branches":
+    kind = d.scene.plot.get("kind", figure_kinds.DEFAULT)
+    fk = figure_kinds.registered().get(kind) if isinstance(kind, str) else None
+    if d.kind != "sweep" or fk is None or not fk.explained:
         return
     import h5py  # start-up: loads h5py
     with h5py.File(d.path, "r") as f:

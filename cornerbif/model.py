@@ -299,6 +299,9 @@ class FigureKind:
     doc: str
     files: str = "diagram"
     one_axis: bool = False     # its file is swept over exactly one parameter
+    same_starts: bool = False  # a flow beside its map: both files run from the same starts
+    colors_by: bool = False    # ``[plot] color_by`` colours its points by their stability
+    explained: bool = False    # it draws the branch table that ``cornerbif explain`` stores
 
     def check(self, w) -> list:
         """Problems of the scene being read (``config``'s walk ``w``: its ``spec``, ``axes``,
@@ -395,6 +398,9 @@ class Model:
     axis_labels: dict = field(default_factory=dict)
     warmups: tuple = ()
     contact_words: bool = False
+    # the obstacle kind whose corners, corner curves and marks a figure draws for a file of
+    # this model whose [system] names none (None: the model has no one obstacle, linear's)
+    drawn_obstacle: str | None = None
     # a model declared by its scene's [system] (the linear model): its method
     # ``for_system(table)`` gives (the model of that table, problems); ``system_table`` is that
     # table, which the scene as run writes back (``system_table_with``).  None for a model
@@ -468,6 +474,15 @@ class Model:
     def pack_values(self, values: dict, scene) -> np.ndarray:
         """The packed parameter row of named values at one point."""
         raise NotImplementedError
+
+    def impact_reference(self, system: dict, values: dict, rows, grid: tuple, contact):
+        """For a diagram's impact heights: per recorded impact, the height it is measured
+        from, where the model's own differs from the scene's ``kappa`` (None: u - kappa, the
+        height above the corners of z = kappa + beta |sin omega t|).  ``system``: the file's
+        ``[system]``; ``values``: each swept axis's values, in the file's axis order; ``rows``:
+        the slab of the first axis drawn; ``grid``: that slab's grid shape; ``contact``: its
+        ``impacts/contact`` (grid + (starts, record)), None where the file has none."""
+        return None
 
     def pack_points(self, scene, index_list) -> np.ndarray:
         """Packed parameter rows (n, NPARAM) for grid indices: ``pack_values`` at each."""

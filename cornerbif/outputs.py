@@ -25,6 +25,7 @@ import errno
 import fcntl
 import json
 import os
+import re
 import signal
 import stat
 import threading
@@ -504,3 +505,17 @@ def output_lock(out_path: str, what: str = "cornerbif command"):
             pass
         fcntl.flock(fd, fcntl.LOCK_UN)
         os.close(fd)
+
+
+# a default output file name: its first 100 characters, made safe
+DEFAULT_NAME_MAX = 100
+
+
+def default_output(scene) -> str:
+    """The default output ``NAME.h5`` for a scene, in the working directory: the last path
+    component of ``scene.name``, other characters than letters, digits, '.', '_' and '-'
+    replaced by '_', no leading dot, at most 100 characters (a name such as ``../x`` or
+    ``/etc/x`` cannot place the file elsewhere)."""
+    base = os.path.basename(scene.name.replace("\\", "/").rstrip("/"))
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", base).lstrip(".")[:DEFAULT_NAME_MAX]
+    return (base or "scene") + ".h5"

@@ -128,7 +128,7 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
         if d.unplaceable:
             raise Undrawable(d.unplaceable)
     cfg = datas[0].scene.get("plot", {}) if plot_cfg is None else plot_cfg
-    kind = cfg.get("kind", "diagram")
+    kind = cfg.get("kind", figures.DEFAULT)
     fk = figures.registered().get(kind) if isinstance(kind, str) else None
     if fk is None:
         raise Undrawable(f"{datas[0].path}: [plot] kind {cut(kind)!r} is not a figure this "
@@ -214,13 +214,13 @@ def _check_single_runs(datas, conts, kind, y, color_by, plot_cfg):
         raise Undrawable(f"[plot] kind {kind!r} draws one file, or a flow against its map "
                          f"(one file of model flow, one of map2d); got {_all_described(datas)}")
     if pair:
-        other = datas[1].scene.get("plot", {}).get("kind", "diagram")
+        other = datas[1].scene.get("plot", {}).get("kind", figures.DEFAULT)
         if plot_cfg is None and other != kind:
             raise Undrawable(f"{datas[0].path} is drawn as [plot] kind {kind!r}, "
                              f"{datas[1].path} as {cut(other)!r}: a flow is drawn "
                              "against its map in one kind")
         _check_one_system(*datas)
-        if kind == "regions":
+        if figures.registered()[kind].same_starts:
             _check_same_starts(*datas)
     _no_options(kind, y, color_by, conts, datas)
 
@@ -358,7 +358,9 @@ def scene_color_by(datas, cfg):
     its stability datasets), else None: a scene's default never refuses a figure."""
     what = cfg.get("color_by")
     d0 = datas[0]
-    if (what in COLOR_BY and len(datas) == 1 and cfg.get("kind", "diagram") == "diagram"
+    kind = cfg.get("kind", figures.DEFAULT)
+    fk = figures.registered().get(kind) if isinstance(kind, str) else None
+    if (what in COLOR_BY and len(datas) == 1 and fk is not None and fk.colors_by
             and len(d0.axes) in (1, 2) and what in d0.stability
             and not all(a.startswith("initial.") for a in d0.axes)):
         return what
@@ -416,7 +418,7 @@ def _figure(datas, out, y=None, title=None, plot_cfg=None, color_by=None, branch
 
     d0 = datas[0]
     plot_cfg = d0.scene.get("plot", {}) if plot_cfg is None else plot_cfg
-    kind_ = plot_cfg.get("kind", "diagram")
+    kind_ = plot_cfg.get("kind", figures.DEFAULT)
     if color_by is not None and color_by not in COLOR_BY:
         raise Undrawable(f"color_by: {cut(color_by)!r} is not allowed; allowed: "
                          + ", ".join(COLOR_BY))

@@ -27,10 +27,13 @@ class Undrawable(SweepError, ValueError):
     (exit 2); the message names each file and what it holds."""
 
 
-def obstacle_kind(system: dict):
-    """The obstacle kind (``model.Obstacle``) a file's ``[system]`` names, the default where it
-    names none (the figures ask it what it draws: corner curves, marks, its wedge)."""
-    name = system.get("obstacle", obstacles.DEFAULT)
+def obstacle_kind(system: dict, spec=None):
+    """The obstacle kind (``model.Obstacle``) a file's ``[system]`` names; where it names none,
+    its model's ``drawn_obstacle`` (``spec``: the file's model; None: the paper's obstacle,
+    ``obstacles.DEFAULT``).  The figures ask it what they draw: corner curves, marks, its
+    wedge; a model with no one obstacle gets a kind that draws none."""
+    default = obstacles.DEFAULT if spec is None else spec.drawn_obstacle
+    name = system.get("obstacle", default)
     known = obstacles.registered().get(name) if isinstance(name, str) else None
     return known or Obstacle(str(name), -1, "not a registered obstacle", 1, 1, corners=False)
 

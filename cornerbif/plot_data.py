@@ -277,28 +277,6 @@ class PlotData:
         return Rows(self.data.shapes[Y_DATASETS[kind]],
                     lambda a, b: self._compute_y(kind, slice(a, b)), self.data.opened)
 
-    def _contact_kappas(self, contacts, rows):
-        """Per impact (grid slab ``rows`` + (ic, record)), the kappa of its own contact (a
-        model with contacts, linear: u - kappa is the height above that contact's corners),
-        at each grid point where the sweep varies it (axis "contact.<name>.kappa")."""
-        idx = (self.data["impacts/contact"] if rows == slice(None)
-               else self.data.rows("impacts/contact", rows)).astype(int)
-        G = self.done[rows].shape
-        kap = np.full(G + (len(contacts) + 1,), np.nan)
-        for c, entry in enumerate(contacts):
-            name = entry.get("name") if isinstance(entry, dict) else None
-            axis = f"contact.{name}.kappa"
-            if axis in self.axes:
-                pos = self.axes.index(axis)
-                vals = self.values[axis][rows] if pos == 0 else self.values[axis]
-                kap[..., c] = vals.reshape((-1,) + (1,) * (len(G) - 1 - pos))
-            elif isinstance(entry, dict):
-                kap[..., c] = float(entry.get("kappa", 0.0))
-        idx = np.where((idx >= 0) & (idx < len(contacts)), idx, len(contacts))
-        kap = kap.reshape(G + (1, 1, len(contacts) + 1))
-        return np.take_along_axis(np.broadcast_to(kap, idx.shape + (len(contacts) + 1,)),
-                                  idx[..., None], axis=-1)[..., 0]
-
     def _compute_y(self, kind, rows=slice(None)):
         """``kind``'s values in ``rows`` of the first axis (all by default; a slab is read
         alone, ``RecordedData.rows``), or None when the file holds none."""
@@ -319,9 +297,15 @@ class PlotData:
             un = self.unfinished[rows]
             v = np.where(un.reshape(un.shape + (1,) * (v.ndim - un.ndim)), np.nan, v)
         v = beyond_drawing(v)
-        contacts = self.scene.get("system", {}).get("contact")
-        if kind == "impact_height" and isinstance(contacts, list) and "impacts/contact" in self.data:
-            return v - self._contact_kappas(contacts, rows)
+        if kind == "impact_height" and self.spec is not None:
+            contact = None
+            if "impacts/contact" in self.data:      # each impact's contact (linear)
+                contact = (self.data["impacts/contact"] if rows == slice(None)
+                           else self.data.rows("impacts/contact", rows))
+            ref = self.spec.impact_reference(self.scene.get("system", {}), self.values, rows,
+                                             self.done[rows].shape, contact)
+            if ref is not None:
+                return v - ref
         if kind == "impact_height":
             # u - kappa: the impact's height above the corners of z = kappa + beta |sin|
             # (and the triangle's valleys), where a kappa sweep's cascade lies

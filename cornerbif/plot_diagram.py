@@ -332,7 +332,7 @@ def draw_corner_points(ax, data: PlotData, corner_line=True, mono=False):
     """Mark kappa_C and kappa_CC (eqs 11, 17) or omega_C, omega_CC on the swept axis
     (``mono``: in greys, beside curves coloured by attractor)."""
     sys_ = data.scene.get("system", {})
-    kind = obstacle_kind(sys_)
+    kind = obstacle_kind(sys_, getattr(data, "spec", None))
     if not kind.normal_form:      # the kind's own marks (a cam's jump speed), if any
         return kind.marks(ax, data.axes, data.values, sys_)
     if not data.axes:
@@ -409,7 +409,7 @@ def draw_plane_curves(ax, data: PlotData):
     a, b = data.axes[:2]
     x, y = data.values[a], data.values[b]
     sys_ = data.scene.get("system", {})
-    if {a, b} == {"omega", "kappa"} and obstacle_kind(sys_).normal_form:
+    if {a, b} == {"omega", "kappa"} and obstacle_kind(sys_, getattr(data, "spec", None)).normal_form:
         r = sys_.get("r", 0.8)
         beta = sys_.get("beta", 1.0)
         w = np.linspace(x.min(), x.max(), 400) if a == "omega" else np.linspace(y.min(), y.max(), 400)

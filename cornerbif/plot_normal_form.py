@@ -37,7 +37,6 @@ from . import registry, theory
 from .analysis import run_length
 from .plot_style import emptiest_corner, legend, save, title_lines
 
-KINDS = ("regions", "return_map", "orbit")
 REGION_COLORS = {"a": "tab:blue", "b": "tab:orange", "g": "tab:green", "x": "0.6"}
 REGION_NAMES = {"a": r"$S_\alpha$", "b": r"$S_\beta$", "g": r"$S_\gamma$", "x": "other"}
 
@@ -181,12 +180,12 @@ def draw_orbit_frame(ax, datas):
     ax.set_ylabel(r"$b_n$ (flow: $u'(nT)$)")
 
 
-def figure(datas, out, plot_cfg, title=None):
-    """Draw the kind named by ``plot_cfg['kind']`` from one or two files (flow and/or map2d):
-    the regions of the starts (Fig. 9, ``_figure_regions``), the return maps (Fig. 10,
-    ``_figure_return_maps``) or the orbits (Fig. 11, ``_figure_orbits``)."""
+def figure(datas, out, plot_cfg, title, draw):
+    """Draw one or two files (flow and/or map2d) by ``draw``, the function its figure kind
+    names (``figures.normal_form.NormalFormKind.drawer``): the regions of the starts (Fig. 9,
+    ``figure_regions``), the return maps (Fig. 10, ``figure_return_maps``) or the orbits
+    (Fig. 11, ``figure_orbits``)."""
     import matplotlib.pyplot as plt  # start-up: loads matplotlib
-
 
     kind = plot_cfg["kind"]
     for d in datas:
@@ -195,11 +194,6 @@ def figure(datas, out, plot_cfg, title=None):
                              f"(this one sweeps {', '.join(d.axes)})")
     datas = sorted(datas, key=lambda d: d.normal_form.order)
     ms = plot_cfg.get("marker_size")
-    draw = {"regions": _figure_regions, "return_map": _figure_return_maps,
-            "orbit": _figure_orbits}.get(kind)
-    if draw is None:
-        raise ValueError(f"plot.kind: {kind!r} is not a normal-form kind; allowed: "
-                         f"{', '.join(KINDS)}")
     fig = draw(plt, datas, ms)
     sc = datas[-1].scene.get("scene", {})
     fig.suptitle(title_lines(title or plot_cfg.get("title") or sc.get("title", sc.get("name", "")),
@@ -208,7 +202,7 @@ def figure(datas, out, plot_cfg, title=None):
     return save(fig, out)
 
 
-def _figure_regions(plt, datas, ms):
+def figure_regions(plt, datas, ms):
     """The regions of the starts, flow and map side by side, with the share of starts whose
     letter the map gives as the flow does (Fig. 9)."""
     fig, axs = plt.subplots(1, len(datas), figsize=(5.2 * len(datas), 4.6), dpi=150,
@@ -223,7 +217,7 @@ def _figure_regions(plt, datas, ms):
     return fig
 
 
-def _figure_return_maps(plt, datas, ms):
+def figure_return_maps(plt, datas, ms):
     """The return maps A0 of a flow and of the linear maps (56), the transitions Sigma_1 and
     Sigma_2 marked, the maps' curve over the flow's with an inset at the grazing Sigma_2,
     where the flow has a square-root form (Fig. 10)."""
@@ -266,7 +260,7 @@ def _figure_return_maps(plt, datas, ms):
     return fig
 
 
-def _figure_orbits(plt, datas, ms):
+def figure_orbits(plt, datas, ms):
     """The orbits of a flow and its map on the section (left), and their approach to the
     fixed point x_beta* along (0, 1) with the switching iterate there (right; section
     5.1, Fig. 11)."""

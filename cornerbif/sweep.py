@@ -10,7 +10,6 @@ file once its data are flushed, so an interrupted sweep resumes where it stopped
 from __future__ import annotations
 
 import os
-import re
 
 import numpy as np
 
@@ -24,17 +23,6 @@ from .outputs import check_directory
 __all__ = ["run_sweep", "check_budget", "simulate", "SweepError", "SweepInterrupted"]
 
 
-DEFAULT_NAME_MAX = 100
-
-
-def default_output(scene: Scene) -> str:
-    """The default output ``NAME.h5`` for a scene, in the working directory: the last path
-    component of ``scene.name``, other characters than letters, digits, '.', '_' and '-'
-    replaced by '_', no leading dot, at most 100 characters (a name such as ``../x`` or
-    ``/etc/x`` cannot place the file elsewhere)."""
-    base = os.path.basename(scene.name.replace("\\", "/").rstrip("/"))
-    base = re.sub(r"[^A-Za-z0-9._-]", "_", base).lstrip(".")[:DEFAULT_NAME_MAX]
-    return (base or "scene") + ".h5"
 
 
 def check_output(out_path: str, overwrite: bool, inputs=()):

@@ -23,6 +23,8 @@ FIGURE_MODULES = (
     "cornerbif.figures.fractions",
     "cornerbif.figures.branches",
 )
+# the figure when a scene's [plot] names none
+DEFAULT = "diagram"
 
 _KINDS = {}
 

@@ -167,4 +167,4 @@ def _at(path, axis):
 
 
 FIGURE = Skeleton("branches", "the branches of an explained sweep and their ends",
-                  files="one")
+                  files="one", explained=True)

@@ -16,4 +16,4 @@ class Diagram(FigureKind):
                               shares=self.shares)
 
 
-FIGURE = Diagram("diagram", "a diagram, a chart or a basin")
+FIGURE = Diagram("diagram", "a diagram, a chart or a basin", colors_by=True)

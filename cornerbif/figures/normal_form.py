@@ -2,6 +2,8 @@
 ``orbit``: sections 4-5, Figs 9-11): single runs of a scene without sweep axes, of a model
 that is a side of the normal form (``Model.normal_form``), drawn by ``plot_normal_form``."""
 
+from dataclasses import dataclass
+
 from .. import registry
 from ..model import FigureKind
 
@@ -19,7 +21,9 @@ def normal_form_needs() -> str:
     return " or ".join(parts)
 
 
+@dataclass(frozen=True)
 class NormalFormKind(FigureKind):
+    drawer: str = ""    # the function of ``plot_normal_form`` that draws this kind
     def check(self, w):
         problems = []
         if not w.spec.has_normal_form(w.obstacle):
@@ -35,4 +39,5 @@ class NormalFormKind(FigureKind):
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
         # start-up: drawing loads h5py, matplotlib and numba; checking a scene loads none
         from .. import plot_normal_form
-        return plot_normal_form.figure(datas, out, plot_cfg, title)
+        return plot_normal_form.figure(datas, out, plot_cfg, title,
+                                       getattr(plot_normal_form, self.drawer))

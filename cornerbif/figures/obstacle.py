@@ -46,7 +46,7 @@ def figure_obstacle(plt, data: PlotData, plot_cfg: dict, title=None):
     ax.plot(t, z, color="k", lw=1.0, label="$z(t)$")
     corners = per * np.arange(0, int(cycles) + 1)
     kap = float(sys_.get("kappa", 0.0))
-    if obstacle_kind(sys_).corner_wedge:
+    if obstacle_kind(sys_, getattr(data, "spec", None)).corner_wedge:
         ax.plot(corners, np.full(corners.size, kap), "o", ms=4, mfc="w", mec="tab:red",
                 label=r"corners $t_k = k\pi/\omega$")
     ax.set_xlabel("$t$")

@@ -131,7 +131,7 @@ def figure_timeseries(plt, data: PlotData, plot_cfg: dict, title=None):
                      f"{r['ipc']}, word {_word_text(r['word'])}; the rebuilt flight meets $z$ at "
                      f"the next impact to {r['meet']:.1e}", fontsize=7, loc="left")
         v = r["vals"]
-        b = obstacle_kind(data.scene["system"]).resonant_amplitude(v)
+        b = obstacle_kind(data.scene["system"], getattr(data, "spec", None)).resonant_amplitude(v)
         if b is not None:
             # the resonant orbit u = b |sin t| of eq (6)
             ss = np.linspace(r["t"][r["t"] >= r["t0"]][0], r["t1"], 2000)

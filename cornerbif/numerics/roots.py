@@ -194,6 +194,6 @@ def bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
 def bracket_call(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint):
     """``bracket`` as a plain call, for searches off the hot path (``flow.first_root``, one
     specialisation per searched function): every site that inlines ``bracket`` types and
-    compiles it again, so the cold start is shorter with this call (measured in the commit
-    that introduced it, 9444b45)."""
+    compiles it again, so the cold start is shorter with this call (benchmarks/README.md,
+    "First compiles")."""
     return bracket(f, fp, fpp, fppp, first, rest, lo2, hi2, m3, m4, tol, H_hint)

@@ -21,6 +21,8 @@ OBSTACLE_MODULES = (
 )
 # the flow model's obstacle when a scene names none: the paper's, eq (8)
 DEFAULT = "rectified_sine"
+# the kind a still obstacle z = kappa (a linear contact's fixed stop) is packed as, with beta = 0
+STILL = "sine"
 
 _KINDS = {}
 

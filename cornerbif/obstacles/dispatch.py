@@ -95,9 +95,8 @@ def derived_tuple_profile(d, row):
 # The kernels run a built-in obstacle on short tuples of floats (params.as_tuple,
 # derived_tuple) and a profile on tuples that end in the address of its packed row
 # (as_tuple_profile, derived_tuple_profile): its table is read through the row
-# (``profile_slot``, ``cycle_slot``), so no call carries it (a first version passed the
-# 197-float table in the tuple by value: a profile cost 5.3x the rectified sine per impact,
-# against about 1.9x now; docs/cams.md).  The profile's code
+# (``profile_slot``, ``cycle_slot``), so no call carries it (the 197-float table passed by
+# value in the tuple costs several times more per impact; docs/cams.md).  The profile's code
 # is reached through the overloads below: on a short tuple each compiles to a constant (a
 # built-in obstacle never reaches it), so the built-in obstacles' code is what it was.
 # Outside the kernels (stability, trajectories) the same functions take the arrays.

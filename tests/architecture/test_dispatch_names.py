@@ -7,10 +7,13 @@ obstacle kind through its (``cornerbif.model.Obstacle``); the registries
 of the package (its syntax tree, not its text, so messages and docstrings may name a model)
 and fails on:
 
-* a registered model's or obstacle's name compared with, or listed in a membership test
-  against, an expression that holds a model or obstacle (``scene.obstacle``, ``w.model``,
-  ``kind``), or looked up in a registry or a table of them, outside ``models/<name>/`` or
-  ``obstacles/<name>.py``;
+* a registered model's, obstacle's or figure kind's name compared with, or listed in a
+  membership test against, an expression that holds one (``scene.obstacle``, ``w.model``,
+  ``kind``, ``spec.name``, ``cfg.get("kind")``), matched in a ``match`` statement, or looked
+  up in a registry or a table of them, outside ``models/<name>/``, ``obstacles/<name>.py`` or
+  ``figures/<name>.py``;
+* a dict written with two or more of one registry's names as its keys (a dispatch table),
+  outside the owners of those names;
 * an obstacle code (``SINE``, ``RECTIFIED_SINE``, ``TRIANGLE``, ``PROFILE``, or the packed
   slot ``OBSTACLE``) compared outside ``obstacles/dispatch.py``, the one switch over codes;
 * a packed row's width compared with ``NPARAM`` outside ``models/flow/slots.py``
@@ -25,6 +28,7 @@ import os
 
 import pytest
 
+from cornerbif import figures as figure_kinds
 from cornerbif import obstacles as obstacle_kinds
 from cornerbif import registry
 
@@ -62,24 +66,41 @@ def _names(node):
     return out
 
 
+HOLDERS = ("obstacle", "model", "kind", "registry", "role", "figure")
+
+
 def _carries(node) -> bool:
-    """Whether an expression holds a model or obstacle (by its names: ``scene.obstacle``,
-    ``w.model``, ``OBSTACLES``, ``registry.get``, ``kind``...): a string compared with it
-    is a dispatch, a string compared with a table's keys is not (a cam piece's ``sine``)."""
-    return any(any(w in n.lower() for w in ("obstacle", "model", "kind", "registry", "role"))
-               for n in _names(node))
+    """Whether an expression holds a model, obstacle or figure kind (by its names:
+    ``scene.obstacle``, ``w.model``, ``OBSTACLES``, ``registry.get``, ``kind``, ``spec.name``,
+    or a key it reads: ``cfg.get("kind")``): a string compared with it is a dispatch, a string
+    compared with a table's keys is not (a cam piece's ``sine``)."""
+    if any(any(w in n.lower() for w in HOLDERS) for n in _names(node)):
+        return True
+    for n in ast.walk(node):
+        if isinstance(n, ast.Attribute) and n.attr == "name":
+            return True
+        if (isinstance(n, ast.Call) and n.args and isinstance(n.args[0], ast.Constant)
+                and n.args[0].value in HOLDERS):
+            return True
+    return False
+
+
+def _registries():
+    return {"model": set(registry.names()), "obstacle": set(obstacle_kinds.registered()),
+            "figure": set(figure_kinds.registered())}
 
 
 def dispatch_in(source: str, owner_of) -> list:
     """(line, what) of every dispatch on a name or code in ``source``; ``owner_of(name)`` says
     whether the module may decide by ``name`` (its own model or obstacle)."""
-    models, obstacles = set(registry.names()), set(obstacle_kinds.registered())
+    regs = _registries()
+    every = set().union(*regs.values())
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Compare):
             sides = [node.left, *node.comparators]
             named = [v for s in sides for v in _strings(s)
-                     if (v in models or v in obstacles) and not owner_of(v)
+                     if v in every and not owner_of(v)
                      and any(_carries(o) for o in sides if o is not s)]
             if named:
                 found.append((node.lineno, f"compares with the name {named[0]!r}"))
@@ -92,10 +113,23 @@ def dispatch_in(source: str, owner_of) -> list:
         elif isinstance(node, (ast.Subscript, ast.Call)):
             keys, holder = ((node.slice, node.value) if isinstance(node, ast.Subscript)
                             else (node.args[0] if node.args else None, node.func))
-            named = [v for v in _strings(keys) if (v in models or v in obstacles)
+            named = [v for v in _strings(keys) if v in every
                      and not owner_of(v)] if keys is not None and _carries(holder) else []
             if named:
                 found.append((node.lineno, f"looks up the name {named[0]!r}"))
+        elif isinstance(node, ast.match_case):
+            named = [p.value.value for p in ast.walk(node.pattern)
+                     if isinstance(p, ast.MatchValue) and isinstance(p.value, ast.Constant)
+                     and p.value.value in every and not owner_of(p.value.value)]
+            if named:
+                found.append((node.pattern.lineno, f"matches the name {named[0]!r}"))
+        elif isinstance(node, ast.Dict):
+            keys = [k.value for k in node.keys if isinstance(k, ast.Constant)]
+            for names in regs.values():
+                table = [k for k in keys if k in names and not owner_of(k)]
+                if len(table) >= 2:
+                    found.append((node.lineno, f"a table keyed by the names {table[0]!r}, "
+                                  f"{table[1]!r}"))
     return found
 
 
@@ -104,15 +138,16 @@ def _owner(rel):
     parts = rel.split("/")
 
     def owns(name):
-        if rel == "cornerbif/registry.py":
-            return name in set(registry.names()) | set(obstacle_kinds.registered())
+        if rel in ("cornerbif/registry.py", "cornerbif/obstacles/__init__.py",
+                   "cornerbif/figures/__init__.py"):
+            return True
         if name == "<codes>":
             return rel == "cornerbif/obstacles/dispatch.py"
         if name == "<width>":
             return rel == "cornerbif/models/flow/slots.py"
         if parts[1:3] == ["models", name]:
             return True
-        return parts[1] == "obstacles" and parts[-1] == f"{name}.py"
+        return parts[1] in ("obstacles", "figures") and parts[-1] == f"{name}.py"
     return owns
 
 
@@ -132,6 +167,10 @@ def test_no_module_dispatches_on_a_name_or_a_code_it_does_not_own():
     ('m = registry.get("two_particle")\n', "looks up the name 'two_particle'"),
     ("if p[P.OBSTACLE] == P.PROFILE:\n    pass\n", "compares obstacle codes (OBSTACLE, PROFILE)"),
     ("wide = params.shape[1] > P.NPARAM\n", "compares a packed row's width with NPARAM"),
+    ('if spec.name == "map2d":\n    pass\n', "compares with the name 'map2d'"),
+    ('ok = cfg.get("kind", "diagram") == "diagram"\n', "compares with the name 'diagram'"),
+    ('match m:\n    case "two_particle":\n        pass\n', "matches the name 'two_particle'"),
+    ('draw = {"regions": f, "orbit": g}\n', "a table keyed by the names 'regions', 'orbit'"),
 ])
 def test_the_scan_catches_dispatch(snippet, what):
     """Each kind of dispatch, planted in a module that owns nothing, is found; in its
@@ -145,5 +184,6 @@ def test_the_scan_catches_dispatch(snippet, what):
     else:
         name = what.split("'")[1]
         own = (f"cornerbif/obstacles/{name}.py" if name in obstacle_kinds.registered()
+               else f"cornerbif/figures/{name}.py" if name in figure_kinds.registered()
                else f"cornerbif/models/{name}/model.py")
         assert [w for _, w in dispatch_in(snippet, _owner(own)) if name in w] == []

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cornerbif import config, estimate, sweep
+from cornerbif import config, estimate, outputs, sweep
 from cornerbif.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -136,7 +136,7 @@ def test_default_output_names_stay_in_the_working_directory(tmp_path, monkeypatc
     for name, expected in (("../x", "x.h5"), ("/etc/passwd", "passwd.h5"), ("a b*c", "a_b_c.h5"),
                            ("..", "scene.h5"), ("y" * 200, "y" * 100 + ".h5")):
         sc = config.load(FIG06A, [f"scene.name={name!r}"])
-        assert sweep.default_output(sc) == expected, name
+        assert outputs.default_output(sc) == expected, name
     scene = tmp_path / "s.toml"
     scene.write_text(open(FIG06A).read().replace('name = "fig06a"', 'name = "../escape"'))
     r = run("sweep", scene, *SMALL, "--no-progress")

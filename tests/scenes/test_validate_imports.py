@@ -1,4 +1,4 @@
-"""``cornerbif validate`` loads no numba and no kernel (issue 29).
+"""``cornerbif validate`` loads no numba, no kernel and no h5py (docs/architecture.md).
 
 Checking a scene is reading it: the models' declarations (Model, Param, Coord, Field), the
 parameter tables, the obstacle's keys, a cam profile's checks, a continuation's seed word.
@@ -124,6 +124,9 @@ def test_validate_loads_no_numba_and_no_kernel():
         loaded = [m for m in x["modules"] if m in forbidden or m in ("numba", "llvmlite")]
         assert not loaded, f"validate {os.path.basename(x['scene'])} loaded {loaded}"
         assert not [m for m in x["modules"] if m.startswith(("numba.", "llvmlite."))]
+        # nor the file library: a scene is checked, no file opened (its default output named
+        # by outputs.default_output)
+        assert "h5py" not in x["modules"], f"validate {os.path.basename(x['scene'])} loaded h5py"
 
 
 @pytest.mark.parametrize("table", [

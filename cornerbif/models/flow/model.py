@@ -510,6 +510,7 @@ MODEL = FlowModel(
     system_extra={"obstacle": obstacles.DEFAULT, "section_period": None}
     | {t: None for o in OBSTACLES.values() for t in o.tables},
     obstacles=OBSTACLES,
+    drawn_obstacle=obstacles.DEFAULT,
     events_per_impact=P.EVENTS_PER_IMPACT,
     early_stop=True,
     streams_lyapunov=True,

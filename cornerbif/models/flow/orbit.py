@@ -562,7 +562,7 @@ def seed_from_transients(values, obstacle, param, word, simulate, tol=1e-12, tab
     u0 = np.repeat(top + scale * np.linspace(0.05, 3.0, grid), grid)
     v0 = np.tile(scale * np.linspace(-2.0, 2.0, grid), grid)
     sys_ = {k: v for k, v in values.items() if k in P.INDEX}
-    extra = {"profile": tables["profile"]} if tables and "profile" in tables else {}
+    extra = dict(tables or {})      # the kind's own tables, by their [system] keys
     res = simulate(u0, v0, obstacle=obstacle, transient=0, record=record, **sys_, **extra)
     tried = 0
     for r in range(len(u0)):

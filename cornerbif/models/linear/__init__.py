@@ -1,3 +1,3 @@
-"""The ``linear`` model (issue 33, being built): a user's own linear multi-degree-of-freedom
-vibro-impact system declared in a scene.  So far its declarations, exact flights and impact
-law (pure numpy, the reference for its kernel to come); not yet a registered model."""
+"""The ``linear`` model: a user's own linear multi-degree-of-freedom vibro-impact system,
+declared in a scene's ``[system]`` (docs/linear.md): its declarations, exact flights, impact
+law, certified event loop and the model object, all in this folder."""

@@ -1,4 +1,4 @@
-"""The linear model's kernels over a sweep's items (issue 33): ``run_batch`` runs the event
+"""The linear model's kernels over a sweep's items: ``run_batch`` runs the event
 loop of ``kernel.run`` for each item on its system's arrays (``kernel.prepare``; the systems of
 a block stacked, ``which`` says each item's), and ``detect_contact_cycles`` finds each run's
 cycle in the impacts it recorded.

@@ -1,4 +1,4 @@
-"""The ``[system]`` table of a ``linear`` scene (issue 33): ``read_system`` builds a
+"""The ``[system]`` table of a ``linear`` scene: ``read_system`` builds a
 ``system.LinearSystem`` or lists what is wrong, each problem naming its key by its path
 (``system.contact.R.gap``) and the value there; ``numeric_paths`` and ``with_value`` name and
 set every number by its path (sweep axes, continuation parameters: ``"forcing.0.Omega"``,

@@ -1,4 +1,4 @@
-"""Certified first events of a linear system's flight (issue 33): the first time a contact's
+"""Certified first events of a linear system's flight: the first time a contact's
 gap g = a . x - z(t) reaches zero, with a proof that none comes earlier.
 
 Along a flight from the augmented state y0 (flight.py: y' = A y, exact), the gap of a
@@ -25,11 +25,11 @@ gap's minimum is at least -(|g'| tol + B tol^2 / 2), and the search reports a **
 (``obstacles.dispatch``: pieces, z and its derivatives, the bounds of z'' per piece) on a
 packed row of the kind (``ContactObstacle``).  The search goes piece by piece, each piece
 named by its index, so that at a corner, or at a time rounded across one, z' is that
-piece's own.  (When the piece was taken from the time itself, a time rounded across a
-rectified sine's corner took the other piece's slope, and 2 of 300 random systems lost
-their first impact: tests/models/test_linear_events.py.)
+piece's own (a piece taken from the time itself would, at a time rounded across a rectified
+sine's corner, take the other piece's slope, and lose impacts:
+tests/models/test_linear_events.py).
 
-Pure numpy around the jitted obstacle functions, written as the kernel will be
+Pure numpy around the jitted obstacle functions, with the kernel's method
 (tests/models/test_linear_events.py checks it against sampling on random systems).
 """
 
@@ -40,8 +40,10 @@ import math
 import numpy as np
 
 from ...numerics.oscillator import derive
+from ...obstacles import STILL
 from ...obstacles.dispatch import piece_at, piece_length, piece_start, z_state, zpp_range
 from ..flow.params import pack
+from .declare import FIXED
 from .flight import expm
 
 NONE, IMPACT, GRAZE = 0, 1, 2
@@ -50,12 +52,12 @@ TAYLOR_TERMS = 10           # J: the terms of the g'' bound's series before its 
 
 class ContactObstacle:
     """A contact's obstacle z = kappa + beta shape(omega t) of an obstacle ``kind`` of
-    cornerbif.obstacles ("fixed": z = kappa, the smooth sine with beta = 0), as a packed row
-    of that kind, evaluated by ``obstacles.dispatch``."""
+    cornerbif.obstacles ("fixed": z = kappa, packed as the kind ``obstacles.STILL`` with
+    beta = 0), as a packed row of that kind, evaluated by ``obstacles.dispatch``."""
 
     def __init__(self, kind, kappa, beta=0.0, omega=1.0):
-        if kind == "fixed":
-            kind, beta, omega = "sine", 0.0, 1.0
+        if kind == FIXED:
+            kind, beta, omega = STILL, 0.0, 1.0
         self.row = pack({"omega": omega, "kappa": kappa, "beta": beta}, kind, 1e-12, 1e-6, 1e6,
                         None)
         self.d = derive(self.row)

@@ -1,4 +1,4 @@
-"""Exact flights of a linear system (issue 33): M x'' + C x' + K x = f(t), f a sum of
+"""Exact flights of a linear system: M x'' + C x' + K x = f(t), f a sum of
 harmonic forces F cos(Omega t + phi) and constant ones, over any time, in one closed form
 for every case: damped or not, rigid-body modes (K singular: a free particle, gravity),
 repeated eigenvalues, forcing at resonance.
@@ -23,7 +23,7 @@ SIAM J. Matrix Anal. Appl. 26 (2005) 1179-1193): A / 2^s with ||A / 2^s||_1 <= t
 whose approximant has a backward error below the unit roundoff, then s squarings; exact up
 to rounding, as the flow's closed-form flights (eq 4) are.
 
-Pure numpy: the reference for the kernel to come, and its tests
+Pure numpy: the reference for the kernel's flights (``kernel.ladder``), and its tests
 (tests/models/test_linear_flight.py).
 """
 

@@ -1,4 +1,4 @@
-"""The impact law of a linear system's contact (issue 33): the generalised Newton law.
+"""The impact law of a linear system's contact: the generalised Newton law.
 
 A contact's gap is g = a . x - z(t); at an impact (g = 0, approaching: w- = a . v- - z' < 0)
 an impulse P acts along the contact's normal in configuration space, the generalised force

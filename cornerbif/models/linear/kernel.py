@@ -33,8 +33,8 @@ impact's resolution) is no impact: the contact is free for the leaving rule's st
 (within its piece and a chunk) while the others are searched on from there.  A contact
 found with g <= 0 and g' > 0 at a chunk's start (just after its impact) is free until
 g' / B (B >= |g''| on the chunk).  Time is counted as the last event's time plus whole
-chunks (summed chunk by chunk it drifted by a rounding of t each: 1e-7 by t = 1e4 at
-|A| = 1e4, found in review).
+chunks (summed chunk by chunk it would drift by a rounding of t each: 1e-7 by t = 1e4 at
+|A| = 1e4; tests/models/test_linear_kernel.py).
 
 Obstacles are evaluated by ``obstacles.dispatch`` on each contact's packed row (the flow's
 kinds, beta of either sign; a cam profile not yet).  The certification is exact
@@ -232,8 +232,8 @@ def flight_bounds(c, A, E, H, normA):
     s_i) = E_3^i): c A^d expm(A (s_i + r)) = sum_k c A^(d+k) E_3^i r^k / k!, whose norm is
     at most sum_(k < 16) |c A^(d+k) E_3^i| (H/8)^k / k! plus the tail's |c A^(d+16)|
     |E_3^i|_F (H/8)^16 / 16! e^(|A| H / 8), times 1 + 1e-9 for the rounding of the
-    products (where the spectrum is real and dominant the sum is the maximum itself: a
-    review measured the maximum at 1 - 8e-13 of the bound with a factor 1 + 1e-12).  About
+    products (where the spectrum is real and dominant the sum is the maximum itself, and
+    the maximum comes within 1 - 8e-13 of the bound with a factor 1 + 1e-12).  About
     e^(1/8) of the true maximum for a rotation, where the series of |c A^(d+k) y| about the
     chunk's start gives e."""
     m = A.shape[0]
@@ -496,7 +496,7 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
     nc = gaps.shape[0]
     y = y0.copy()
     # time as t_base + k H: the chunks' flights are E_0 exactly, and time summed chunk by
-    # chunk drifts by a rounding of t each (measured in review: 1e-7 by t = 1e4 at |A| = 1e4)
+    # chunk would drift by a rounding of t each (module docstring)
     t = t0
     t_base = t0
     k_chunks = 0

@@ -1,4 +1,4 @@
-"""The ``linear`` model (issue 33): a linear vibro-impact system that the scene declares in its
+"""The ``linear`` model: a linear vibro-impact system that the scene declares in its
 ``[system]`` table (docs/linear.md): N coordinates with mass, stiffness and damping matrices,
 harmonic and constant forces, and contacts with impacts by the generalised Newton law.
 
@@ -254,6 +254,29 @@ class LinearModel(Model):
         None."""
         _, bad = self.system_of({k: v for k, v in values.items() if k in self.params})
         return f"linear: {bad[0]}" if bad else None
+
+    def impact_reference(self, system, values, rows, grid, contact):
+        """Each impact's own contact's kappa (u - kappa: the height above that contact's
+        corners), at each grid point where the sweep varies it (axis "contact.<name>.kappa")."""
+        contacts = system.get("contact")
+        if contact is None or not isinstance(contacts, list):
+            return None
+        axes = list(values)
+        kap = np.full(grid + (len(contacts) + 1,), np.nan)
+        for c, entry in enumerate(contacts):
+            name = entry.get("name") if isinstance(entry, dict) else None
+            axis = f"contact.{name}.kappa"
+            if axis in values:
+                pos = axes.index(axis)
+                vals = values[axis][rows] if pos == 0 else values[axis]
+                kap[..., c] = vals.reshape((-1,) + (1,) * (len(grid) - 1 - pos))
+            elif isinstance(entry, dict):
+                kap[..., c] = float(entry.get("kappa", 0.0))
+        idx = contact.astype(int)
+        idx = np.where((idx >= 0) & (idx < len(contacts)), idx, len(contacts))
+        kap = kap.reshape(grid + (1, 1, len(contacts) + 1))
+        return np.take_along_axis(np.broadcast_to(kap, idx.shape + (len(contacts) + 1,)),
+                                  idx[..., None], axis=-1)[..., 0]
 
     def orbit_seed(self, values, scene, param, word, run):
         raise NotImplementedError("the linear model does not solve its periodic orbits yet "

@@ -1,6 +1,6 @@
-"""Event-driven simulation of a linear vibro-impact system in pure numpy (issue 33): exact
+"""Event-driven simulation of a linear vibro-impact system in pure numpy: exact
 flights (flight.py), certified first events on every contact (events.py), the generalised
-Newton law at each impact (impact.py).  The reference the kernel will be checked against,
+Newton law at each impact (impact.py).  A reference for the kernel,
 and the check of those three pieces together against the engine's kernels
 (tests/models/test_linear_simulate.py).
 

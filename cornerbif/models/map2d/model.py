@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ... import obstacles
 from ... import status as S
 from ...model import Coord, CycleSeries, Field, Model, Param, RunResult, Warmup, anything, positive
 from ...observables import SECTION_FIELDS, STABILITY_FIELDS, U
@@ -191,6 +192,7 @@ MODEL = Map2dModel(
     cycle=CycleSeries(end="su", a="su", b="sv", per="period", names=("a", "b"),
                       long_names=("iterate a_n", "iterate b_n")),
     normal_form=SIDE,
+    drawn_obstacle=obstacles.DEFAULT,     # the maps are the normal form of its corners
     # the maps' start is the point x = (a_0, b_1) of their plane (section 4, Fig. 9), their
     # section (a_n, b_n)
     axis_labels={"initial.u": r"start $a_0$", "initial.v": r"start $b_1$",
