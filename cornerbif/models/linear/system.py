@@ -1,4 +1,5 @@
-"""A linear vibro-impact system as a scene declares it (docs/linear.md): N coordinates x with a mass matrix M, a stiffness K and a damping C,
+"""A linear vibro-impact system as a scene declares it (docs/linear.md): N coordinates x
+with a mass matrix M, a stiffness K and a damping C,
 harmonic and constant forces, and contacts, each a gap g = a . x - z(t) that stays >= 0 in
 flight against an obstacle z(t) = kappa + beta shape(omega t), with an impact law
 (restitution r: the generalised Newton law, ``impact.newton_impact``) or a soft stop (a
