@@ -54,6 +54,15 @@ SCENES = [
                                      "initial.count=2"]),
     ("cam_cycloidal omega=1e3", "cam_cycloidal", ["sweep.omega={start=1000, stop=1001, num=4}",
                                                   "initial.count=2"]),
+    ("two_stops", "two_stops", []),
+    ("bouncing_ball", "bouncing_ball", []),
+    ("fig06a_linear", "fig06a_linear", []),
+    ("two_stops k=1e4", "two_stops", ["system.stiffness=[1e4]",
+                                      'sweep."forcing.0.Omega".num=2', "initial.count=2"]),
+    ("two_stops omega=1e4", "two_stops", ['system.contact.R.obstacle="rectified_sine"',
+                                          "system.contact.R.beta=1e-3",
+                                          "system.contact.R.omega=1e4",
+                                          'sweep."forcing.0.Omega".num=2', "initial.count=2"]),
 ]
 
 CHILD = r"""
@@ -67,7 +76,7 @@ path = os.path.join({root!r}, "configs", {scene!r} + ".toml")
 tiny_sets = list({sets!r}) + ["initial.count=1", "run.transient=2", "run.record=2"]
 sc0 = config.load(path, tiny_sets)
 for a in sc0.axes:     # one grid point: the tiny sweep loads the same kernels
-    tiny_sets.append(f"sweep.{{a.name}}={{{{values=[{{float(a.values[0])!r}}]}}}}")
+    tiny_sets.append(f'sweep."{{a.name}}"={{{{values=[{{float(a.values[0])!r}}]}}}}')
 sc0 = config.load(path, tiny_sets)
 run_sweep(sc0, os.path.join({tmp!r}, "tiny.h5"), threads={threads}, overwrite=True)
 sc = config.load(path, {sets!r})
@@ -175,6 +184,86 @@ def calibrate():
                   "(section period for two_particle)", flush=True)
 
 
+CAL_LINEAR = r"""
+import json, sys, time
+sys.path.insert(0, {root!r})
+import numba
+import numpy as np
+import cornerbif
+numba.set_num_threads(1)
+table = {table!r}
+kw = dict(model="linear", table=table, transient=0, record={record}, max_periods={periods})
+cornerbif.simulate(x0=[0.0], v_x0=[0.1], **kw)          # compiled, not timed
+x0 = np.linspace(-0.05, 0.05, 8)
+best = 1e9
+for _ in range(2):
+    c0 = time.process_time()
+    r = cornerbif.simulate(x0=x0, v_x0=np.zeros(8), **kw)
+    best = min(best, time.process_time() - c0)
+n = np.isfinite(r["t"]).sum(1)
+span = float(np.nanmax(r["t"], axis=1).mean())
+print(json.dumps({{"per_run": best / 8, "impacts": float(n.mean()), "span": span,
+                  "status": np.bincount(np.asarray(r["status"]).astype(int) + 2,
+                                        minlength=10)[2:].tolist()}}))
+"""
+
+
+def _linear_case(k, contact, record, periods):
+    """A one-coordinate linear system x'' + k x = 0.5 cos t (undamped, k != 1: off resonance)
+    with ``contact``."""
+    return {"dofs": ["x"], "mass": [1.0], "stiffness": [k], "damping": [0.0],
+            "forcing": [{"on": "x", "F": 0.5, "Omega": 1.0}],
+            "contact": [dict({"name": "S", "gap": {"x": 1.0}, "r": 0.8}, **contact)]}
+
+
+def calibrate_linear():
+    """The linear model's time model (``COST_IMPACT``, ``COST_CHUNK``, ``COST_PIECE`` in
+    ``models/linear/model.py``): per run of 8, one numba thread, process CPU time, best of 2.
+    A chunk: a run that never meets its stop (kappa = -100) flies its whole budget in chunks of
+    1 / |A| (|A| about k); a piece: the same with a rectified sine of omega = 1e4 far below
+    (pieces walked: budget omega / pi); an impact: the stop at x = -0.1 met about once a forcing
+    period (300 impacts; the span is read off the run), less that span's chunks."""
+    import math
+
+    import numpy as np
+    sys.path.insert(0, ROOT)
+    from cornerbif.models.linear import declare
+    from cornerbif.models.linear.flight import augmented
+    periods = 200
+    cases = {
+        "chunk": (_linear_case(1e4, {"kappa": -100.0}, 10, periods), 10),
+        "piece": (_linear_case(4.0, {"kappa": -100.0, "obstacle": "rectified_sine",
+                                     "beta": 0.1, "omega": 1e4}, 10, periods), 10),
+        "impact": (_linear_case(4.0, {"kappa": -0.1}, 300, 10**6), 300),
+    }
+    res = {}
+    for name, (table, record) in cases.items():
+        code = CAL_LINEAR.format(root=ROOT, table=table, record=record,
+                                 periods=periods if name != "impact" else 10**6)
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        if p.returncode != 0:
+            print(f"linear {name}: failed\n{p.stderr[-1500:]}")
+            return
+        res[name] = json.loads(p.stdout.strip().splitlines()[-1])
+        print(f"linear {name:7s}: {res[name]['per_run'] * 1e6:10.1f} us a run, "
+              f"{res[name]['impacts']:.0f} impacts over t = {res[name]['span']:.4g}, status "
+              f"{res[name]['status']}", flush=True)
+    budget = periods * 2 * math.pi          # max_periods of the system's period 2 pi
+    sys_c, _ = declare.read_system(cases["chunk"][0])
+    normA = float(np.linalg.norm(augmented(sys_c), 2))
+    c_chunk = res["chunk"]["per_run"] / (budget * normA)
+    sys_p, _ = declare.read_system(cases["piece"][0])
+    normA_p = float(np.linalg.norm(augmented(sys_p), 2))
+    pieces = budget * 1e4 / math.pi
+    c_piece = (res["piece"]["per_run"] - budget * normA_p * c_chunk) / pieces
+    span = res["impact"]["span"]
+    sys_i, _ = declare.read_system(cases["impact"][0])
+    normA_i = float(np.linalg.norm(augmented(sys_i), 2))
+    c_imp = (res["impact"]["per_run"] - span * normA_i * c_chunk) / 300.0
+    print(f"  -> {c_imp * 1e9:.0f} ns an impact, {c_chunk * 1e9:.1f} ns a chunk, "
+          f"{c_piece * 1e9:.1f} ns a piece", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--threads", type=int, default=2)
@@ -183,6 +272,7 @@ def main():
     a = ap.parse_args()
     if a.calibrate:
         calibrate()
+        calibrate_linear()
     else:
         check(a.threads, a.only)
 

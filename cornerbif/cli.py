@@ -23,7 +23,7 @@ import warnings
 import click
 import numpy as np
 
-from . import config, engine, outputs, plot_style, registry
+from . import config, engine, figures, outputs, plot_style, registry
 from . import continuation_run as C
 from . import warm as warmup
 from .branches import explain_file
@@ -170,7 +170,13 @@ def sweep(scene_path, out, sets, threads, resume, overwrite, dry_run, progress, 
     scene = _load(scene_path, sets)
     if scheduler is not None:
         from .distributed import parse_scheduler, require_dask  # start-up: loads numba
-        parse_scheduler(scheduler)
+        try:
+            parse_scheduler(scheduler)
+        except ValueError:
+            # N of local:N that Python does not read as an int (more than 4300 digits, a
+            # superscript digit): a number no machine has as many cores
+            _fail(f"--scheduler {cut(scheduler)!r}: N in local:N must be a whole number >= 1 "
+                  "(ASCII digits), at most this machine's cores")
         require_dask()
     from .sweep import run_sweep  # start-up: loads h5py
     out = outputs.default_output(scene) if out is None else out
@@ -275,8 +281,11 @@ def _numba_threads() -> int:
                 return max(1, len(os.sched_getaffinity(0)))
             except AttributeError:  # pragma: no cover - not Linux
                 return max(1, os.cpu_count() or 1)
-        if given.strip().isdecimal() and int(given) > 0:
-            return int(given)
+        text = given.strip()
+        # ASCII digits of a count a machine can have (Python reads no integer past 4300
+        # digits); anything else is numba's to read (and to refuse)
+        if text.isascii() and text.isdigit() and len(text) <= 9 and int(text) > 0:
+            return int(text)
     import numba  # start-up: loads numba
     return numba.config.NUMBA_NUM_THREADS
 
@@ -376,6 +385,8 @@ def plot(files, out, y, title, color_by, style, kind, orbits):
         _fail(problem)
     if title is not None:
         title = _plot_title(title)
+    if kind is not None:
+        _check_kind(kind)
     inputs = [("the file to draw", f) for f in files]
     if style and os.path.isfile(style):
         inputs.append(("the style sheet", style))
@@ -407,6 +418,16 @@ def plot(files, out, y, title, color_by, style, kind, orbits):
                    w.category.__name__, 200) for w in said}:
         click.echo(f"note: drawing {out}: {w}", err=True)
     click.echo(f"wrote {out}")
+
+
+def _check_kind(kind):
+    """``--kind``: one of the registered figure kinds (``figures.registered``), refused
+    (exit 2) naming the kinds otherwise; what each kind needs of a file is asked of the
+    file's scene before drawing (``plot.check_together``)."""
+    kinds = figures.registered()
+    if kind not in kinds:
+        _fail(f"--kind {cut(kind, 100)!r}: not a figure kind{did_you_mean(kind, kinds)}; "
+              f"allowed: {', '.join(kinds)}")
 
 
 def _plot_title(title):
@@ -490,7 +511,7 @@ def info(file):
               "file holds values cornerbif does not write (damaged or crafted), or this is a "
               "bug in cornerbif: CORNERBIF_DEBUG=1 shows the traceback")
     for line in lines:
-        click.echo(line)
+        click.echo(cut(line, MAX_INFO_LINE))
 
 
 @main.command()
@@ -556,7 +577,7 @@ def _sweep_lines(file):
             names = None
         codes, counts = np.unique(d.status, return_counts=True)
         lines.append(f"  status of the {d.status.size} runs: "
-                     + ", ".join(f"{status_name(c, names)} {n}" for c, n in zip(codes, counts)))
+                     + _names_line(f"{status_name(c, names)} {n}" for c, n in zip(codes, counts)))
         per = d.period[d.period > 0]
         if per.size:
             vals, cnt = np.unique(per, return_counts=True)
@@ -567,13 +588,27 @@ def _sweep_lines(file):
             # an observable is kept when every dataset of its Fields is in the file
             kept = [k for k, flds in spec.observables.items()
                     if all(fld.name in datasets for fld in flds)]
-            lines.append(f"  observables kept: {', '.join(kept) or 'none (summary only)'}; "
-                         f"state {', '.join(spec.coords)}")
+            lines.append(f"  observables kept: {_names_line(kept) or 'none (summary only)'}; "
+                         f"state {_names_line(spec.coords)}")
         if "stability/status" in f:
             lines.append("  " + _stability_summary(f, d))
         lines += _dataset_lines([n for n in datasets if not f[n].is_scale])
-    lines.append(f"  {attractor_summary(d, tex=False)}")
+    lines.append(f"  {bounded(attractor_summary(d, tex=False), MAX_INFO_LINE)}")
     return lines
+
+
+def _names_line(names) -> str:
+    """Names a file declares (a linear scene's coordinates, its status names), for one
+    line of ``info``: each cut to a bounded length (``plot_style.bounded``), at most
+    MAX_LISTED of them and the count of the rest."""
+    names = list(names)
+    text = ", ".join(bounded(n) for n in names[:MAX_LISTED])
+    return text + (f", ... and {len(names) - MAX_LISTED} more" if len(names) > MAX_LISTED else "")
+
+
+# the characters of one line ``info`` prints (each field of a file is cut shorter; this
+# bounds a line whatever it gathers)
+MAX_INFO_LINE = 2000
 
 
 def _continuation_lines(c):
@@ -795,7 +830,8 @@ def warm(models, all_models, jobs):
                        err=True)
     if not todo:
         return
-    n = jobs or max(1, min(len(todo), _numba_threads()))
+    # the groups side by side: as many as asked, or the cores, never more than the groups
+    n = max(1, min(len(todo), jobs or _numba_threads()))
     click.echo(f"warming {', '.join(todo)} ({n} at a time) ...", err=True)
     try:
         seconds = warmup.warm(chosen, n, lambda m: click.echo(m, err=True))

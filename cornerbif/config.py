@@ -104,6 +104,10 @@ MAX_START_TIME = 1e6
 MAX_TABLE_KEYS = 100
 # problems listed at most (the first ones; the count of the rest is said)
 MAX_PROBLEMS = 50
+# names listed in a problem ("allowed: ..."), each cut to KEY_CHARS (a linear scene declares
+# its coordinates' and contacts' names, each of any length): the first ones, the count of
+# the rest said
+MAX_LISTED_NAMES = 40
 # free text, each refused beyond its limit with its key and its length:
 # scene.name: a short name that labels the run (info, the default title) and names the
 # default output file (its first 100 characters, made safe: outputs.default_output)
@@ -331,7 +335,22 @@ class Scene:
 
 
 # --------------------------------------------------------------------------- helpers
-_suggest = did_you_mean   # (a name the tests watch: ``test_scene_hardening``)
+def _suggest(word, options) -> str:
+    """" (did you mean 'x'?)" for a near miss of ``word`` among ``options`` (``model.
+    did_you_mean``), never ``word`` itself: a value refused for another reason than its
+    spelling (``continue.curve`` naming the continued parameter) is not offered back as
+    its own correction.  (A name the tests watch: ``test_scene_hardening``.)"""
+    return did_you_mean(word, [o for o in options if o != word])
+
+
+def listed(names) -> str:
+    """Names for a problem's "allowed: ..." list: each cut to KEY_CHARS, at most
+    MAX_LISTED_NAMES of them and the count of the rest (a scene may declare names of any
+    length and number; a problem stays a few lines)."""
+    names = list(names)
+    text = ", ".join(cut(n, KEY_CHARS) for n in names[:MAX_LISTED_NAMES])
+    more = len(names) - MAX_LISTED_NAMES
+    return text + (f", ... and {more} more" if more > 0 else "")
 
 
 def _is_int(x):
@@ -373,12 +392,18 @@ def set_dotted(raw: dict, key: str, value):
     (``key_parts``).  Inside a list the next part picks an entry: by its index
     (``system.forcing.0.F``, ``system.mass.1``) or, in a list of tables, by the entry's
     ``name`` (``system.contact.R.r``: a linear scene's); a part that picks none is refused
-    (``SceneError``, naming the key), as is a named key inside a list of numbers."""
+    (``SceneError``, naming the key), as is a named key inside a list of numbers.
+
+    Returns the key's parts with each list entry as its index (``system.contact.L.r`` ->
+    [system, contact, 0, r]): a problem said of the list names its entries so."""
     parts = key_parts(key)
+    indexed = list(parts)
     node = raw
     for k, p in enumerate(parts[:-1]):
         if isinstance(node, list):
-            node = node[_list_entry(node, p, parts, k)]
+            i = _list_entry(node, p, parts, k)
+            indexed[k] = str(i)
+            node = node[i]
             continue
         nxt = node.get(p)
         if isinstance(nxt, list):
@@ -389,8 +414,10 @@ def set_dotted(raw: dict, key: str, value):
             node[p] = nxt
         node = nxt
     if isinstance(node, list):
-        node[_list_entry(node, parts[-1], parts, len(parts) - 1)] = value
-        return
+        i = _list_entry(node, parts[-1], parts, len(parts) - 1)
+        indexed[-1] = str(i)
+        node[i] = value
+        return indexed
     if parts[0] == "sweep" and len(parts) >= 3:
         for form in AXIS_FORMS:
             if parts[-1] in form:
@@ -399,21 +426,41 @@ def set_dotted(raw: dict, key: str, value):
                         for k in other:
                             node.pop(k, None)
     node[parts[-1]] = value
+    return indexed
+
+
+def list_index(part: str, n: int) -> int | None:
+    """The entry that a key's part picks in a list of ``n`` by its index: ASCII digits
+    naming 0 .. n - 1, else None.  The digits are compared by their count before Python
+    reads them (``int`` refuses a text of more than 4300 digits, and a part of a --set key
+    may be of any length), so any part is answered."""
+    if not (part.isascii() and part.isdigit()):
+        return None
+    digits = part.lstrip("0") or "0"
+    if len(digits) > len(str(n)):
+        return None
+    i = int(digits)
+    return i if i < n else None
 
 
 def _list_entry(entries: list, part: str, parts: list, k: int) -> int:
     """The index of the entry of ``entries`` that ``part`` (``parts[k]``) picks: an index
-    (ASCII digits) in range, or in a list of tables the one whose ``name`` it is."""
-    if part.isascii() and part.isdigit() and int(part) < len(entries):
-        return int(part)
+    (ASCII digits) in range (``list_index``), or in a list of tables the one whose ``name``
+    it is; else a ``SceneError`` naming the key and the part, each cut to a bounded length."""
+    i = list_index(part, len(entries))
+    if i is not None:
+        return i
     named = [i for i, e in enumerate(entries) if isinstance(e, dict) and e.get("name") == part]
     if named:
         return named[0]
     where = ".".join(parts[:k])
     names = [e.get("name") for e in entries if isinstance(e, dict) and "name" in e]
-    raise SceneError([f"--set {'.'.join(parts)}: {where} is a list of {len(entries)} "
-                      f"entries; {shown(part)} picks none (an index 0 .. {len(entries) - 1}"
-                      + (f", or a name: {', '.join(map(str, names))}" if names else "") + ")"])
+    index = part.isascii() and part.isdigit()
+    raise SceneError([f"--set {cut('.'.join(parts))}: {cut(where)} is a list of {len(entries)} "
+                      f"entries; {shown(part)} picks none ("
+                      + ("an index out of range: " if index else "")
+                      + f"an index is 0 .. {len(entries) - 1}"
+                      + (f", or a name: {listed(names)}" if names else "") + ")"])
 
 
 def parse_override(text: str):
@@ -669,12 +716,17 @@ def loads(text: str, overrides=(), source="<scene>") -> Scene:
         except SceneError as e:
             problems += e.problems
             continue
-        set_dotted(raw, key, val)
+        indexed = ".".join(set_dotted(raw, key, val))
         text_of = cut(ov) if isinstance(ov, str) else f"{key}={shown(val)}"
-        given.append((".".join(key_parts(key)), text_of))
+        plain = ".".join(key_parts(key))
+        given.append((plain, text_of, True))
         named = _named_key(raw, key_parts(key))
-        if named != given[-1][0]:            # problems name a list's entry by its name
-            given.append((named, text_of))
+        if named != plain:                   # problems name a list's entry by its name
+            given.append((named, text_of, True))
+        if indexed not in (plain, named):
+            # or by its index: a contact renamed by its name (system.contact.L.name) to a
+            # name another contact holds is said of that one (system.contact.1.name)
+            given.append((indexed, text_of, False))
     if problems:
         raise SceneError(problems)
     try:
@@ -688,8 +740,9 @@ def _named_key(raw: dict, parts: list) -> str:
     entry's name (``system.contact.0.r`` -> ``system.contact.L.r``: how a problem names it)."""
     out, node = [], raw
     for p in parts:
-        if isinstance(node, list) and p.isascii() and p.isdigit() and int(p) < len(node):
-            node = node[int(p)]
+        i = list_index(p, len(node)) if isinstance(node, list) else None
+        if i is not None:
+            node = node[i]
             name = node.get("name") if isinstance(node, dict) else None
             out.append(name if isinstance(name, str) else p)
         else:
@@ -699,17 +752,21 @@ def _named_key(raw: dict, parts: list) -> str:
 
 
 def _from_set(problem: str, given) -> str:
-    """Say that a problem comes from a ``--set`` override when its key is one given there."""
-    key = problem.split(":", 1)[0].strip()
+    """Say that a problem comes from a ``--set`` override when its key is one given there
+    (an entry of a list named ``key[i]`` or ``key.i``: the same key)."""
+    key = re.sub(r"\[(\d+)\]", r".\1", problem.split(":", 1)[0].strip())
     key_parts_ = key.split(".")
-    for k, text in reversed(given):
+    for k, text, given_so in reversed(given):
         if key == k or key.startswith((k + ".", k + "[")) or k.startswith(key + "."):
             return f"{problem} (from --set {text})"
         # an entry of a list set by its index, which the problem names otherwise (a dof's
-        # entry of system.mass by the dof's name): the same list
+        # entry of system.mass by the dof's name): the same list; an entry the --set named
+        # (``given_so`` false: its index found by ``set_dotted``) only the same key of
+        # another entry of that list
         parts = k.split(".")
         at = next((i for i, p in enumerate(parts) if p.isascii() and p.isdigit()), None)
-        if at is not None and len(key_parts_) > at and key_parts_[:at] == parts[:at]:
+        if (at is not None and len(key_parts_) > at and key_parts_[:at] == parts[:at]
+                and (given_so or key_parts_[at + 1:] == parts[at + 1:])):
             return f"{problem} (from --set {text})"
     return problem
 
@@ -739,7 +796,7 @@ class _Walk:
                          if keys and k in keys and t != name]
                 hint = f" (it belongs in [{where[0]}])" if where else _suggest(str(k), allowed)
                 self.problems.append(f"{name}.{cut(k, KEY_CHARS)}: unknown key{hint}; allowed: "
-                                     f"{', '.join(allowed)}")
+                                     f"{listed(allowed)}")
 
     def param(self, name, value, key):
         p = self.spec.params[name].problem(value, key)
@@ -1016,7 +1073,7 @@ def _read_sweep(w):
             if c not in w.spec.start_names:
                 w.problems.append(f"sweep.{cut(k, KEY_CHARS)}: {shown(c)} is not a start coordinate of model "
                                   f"{w.model!r}; allowed: "
-                                  + ", ".join(IC_PREFIX + x for x in w.spec.start_names))
+                                  + listed(IC_PREFIX + x for x in w.spec.start_names))
                 continue
             values = _read_axis(w, k, spec, _finite_value(w, k))
             if values is not None:
@@ -1024,7 +1081,7 @@ def _read_sweep(w):
             continue
         if k not in params:
             w.problems.append(f"sweep.{cut(k, KEY_CHARS)}: {shown(k)} is not a parameter of model {w.model!r}"
-                              f"{_suggest(str(k), params)}; allowed: {', '.join(params)}")
+                              f"{_suggest(str(k), params)}; allowed: {listed(params)}")
             continue
         if not _applies(w, params[k], w.obstacle, f"sweep.{k}"):
             continue
@@ -1036,7 +1093,7 @@ def _read_sweep(w):
             w.problems.append("sweep: no axis given; add e.g. "
                               "kappa = { start = -0.02, stop = 0.0, num = 101 }")
     if len(axes) > 2:
-        w.problems.append(f"sweep: {len(axes)} axes ({', '.join(a.name for a in axes)}); at most two")
+        w.problems.append(f"sweep: {len(axes)} axes ({listed(a.name for a in axes)}); at most two")
     points = math.prod(len(a.values) for a in axes)
     if points > MAX_GRID_POINTS:
         w.problems.append(f"sweep: {' x '.join(str(len(a.values)) for a in axes)} = {points} grid "
@@ -1044,7 +1101,7 @@ def _read_sweep(w):
                           "grow with the grid)")
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
-        w.problems.append(f"sweep: two axes name one parameter ({', '.join(names)})")
+        w.problems.append(f"sweep: two axes name one parameter ({listed(names)})")
     if follow != "none" and not axes:
         w.problems.append(f"sweep.follow: {follow!r} needs a swept parameter")
     if follow != "none" and any(a.name.startswith(IC_PREFIX) for a in axes):
@@ -1100,7 +1157,7 @@ def _read_points(w, ini):
         path = ini["points_file"]
         if not isinstance(path, str) or not path:
             w.problems.append(f"initial.points_file: {shown(path)} must be a path (text: one "
-                              f"start per line, {', '.join(names)})")
+                              f"start per line, {listed(names)})")
             return None
         full = path if os.path.isabs(path) or w.source.startswith("<") else os.path.join(
             os.path.dirname(w.source), path)
@@ -1135,8 +1192,9 @@ def _read_points(w, ini):
             or not all(isinstance(p, list) and len(p) in (state_len, full_len)
                        and all(_is_number(x) and math.isfinite(x) for x in p) for p in pts)):
         w.problems.append(f"{key}: {shown(pts)} must be a list of 1..{MAX_STARTS} starts, each "
-                          f"[{', '.join(names)}] of finite numbers"
-                          + (f" (or without {names[-1]}: 0)" if full_len > state_len else ""))
+                          f"[{listed(names)}] of finite numbers"
+                          + (f" (or without {cut(names[-1], KEY_CHARS)}: 0)"
+                             if full_len > state_len else ""))
         return None
     out = tuple(tuple(float(x) for x in p) + (0.0,) * (full_len - len(p)) for p in pts)
     if full_len > state_len:                 # the start time: the ranges' rule, per start
@@ -1169,7 +1227,7 @@ def _read_initial(w):
     for c in initial_keys[len(INITIAL_DEFAULTS) + len(INITIAL_LISTS):]:
         if c in ini and c not in coords:
             w.problems.append(f"initial.{c}: not an initial coordinate of model {w.model!r}; "
-                              f"allowed: {', '.join(coords)}")
+                              f"allowed: {listed(coords)}")
     swept = [a.name[len(IC_PREFIX):] for a in getattr(w, "axes", ())
              if a.name.startswith(IC_PREFIX)]
     for c in swept:
@@ -1365,13 +1423,10 @@ def _read_plot(w):
     within its (MAX_TITLE, MAX_MARKS, MAX_MARK_LABEL) and drawable, the style sheet a
     name matplotlib knows or a file of at most MAX_STYLE_BYTES."""
     pl = w.table("plot")
+    before = len(w.problems)
     w.unknown("plot", _registered()["TABLES"]["plot"])
     plot = dict(pl)
     problems = w.problems
-    for k, v in plot.items():
-        if not _plain(v):
-            problems.append(f"plot.{cut(k, KEY_CHARS)}: {shown(v)} must be a string, a number or a list "
-                            "of them")
     if "color_by" in plot:
         if plot["color_by"] not in PLOT_COLOR_BY:
             problems.append(f"plot.color_by: {shown(plot['color_by'])} is not allowed; allowed: "
@@ -1401,6 +1456,14 @@ def _read_plot(w):
             problems.append(p)
     _read_plot_kind(w, plot)
     _read_plot_runs(w, plot)
+    # what the scene as run cannot hold (a date, a table), said of a key only where its own
+    # check above said nothing: one problem a key (marks = [{at = 1}] was said twice, in two
+    # ways)
+    said = {re.split(r"[:\[]", p, maxsplit=1)[0] for p in problems[before:]}
+    for k, v in plot.items():
+        key = f"plot.{cut(k, KEY_CHARS)}"
+        if not _plain(v) and key not in said:
+            problems.append(f"{key}: {shown(v)} must be a string, a number or a list of them")
     w.plot = plot
 
 
@@ -1523,7 +1586,7 @@ def _read_continue(w):
     numeric = list(w.spec.params)
     if not isinstance(name, str) or name not in numeric:
         pr.append(f"continue.parameter: {_fmt(name)} is not a numeric parameter of model "
-                  f"{w.model!r}{_suggest(str(name), numeric)}; allowed: {', '.join(numeric)}")
+                  f"{w.model!r}{_suggest(str(name), numeric)}; allowed: {listed(numeric)}")
         return
     if any(a.name == name for a in w.axes):
         pr.append(f"continue.parameter: {name!r} is also swept ([sweep] {name}); continue "
@@ -1622,11 +1685,17 @@ def _continue_curve(w, c, numeric, out):
                       "(the second parameter of the curves)")
         return
     cv = c["curve"]
-    if not isinstance(cv, str) or cv not in numeric or cv == name:
+    if cv == name:
+        pr.append(f"continue.curve: {cv!r} is the parameter continued (continue.parameter); "
+                  "the curves of its corner collisions and folds run in a second one, "
+                  f"another numeric parameter of model {w.model!r}; allowed: "
+                  + listed(k for k in numeric if k != name))
+        return
+    if not isinstance(cv, str) or cv not in numeric:
         pr.append(f"continue.curve: {_fmt(cv)} must be another numeric parameter of "
                   f"model {w.model!r} (the second parameter of the corner-collision "
-                  f"curves){_suggest(str(cv), numeric)}; allowed: "
-                  + ", ".join(k for k in numeric if k != name))
+                  f"curves){_suggest(str(cv), [k for k in numeric if k != name])}; allowed: "
+                  + listed(k for k in numeric if k != name))
         return
     if any(a.name == cv for a in w.axes):
         pr.append(f"continue.curve: {cv!r} is also swept ([sweep] {cv}); remove the axis")
@@ -1730,6 +1799,40 @@ READERS = (("scene", _read_scene), ("system", _read_system), ("sweep", _read_swe
            ("plot", _read_plot), ("continue", _read_continue), (None, _read_model_checks))
 
 
+def _wide_tables(raw: dict) -> list:
+    """A problem for each table of ``raw`` (and its top level) past MAX_TABLE_KEYS keys."""
+    return [f"{t}: {len(b)} keys; a table of a scene has at most {MAX_TABLE_KEYS} (the "
+            "format's tables have about 15)" for t, b in
+            [("the scene's top level", raw)] + [(cut(t, KEY_CHARS), b) for t, b in raw.items()
+                                                 if isinstance(b, dict)]
+            if len(b) > MAX_TABLE_KEYS]
+
+
+def kind_problems(text: str, kind: str) -> list | None:
+    """What the figure kind ``kind`` (``figures.registered``) says of a file's scene as run
+    ``text`` (its own ``check``, as ``validate`` asks it of ``[plot] kind``), its problems
+    without their "plot.kind: " key: a kind given in place of the one the file was swept
+    with (``cornerbif plot --kind``) is checked against the file's scene before anything
+    is drawn.  The tables it reads are walked as ``from_dict`` walks them, [plot] aside (the
+    file's own [plot] is not this kind's); None when the scene cannot be walked that far (a
+    file's trouble its readers say)."""
+    fk = figures.registered().get(kind)
+    try:
+        raw = parse_toml(str(text), "<the file's scene>")
+        if fk is None or nesting_problem(raw) is not None or _wide_tables(raw):
+            return None
+        w = _Walk(raw)
+        w.source = "<the file's scene>"
+        for table, read in READERS:
+            if table == "plot":
+                break
+            read(w)
+        said = fk.check(w)
+    except (SceneError, RecursionError):
+        return None
+    return [p.removeprefix("plot.kind:").strip() for p in said]
+
+
 def from_dict(raw, drawn_starts: bool = True, source: str = "<scene>") -> Scene:
     """Validate a raw scene dict; raise ``SceneError`` listing every problem.
 
@@ -1742,11 +1845,7 @@ def from_dict(raw, drawn_starts: bool = True, source: str = "<scene>") -> Scene:
     deep = nesting_problem(raw)
     if deep:                 # before any reader walks it (each may recurse per level)
         raise SceneError([deep])
-    wide = [f"{t}: {len(b)} keys; a table of a scene has at most {MAX_TABLE_KEYS} (the "
-            "format's tables have about 15)" for t, b in
-            [("the scene's top level", raw)] + [(cut(t, KEY_CHARS), b) for t, b in raw.items()
-                                                 if isinstance(b, dict)]
-            if len(b) > MAX_TABLE_KEYS]
+    wide = _wide_tables(raw)
     if wide:                 # before a problem is said of each key (unknown, misspelt)
         raise SceneError(wide)
     w = _Walk(raw, drawn_starts)

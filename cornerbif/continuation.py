@@ -251,12 +251,14 @@ def _correct(problem, Y0, T, s, base, W):
 def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
     """The arclength s in (s_lo, s_hi) where fun(Y(s)) changes sign (Illinois secant).
 
-    Where the corrector fails at a trial point (near a corner collision the predictor from
-    Ya may leave Newton's reach), the bracket's far end (``s_hi``, the side past the sign
-    change) moves to that point and the search goes on by halving: the sign change lies
-    between the last point solved on the near side and it."""
+    Where the corrector fails at a trial point, the bracket's midpoint is tried; where that
+    fails too (as next to a corner collision of two particles), the bracket's far end
+    (``s_hi``, the side past the sign change) moves to the nearer of the two and the search
+    goes on by halving: the sign change lies between the last point solved on the near side
+    and it."""
     side = 0
     Y = None
+    best = None         # (|fun|, point): the point returned, the one closest to the sign change
     halve = False
     for _ in range(120):
         s = (s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) if f_hi != f_lo and not halve
@@ -267,12 +269,21 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
         try:
             Y_s = _correct(problem, Ya + s * T, T, s, Ya, W)
         except (OrbitError, np.linalg.LinAlgError):
-            s_hi, side, halve = s, 0, True
-            if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
-                break         # the best located point so far
-            continue
+            mid = 0.5 * (s_lo + s_hi)
+            try:
+                Y_s = _correct(problem, Ya + mid * T, T, mid, Ya, W)
+                s = mid
+            except (OrbitError, np.linalg.LinAlgError):
+                # neither solved: the far end moves to the nearer of the two, and halving
+                # goes on (it stopped here, leaving the point short of the sign change)
+                s_hi, side, halve = (mid if abs(mid - s_lo) < abs(s - s_lo) else s), 0, True
+                if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
+                    break         # the best located point so far
+                continue
         Y = Y_s
         f = fun(Y)
+        if best is None or abs(f) < best[0]:
+            best = (abs(f), Y)
         if f == 0.0 or abs(s_hi - s_lo) <= 1e-15 * (1.0 + abs(s)):
             break
         if (f > 0) == (f_hi > 0):
@@ -287,9 +298,9 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
             side = -1
         if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
             break
-    if Y is None:
+    if best is None:
         raise OrbitError("no point of the branch was solved between the step's ends")
-    return Y
+    return best[1]
 
 
 def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-3,

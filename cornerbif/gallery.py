@@ -22,10 +22,14 @@ and ``DATA/.gallery.lock`` from before its plan's judgements to its end: ``_lock
   attribute ``command`` says ``cornerbif gallery`` (``made_by``; written by ``run_sweep``
   and ``continuation_run.run_to_file`` when the file is started, and kept by a resume, so a
   user's file the gallery resumed stays the user's), a figure when
-  ``OUT/gallery_run.json`` lists it (``record_owners``).  A complete file of the same
-  scene is reused, whoever made it.  Any other file in the way is refused unless
-  ``overwrite`` (``--overwrite``), and a file of another kind (a text file, a sweep where a
-  continuation goes) always is (``outputs.check_output``);
+  ``OUT/gallery_run.json`` lists it (``record_owners``); and in both cases only while it is
+  still what the gallery wrote: the record keeps a ``fingerprint`` of every figure and data
+  file the gallery writes (``Written``), and signs itself (``record_digest``), so a figure
+  the user replaced, a data file edited in place or a record edited by hand is the user's
+  (``Written.changed``, ``record_changed``).  A complete file of the same scene is reused,
+  whoever made it.  Any other file in the way is refused unless ``overwrite``
+  (``--overwrite``), and a file of another kind (a text file, a sweep where a continuation
+  goes) always is (``outputs.check_output``);
 * ``smoke=True`` shrinks every scene (a few grid points, starts and impacts) so the whole
   path runs in seconds (the CI test of this module).  A smoke scene's title ends with
   ``SMOKE_MARK``, so every file it makes says so in its ``scene`` attribute; it writes to
@@ -45,6 +49,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import glob
+import hashlib
 import json
 import os
 import time
@@ -74,6 +79,10 @@ GROUPS = {
 }
 
 SMOKE = {"axis_num": 3, "axis_values": 2, "count": 3, "transient": 40, "record": 40}
+# a scene drawn as its branches (a figure kind that draws ``cornerbif explain``'s table) needs an
+# attractor to follow: its smoke transient is at most this (at 40 impacts, Fig. 6(a)'s runs at
+# omega = 1.999, r = 0.8 had not settled to their cycles, and its explain was refused)
+SMOKE_EXPLAINED_TRANSIENT = 200
 # the end of every smoke scene's title: a smoke file says so in its own scene (and its
 # figure in its title), whoever wrote it and whatever else the file holds
 SMOKE_MARK = " (smoke)"
@@ -88,7 +97,8 @@ DATA_LOCK = ".gallery"
 
 
 def smoke_raw(raw: dict) -> dict:
-    """A tiny version of a scene: at most 3 values per axis, 3 starts, 40 + 40 impacts, its
+    """A tiny version of a scene: at most 3 values per axis, 3 starts, 40 + 40 impacts (a
+    transient of up to SMOKE_EXPLAINED_TRANSIENT where it is drawn as its branches), its
     title ending with SMOKE_MARK.  A continuation scene keeps its ``[initial]`` and
     ``[run]``: they find the orbits it continues (a few starts at one point, cheap beside
     the continuation; with 3 starts of 40 impacts ``cont_hysteresis`` found none)."""
@@ -110,8 +120,11 @@ def smoke_raw(raw: dict) -> dict:
     elif "points_file" not in ini:
         ini["count"] = min(ini.get("count", 8), SMOKE["count"])
     run = raw.setdefault("run", {})
+    kind = raw.get("plot", {}).get("kind", figure_kinds.DEFAULT)
+    fk = figure_kinds.registered().get(kind) if isinstance(kind, str) else None
+    most = dict(SMOKE, transient=SMOKE_EXPLAINED_TRANSIENT) if fk is not None and fk.explained else SMOKE
     for k in ("transient", "record"):
-        run[k] = min(run.get(k, C.RUN_DEFAULTS[k]), SMOKE[k])
+        run[k] = min(run.get(k, C.RUN_DEFAULTS[k]), most[k])
     for k in ("max_events", "max_periods"):
         run.pop(k, None)
     pl = raw.get("plot", {})
@@ -180,19 +193,25 @@ def _text(v) -> str:
 KIND_OF_FORMAT = {outputs.SWEEP_FORMAT: "sweep", outputs.CONTINUATION_FORMAT: "continuation"}
 
 
+# the root attributes the gallery reads of an HDF5 file (``file_attrs``): what it is, of which
+# scene, made by which command, when started and finished.  Together they tell one file from
+# another: a file made again (by anyone) has another ``created`` at least, while an edit in
+# place (h5py's "r+") keeps them all (``Written``)
+ATTRS = ("format", "scene", "command", "created", "completed")
+
+
 def file_attrs(path: str):
-    """The root attributes ``format``, ``scene``, ``command`` and ``completed`` of an HDF5
-    file (a sweep's partial file whose writer was killed too: HDF5 then says it is "already
-    open for write", and it is read in SWMR mode), or None when it cannot be read or is not
-    a regular file (a FIFO or a device is never opened)."""
+    """The root attributes ``ATTRS`` of an HDF5 file (a sweep's partial file whose writer was
+    killed too: HDF5 then says it is "already open for write", and it is read in SWMR mode),
+    or None when it cannot be read or is not a regular file (a FIFO or a device is never
+    opened)."""
     import h5py  # start-up: loads h5py
     if outputs.not_a_regular_file(path):
         return None
     for kw in ({}, {"swmr": True}):
         try:
             with h5py.File(path, "r", locking=False, **kw) as f:
-                return {k: _text(f.attrs.get(k, "")) for k in ("format", "scene", "command",
-                                                                "completed")}
+                return {k: _text(f.attrs.get(k, "")) for k in ATTRS}
         except Exception as e:  # noqa: BLE001 - unreadable: not known to be anyone's
             if "already open for write" not in str(e):
                 return None     # (a cut file is never read in SWMR mode: it may not end)
@@ -233,9 +252,11 @@ def record_problem(doc) -> str | None:
     """What makes ``doc`` (a parsed ``OUT/gallery_run.json``) no gallery record, or None.
     Nothing in a record is trusted: the gallery writes an object whose ``figures`` is a list
     of objects, each naming its figure (a string) and saying ``smoke`` (true or false) when
-    it does, ``runs`` (when present) a list of objects with ``smoke`` true or false, and
+    it does, ``runs`` (when present) a list of objects with ``smoke`` true or false,
     ``drawing`` (when present, the figures a run still had to draw) an object with ``smoke``
-    and a list of figure names; every field the gallery reads is checked here."""
+    and a list of figure names, ``files`` (when present) an object of fingerprints
+    (``fingerprint``), ``writing`` (when present) a list of file names and ``digest`` (when
+    present) a SHA-256 in hex; every field the gallery reads is checked here."""
     if not isinstance(doc, dict):
         return "its top level is not an object"
     figs = doc.get("figures")
@@ -265,6 +286,30 @@ def record_problem(doc) -> str | None:
         if not (isinstance(dr.get("figures"), list)
                 and all(isinstance(n, str) for n in dr["figures"])):
             return "drawing.figures is not a list of figure names"
+    return _written_problem(doc)
+
+
+def _is_sha256(v) -> bool:
+    return isinstance(v, str) and len(v) == 64 and all(c in "0123456789abcdef" for c in v)
+
+
+def _written_problem(doc: dict) -> str | None:
+    """What makes the fields of a record that say what the gallery wrote (``files``,
+    ``writing``, ``digest``: ``Written``) other than the gallery writes them, or None."""
+    files = doc.get("files", {})
+    if not isinstance(files, dict):
+        return f"'files' is {_json_kind(files)}, not an object of fingerprints"
+    for name, fp in files.items():
+        if not (isinstance(fp, dict) and isinstance(fp.get("size"), int)
+                and not isinstance(fp["size"], bool) and fp["size"] >= 0
+                and _is_sha256(fp.get("sha256"))
+                and ("attrs" not in fp or _is_sha256(fp["attrs"]))):
+            return f"files[{cut(name, quote=True)}] is not a fingerprint (size, sha256)"
+    writing = doc.get("writing", [])
+    if not (isinstance(writing, list) and all(isinstance(n, str) for n in writing)):
+        return "'writing' is not a list of file names"
+    if "digest" in doc and not _is_sha256(doc["digest"]):
+        return f"'digest' is {_json_kind(doc['digest'])}, not a SHA-256 in hex"
     return None
 
 
@@ -320,6 +365,137 @@ def _read_record(path: str) -> dict:
     return doc
 
 
+# ------------------------------------------------------------------ what the gallery wrote
+def fingerprint(path: str, h5: bool = False) -> dict:
+    """What is at ``path`` now, as the record keeps it: its ``size`` and the ``sha256`` of
+    its bytes; for a data file (``h5``) also the digest of its root attributes ``ATTRS``
+    (``attrs``: which file it is, ``Written.changed``).
+
+    Every byte is hashed, not a size and mtime with a sample of the bytes: an edit in place
+    (h5py's "r+" on a sweep) keeps the size and changes bytes anywhere, and an mtime both
+    changes where nothing did (a copy, a checkout, a restore of the folder: the gallery's own
+    files would look changed) and can be set back (``touch -r``).  It is cheap beside what
+    it guards: a file is hashed once when the gallery has written it (just written, after the
+    sweep or the figure that took far longer) and once more only before it is replaced (a
+    stale file, about to be swept or drawn again); a file that is only reused is not read."""
+    h, size = hashlib.sha256(), 0
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+            size += len(block)
+    fp = {"size": size, "sha256": h.hexdigest()}
+    if h5:
+        fp["attrs"] = _attrs_digest(path)
+    return fp
+
+
+def _attrs_digest(path: str) -> str:
+    """The SHA-256 of an HDF5 file's root attributes ``ATTRS`` (of "" when it has none)."""
+    a = file_attrs(path) or {}
+    return hashlib.sha256(json.dumps([a.get(k, "") for k in ATTRS]).encode("utf-8")).hexdigest()
+
+
+def _same(fp: dict, path: str) -> bool:
+    """Whether the regular file ``path`` holds the bytes ``fp`` fingerprints (its size first:
+    a file of another size is not read)."""
+    if outputs.not_a_regular_file(path) or os.path.islink(path):
+        return False
+    if os.path.getsize(path) != fp["size"]:
+        return False
+    return fingerprint(path)["sha256"] == fp["sha256"]
+
+
+def record_digest(doc: dict) -> str:
+    """The SHA-256 of a gallery record's contents (its ``digest`` aside), written as JSON with
+    sorted keys: the same for the record as written and as read back (JSON numbers and
+    strings read back as they were written), another for any change to it."""
+    body = {k: v for k, v in doc.items() if k != "digest"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":"))
+                          .encode("utf-8")).hexdigest()
+
+
+def record_changed(doc: dict) -> str | None:
+    """Why the gallery record ``doc`` (checked: ``record_problem``) may not be the one the
+    gallery wrote, or None: it has no ``digest`` (written before the gallery kept one: it
+    cannot tell), or its digest is not that of its contents (edited since)."""
+    if "digest" not in doc:
+        return ("written before the gallery signed its record, so it cannot tell whether you "
+                "changed it")
+    if doc["digest"] != record_digest(doc):
+        return "changed since the gallery wrote it (its contents do not match its digest)"
+    return None
+
+
+class Written:
+    """What the gallery wrote into its folders, as its record ``OUT/RECORD`` keeps it: each
+    file's ``fingerprint`` (``files``, by its path relative to OUT, so that the same folders
+    named from elsewhere are the same names), and the files a run was writing when it stopped
+    (``writing``: its current figure's png and the data files it makes, listed in the record
+    before the run begins that figure: a file the run replaced just before it stopped has
+    no fingerprint of its new bytes yet, and the same command again must go on).
+    ``changed`` says whether a file is still what the gallery wrote there; ``put`` records
+    what the gallery has just written."""
+
+    def __init__(self, out: str, record: dict):
+        self.out = out
+        self.rec_path = os.path.join(out, RECORD)
+        self.files = dict(record.get("files", {}))          # checked: record_problem
+        self.writing = set(record.get("writing", []))
+
+    def key(self, path: str) -> str:
+        try:
+            return os.path.relpath(path, self.out)
+        except ValueError:                  # another drive than OUT's (Windows)
+            return os.path.abspath(path)
+
+    def changed(self, path: str, h5: bool = False) -> str | None:
+        """Why the file at ``path``, which the gallery's record or its own attributes say the
+        gallery wrote, is no longer known to be what it wrote (it is then the user's), or
+        None.  A file a stopped run was writing is the gallery's (``writing``).  A figure
+        must hold the bytes its fingerprint says; one without a fingerprint (a record from
+        before fingerprints) cannot be told from a user's.  A data file without one (a record
+        from before fingerprints, or another --out folder's gallery wrote it), or whose root
+        attributes are another file's than the one fingerprinted (made again since, by the
+        gallery or by anyone: its own ``command`` says who, ``made_by``), is judged by its
+        attributes, as before fingerprints; one with the same attributes must hold the same
+        bytes (an edit in place keeps them)."""
+        key = self.key(path)
+        if key in self.writing:
+            return None
+        fp = self.files.get(key)
+        what = "wrote" if h5 else "drew"
+        if fp is None:
+            return None if h5 else (f"{self.rec_path} lists it without a fingerprint of what the "
+                                    "gallery drew there, so it cannot be told from a figure "
+                                    "of yours")
+        if h5 and fp.get("attrs") != _attrs_digest(path):
+            return None
+        if _same(fp, path):
+            return None
+        return (f"changed since the gallery {what} it (its bytes are not those "
+                f"{self.rec_path} records): taken as yours")
+
+    def put(self, path: str, h5: bool = False):
+        """Record the fingerprint of what the gallery has just written at ``path``."""
+        self.files[self.key(path)] = fingerprint(path, h5)
+
+    def settle(self):
+        """The files a stopped run was writing, taken as the gallery's (the plan judged them
+        so, ``changed``): their fingerprints as they are now, that run having perhaps
+        replaced them before it could record them."""
+        for key in sorted(self.writing):
+            path = os.path.join(self.out, key)
+            if os.path.isfile(path) and not os.path.islink(path):
+                self.put(path, key.endswith(".h5"))
+        self.writing = set()
+
+    def keep(self, paths):
+        """Forget every fingerprint but those of ``paths`` (a run of the whole gallery: its
+        own files)."""
+        keys = {self.key(p) for p in paths}
+        self.files = {k: v for k, v in self.files.items() if k in keys}
+
+
 # ------------------------------------------------------------------ the plan
 @dataclasses.dataclass
 class Data:
@@ -356,6 +532,7 @@ class Plan:
     items: dict                # name -> Data
     record: dict               # the record in OUT before the run ({} when there is none)
     created: list              # folders made for this run
+    written: Written           # what the gallery wrote, by that record (updated by the run)
 
 
 class InTheWay(SweepError):
@@ -382,29 +559,39 @@ def _refuse(problems: list):
     raise SweepError("\n".join(lines))
 
 
-def _may_replace(path, who, smoke, overwrite, option, what):
+# what to do about a file in the way that is not the gallery's (said once for them all)
+YOURS = ("the gallery replaces only files it wrote itself, unchanged since: to keep it, move it "
+         "away or name other --out or --data folders; to replace it, pass --overwrite")
+
+
+def _may_replace(path, who, smoke, overwrite, option, what, changed=None):
     """Refuse to replace ``path`` unless the gallery may (the module's promises): its own
-    smoke file always, its own full file in a full run, another's file (``what`` says what
-    it is) with --overwrite."""
-    if who == "smoke" or (who == "full" and not smoke):
+    smoke file always, its own full file in a full run, each only while it is what the
+    gallery wrote (``changed``: why it is not, ``Written.changed``), another's file (``what``
+    says what it is; a changed one is the user's) with --overwrite; a full run's file never
+    in a smoke run."""
+    if changed is None and (who == "smoke" or (who == "full" and not smoke)):
         return
-    if who == "full":
+    if who == "full" and smoke:
         out, data = DEFAULTS[True]
         raise InTheWay(f"{option} {path}: written by a full gallery run",
                        "a --smoke run never replaces a full run's files (not even with "
                        f"--overwrite): leave --out and --data at the smoke defaults ({out}, "
                        f"{data}) or name other folders")
     if not overwrite:
-        raise InTheWay(f"{option} {path}: exists and is not the gallery's ({what})",
-                       "the gallery replaces only files it wrote itself: name other --out or "
-                       "--data folders, or pass --overwrite to replace it")
+        raise InTheWay(f"{option} {path}: " + (changed if who is not None and changed else
+                                               f"exists and is not the gallery's ({what})"),
+                       YOURS)
 
 
-def _judge(d: Data, smoke: bool, overwrite: bool, inputs):
+def _judge(d: Data, smoke: bool, overwrite: bool, inputs, written: Written):
     """What to do with one data file (``Data.action``), or a ``SweepError`` naming it: one
     another command is writing (its lock held) is not judged at all
     (``outputs.check_unlocked``).  A file to reuse is only read (its folder may be
-    read-only); anything else passes ``outputs.check_output`` first."""
+    read-only); anything else passes ``outputs.check_output`` first, and a stale one of the
+    gallery's must still be what it wrote (``written``, ``Written.changed``).  A partial
+    file is judged by its root attributes alone: written block by block until it is
+    finished, it has no fingerprint."""
     outputs.check_unlocked(d.path)
     who = made_by(d.path) if os.path.isfile(d.path) else None
     if os.path.isfile(d.path) and file_matches(d.path, d.scene) and (smoke or who != "smoke"):
@@ -413,7 +600,8 @@ def _judge(d: Data, smoke: bool, overwrite: bool, inputs):
         return
     outputs.check_output(d.path, True, inputs, kind=d.kind, option="--data")
     if os.path.lexists(d.path):
-        _may_replace(d.path, who, smoke, overwrite, "--data", _what_file(d.path, d))
+        changed = written.changed(d.path, h5=True) if who and not overwrite else None
+        _may_replace(d.path, who, smoke, overwrite, "--data", _what_file(d.path, d), changed)
         d.replace = True
     if os.path.lexists(d.partial):
         if os.path.islink(d.partial) or not os.path.isfile(d.partial):
@@ -534,7 +722,8 @@ def plan(config_dir="configs", out=None, data=None, only=(), smoke=False,
     made), and every output in the way
     (``_judge``, ``_judge_figures``, ``_may_replace``): a folder that cannot be made or
     written, a data file another command is writing, a file of another kind, a file the
-    gallery did not write (without ``overwrite``), a full run's file in a smoke run.
+    gallery did not write or that changed since it wrote it (``Written.changed``; without
+    ``overwrite``), a full run's file in a smoke run.
     """
     out = DEFAULTS[bool(smoke)][0] if out is None else out
     data = DEFAULTS[bool(smoke)][1] if data is None else data
@@ -546,14 +735,17 @@ def plan(config_dir="configs", out=None, data=None, only=(), smoke=False,
     try:
         _lock(out, data, held)
         inputs = [(f"the scene file {p}", p) for p in paths]
-        items, problems = {}, []
+        items, problems, record_problems = {}, [], []
+        record = _judge_record(out, inputs, smoke, overwrite, record_problems)
+        written = Written(out, record)
         for s in dict.fromkeys(order):
             d = items[s] = Data(s, os.path.join(data, f"{s}.h5"), scenes[s], files[s])
             try:
-                _judge(d, smoke, overwrite, inputs)
+                _judge(d, smoke, overwrite, inputs, written)
             except SweepError as e:
                 problems.append(e)
-        record = _judge_figures(out, todo, inputs, smoke, overwrite, problems)
+        problems += record_problems
+        _judge_figures(out, todo, inputs, smoke, overwrite, problems, record, written)
         if problems:
             _refuse(problems)
     except BaseException:
@@ -565,7 +757,7 @@ def plan(config_dir="configs", out=None, data=None, only=(), smoke=False,
     else:
         held.close()
     return Plan(config_dir, out, data, bool(smoke), tuple(only), todo, scenes, items, record,
-                created)
+                created, written)
 
 
 def _todo(config_dir, only) -> tuple:
@@ -626,11 +818,11 @@ def _read_scenes(config_dir, files, todo, smoke) -> tuple:
     return scenes, order
 
 
-def _judge_figures(out, todo, inputs, smoke, overwrite, problems) -> dict:
-    """Check the record ``OUT/gallery_run.json`` and every figure ``OUT/FIG.png`` the run
-    will write (``outputs.check_output``, ``_may_replace``: a figure is the gallery's when
-    the record lists it), each refusal appended to ``problems``; return the record as it
-    is ({} when there is none)."""
+def _judge_record(out, inputs, smoke, overwrite, problems) -> dict:
+    """Check the record ``OUT/gallery_run.json`` (``outputs.check_output``, ``_read_record``,
+    ``_may_replace``: the gallery's while it is the one it wrote, ``record_changed``), a
+    refusal appended to ``problems``; return the record as it is ({} when there is none or
+    it is no gallery record)."""
     rec_path = os.path.join(out, RECORD)
     record = {}
     try:
@@ -643,21 +835,31 @@ def _judge_figures(out, todo, inputs, smoke, overwrite, problems) -> dict:
             owners = record_owners(record)
             who = ("smoke" if all(w == "smoke" for w in owners.values())
                    and all(r.get("smoke") is True for r in record.get("runs", [])) else "full")
-            _may_replace(rec_path, who, smoke, overwrite, "--out", "a gallery record")
+            _may_replace(rec_path, who, smoke, overwrite, "--out", "a gallery record",
+                         record_changed(record))
     except SweepError as e:
         problems.append(e)
+    return record
+
+
+def _judge_figures(out, todo, inputs, smoke, overwrite, problems, record, written):
+    """Check every figure ``OUT/FIG.png`` the run will write (``outputs.check_output``,
+    ``_may_replace``: a figure is the gallery's when the ``record`` lists it and it is still
+    what the gallery drew, ``written``), each refusal appended to ``problems``."""
+    rec_path = os.path.join(out, RECORD)
     owners = record_owners(record)
     for name, _ in todo:
         png = os.path.join(out, f"{name}.png")
         try:
             outputs.check_output(png, True, inputs, kind="figure", option="--out")
             if os.path.lexists(png):
-                _may_replace(png, owners.get(name), smoke, overwrite, "--out",
+                who = owners.get(name)
+                changed = written.changed(png) if who and not overwrite else None
+                _may_replace(png, who, smoke, overwrite, "--out",
                              f"a figure that {rec_path} does not list as drawn by the "
-                             "gallery" if name not in owners else "a figure")
+                             "gallery" if name not in owners else "a figure", changed)
         except SweepError as e:
             problems.append(e)
-    return record
 
 
 # ------------------------------------------------------------------ the run
@@ -694,25 +896,31 @@ class _Progress:
         return "; ".join(parts)
 
 
-def _explained(d: Data, echo):
-    """A sweep drawn as its branches (``[plot] kind = "branches"``) explained
-    (``cornerbif explain``: the branch table stored in its file) where it is not yet."""
+def _unexplained(d: Data) -> bool:
+    """Whether ``d`` is a finished sweep drawn as its branches (``[plot] kind =
+    "branches"``) that is not explained yet (``cornerbif explain``: no branch table stored in
+    its file, or one an older cornerbif stored): the gallery will write into it."""
     kind = d.scene.plot.get("kind", figure_kinds.DEFAULT)
     fk = figure_kinds.registered().get(kind) if isinstance(kind, str) else None
-    if d.kind != "sweep" or fk is None or not fk.explained:
-        return
+    if d.kind != "sweep" or fk is None or not fk.explained or not os.path.isfile(d.path):
+        return False
     import h5py  # start-up: loads h5py
     with h5py.File(d.path, "r") as f:
-        current = has_current_table(f)
-    if not current:          # none, or one an older cornerbif stored
-        explain_file(d.path, log=echo)
+        return not has_current_table(f)
 
 
 def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
-    """Bring one data file up to date (``Data.action``); what was done: reused, swept,
-    resumed or continued (a sweep drawn as its branches: explained, ``_explained``)."""
+    """Bring one data file up to date (``Data.action``), recording the fingerprint of what
+    it wrote (``Plan.written``); what was done: reused, swept, resumed or continued (a sweep
+    drawn as its branches: explained, ``_unexplained``)."""
     if d.action == "reuse":
-        _explained(d, echo)
+        if _unexplained(d):
+            # a reused file the gallery writes into: its fingerprint follows only where the
+            # file was still what the gallery wrote (a file the user changed stays changed)
+            mine = p.written.changed(d.path, h5=True) is None
+            explain_file(d.path, log=echo)
+            if mine:
+                p.written.put(d.path, h5=True)
         return "reused"
     prog.current = d
     from . import continuation_run, sweep  # start-up: loads numba
@@ -746,15 +954,41 @@ def _make(d: Data, p: Plan, threads, prog: _Progress, echo=print) -> str:
         done = "resumed" if d.action == "resume" else "continued"
     prog.current = None
     d.action, d.replace, d.discard = "reuse", False, False
-    _explained(d, echo)
+    if _unexplained(d):
+        explain_file(d.path, log=echo)
+    p.written.put(d.path, h5=True)
     return done
 
 
-def _write_record(path: str, figs: dict, runs: list, drawing=None):
-    doc = {"figures": [figs[k] for k in sorted(figs)], "runs": runs}
+def _write_record(path: str, figs: dict, runs: list, written: Written, drawing=None,
+                  writing=None):
+    """The record, signed (``record_digest``): the figures, the runs, the fingerprints of the
+    files written (``Written``) and, while a run is on, the figures it still has to draw
+    (``drawing``) and the files of the one it begins (``writing``)."""
+    doc = {"figures": [figs[k] for k in sorted(figs)], "runs": runs,
+           "files": dict(sorted(written.files.items()))}
+    if writing is not None:
+        doc["writing"] = writing
     if drawing is not None:
         doc["drawing"] = drawing
+    doc["digest"] = record_digest(doc)
     outputs.write_text(path, json.dumps(doc, indent=1))
+
+
+def _writes(p: Plan, todo: list) -> list:
+    """The files (by ``Written.key``) the first figure of ``todo`` may write: its png, and
+    every data file of its scenes (with the sweep a continuation is drawn over) that is not
+    only reused as it is; none when ``todo`` is empty."""
+    if not todo:
+        return []
+    fig_name, names = todo[0]
+    paths = [os.path.join(p.out, f"{fig_name}.png")]
+    for s in names:
+        over = p.items[s].scene.cont.get("over") if p.items[s].scene.cont else None
+        for d in ([p.items[over]] if over else []) + [p.items[s]]:
+            if d.action != "reuse" or _unexplained(d):
+                paths.append(d.path)
+    return sorted({p.written.key(x) for x in paths})
 
 
 def run(config_dir="configs", out=None, data=None, only=(), smoke=False, threads=None,
@@ -765,7 +999,8 @@ def run(config_dir="configs", out=None, data=None, only=(), smoke=False, threads
     record: figure name, whether it is a smoke figure, png path, and per scene whether it
     was swept, resumed, continued or reused, with the seconds spent; the notes' numbers
     (``facts``).  ``OUT/gallery_run.json`` holds them, rewritten whole after every figure,
-    with the figures still to draw (``drawing``) until the run ends.  An interrupt raises
+    with the fingerprints of the files written (``Written``), and the figures still to draw
+    (``drawing``) and the files of the next one (``writing``) until the run ends.  An interrupt raises
     ``SweepInterrupted`` (exit 130), a full disk ``WriteFailed`` (exit 1), a refusal met
     during the run (a data file's lock taken by another command after the plan, a seed file
     that cannot seed) a ``Fault`` (exit 1: the run had begun), each saying what was kept;
@@ -781,22 +1016,27 @@ def run(config_dir="configs", out=None, data=None, only=(), smoke=False, threads
         left = [name for name, _ in p.todo]
         prog = _Progress(p)
         records = []
+        w = p.written
         echo(f"gallery{' (smoke)' if p.smoke else ''}: {plural(len(p.todo), 'figure')} into "
              f"{p.out}, their data in {p.data}")
         try:
-            _write_record(rec_path, figs, runs, {"smoke": p.smoke, "figures": left})
-            for fig_name, names in p.todo:
+            w.settle()
+            _write_record(rec_path, figs, runs, w, {"smoke": p.smoke, "figures": left},
+                          _writes(p, p.todo))
+            for i, (fig_name, names) in enumerate(p.todo):
                 rec = _figure(fig_name, names, p, threads, prog, echo)
                 records.append(rec)
                 figs[fig_name] = rec
                 left.remove(fig_name)
-                _write_record(rec_path, figs, runs, {"smoke": p.smoke, "figures": left})
+                _write_record(rec_path, figs, runs, w, {"smoke": p.smoke, "figures": left},
+                              _writes(p, p.todo[i + 1:]))
             total = time.perf_counter() - t0
             run_ = {"total_seconds": round(total, 1), "smoke": p.smoke, "threads": threads,
                     "only": list(p.only)}
             if not p.only:                  # the whole gallery: this run's figures only
                 figs = {r["figure"]: r for r in records}
-            _write_record(rec_path, figs, ([run_] + runs)[:5] if p.only else [run_])
+                w.keep([r["png"] for r in records] + [d.path for d in p.items.values()])
+            _write_record(rec_path, figs, ([run_] + runs)[:5] if p.only else [run_], w)
         except (KeyboardInterrupt, SweepInterrupted):
             raise SweepInterrupted(f"interrupted; {prog.kept()}; {AGAIN}") from None
         except WriteFailed as e:
@@ -861,6 +1101,7 @@ def _figure(fig_name, names, p: Plan, threads, prog: _Progress, echo) -> dict:
     else:
         figure_branches(conts, png, plot_cfg=head.plot)
     prog.drawing = None
+    p.written.put(png)
     prog.figures.append(fig_name)
     rec["png"] = png
     rec["plot_seconds"] = round(time.perf_counter() - t, 2)

@@ -19,8 +19,8 @@ import tomllib
 import numpy as np
 
 from . import figures, plot_style, registry
-from .config import recorded_obstacle
-from .model import cut
+from .config import kind_problems, recorded_obstacle
+from .model import FigureKind, cut
 from .plot_base import BRANCH_Y, COLOR_BY, Undrawable, branch_keys, cfg_for_y, flow_and_map
 from .plot_data import DRAW_LIMIT, Y_DATASETS, PlotData, is_continuation, read_continuation
 from .plot_diagram import branches_figure
@@ -75,6 +75,14 @@ def draw_files(files, out, y=None, title=None, color_by=None, style=None, kind=N
     if sweeps:
         return figure(sweeps, out, y=y, title=title, color_by=color_by, branches=conts,
                       style=style, kind=kind, orbits=orbits)
+    if kind is not None:
+        # a figure kind draws sweep files; continuation files alone are one figure, their
+        # branches (a --kind said nothing of what was drawn: it was not drawn)
+        raise Undrawable(f"--kind {kind}: {', '.join(conts)} "
+                         + ("are continuation files" if len(conts) > 1 else
+                            "is a continuation file")
+                         + ", drawn as branches against the continued parameter; --kind "
+                         "chooses the figure of a sweep file")
     return figure_branches(conts, out, y=y, title=title, style=style, color_by=color_by)
 
 
@@ -133,6 +141,8 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
     if fk is None:
         raise Undrawable(f"{datas[0].path}: [plot] kind {cut(kind)!r} is not a figure this "
                          "cornerbif draws")
+    for d in datas:
+        _check_kind_of_file(d, kind, fk)
     if fk.files == "single_runs":
         _check_single_runs(datas, conts, kind, y, color_by, plot_cfg)
     elif fk.files == "one":
@@ -146,9 +156,12 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
     else:
         for d in datas:
             if not d.axes:
-                raise Undrawable(f"{_described(d)}: nothing to draw as a diagram (a scene of "
-                                 "single runs is drawn by [plot] kind timeseries, regions, "
-                                 "return_map or orbit)")
+                kinds = _single_run_kinds(d)
+                raise Undrawable(f"{_described(d)}: nothing to draw as a diagram ("
+                                 + ("its single runs are drawn by [plot] kind "
+                                    + " or ".join(kinds) if kinds else
+                                    "no figure kind draws its single runs; cornerbif info "
+                                    "summarises them") + ")")
             if len(d.axes) > 2:
                 raise Undrawable(f"{_described(d)}: a figure draws one or two swept "
                                  "parameters")
@@ -156,6 +169,46 @@ def check_together(datas, conts, y=None, color_by=None, plot_cfg=None):
             _check_chart(datas, conts, y, color_by)
         else:
             _check_diagrams(datas, conts, cfg, y, color_by)
+
+
+def _check_kind_of_file(d, kind, fk):
+    """A figure kind other than the one a file was swept with (``--kind``, or the ``[plot]``
+    a gallery passes) is asked of the file's scene as ``validate`` asks it of ``[plot] kind``
+    (``config.kind_problems``): a file the kind cannot draw (a time series of a linear
+    scene, the obstacle of a map) is refused before drawing, with the kind's own reason.
+    The kind a file was swept with was asked when it was swept (and a stored [plot] is
+    checked again by ``io.check_stored_plot``)."""
+    text = getattr(d, "scene_text", None)
+    plot = d.scene.get("plot", {}) if isinstance(d.scene, dict) else {}
+    stored = plot.get("kind", figures.DEFAULT) if isinstance(plot, dict) else None
+    if not text or stored == kind:
+        return
+    why = kind_problems(text, kind)
+    if why:
+        raise Undrawable(f"{d.path}: cannot be drawn as [plot] kind {kind!r} ({fk.doc}): "
+                         + cut("; ".join(why), MAX_REASON))
+
+
+# the characters of a figure kind's reasons quoted in a refusal (they may name a file's
+# swept parameters, whose names a scene declares)
+MAX_REASON = 1000
+
+
+def _single_run_kinds(d) -> list:
+    """The figure kinds that draw the single runs of a file without sweep axes: kinds of
+    one file or of single runs that say what they need of a scene (their own ``check``),
+    and whose check passes on ``d``'s scene where the file holds one (a figure's stand-in,
+    ``check_scenes_drawable``, holds none: every such kind)."""
+    text = getattr(d, "scene_text", None)
+    out = []
+    for name, fk in figures.registered().items():
+        if (fk.files == "diagram" or fk.one_axis or fk.explained
+                or type(fk).check is FigureKind.check):
+            continue
+        if text and kind_problems(text, name) != []:
+            continue
+        out.append(name)
+    return out
 
 
 def _all_described(datas) -> str:

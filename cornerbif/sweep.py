@@ -16,7 +16,7 @@ import numpy as np
 from . import io, outputs
 from .api import simulate as _simulate
 from .config import Scene, same_run
-from .errors import SweepError, SweepInterrupted, WriteFailed
+from .errors import EXIT_INPUT, SweepError, SweepInterrupted, WriteFailed
 from .estimate import estimate_file_bytes, estimate_memory, sure_file_bytes
 from .outputs import check_directory
 
@@ -258,16 +258,24 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
             raise                      # HDF5 failed inside a write: the file is left as it is
         nothing = created and not np.any(f["done"][...])
         f.close()
-        if nothing:
+        if nothing and e.exit_code == EXIT_INPUT:
             outputs.remove_quietly(partial)   # refused before a point was done (an unreachable
             raise                      # --scheduler): no partial file of this run is left
+        # a fault (a full disk, a file-size limit, chunks failed on a cluster) keeps the
+        # partial file, even before its first point: its message sends the user to --resume
         if getattr(e, "failures", None):
             io.record_failures(partial, e.failures)
+        if nothing and isinstance(e, WriteFailed):
+            raise WriteFailed(f"{e} (no point was finished yet: {partial} holds the scene "
+                              "and its grid)") from None
         raise
     except KeyboardInterrupt:
+        none = created and not np.any(f["done"][...])
         f.close()
-        raise SweepInterrupted(f"interrupted; finished points are kept in {partial}; "
-                               "run again with --resume to complete it") from None
+        raise SweepInterrupted(f"interrupted; finished points are kept in {partial}"
+                               + (" (none was finished yet: it holds the scene and its grid)"
+                                  if none else "")
+                               + "; run again with --resume to complete it") from None
     except OSError as e:
         # a write failed inside HDF5 (a disk filled by someone else between our check and
         # the write, an I/O error): the file on disk is as it was after the last block

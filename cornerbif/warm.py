@@ -12,13 +12,22 @@ that is removed.
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import tempfile
 import time
 
 from . import config, engine, registry
+from .errors import SweepInterrupted
 from .model import Warmup
+
+# what an interrupted warm says (exit 130): its sweeps' files were temporary, so there is no
+# partial file to resume (the sweep's own message would name one in a folder already
+# removed); each kernel that finished compiling is in numba's cache
+INTERRUPTED = ("interrupted; warm keeps no file (its warm-up sweeps ran in a temporary folder, "
+               "now removed), but every kernel that finished compiling stays in numba's "
+               "cache: run cornerbif warm again to compile the rest")
 
 
 def groups(models) -> dict:
@@ -61,13 +70,19 @@ def run_warmup(w: Warmup, folder: str, echo) -> float:
 
 
 def run_group(name: str, warmups, echo) -> float:
-    """The warm-ups of one group, in order, in this process; the seconds they took."""
+    """The warm-ups of one group, in order, in this process; the seconds they took.  An
+    interrupt (Ctrl-C, or a sweep's ``SweepInterrupted``, whose message names a partial file
+    in the temporary folder removed here) is ``SweepInterrupted`` saying what is true of a
+    warm-up (``INTERRUPTED``)."""
     total = 0.0
-    with tempfile.TemporaryDirectory(prefix="cornerbif-warm-") as folder:
-        for w in warmups:
-            seconds = run_warmup(w, folder, lambda m, w=w: echo(f"[{name}] {m}"))
-            echo(f"[{name}] {w.label}: ready ({seconds:.1f} s)")
-            total += seconds
+    try:
+        with tempfile.TemporaryDirectory(prefix="cornerbif-warm-") as folder:
+            for w in warmups:
+                seconds = run_warmup(w, folder, lambda m, w=w: echo(f"[{name}] {m}"))
+                echo(f"[{name}] {w.label}: ready ({seconds:.1f} s)")
+                total += seconds
+    except (KeyboardInterrupt, SweepInterrupted):
+        raise SweepInterrupted(INTERRUPTED) from None
     return total
 
 
@@ -75,7 +90,8 @@ def warm(models, jobs: int, echo) -> float:
     """Warm every group of ``models``: the groups in child processes (``python -m
     cornerbif.warm GROUP``, with this environment: the same numba cache), ``jobs`` at a time;
     one group with ``jobs`` = 1 runs here.  Returns the seconds it took.  Raises
-    ``RuntimeError`` naming the groups that failed; an interrupt stops every child."""
+    ``RuntimeError`` naming the groups that failed; an interrupt (here, or of a child: its
+    exit 130) stops every child and is ``SweepInterrupted`` (``INTERRUPTED``)."""
     todo = groups(models)
     t0 = time.perf_counter()
     if len(todo) == 1 and jobs == 1:
@@ -95,8 +111,12 @@ def warm(models, jobs: int, echo) -> float:
             for name, proc in list(running.items()):
                 if proc.poll() is not None:
                     del running[name]
+                    if proc.returncode in CHILD_INTERRUPTED:
+                        raise SweepInterrupted(INTERRUPTED)
                     if proc.returncode != 0:
                         failed.append(name)
+    except KeyboardInterrupt:
+        raise SweepInterrupted(INTERRUPTED) from None
     finally:
         for proc in running.values():
             proc.terminate()
@@ -112,9 +132,13 @@ def _child(argv) -> int:
     echo = lambda m: print(m, file=sys.stderr, flush=True)     # noqa: E731
     try:
         run_group(group, groups(models)[group], echo)
-    except KeyboardInterrupt:
-        return 130
+    except (KeyboardInterrupt, SweepInterrupted):
+        return 130                    # the parent says so (``INTERRUPTED``), once
     return 0
+
+
+# a child's exit status when interrupted: its own 130, or killed by SIGINT or SIGTERM
+CHILD_INTERRUPTED = (130, -signal.SIGINT, -signal.SIGTERM)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..model import FigureKind
 from ..plot_style import save, title_lines
+from .normal_form import normal_form_needs
 
 if TYPE_CHECKING:
     from ..plot_data import PlotData
@@ -71,6 +72,15 @@ def figure_corner_curves(plt, data: PlotData, plot_cfg: dict, title=None):
 
 
 class CornerCurves(FigureKind):
+    def check(self, w):
+        """The curves are eqs (11) and (17) of z = kappa + beta |sin omega t|, drawn with the
+        scene's r and beta: a scene of a model and obstacle with that corner normal form."""
+        if w.spec.has_normal_form(w.obstacle):
+            return []
+        return [f"plot.kind: 'corner_curves' draws kappa_C and kappa_CC of z = kappa + beta "
+                f"|sin omega t| (eqs 11, 17): it needs {normal_form_needs()} (this scene: model "
+                f"{w.model!r}" + (f", obstacle {w.obstacle!r}" if w.spec.obstacles else "") + ")"]
+
     def draw(self, plt, datas, out, y, title, plot_cfg, color_by, branches):
         # start-up: drawing loads h5py and matplotlib; checking a scene loads neither
         from ..plot_base import partial_notes

@@ -24,8 +24,14 @@ def normal_form_needs() -> str:
 @dataclass(frozen=True)
 class NormalFormKind(FigureKind):
     drawer: str = ""    # the function of ``plot_normal_form`` that draws this kind
+    needs_keep: tuple = ()      # the observables it reads from the file (``output.keep``)
+
     def check(self, w):
         problems = []
+        for k in self.needs_keep:
+            if k not in w.keep:
+                problems.append(f"plot.kind: {self.name!r} draws the recorded {k} values; "
+                                f"output.keep must contain {k!r}")
         if not w.spec.has_normal_form(w.obstacle):
             problems.append(f"plot.kind: {self.name!r} draws the corner normal form of z = kappa "
                             f"+ beta |sin omega t| (sections 4-5): it needs {normal_form_needs()} "

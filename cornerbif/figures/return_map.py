@@ -14,4 +14,5 @@ class ReturnMap(NormalFormKind):
 
 
 FIGURE = ReturnMap("return_map", "the first return A0 against a0 (Fig. 10)",
-                   files="single_runs", drawer="figure_return_maps")
+                   files="single_runs", drawer="figure_return_maps",
+                   needs_keep=("section",))

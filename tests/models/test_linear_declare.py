@@ -5,9 +5,12 @@ declared system or refuses it naming the key and the value; ``numeric_paths`` an
 from __future__ import annotations
 
 import copy
+import dataclasses
+import os
 import subprocess
 import sys
 import tomllib
+import warnings
 
 import numpy as np
 import pytest
@@ -17,6 +20,8 @@ from hypothesis import strategies as st
 from cornerbif.model import shown
 from cornerbif.models.linear.declare import numeric_paths, read_system, with_value
 from cornerbif.models.linear.system import MAX_CONTACTS, MAX_DOFS
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 SKETCH = """
 [system]
@@ -179,6 +184,8 @@ REFUSALS = [
     ("forcing F string", _set(["forcing", 0, "F"], "0.7"), "system.forcing.0.F", "'0.7'"),
     ("forcing F missing", _set(["forcing", 0, "F"], DEL), "system.forcing.0.F", "missing"),
     ("forcing Omega < 0", _set(["forcing", 0, "Omega"], -0.9), "system.forcing.0.Omega", "-0.9"),
+    # a period 2 pi / Omega of inf (seen: a run crashed in model.system_period)
+    ("forcing Omega tiny", _set(["forcing", 0, "Omega"], 5e-324), "system.forcing.0.Omega", "5e-324"),
     ("forcing phi inf", _set(["forcing", 0, "phi"], INF), "system.forcing.0.phi", "inf"),
     ("forcing unknown", _set(["forcing", 0, "omega"], 1.0), "system.forcing.0.omega", "did you mean 'Omega'"),
     ("contacts too many", _set(["contact"], NINE), "system.contact", f"{MAX_CONTACTS + 1} contacts"),
@@ -214,6 +221,8 @@ REFUSALS = [
     ("fixed with beta", _set(["contact", 0, "beta"], 0.5), "system.contact.R.beta", "0.5"),
     ("fixed with omega", _set(["contact", 0, "omega"], 2.0), "system.contact.R.omega", "2.0"),
     ("moving omega 0", _set(["contact", 0], {**MOVING, "omega": 0.0}), "system.contact.R.omega", "0.0"),
+    ("moving omega tiny", _set(["contact", 0], {**MOVING, "omega": 1e-310}), "system.contact.R.omega",
+     "1e-310"),
     ("moving omega missing", _set(["contact", 0], {k: v for k, v in MOVING.items() if k != "omega"}),
      "system.contact.R.omega", "missing"),
     ("moving beta nan", _set(["contact", 0], {**MOVING, "beta": NAN}), "system.contact.R.beta", "nan"),
@@ -317,16 +326,18 @@ FLOATS = st.floats(-2.0, 2.0, allow_subnormal=False)
 @st.composite
 def systems(draw):
     """A random valid [system] table: N = 1..6, M = A A^T + I (not symmetrized: its rounding
-    is tolerated), K = B B^T of any rank, any C, forces and contacts."""
+    is tolerated), K = B B^T of any rank, C = D D^T + G - G^T (dissipative with a gyroscopic
+    part), forces and contacts."""
     n = draw(st.integers(1, MAX_DOFS))
     dofs = [f"q{i}" for i in range(n)]
     A = np.array(draw(st.lists(FLOATS, min_size=n * n, max_size=n * n))).reshape(n, n)
     rank = draw(st.integers(0, n))
     B = np.array(draw(st.lists(FLOATS, min_size=n * rank, max_size=n * rank))).reshape(n, rank)
-    C = draw(st.lists(FLOATS, min_size=n * n, max_size=n * n))
+    D, G = (np.array(draw(st.lists(FLOATS, min_size=n * n, max_size=n * n))).reshape(n, n) for _ in "DG")
     table = {"dofs": dofs, "mass": (A @ A.T + np.eye(n)).tolist(), "stiffness": (B @ B.T).tolist(),
-             "damping": np.array(C).reshape(n, n).tolist(),
-             "forcing": [{"on": draw(st.sampled_from(dofs)), "F": f, "Omega": abs(o)}
+             "damping": (D @ D.T + G - G.T).tolist(),
+             "forcing": [{"on": draw(st.sampled_from(dofs)), "F": f,
+                          "Omega": abs(o) if abs(o) >= 1e-300 else 0.0}      # (a period: a float)
                          for f, o in draw(st.lists(st.tuples(FLOATS, FLOATS), max_size=3))]}
     contacts = []
     for name in draw(st.lists(st.sampled_from("ABCDEFGHxyz"), unique=True, max_size=MAX_CONTACTS)):
@@ -385,3 +396,379 @@ def test_a_moving_obstacle_of_no_height_is_refused():
         assert system is None
         assert any(p.startswith("system.contact.R.beta: 0.0 is 0") and "fixed" in p
                    for p in problems), problems
+
+
+# ------------------------------------------------------------------ names and their datasets
+def _with_dof(name, at=1):
+    """The sketch with its dof ``at`` (0: x, 1: y) renamed ``name`` everywhere."""
+    t = sketch()
+    old = t["dofs"][at]
+    t["dofs"][at] = name
+    for c in t["contact"]:
+        c["gap"] = {name if d == old else d: v for d, v in c["gap"].items()}
+    for f in t["forcing"]:
+        f["on"] = name if f["on"] == old else f["on"]
+    return t
+
+
+# a dof named so would write a dataset the file holds already: an impact's own (impacts/u),
+# its velocity an impact's (in: impacts/v_in), or a group's scale (impacts/ic, impacts/record)
+COLLIDING = ["t", "contact", "u", "corner_offset", "in", "out", "ic", "record", "v_in", "v_x"]
+
+
+@pytest.mark.parametrize("at", [0, 1])
+@pytest.mark.parametrize("name", COLLIDING)
+def test_a_dof_whose_datasets_the_file_holds_is_refused(name, at):
+    """Seen: dofs named "in" and "out" passed validate, then the writer crashed with "name
+    already exists" (impacts/v_in twice); "ic" and "record" crashed it the same way (the
+    scales each group holds).  Each is refused naming system.dofs.<i> and the value."""
+    s, problems = read_system(_with_dof(name, at))
+    assert s is None
+    assert any(p.startswith(f"system.dofs.{at}: {name!r}") for p in problems), problems
+
+
+def test_the_names_a_dof_may_not_take_are_the_files_own():
+    """declare.FILE_NAMES are the datasets the writer puts beside a dof's in its groups: an
+    impact's own (model.BASE_FIELDS and CORNER_FIELDS) and the scales io.create copies
+    into each group (ic; record where the impacts are), read from a file the writer made."""
+    from cornerbif.models.linear.declare import FILE_NAMES, GROUP_SCALES, IMPACT_NAMES, dataset_names
+    from cornerbif.models.linear.model import BASE_FIELDS, CORNER_FIELDS
+    assert set(IMPACT_NAMES) == {f.name.split("/", 1)[1] for f in BASE_FIELDS + CORNER_FIELDS}
+    assert set(FILE_NAMES) == set(IMPACT_NAMES) | set(GROUP_SCALES)
+    assert dataset_names("x") == ("x", "v_x")
+
+
+NAMES = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,6}", fullmatch=True) | st.sampled_from(
+    ["in", "out", "in_", "_in", "ic", "ic_", "record", "records", "x_in", "u_", "t_", "status", "done",
+     "period", "symbols", "impacts", "initial", "final", "cycle", "attractor", "é", "θ_1", "x" * 64])
+
+
+@settings(max_examples=200, deadline=None)
+@given(name=NAMES)
+def test_every_dof_name_accepted_makes_a_file_the_writer_can_write(tmp_path_factory, name):
+    """Whatever name a dof is allowed, the writer allocates every dataset of the scene
+    (io.create: no name twice), its own and its velocity's among them."""
+    import h5py
+
+    from cornerbif import io
+    table = {"dofs": [name, "q"], "mass": [1.0, 1.0], "stiffness": [1.0, 1.0],
+             "contact": [{"name": "R", "gap": {name: 1.0}, "kappa": -1.0}]}
+    if read_system(table)[1]:
+        return
+    text = ("[scene]\nname = \"n\"\nmodel = \"linear\"\n" + _toml_system(table)
+            + "[sweep]\n\"contact.R.kappa\" = { values = [-1.0, -0.5] }\n[initial]\ncount = 1\n"
+            "[run]\ntransient = 5\nrecord = 5\n")
+    from cornerbif import config
+    scene = config.loads(text)
+    path = tmp_path_factory.mktemp("names") / "n.h5"
+    io.create(path, scene, 1).close()
+    with h5py.File(path) as f:
+        assert {name, f"v_{name}"} <= set(f["impacts"]) and {name, f"v_{name}"} <= set(f["final"])
+
+
+def _toml_system(table) -> str:
+    from cornerbif import config
+    return config.dumps({"system": table})
+
+
+def test_a_dof_name_is_at_most_64_characters():
+    """A 100 000-character dof name was accepted and written; a coordinate's name has at most
+    MAX_NAME characters, and a longer one is refused with its value shortened.  A contact's
+    name is one letter: a long one is refused, shortened too."""
+    from cornerbif.models.linear.declare import MAX_NAME
+    assert MAX_NAME == 64
+    assert read_system(_with_dof("y" * 64))[1] == []
+    for n in (65, 100_000):
+        s, problems = read_system(_with_dof("y" * n))
+        assert s is None
+        (p,) = [p for p in problems if p.startswith("system.dofs.1:")]
+        assert f"is {n} characters long" in p and "at most 64" in p and len(p) < 300, p
+        assert f"<{n} characters>" in p or n < 80, p
+    t = sketch()
+    t["contact"][0]["name"] = "R" * 100_000
+    s, problems = read_system(t)
+    assert s is None
+    (p,) = [p for p in problems if p.startswith("system.contact.0.name:")]
+    assert "<100000 characters>" in p and len(p) < 300, p
+
+
+# ------------------------------------------------------------------ damping
+@pytest.mark.parametrize("damping,smallest", [
+    ([-1e300, -1e300], "-1e+300"),
+    ([[1, 5], [-7, -3]], "-3.23607"),
+    ([0.1, -0.01], "-0.01"),
+    ([[0.0, 1.0], [1.0, 0.0]], "-1"),          # symmetric, indefinite
+])
+def test_a_damping_whose_symmetric_part_is_not_semi_definite_is_refused(damping, smallest):
+    """Negative damping feeds the free motion without bound (as a K not semi-definite):
+    refused naming system.damping, its value and the smallest eigenvalue of (C + C^T) / 2
+    (seen: [-1e300, -1e300] and [[1, 5], [-7, -3]] validated "ok")."""
+    t = sketch()
+    t["damping"] = damping
+    s, problems = read_system(t)
+    assert s is None
+    (p,) = problems
+    assert p.startswith(f"system.damping: {shown(damping)} is not positive semi-definite"), p
+    assert smallest in p, p
+
+
+@pytest.mark.parametrize("damping", [
+    [[1, 5], [-5, 1]],                   # damped and gyroscopic
+    [[0.0, 1.0], [-1.0, 0.0]],           # purely gyroscopic: its symmetric part is 0
+    [[1.0, 1.0], [1.0, 1.0]],            # semi-definite (a zero eigenvalue)
+    [[1.0, 1.0 + 1e-13], [1.0 + 1e-13, 1.0]],   # indefinite by rounding: within PSD_TOL
+    [0.0, 0.0],
+])
+def test_a_gyroscopic_or_semi_definite_damping_is_allowed(damping):
+    t = sketch()
+    t["damping"] = damping
+    s, problems = read_system(t)
+    assert problems == []
+    np.testing.assert_array_equal(s.damping, np.diag(damping) if np.ndim(damping) == 1 else damping)
+
+
+# ------------------------------------------------------------------ sizes past float64
+SIZES = [
+    # {key path: value}, the key refused (None: accepted)
+    ({("mass",): [1e300, 1e300]}, None),
+    ({("mass",): [1e-310, 1.0]}, "system.mass"),                 # M^-1 overflows
+    ({("mass",): [1e308, 1e308]}, "system.mass"),                # its eigenvalues overflow
+    ({("mass",): [1e-300, 1e-300]}, "system.mass"),              # tiny: M^-1 F past MAX_RATE
+    ({("stiffness",): [[1e200, 0.0], [0.0, 0.0]]}, "system.stiffness"),
+    ({("stiffness",): [[1e20, 0.0], [0.0, 0.0]]}, "system.stiffness"),
+    ({("stiffness",): [[1e11, 0.0], [0.0, 0.0]]}, None),
+    ({("damping",): [[1e300, 0.0], [0.0, 0.0]]}, "system.damping"),
+    ({("forcing", 0, "F"): 1e300}, "system.forcing.0.F"),
+    ({("forcing", 0, "Omega"): 1e13}, "system.forcing.0.Omega"),
+    ({("contact", 0, "gap"): {"x": 1e200}}, "system.contact.R.gap"),   # a^T M^-1 a overflows
+    ({("contact", 0, "gap"): {"x": 1e-160}}, "system.contact.R.gap"),  # ... or underflows
+    ({("contact", 0, "gap"): {"x": 1e100}}, None),
+    ({("contact", 0, "gap"): {"x": 1e100}, ("stiffness",): [[1e10, 0.0], [0.0, 0.0]]},
+     "system.contact.R.gap"),                                      # |a| |A|^20 overflows
+    ({("contact", 0, "gap"): {"x": 1e40}, ("stiffness",): [[1e11, 0.0], [0.0, 0.0]]}, None),
+]
+
+
+@pytest.mark.parametrize("changes,key", SIZES, ids=[
+    " ".join(f"{'.'.join(map(str, p))}={v}" for p, v in c.items()) for c, _ in SIZES])
+def test_sizes_past_float64_are_refused_without_a_warning(changes, key):
+    """Numbers each finite whose products or inverses overflow (M^-1, M^-1 K, a^T M^-1 a,
+    the kernel's powers of the flight's matrix) are refused naming the key, and no numpy
+    RuntimeWarning is raised on the way (seen: declare.py's overflow for mass = [1e300],
+    kernel.py's for a stiffness of 1e200); those accepted prepare the kernel's arrays
+    without one either."""
+    t = sketch()
+    for path, value in changes.items():
+        _set(list(path), value)(t)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s, problems = read_system(t)
+        if key is None:
+            assert problems == []
+            from cornerbif.models.linear.kernel import prepare
+            s = dataclasses.replace(s, contacts=tuple(c for c in s.contacts if c.law == "impact"))
+            got = prepare(s, 0.0, np.zeros(s.n), np.zeros(s.n))
+            assert all(np.isfinite(got[k]).all() for k in ("A", "cA", "cAs", "D", "N", "E"))
+            return
+    assert s is None
+    assert any(p.startswith(key + ":") for p in problems), problems
+    assert all("nan" not in p for p in problems), problems
+
+
+def test_the_cli_says_no_runtime_warning_for_a_huge_mass():
+    """The audit's case: `--set 'system.mass=[1e300]'` on configs/bouncing_ball.toml printed
+    declare.py's overflow warning before its verdict."""
+    for value, code in (("[1e300]", 0), ("[1e-310]", 2), ("[1e308]", 2)):
+        r = subprocess.run([sys.executable, "-m", "cornerbif.cli", "validate", "configs/bouncing_ball.toml",
+                            "--set", f"system.mass={value}"], capture_output=True, text=True, cwd=ROOT)
+        assert r.returncode == code, r.stderr
+        assert "Warning" not in r.stderr and "Traceback" not in r.stderr, r.stderr
+        if code:
+            assert "system.mass: " in r.stderr and value.strip("[]") in r.stderr.replace("+", ""), r.stderr
+
+
+# ------------------------------------------------------------------ many settings at once
+VALUES = FLOATS | st.sampled_from([0.0, -1.0, 1e-300, -1e-300, 1e300, -1e300, 1e13, 1e-13, 1e154, 5e-324,
+                                   1e-310, 1e100, 1e-160, 2.0 ** -30])
+
+
+@settings(max_examples=150, deadline=None)
+@given(systems(), st.data())
+def test_refusable_flags_every_setting_read_system_refuses(table, data):
+    """declare.refusable (a sweep's combinations, all at once) flags every setting of the
+    chosen numbers that read_system refuses, as the sweep sets them (with_value where a
+    value differs from the table's), bad values and sizes past float64 among them; the
+    table's own values are not flagged."""
+    from cornerbif.models.linear.declare import refusable
+    defaults = numeric_paths(table)
+    chosen = data.draw(st.lists(st.sampled_from(sorted(defaults)), min_size=1, max_size=3, unique=True))
+    rows = data.draw(st.lists(st.lists(VALUES, min_size=len(chosen), max_size=len(chosen)),
+                              min_size=1, max_size=6))
+    rows.append([defaults[p] for p in chosen])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        flags = refusable(table, chosen, rows)
+    assert not flags[-1]
+    for row, flag in zip(rows, flags):
+        t = table
+        for p, v in zip(chosen, row):
+            if v != defaults[p]:
+                t = with_value(t, p, v)
+        if read_system(t)[0] is None:
+            assert flag, (dict(zip(chosen, row)), read_system(t)[1])
+
+
+LINEAR = """[scene]
+name = "big"
+model = "linear"
+[system]
+dofs = ["a", "b", "c", "d", "e", "f"]
+mass = [[2.0, 0.1, 0.0, 0.0, 0.0, 0.0], [0.1, 2.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]]
+stiffness = [[2.0, -1.0, 0.0, 0.0, 0.0, 0.0], [-1.0, 2.0, -1.0, 0.0, 0.0, 0.0],
+             [0.0, -1.0, 2.0, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 2.0, -1.0, 0.0],
+             [0.0, 0.0, 0.0, -1.0, 2.0, -1.0], [0.0, 0.0, 0.0, 0.0, -1.0, 2.0]]
+damping = [[0.1, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.1, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.1, 0.0, 0.0, 0.0],
+           [0.0, 0.0, 0.0, 0.1, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.1, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.1]]
+forcing = [{ on = "a", F = 0.5, Omega = 1.2 }]
+""" + "".join(f'[[system.contact]]\nname = "{n}"\ngap = {g}\nkappa = -1.0\n' for n, g in (
+    ("A", "{ a = 1.0 }"), ("B", "{ b = 1.0 }"), ("C", "{ c = 1.0 }"), ("D", "{ d = 1.0 }"),
+    ("E", "{ e = 1.0 }"), ("F", "{ f = 1.0 }"), ("G", "{ a = -1.0 }"), ("H", "{ b = 1.0, a = -1.0 }"))) + """
+[initial]
+count = 1
+[run]
+transient = 5
+record = 5
+[sweep]
+"""
+
+
+def test_a_sweep_of_the_most_combinations_is_checked_well_under_a_second():
+    """6 dofs, 8 contacts, two matrix entries of 141 values each: 19 881 combinations (under
+    MAX_CHECKED_COMBINATIONS), each a system checked before the run.  Read one by one (about
+    1.3 ms each) validate took 25 s; all at once (declare.refusable) a few tens of
+    milliseconds.  The first bad one is still named as before."""
+    import time
+
+    from cornerbif import config
+    from cornerbif.config import SceneError
+    grid = ('"stiffness.a.b" = { start = -1.0, stop = 0.0, num = 141 }\n'
+            '"mass.a.b" = { start = 0.0, stop = 0.5, num = 141 }\n')
+    config.loads(LINEAR + grid)                      # (imports and caches warm; CPU seconds:
+    #                                                  the test's machine may be busy)
+    t0 = time.process_time()
+    config.loads(LINEAR + grid)
+    assert time.process_time() - t0 < 1.0
+    # mass entries past the diagonal's (2.0): M is not positive-definite there
+    stiff, mass = np.linspace(-1.0, 0.0, 141).tolist(), np.linspace(0.0, 2.5, 141).tolist()
+    bad = f'"stiffness.a.b" = {{ values = {stiff} }}\n"mass.a.b" = {{ values = {mass} }}\n'
+    t0 = time.process_time()
+    with pytest.raises(SceneError) as e:
+        config.loads(LINEAR + bad)
+    assert time.process_time() - t0 < 1.0
+    from cornerbif import registry
+    spec = registry.get("linear").for_system(tomllib.loads(LINEAR)["system"])[0]
+    want = _one_by_one(spec, [("stiffness.a.b", tuple(stiff)), ("mass.a.b", tuple(mass))])
+    assert want.startswith("system.mass: ") and "sweep.stiffness.a.b = -1.0, " in want, want
+    assert e.value.problems == [want], (e.value.problems, want)
+
+
+def _one_by_one(spec, axes):
+    """The problem the linear model's check said before it checked many at once: every
+    combination of the numbers checked together, then each other axis alone, each system
+    read whole (model.system_of) in order; here with the pass of the forces at their largest
+    the check adds."""
+    import itertools
+
+    from cornerbif.models.linear.model import _checked_together, _grows
+    joint = [(n, v) for n, v in axes if _checked_together(n)]
+    groups = ([joint] if joint else []) + [[(n, v)] for n, v in axes if not _checked_together(n)]
+    grows = [(n, (max(v, key=abs),)) for n, v in axes if not _checked_together(n) and _grows(n)]
+    if grows and (joint or len(grows) > 1):
+        groups.append(joint + grows)
+    for group in groups:
+        for combo in itertools.product(*[v for _, v in group]):
+            values = dict(zip([n for n, _ in group], combo))
+            _, bad = spec.system_of(values)
+            if bad:
+                where = ", ".join(f"sweep.{k} = {v!r}" for k, v in values.items())
+                return f"{bad[0]} (at {where})"
+    return None
+
+
+SWEPT = {
+    "mass.a.b": [0.0, 0.5, 1.0, 1.5, 1.9, 2.0, 3.0], "mass.c.c": [1.0, 0.5, 1e-13, -0.1],
+    "stiffness.a.b": [-1.0, -1.5, -2.0, 0.5], "stiffness.f.f": [2.0, 0.0, -1.0, 1e14],
+    "damping.a.b": [0.0, 0.2, -0.3, 5.0], "damping.b.a": [0.0, -0.2, -5.0],
+    "contact.H.gap.a": [-1.0, 0.0, 1e200], "contact.H.gap.b": [1.0, 0.0],
+    "forcing.0.F": [0.5, 1e11, 1e13], "forcing.0.Omega": [1.2, 0.0, 1e11],
+}
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_the_check_at_once_says_what_one_by_one_said(data):
+    """Random sweeps over matrix entries, gap coefficients and forces, valid or not: the
+    model's check (declare.refusable, then the flagged ones read whole) names the same first
+    bad combination as reading every combination one by one."""
+    from cornerbif import registry
+    table = tomllib.loads(LINEAR)["system"]
+    spec, problems = registry.get("linear").for_system(table)
+    assert problems == []
+    names = data.draw(st.lists(st.sampled_from(sorted(SWEPT)), min_size=1, max_size=4, unique=True))
+    axes = [(n, tuple(data.draw(st.lists(st.sampled_from(SWEPT[n]), min_size=1, max_size=4, unique=True))))
+            for n in names]
+
+    from types import SimpleNamespace
+    ctx = SimpleNamespace(follow=None, axes=[SimpleNamespace(name=n, values=v) for n, v in axes])
+    got = spec.check(ctx)
+    want = _one_by_one(spec, axes)
+    assert got == ([want] if want else []), (axes, got, want)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["a", "x1", "in_", "é", "θ_1", "d" * 64])
+def test_a_tiny_sweep_writes_a_file_for_unusual_legal_names(name, tmp_path):
+    """Legal names close to the refused ones (in_, beside in; x1 beside x_1) and names not
+    ASCII run a sweep and write its file: each coordinate's and velocity's dataset in each
+    group, beside the impacts' own."""
+    import h5py
+    from click.testing import CliRunner
+
+    from cornerbif.cli import main
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[scene]\nname = "names"\nmodel = "linear"\n[system]\ndofs = ["{name}"]\nmass = [1.0]\n'
+                     f'stiffness = [0.0]\nforcing = [{{ on = "{name}", F = -1.0 }}]\n[[system.contact]]\n'
+                     f'name = "T"\ngap = {{ "{name}" = 1.0 }}\nobstacle = "sine"\nbeta = 0.036\nomega = 6.0\n'
+                     'r = 0.5\n[sweep]\n"contact.T.beta" = { values = [0.036, 0.037] }\n'
+                     f'[initial]\n"{name}" = [0.0, 0.5]\n"v_{name}" = [-0.5, 1.0]\n', encoding="utf-8")
+    out = tmp_path / "s.h5"
+    r = CliRunner().invoke(main, ["sweep", str(scene), "-o", str(out), "--no-progress", "--set",
+                                  "initial.count=1", "--set", "run.transient=5", "--set", "run.record=5"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        for group in ("initial", "final", "impacts"):
+            assert {name, f"v_{name}"} <= set(f[group]), (group, list(f[group]))
+        assert {"t", "u", "v_in", "v_out", "contact"} <= set(f["impacts"])
+        assert np.isfinite(f[f"impacts/{name}"][...]).any()
+
+
+def test_a_sweep_whose_mass_and_force_together_pass_the_rates_is_refused():
+    """A tiny mass allowed with the table's force and a large force allowed with the table's
+    mass make, together (a point of the grid), a flight's matrix past MAX_RATE: the
+    matrices' combinations are checked again with each swept F and Omega at its largest,
+    and the point is named (else it would be found mid-sweep)."""
+    from cornerbif import config
+    from cornerbif.config import SceneError
+    ball = ('[scene]\nname = "b"\nmodel = "linear"\n[system]\ndofs = ["x"]\nmass = [1.0]\nstiffness = [0.0]\n'
+            'forcing = [{ on = "x", F = -1.0 }]\n[[system.contact]]\nname = "T"\ngap = { x = 1.0 }\n'
+            '[initial]\ncount = 1\n[sweep]\n')
+    config.loads(ball + '"mass.x" = { values = [1.0, 1e-6] }\n')
+    config.loads(ball + '"forcing.0.F" = { values = [-1.0, -1e7] }\n')
+    with pytest.raises(SceneError) as e:
+        config.loads(ball + '"mass.x" = { values = [1.0, 1e-6] }\n'
+                     '"forcing.0.F" = { values = [-1.0, -1e7] }\n')
+    (p,) = e.value.problems
+    assert p.startswith("system.forcing.0.F: -10000000.0 gives the flight's matrix A"), p
+    assert "the mass is [1e-06]" in p and "past 1e+12" in p, p
+    assert p.endswith("(at sweep.mass.x = 1e-06, sweep.forcing.0.F = -10000000.0)"), p

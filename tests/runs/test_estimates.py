@@ -184,3 +184,30 @@ def test_durations_are_said_in_bounded_words():
     assert duration(1e8) == "3.2 years"
     assert duration(1e7) == "115.7 days"
     assert about(700.0) == "about 11.7 min"
+
+
+LINEAR_GRID = ('sweep."forcing.0.Omega".num=2', "initial.count=2")
+
+
+def test_the_linear_estimate_counts_chunks_between_impacts():
+    """The linear model's own time model (models/linear/cost.py): its flights go in chunks of
+    1 / |A|, so a stiff system (k = 1e4: |A| about 1e4) whose runs may fly their whole budget
+    between impacts can take over 100 times the shipped system's (k = 1), and says why.
+    Before, every linear run was priced at (transient + record) impacts alone: 'about 0.0 s'
+    where one run took 31 s."""
+    base = estimate_time(_scene("two_stops", *LINEAR_GRID), 2)
+    stiff = estimate_time(_scene("two_stops", *LINEAR_GRID, "system.stiffness=[1e4]"), 2)
+    assert stiff.high > 100 * base.high, (stiff, base)
+    assert any("time budget" in r and "chunks of 1/|A|" in r for r in stiff.reasons)
+    assert "uncertain" in estimate_words(stiff)
+
+
+def test_the_linear_estimate_counts_obstacle_pieces():
+    """A contact on a fast obstacle is searched piece by piece: the oscillator between two
+    stops, one stop now a rectified sine of omega = 1e4 (2e4 pieces a forcing period), has a
+    high end over 10 times the fixed stops', and the reason names the pieces."""
+    fixed = estimate_time(_scene("two_stops", *LINEAR_GRID), 2)
+    fast = estimate_time(_scene("two_stops", *LINEAR_GRID, 'system.contact.R.obstacle="rectified_sine"',
+                                "system.contact.R.beta=1e-3", "system.contact.R.omega=1e4"), 2)
+    assert fast.high > 10 * fixed.high, (fast, fixed)
+    assert any("obstacle pieces" in r for r in fast.reasons)

@@ -30,6 +30,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(HERE)))
 FIG06A = os.path.join(ROOT, "configs", "fig06a.toml")
 FIG19A = os.path.join(ROOT, "configs", "fig19a.toml")
 FIG15B = os.path.join(ROOT, "configs", "fig15b.toml")   # map2d, a kappa sweep
+TWO_STOPS = os.path.join(ROOT, "configs", "two_stops.toml")   # linear, two contacts
 # one run at omega = 1e9 crosses about 1e9 obstacle pieces before it escapes: many seconds
 # (benchmarks/estimate_time.py); at omega = 1.999 (Fig. 6(a)) a run takes milliseconds.  Two
 # blocks of one run each: the first quick, the second slow
@@ -163,6 +164,9 @@ def _compute_in_thread(scene, blk, control):
     (FIG06A, ["system.omega=1e9", "sweep.kappa.num=1", "initial.count=1"], "kappa"),
     (FIG19A, ["sweep.omega0={values=[1e8]}", "initial.count=1"], "omega0"),
     (FIG15B, ["sweep.kappa.num=1", "initial.count=2", "run.transient=4000000000"], "kappa"),
+    (TWO_STOPS, ['system.contact.R.obstacle="rectified_sine"', "system.contact.R.beta=1e-3",
+                 "system.contact.R.omega=1e12", 'sweep."forcing.0.Omega".num=1',
+                 "initial.count=2"], '"forcing.0.Omega"'),
 ])
 def test_each_model_kernel_stops_on_the_flag(path, sets, axis):
     """The flow, two-particle and map2d kernels read the control's stop flag while a run goes
@@ -171,7 +175,9 @@ def test_each_model_kernel_stops_on_the_flag(path, sets, axis):
     is running), the kernel returns before finishing any run (none is counted done) and the
     model's ``run_items`` raises KernelStopped, so nothing half-computed is analysed or
     written.  Every run here takes many seconds (flow and two_particle: about 1e9 obstacle
-    pieces or sections a run; map2d: 4e9 steps at 4e8 a second)."""
+    pieces or sections a run; map2d: 4e9 steps at 4e8 a second; linear: a stop on an obstacle
+    of omega = 1e12, about 3e11 pieces within each chunk of its flight, the flag read every
+    STOP_POLL pieces)."""
     _compiled(path, axis)
     scene = config.load(path, sets)
     control = Control()

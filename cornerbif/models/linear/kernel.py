@@ -77,6 +77,7 @@ POLY_STEPS = 60             # certified steps on the polynomial before the halvi
 NONE, IMPACT, GRAZE = 0, 1, 2
 STEPS_OUT = 3               # ``first_event``: its step budget spent
 OK, CHATTERS, BUDGET, ESCAPED, NONFINITE = 0, 1, 2, 3, 4
+STOP_POLL = 4096            # obstacle pieces walked within a chunk between looks at the stop flag
 
 
 def prepare(system, t0, x0, v0):
@@ -518,9 +519,8 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
         status, ny = state_norm(y, n, escape)
         if status != OK:
             return status, max(0, impacts - skip)
-        # the chunk: H long; each contact's obstacle pieces within it are searched in turn on
-        # the one polynomial of its flight
-        L = H
+        # the chunk (H, or to t_max): each contact's pieces searched on its flight's polynomial
+        L = min(H, t_max - t)
         best = math.inf
         bi = -1
         bj = 0
@@ -553,7 +553,11 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
             end = min(L, best)       # a later contact's event must come before the best
             code = ROOT_NONE
             s = end
+            walked = 0
             while s0 < end:
+                walked += 1
+                if walked % STOP_POLL == 0 and stop_requested(control):
+                    return STOPPED, 0    # a fast obstacle: many pieces within one chunk
                 pe = piece_start(d, j) + piece_length(d, j) - t
                 if pe <= s0:
                     j += 1
@@ -577,6 +581,8 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
             if code == FOUND and s < best:
                 best, bi, bj = s, i, j
         if bi < 0:
+            if L < H:
+                return BUDGET, max(0, impacts - skip)    # no event before the budget's end
             # on by the chunk's flight E_0 (written out: a call with arrays costs their atomic
             # reference counting, measured with perf)
             for k in range(m):

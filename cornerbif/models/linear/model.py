@@ -22,7 +22,6 @@ continuation, a start time, a followed sweep (docs/linear.md, "What remains").
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 
 import numpy as np
@@ -30,14 +29,15 @@ import numpy as np
 from ... import obstacles
 from ...model import Coord, Field, Model, Param, RunResult, Warmup
 from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS, IMPACT_CYCLE, IMPACT_FIELDS
-from . import declare
+from . import cost, declare
 from .system import LinearSystem
 
 # cold compile seconds of the linear kernels (the event loop and the cycle detection),
 # measured by ``python benchmarks/compile_time.py`` (announced rounded)
 COMPILE_SECONDS = 16.0
 # combinations of the swept numbers checked together (matrix entries, gap coefficients),
-# each a system read and checked before a sweep (about 0.2 ms each): more are refused
+# all checked at once before a sweep (``declare.refusable``: about 2 microseconds each, and
+# each one flagged read whole for its message): more are refused
 MAX_CHECKED_COMBINATIONS = 20_000
 # the time budget of a run: run.max_periods units of the system's time scale
 # (``time_scale``)
@@ -60,10 +60,19 @@ CORNER_FIELDS = tuple(f for f in IMPACT_FIELDS if f.name == "impacts/corner_offs
 
 
 def _checked_together(path: str) -> bool:
-    """Whether a swept number's validity depends on others swept with it: an entry of M or K
-    (positive-definite, semi-definite) or a gap's coefficient (not all zero)."""
+    """Whether a swept number's validity depends on others swept with it: an entry of M, K
+    or C (positive-definite, semi-definite; the flight's rates M^-1 K, M^-1 C) or a gap's
+    coefficient (not all zero; a^T M^-1 a)."""
     k = path.split(".")
-    return k[0] in ("mass", "stiffness") or (k[0] == "contact" and len(k) == 4 and k[2] == "gap")
+    return k[0] in ("mass", "stiffness", "damping") or (k[0] == "contact" and len(k) == 4 and k[2] == "gap")
+
+
+def _grows(path: str) -> bool:
+    """Whether a swept number enters the flight's rates with the matrices (a force's F or
+    Omega: ``declare._scales``, whose bound grows with |F| and Omega), so that the matrices'
+    combinations are checked with its largest value too."""
+    k = path.split(".")
+    return k[0] == "forcing" and k[-1] in ("F", "Omega")
 
 
 def paper_words(system: LinearSystem) -> bool:
@@ -199,6 +208,18 @@ class LinearModel(Model):
         entry at its table value does not write its old value back over its mirror)."""
         return declare.read_system(self.system_table_with(values))
 
+    def run_seconds(self, scene, values):
+        """The time model of one run at the numbers ``values`` of a grid point
+        (``estimate.estimate_time``): ``cost.run_seconds`` of its system, whose flights last
+        about its time scale between impacts and at most its budget (``run.max_periods``
+        time scales) in all."""
+        system, bad = self.system_of(values)
+        if bad:
+            return 0.0, 0.0, 0.0, []
+        T = time_scale(system)
+        return cost.run_seconds(system, scene.transient + scene.record, T, scene.max_periods * T,
+                                scene.n_ic)
+
     def given_problem(self, names) -> str | None:
         """A problem of the numbers given together by name (``cornerbif.simulate``'s
         keywords), or None: a matrix entry and its mirror are one number."""
@@ -214,9 +235,12 @@ class LinearModel(Model):
         """Every point's system is a valid one, checked before any run: each value by its
         own range (``RANGES``, by config), each axis alone with the others at the table's
         values, and every combination of the swept numbers that are checked together (the
-        entries of M and K: positive-definite; a gap's coefficients: not all zero) up to
-        MAX_CHECKED_COMBINATIONS, more refused; a mirrored pair of matrix entries swept
-        together and a followed sweep are refused."""
+        entries of M, K and C: positive-definite, semi-definite, the flight's rates; a gap's
+        coefficients: not all zero, a^T M^-1 a) up to MAX_CHECKED_COMBINATIONS, more refused,
+        those combinations again with each swept force's F and Omega at its largest (the
+        rates grow with them); a mirrored pair of matrix entries swept together and a
+        followed sweep are refused.  All the combinations of a group at once
+        (``declare.refusable``); the first one refused is said as ``system_of`` says it."""
         problems = []
         if self.system_table is None:
             return problems
@@ -235,19 +259,38 @@ class LinearModel(Model):
         n_comb = math.prod(len(a.values) for a in joint) if joint else 1
         if n_comb > MAX_CHECKED_COMBINATIONS:
             problems.append(f"sweep: {n_comb} combinations of {', '.join(a.name for a in joint)} "
-                            f"(entries of M and K, or a gap's coefficients, each combination a "
+                            f"(entries of M, K and C, or a gap's coefficients, each combination a "
                             f"system to check before the run); at most {MAX_CHECKED_COMBINATIONS}")
             return problems
-        combos = [dict(zip((a.name for a in joint), c))
-                  for c in itertools.product(*[a.values for a in joint])]
-        combos += [{a.name: v} for a in swept if a not in joint for v in a.values]
-        for values in combos:
-            system, bad = self.system_of(values)
+        # the combinations of the numbers checked together, then each other axis alone, then
+        # the combinations with every force's F and Omega at its largest (the rates)
+        groups = [(joint, lambda a, v: v)] if joint else []
+        groups += [([a], lambda a, v: v) for a in swept if a not in joint]
+        grows = [a for a in swept if a not in joint and _grows(a.name)]
+        if grows and (joint or len(grows) > 1):
+            groups.append((joint + grows, lambda a, v: v if a in joint else (max(v, key=abs),)))
+        for axes, values_of in groups:
+            bad = self._first_refused([(a.name, values_of(a, a.values)) for a in axes])
             if bad:
-                where = ", ".join(f"sweep.{k} = {v!r}" for k, v in values.items())
-                problems.append(f"{bad[0]} (at {where})")
+                problems.append(bad)
                 break
         return problems
+
+    def _first_refused(self, axes) -> str | None:
+        """The problem of the first combination (the last axis fastest) of the
+        ``axes`` (name, values) whose system is refused, said as a sweep's, or None: all the
+        combinations flagged at once (``declare.refusable``), the flagged ones read whole."""
+        names = [name for name, _ in axes]
+        grid = np.meshgrid(*[np.asarray(v, float) for _, v in axes], indexing="ij")
+        rows = np.stack([g.reshape(-1) for g in grid], -1)
+        for index in np.flatnonzero(declare.refusable(self.system_table, names, rows)):
+            at = np.unravel_index(index, [len(v) for _, v in axes])
+            values = {name: v[i] for (name, v), i in zip(axes, at)}
+            _, bad = self.system_of(values)
+            if bad:
+                where = ", ".join(f"sweep.{k} = {v!r}" for k, v in values.items())
+                return f"{bad[0]} (at {where})"
+        return None
 
     def check_point(self, values: dict):
         """The problem of the system at one point (``cornerbif.simulate``'s elements), or

@@ -55,7 +55,7 @@ class LinearSystem:
     dofs: tuple               # coordinate names, in order
     mass: np.ndarray          # (N, N) symmetric positive-definite
     stiffness: np.ndarray     # (N, N) symmetric positive semi-definite
-    damping: np.ndarray       # (N, N)
+    damping: np.ndarray       # (N, N) its symmetric part positive semi-definite
     forcing: tuple = ()       # of Forcing
     contacts: tuple = ()      # of Contact
 
