@@ -258,8 +258,8 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
     and it."""
     side = 0
     Y = None
-    best = None         # (|fun|, point): the one closest to the sign change
-    halve = cut = False
+    best = None         # (|fun|, point): the point returned, the one closest to the sign change
+    halve = False
     for _ in range(120):
         s = (s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) if f_hi != f_lo and not halve
              else 0.5 * (s_lo + s_hi))
@@ -277,7 +277,6 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
                 # neither solved: the far end moves to the nearer of the two, and halving
                 # goes on (it stopped here, leaving the point short of the sign change)
                 s_hi, side, halve = (mid if abs(mid - s_lo) < abs(s - s_lo) else s), 0, True
-                cut = True
                 if abs(s_hi - s_lo) <= 1e-14 * max(1.0, abs(s)):
                     break         # the best located point so far
                 continue
@@ -301,8 +300,7 @@ def _locate(problem, Ya, T, s_lo, s_hi, f_lo, f_hi, fun, W):
             break
     if best is None:
         raise OrbitError("no point of the branch was solved between the step's ends")
-    # the last point solved; where the bracket was cut short, the one nearest the sign change
-    return best[1] if cut else Y
+    return best[1]
 
 
 def continue_branch(problem, X0, lam0, lam_range, direction=1.0, T0=None, ds=1e-3,
