@@ -85,7 +85,8 @@ def test_a_refusal_before_the_first_point_leaves_no_partial_file(tmp_path, monke
 def test_the_audits_file_size_limit_keeps_the_partial_file_it_names(tmp_path):
     """The audit's case, a real ``ulimit -f``: the partial file (48 KB) is created, the
     first block (about 260 KiB) does not fit; exit 1, the message names the partial file
-    kept, and it exists; without the limit --resume completes the sweep."""
+    kept, and it exists; without the limit --resume completes the sweep.  (With numba's cache
+    cold, a clean install's, the limit is met inside the write: EFBIG, the same promise.)"""
     cap = 100 * 1024
 
     def limit():
@@ -97,9 +98,12 @@ def test_the_audits_file_size_limit_keeps_the_partial_file_it_names(tmp_path):
     r = subprocess.run(args, cwd=tmp_path, capture_output=True, text=True, timeout=600,
                        preexec_fn=limit)
     assert r.returncode == EXIT_FAULT, r.stderr[-2000:]
-    assert "no room" in r.stderr and "Traceback" not in r.stderr, r.stderr[-2000:]
+    # refused before the block's write ("no room"), or, where the limit is met inside the write
+    # (a first compile's cache files change what the process has written), by the write itself
+    assert ("no room" in r.stderr or "EFBIG" in r.stderr) and "Traceback" not in r.stderr, \
+        r.stderr[-2000:]
+    assert "uf.h5.partial" in r.stderr and "kept" in r.stderr, r.stderr[-2000:]
     assert (tmp_path / "uf.h5.partial").exists(), r.stderr[-2000:]
-    assert "no point was finished yet" in r.stderr, r.stderr[-2000:]
     r = CliRunner().invoke(main, [*args[3:], "-o", str(tmp_path / "uf.h5"), "--resume"])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "uf.h5").exists() and not (tmp_path / "uf.h5.partial").exists()
