@@ -119,7 +119,7 @@ PLANS = {
         ('models.two_particle.tangent.batch_two_particle_stability',
          "(int64, int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
     ),
-    # 10 functions of the command: 2.5 s of 2.5 s when recorded
+    # 11 functions of the command (the grazing monitor's flight_gaps added by hand, 2026-11-28)
     "the flow continuation's functions": (
         ('numerics.oscillator.derive_py',
          "(Array(float64, 1, 'C', False, aligned=True))"),
@@ -141,6 +141,8 @@ PLANS = {
          '(float64, float64, float64, float64, float64)'),
         ('stability.multipliers_py',
          '(float64, float64, float64, float64)'),
+        ('models.flow.kernel.flight_gaps_py',
+         "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), float64, float64, float64, Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
     ),
     # 8 functions of the command: 4.01 s of 4.01 s when recorded
     "the two-particle continuation's functions": (

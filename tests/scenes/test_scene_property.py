@@ -25,7 +25,7 @@ loudly instead of swapping the machine:
   .lock; validate and --dry-run never write anything; a finished sweep leaves its output
   and neither .partial nor .lock.
 
-The default size (``SCENE_FUZZ_EXAMPLES``, 30) keeps the test to about a minute; run
+The default size (``SCENE_FUZZ_EXAMPLES``, 15) keeps the test to about a minute; run
 ``SCENE_FUZZ_EXAMPLES=400 python -m pytest tests/scenes/test_scene_property.py`` to hunt. Under
 CI=1 the conftest's derandomized profile applies (the examples are then reproducible).
 The ``@example`` scenes are the minimal reproducers of failures this test found; they are
@@ -59,7 +59,7 @@ PROBE_SECONDS = 10.0          # a large valid sweep is watched this long, then k
 SMALL_RUNS = 300              # a sweep is "small" (run to its end) up to this many runs ...
 SMALL_IMPACTS = 1000          # ... of at most this many impacts (transient + record) ...
 SMALL_BUDGET = 10**5          # ... with budgets (max_events, max_periods) at most this
-EXAMPLES = int(os.environ.get("SCENE_FUZZ_EXAMPLES", "30"))
+EXAMPLES = int(os.environ.get("SCENE_FUZZ_EXAMPLES", "15"))
 NCPU = os.cpu_count() or 1
 
 MODELS = registry.models()

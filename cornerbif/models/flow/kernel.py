@@ -37,6 +37,7 @@ from ...numerics.roots import (
     quad_first_root,
     quad_positive,
 )
+from ...numerics.saltation import flight_matrix
 from ...obstacles.dispatch import (
     D_HALF,
     D_IK,
@@ -959,3 +960,21 @@ def first_impact_times(params, ics, pieces):
     kernel(params, ints, ics, t, *scratch[:4], corner, *scratch[4:], np.zeros(n, np.int8),
            np.zeros((n, 2)), np.zeros(n, np.int64))
     return t[:, 0]
+
+
+@jit
+def flight_gaps(p, d, t0, u0, v0, ts, out):
+    """The gap u - z(t) at each time of ``ts`` along the free flight that leaves (u0, v0) at
+    time t0 (eq 4 in closed form: the particular solution plus exp(A (t - t0)) acting on the
+    homogeneous part, ``saltation.flight_matrix``), written into ``out``.  The continuation's
+    grazing monitor samples each flight of an orbit with it (``orbit.FlowOrbit._gap`` is the
+    same sum for one time), one call per flight rather than one per sample."""
+    up0, vp0 = particular(p, d, t0)
+    du, dv = u0 - up0, v0 - vp0
+    for i in range(ts.shape[0]):
+        t = ts[i]
+        M = flight_matrix(p[P.SIGMA], p[P.K], t - t0)
+        up1, _ = particular(p, d, t)
+        j, tau = piece_at(d, t)
+        out[i] = (up1 + M[0] * du + M[1] * dv) - z_state(p, j, tau)[0]
+    return out

@@ -125,7 +125,7 @@ COMPILE_SECONDS = {"flow": 5.8, "own_kernel": 6.9, "t0": 0.9, "stability": 2.8,
 # functions the continuation calls from Python, each cached on its own)
 CONTINUATION_KERNELS = ("numerics.saltation.flight_matrix", "numerics.saltation.impact_saltation",
                         "stability.multipliers", "numerics.oscillator.acceleration",
-                        "obstacles.dispatch.piece_at")
+                        "obstacles.dispatch.piece_at", "models.flow.kernel.flight_gaps")
 
 
 def kind_tables(scene) -> dict:

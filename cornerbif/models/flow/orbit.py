@@ -285,14 +285,15 @@ class FlowOrbit:
 
     def _flight_minima(self, p, d, imp, D):
         """Per flight, (its smallest sampled gap, refined by a parabola, and its time)."""
+        from .kernel import flight_gaps  # start-up: loads numba
         out = []
+        s = np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]
+        g = np.empty(GAP_SAMPLES)
         for i in range(self.n):
             n = (i + 1) % self.n
             t0 = imp["t"][i]
             t1 = imp["t"][n] + (D if n == 0 else 0.0)
-            s = np.linspace(0.0, 1.0, GAP_SAMPLES + 2)[1:-1]
-            g = np.array([self._gap(p, d, t0, imp["u"][i], imp["v_out"][i],
-                                    t0 + x * (t1 - t0)) for x in s])
+            flight_gaps(p, d, t0, imp["u"][i], imp["v_out"][i], t0 + s * (t1 - t0), g)
             q = int(np.argmin(g))
             gq, xq = g[q], s[q]
             if 0 < q < len(s) - 1:
