@@ -99,6 +99,21 @@ class Coord:
     final_doc: str
 
 
+def start_time_problems(ctx) -> list:
+    """A model's ``start_time`` (t0: ``[initial] t``, ``[sweep] initial.t``) must not be
+    negative: the problems of a scene's check context ``ctx`` (``config``'s), said with
+    their keys."""
+    problems = []
+    t0 = ctx.ranges.get("t", (0.0, 0.0))
+    swept_t = ctx.swept("initial.t")
+    if t0[0] < 0.0:
+        problems.append(f"initial.t: {list(t0)} must not be negative (the start time t0)")
+    if swept_t is not None and min(swept_t.values) < 0.0:
+        problems.append(f"sweep.initial.t: {min(swept_t.values)!r} must not be negative "
+                        "(the start time t0)")
+    return problems
+
+
 @dataclass(frozen=True)
 class Field:
     """One stored dataset of an observable: ``name`` in the file, ``source`` the key of

@@ -720,7 +720,8 @@ def test_the_check_at_once_says_what_one_by_one_said(data):
             for n in names]
 
     from types import SimpleNamespace
-    ctx = SimpleNamespace(follow=None, axes=[SimpleNamespace(name=n, values=v) for n, v in axes])
+    ctx = SimpleNamespace(follow=None, axes=[SimpleNamespace(name=n, values=v) for n, v in axes],
+                          ranges={}, swept=lambda name: None)
     got = spec.check(ctx)
     want = _one_by_one(spec, axes)
     assert got == ([want] if want else []), (axes, got, want)

@@ -239,7 +239,7 @@ def test_the_scene_as_run_reads_back_to_the_same_model():
     s = config.loads(BALL + '[sweep]\n"contact.T.beta" = { values = [0.03, 0.04] }\n'
                      '[initial]\nx = [0.2, 0.5]\nv_x = [-0.5, 0.5]\n')
     again = config.loads(s.text)
-    assert again.spec.start_names == s.spec.start_names == ("x", "v_x")
+    assert again.spec.start_names == s.spec.start_names == ("x", "v_x", "t")   # t: the start time
     assert list(again.spec.params) == list(s.spec.params)
     assert again.axes == s.axes and again.system == s.system and again.text == s.text
     assert s.spec is not registry.get("linear")

@@ -79,6 +79,45 @@ def test_the_flow_as_a_linear_scene_has_the_flows_words_periods_and_impacts(case
         assert len(words) >= 5 and any("g" in w for w in words), words
 
 
+@pytest.mark.parametrize("case", ["fig06a", "damped_forced"])
+def test_a_start_time_is_the_flows_start_time(case):
+    """Runs started at t0 > 0 (``[initial] t``, simulate's ``t0``: the obstacle's and the
+    force's phase at the start) against the flow kernel's own start times, from the same
+    states: the same status, word and period at every run, and impacts equal to 1e-10.
+    A start time also moves the runs: at t0 = 0 the same starts give other impacts."""
+    fixed, flow_name, path, grid = CASES[case]
+    rng = np.random.default_rng(11)
+    u0, v0 = rng.uniform(1.5, 20.0, 8), rng.uniform(-20.0, 20.0, 8)
+    t0 = rng.uniform(0.1, 3.0, 8)
+    table = _linear_table(**{**{"omega": 2.0}, **fixed, flow_name: float(grid[0])})
+    values = {**fixed, flow_name: float(grid[-1])}
+    f = cornerbif.simulate(u0, v0, t0=t0, model="flow", beta=1.0, r=0.8, transient=300,
+                           record=60, **values)
+    lin = cornerbif.simulate(model="linear", table=table, x0=u0, v_x0=v0, t0=t0,
+                             transient=300, record=60, **{path: float(grid[-1])})
+    np.testing.assert_array_equal(lin["status"], f["status"])
+    np.testing.assert_array_equal(lin["symbols"], f["symbols"])
+    np.testing.assert_array_equal(lin["period"], f["period"])
+    for k in ("t", "u", "v_in", "v_out"):
+        np.testing.assert_array_equal(np.isnan(lin[k]), np.isnan(f[k]), err_msg=k)
+        np.testing.assert_allclose(lin[k], f[k], rtol=0, atol=1e-10, err_msg=k)
+    assert (np.asarray(lin["status"]) == 0).sum() >= 4
+    at_zero = cornerbif.simulate(model="linear", table=table, x0=u0, v_x0=v0, transient=0,
+                                 record=2, **{path: float(grid[-1])})
+    first = cornerbif.simulate(model="linear", table=table, x0=u0, v_x0=v0, t0=t0,
+                               transient=0, record=2, **{path: float(grid[-1])})
+    assert (first["t"][:, 0] > t0).all()
+    assert not np.allclose(first["t"][:, 0] - t0, at_zero["t"][:, 0])
+
+
+def test_a_negative_start_time_is_refused_naming_its_key():
+    text = open(os.path.join(ROOT, "configs", "fig06a_linear.toml")).read()
+    from cornerbif import config
+    with pytest.raises(config.SceneError, match=r"initial\.t: \[-1\.0, 0\.5\] must not be negative"):
+        config.loads(text, ["initial.t=[-1.0, 0.5]"])
+    assert config.loads(text, ["initial.t=[0.0, 0.5]"]).spec.start_time.name == "t"
+
+
 def test_the_shipped_fig06a_linear_scene_is_fig06a():
     """configs/fig06a_linear.toml is configs/fig06a.toml's system, axis and run settings."""
     lin = tomllib.load(open(os.path.join(ROOT, "configs", "fig06a_linear.toml"), "rb"))

@@ -14,7 +14,7 @@ import tomllib
 import numpy as np
 
 from ... import obstacles
-from ...model import IC_PREFIX, Coord, Field, Model, RunResult, Warmup
+from ...model import IC_PREFIX, Coord, Field, Model, RunResult, Warmup, start_time_problems
 from ...observables import (
     ANALYSIS_KERNELS,
     ANALYSIS_SECONDS,
@@ -153,11 +153,7 @@ class FlowModel(Model):
         rng = ctx.ranges.get("u")
         t0 = ctx.ranges.get("t", (0.0, 0.0))
         swept_t = ctx.swept("initial.t")
-        if t0[0] < 0.0:
-            problems.append(f"initial.t: {list(t0)} must not be negative (the start time t0)")
-        if swept_t is not None and min(swept_t.values) < 0.0:
-            problems.append(f"sweep.initial.t: {min(swept_t.values)!r} must not be negative "
-                            "(the start time t0)")
+        problems += start_time_problems(ctx)
         moving_start = t0[1] > 0.0 or (swept_t is not None and max(swept_t.values) > 0.0)
         if ctx.drawn and rng and moving_start and not ctx.problems and not ctx.swept("initial.u"):
             top = OBSTACLES[ctx.extra["obstacle"]].top(ctx)

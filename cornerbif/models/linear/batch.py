@@ -42,8 +42,9 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
               f_const, ics, ints, tol, chatter, escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
               o_status, o_final):
     """Item i: the system ``which[i]`` (the stacked arrays' first index) from the start ics[i]
-    = (x, v) at t = 0: ``ints[I_TRANSIENT]`` impacts, then up to o_t.shape[1] recorded, within
-    the time ``t_max`` of its system.  A start with a gap below zero: BELOW_OBSTACLE, nothing
+    = (x, v, t0) at t = t0 (the start time, 0 where ics has no column for it):
+    ``ints[I_TRANSIENT]`` impacts, then up to o_t.shape[1] recorded, within the time
+    ``t_max`` of its system after t0.  A start with a gap below zero: BELOW_OBSTACLE, nothing
     recorded.  ``f_omega``, ``f_phi`` (per system, per harmonic force) and ``f_const`` (a
     constant force: its state 1) start the forcing's states (``flight.forcing_state``)."""
     n = gaps.shape[2]
@@ -57,29 +58,31 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
             o_status[i] = STOPPED
             continue
         s = which[i]
+        t0 = ics[i, 2 * n] if ics.shape[1] > 2 * n else 0.0
         y0[:] = 0.0
         for k in range(2 * n):
             y0[k] = ics[i, k]
         for h in range(f_omega.shape[1]):
-            y0[2 * n + 2 * h] = math.cos(f_phi[s, h])
-            y0[2 * n + 2 * h + 1] = math.sin(f_phi[s, h])
+            th = f_phi[s, h] if t0 == 0.0 else f_omega[s, h] * t0 + f_phi[s, h]
+            y0[2 * n + 2 * h] = math.cos(th)
+            y0[2 * n + 2 * h + 1] = math.sin(th)
         if f_const[s]:
             y0[m - 1] = 1.0
         o_final[i, :] = math.nan
         inside = False
         for c in range(gaps.shape[1]):
             row, d = as_tuple(rows[s, c]), derived_tuple(ds[s, c])   # (kernel.run's types)
-            j, _ = piece_at(d, 0.0)
-            while piece_start(d, j) + piece_length(d, j) <= 0.0:
+            j, _ = piece_at(d, t0)
+            while piece_start(d, j) + piece_length(d, j) <= t0:
                 j += 1
-            g, _ = gap_at(cA[s], c, y0, row, d, j, 0.0)
+            g, _ = gap_at(cA[s], c, y0, row, d, j, t0)
             if g < 0.0:
                 inside = True
         if inside:
             o_status[i] = S.BELOW_OBSTACLE
             continue
         st, _ = run(E[s], A[s], H[s], normA[s], cA[s], cAs[s], N[s], normc[s], rows[s], ds[s], gaps[s],
-                    D[s], r[s], y0, 0.0, n, skip, skip + rec, tol, chatter, escape, t_max[s],
+                    D[s], r[s], y0, t0, n, skip, skip + rec, tol, chatter, escape, t0 + t_max[s],
                     control,
                     o_t[i], o_c[i], o_x[i], o_vin[i], o_vout[i], o_final[i])
         if st == STOPPED:

@@ -13,10 +13,11 @@ checks it), with
   contact's gap (for one coordinate against a moving obstacle: the flow model's u, v), and
   each coordinate's position and velocity just after the impact.
 
-A run starts at t = 0 from (x, v); its impacts' letters are their contacts' names, its period
-is counted in the system's period T (``system_period``).  Chattering ends a run (status STUCK:
-sticking is not followed yet), as do soft stops (not run yet: refused).  Not yet: stability,
-continuation, a start time, a followed sweep (docs/linear.md, "What remains").
+A run starts at its start time t0 (``[initial] t``, 0 by default) from (x, v); its impacts'
+letters are their contacts' names, its period is counted in the system's period T
+(``system_period``).  Chattering ends a run (status STUCK: sticking is not followed yet), as
+do soft stops (not run yet: refused).  Not yet: stability, continuation, a followed sweep
+(docs/linear.md, "What remains").
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import math
 import numpy as np
 
 from ... import obstacles
-from ...model import Coord, Field, Model, Param, RunResult, Warmup
+from ...model import Coord, Field, Model, Param, RunResult, Warmup, start_time_problems
 from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS, IMPACT_CYCLE, IMPACT_FIELDS
 from . import cost, declare
 from .system import LinearSystem
@@ -188,8 +189,11 @@ class LinearModel(Model):
             f for d in system.dofs for f in (
                 Field(f"impacts/{d}", f"x_{d}", f"{d} at the impact", "length"),
                 Field(f"impacts/v_{d}", f"v_{d}", f"{d}' just after the impact", "length/time")))
+        start_time = Coord("t", (0.0, 0.0), 2 * system.n, None, "start time t0 of the run (the "
+                           "forces' and the obstacles' phase at the start; the state is given "
+                           "at t0)", "")
         return dataclasses.replace(
-            self, params=params, state=tuple(state),
+            self, params=params, state=tuple(state), start_time=start_time,
             observables={"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
                                                               else ())},
             contact_words=not corner_words,
@@ -241,7 +245,7 @@ class LinearModel(Model):
         rates grow with them); a mirrored pair of matrix entries swept together and a
         followed sweep are refused.  All the combinations of a group at once
         (``declare.refusable``); the first one refused is said as ``system_of`` says it."""
-        problems = []
+        problems = start_time_problems(ctx)
         if self.system_table is None:
             return problems
         if ctx.follow not in (None, "none"):
