@@ -173,6 +173,28 @@ def test_followed_scene_runs_as_a_chain_with_the_same_bytes(tmp_path, cluster):
     _same_bytes(ref, out)
 
 
+@pytest.mark.slow
+@needs_dask
+def test_a_linear_scene_gives_the_local_backends_bytes(tmp_path, cluster):
+    """A linear scene (configs/two_stops.toml: two contacts, contact words, its own datasets
+    per coordinate; with start times drawn in [0, 2]) on the cluster: the local backend's
+    bytes."""
+    address, _ = cluster
+    scene = os.path.join(ROOT, "configs", "two_stops.toml")
+    sets = ["--set", 'sweep."forcing.0.Omega".num=5', "--set", "initial.count=2", "--set",
+            "run.transient=40", "--set", "run.record=16", "--set", "initial.t=[0.0, 2.0]",
+            "--block-points", "2"]
+    ref = tmp_path / "ref.h5"
+    r = _run(["sweep", scene, "-o", ref, "--no-progress", *sets])
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "dask.h5"
+    r = _run(["sweep", scene, "-o", out, "--no-progress", *sets, "--scheduler", address])
+    assert r.exit_code == 0, r.output
+    _same_bytes(ref, out)
+    with h5py.File(out) as f:
+        assert "impacts/x" in f and (f["initial/t"][...] > 0.0).any()
+
+
 @needs_dask
 def test_a_worker_killed_once_mid_chunk_has_its_chunk_rerun(tmp_path, cluster):
     address, ctrl = cluster
