@@ -122,7 +122,7 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
                          spec.int_settings(scene), scene)
     res = {k: v.reshape(shape + v.shape[1:]) for k, v in run.fields.items()}
     res.update(status=run.status.reshape(shape),
-               final=run.final.reshape(shape + (len(spec.coords),)),
+               final=run.final.reshape(shape + (len(spec.finals),)),
                period=run.period.reshape(shape), impacts_per_cycle=run.ipc.reshape(shape),
                symbols=words(run.symbols).reshape(shape))
     return res

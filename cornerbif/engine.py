@@ -341,12 +341,8 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
             if G else np.zeros(len(idx), np.int64))
     wall = spec.wall_at_start(params)
     ics = draw_initial(scene, flat, wall, params)
-    if carry is not None:
-        # the carried state starts at t = 0 (a section corner), in place of the drawn start
-        ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > wall[:, None])
-        ns = carry.shape[-1]
-        ics[..., :ns] = np.where(ok[..., None], carry, ics[..., :ns])
-        ics[..., ns:] = np.where(ok[..., None], 0.0, ics[..., ns:])
+    if carry is not None:       # the previous slab's final states, where they can start
+        ics = spec.starts_from_carry(carry, ics, wall, params)
     n = len(idx) * scene.n_ic
     prm = np.repeat(params, scene.n_ic, axis=0)
     run = spec.run_items(prm, ics.reshape(n, ics.shape[-1]), ints, scene)
@@ -356,8 +352,8 @@ def compute_block(scene: Scene, blk, carry=None, ints=None) -> dict:
     block = {}
     for i, c in enumerate(spec.start_names):
         block[f"initial/{c}"] = ics[..., i].reshape(shape)
-    for i, c in enumerate(spec.coords):
-        block[f"final/{c}"] = final[:, i].reshape(shape)
+    for i, c in enumerate(spec.finals):
+        block[f"final/{c.name}"] = final[:, i].reshape(shape)
     block.update({"status": st.reshape(shape), "period": period.reshape(shape),
                   "impacts_per_cycle": ipc.reshape(shape),
                   "symbols": symbol_bytes(sym, scene.record).reshape(shape)})
@@ -390,7 +386,7 @@ def cycle_signatures(series, out, period, ipc):
 
 def carry_names(scene: Scene) -> list:
     """The datasets a followed sweep carries to the next slab (the final states)."""
-    return [f"final/{c}" for c in scene.spec.coords]
+    return [f"final/{c.name}" for c in scene.spec.finals]
 
 
 def block_carry(scene: Scene, block: dict) -> np.ndarray:

@@ -159,7 +159,7 @@ def create(path, scene, n_ic, command="", versions=None):
             shape, scales = per_run + (fld.axis[1],), gsc + [ic, axis_scale(*fld.axis)]
         make(fld.name, shape, fld.dtype, fld.fill, scales, event=fld.axis is None, **units,
              long_name=fld.long_name)
-    for c in spec.state:
+    for c in spec.finals:
         make(f"final/{c.name}", per_run, "f8", np.nan, gsc + [ic], long_name=c.final_doc)
     make("status", per_run, "i1", -1, gsc + [ic],
          codes=json.dumps({str(k): v for k, v in S.NAMES.items()}),

@@ -413,6 +413,8 @@ class Model:
     axis_labels: dict = field(default_factory=dict)
     warmups: tuple = ()
     contact_words: bool = False
+    carried: tuple = ()        # Coords written as final/<c> after the state's, carried by
+    #                            follow with it (the linear model's phase of its final state)
     # the obstacle kind whose corners, corner curves and marks a figure draws for a file of
     # this model whose [system] names none (None: the model has no one obstacle, linear's)
     drawn_obstacle: str | None = None
@@ -437,6 +439,12 @@ class Model:
     @property
     def coords(self) -> tuple:
         return tuple(c.name for c in self.state)
+
+    @property
+    def finals(self) -> tuple:
+        """What ``final/<c>`` holds and a followed sweep carries: the state, then
+        ``carried``."""
+        return self.state + self.carried
 
     @property
     def starts(self) -> tuple:
@@ -485,6 +493,17 @@ class Model:
         """Per packed row and start time (shape (n, n_ic)), the obstacle's height at t0
         (models with a ``start_time``)."""
         raise NotImplementedError
+
+    def starts_from_carry(self, carry, ics, wall, params) -> np.ndarray:
+        """A followed sweep's starts at a slab: ``ics`` (points, n_ic, start size) as drawn,
+        where ``carry`` (points, n_ic, len(finals)), the previous slab's final states, lies
+        above the obstacle at t = 0 (``wall``, per point), replaced by it, started at t = 0
+        (a section corner: the flow's final state is at a section)."""
+        ok = np.isfinite(carry).all(axis=-1) & (carry[..., 0] > wall[:, None])
+        ns = carry.shape[-1]
+        ics[..., :ns] = np.where(ok[..., None], carry, ics[..., :ns])
+        ics[..., ns:] = np.where(ok[..., None], 0.0, ics[..., ns:])
+        return ics
 
     def pack_values(self, values: dict, scene) -> np.ndarray:
         """The packed parameter row of named values at one point."""

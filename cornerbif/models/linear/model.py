@@ -16,8 +16,9 @@ checks it), with
 A run starts at its start time t0 (``[initial] t``, 0 by default) from (x, v); its impacts'
 letters are their contacts' names, its period is counted in the system's period T
 (``system_period``).  Chattering ends a run (status STUCK: sticking is not followed yet), as
-do soft stops (not run yet: refused).  Not yet: stability, continuation, a followed sweep
-(docs/linear.md, "What remains").
+do soft stops (not run yet: refused).  A followed sweep carries each run's state in its last
+recorded flight and its phase (``_final``, ``starts_from_carry``).  Not yet: stability,
+continuation (docs/linear.md, "What remains").
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from ... import obstacles
 from ...model import Coord, Field, Model, Param, RunResult, Warmup, start_time_problems
 from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS, IMPACT_CYCLE, IMPACT_FIELDS
 from . import cost, declare
+from .flight import augmented, flight
 from .system import LinearSystem
 
 # cold compile seconds of the linear kernels (the event loop and the cycle detection),
@@ -108,6 +110,30 @@ def system_period(system: LinearSystem) -> float:
     return 0.0
 
 
+def autonomous(system: LinearSystem) -> bool:
+    """No time dependence: no harmonic force and every contact on a fixed stop (a constant
+    force is allowed)."""
+    return (all(f.Omega == 0.0 for f in system.forcing)
+            and all(c.obstacle == declare.FIXED for c in system.contacts))
+
+
+def phase_of(t: np.ndarray, T: np.ndarray, still: np.ndarray) -> np.ndarray:
+    """The phase (t mod T) / T in [0, 1) of times ``t`` in their systems' periods ``T``;
+    where T = 0, 0 for an autonomous system (``still``: time does not matter) and NaN for
+    one whose periods have no common multiple (no phase to carry)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ph = np.where(T > 0.0, np.mod(t, np.where(T > 0.0, T, 1.0)) / np.where(T > 0.0, T, 1.0),
+                      np.where(still, 0.0, np.nan))
+    return np.where(np.isfinite(t), ph, np.nan)
+
+
+# what a followed sweep carries beside the state: the phase of the final state's time
+PHASE = Coord("phase", (0.0, 0.0), -1, None, "",
+              "phase (t mod T) / T of the final state's time t in the system's period T (0 for "
+              "an autonomous system; NaN where T has none): a followed sweep starts the next "
+              "point's run from the final state at t0 = phase T there")
+
+
 def time_scale(system: LinearSystem) -> float:
     """The unit of a run's time budget: the system's period, else its slowest natural period
     (2 pi / the smallest nonzero sqrt of an eigenvalue of M^-1 K), else 1."""
@@ -172,10 +198,12 @@ class LinearModel(Model):
         state = []
         for k, d in enumerate(system.dofs):
             state.append(Coord(d, (-1.0, 1.0), 2 * k, None, f"initial {d}(0)",
-                               f"{d} just after the last impact"))
+                               f"{d} just after the last impact (a followed sweep: at the "
+                               "middle of the last recorded flight)"))
         for k, d in enumerate(system.dofs):
             state.append(Coord(f"v_{d}", (-1.0, 1.0), 2 * k + 1, None, f"initial {d}'(0)",
-                               f"{d}' just after the last impact"))
+                               f"{d}' just after the last impact (a followed sweep: at the "
+                               "middle of the last recorded flight)"))
         corner_words = paper_words(system)
         if corner_words:
             # z's corners are valleys only for beta > 0: a sweep of beta stays there
@@ -193,7 +221,7 @@ class LinearModel(Model):
                            "forces' and the obstacles' phase at the start; the state is given "
                            "at t0)", "")
         return dataclasses.replace(
-            self, params=params, state=tuple(state), start_time=start_time,
+            self, params=params, state=tuple(state), start_time=start_time, carried=(PHASE,),
             observables={"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
                                                               else ())},
             contact_words=not corner_words,
@@ -242,15 +270,12 @@ class LinearModel(Model):
         entries of M, K and C: positive-definite, semi-definite, the flight's rates; a gap's
         coefficients: not all zero, a^T M^-1 a) up to MAX_CHECKED_COMBINATIONS, more refused,
         those combinations again with each swept force's F and Omega at its largest (the
-        rates grow with them); a mirrored pair of matrix entries swept together and a
-        followed sweep are refused.  All the combinations of a group at once
+        rates grow with them); a mirrored pair of matrix entries swept together is
+        refused.  All the combinations of a group at once
         (``declare.refusable``); the first one refused is said as ``system_of`` says it."""
         problems = start_time_problems(ctx)
         if self.system_table is None:
             return problems
-        if ctx.follow not in (None, "none"):
-            problems.append("sweep.follow: the linear model does not follow attractors yet "
-                            "(its runs end at an impact, not at a section); remove it")
         swept = [a for a in ctx.axes if a.name in self.params]
         names = {a.name for a in swept}
         for a in swept:
@@ -422,6 +447,8 @@ class LinearModel(Model):
             out[f"x_{d}"] = np.ascontiguousarray(o_x[:, :, k])
             out[f"v_{d}"] = np.ascontiguousarray(o_vout[:, :, k])
         period_T = np.array([system_period(s) for s in systems], float)[which]
+        final = self._final(systems, which, o_t, o_x, o_vout, final, period_T,
+                            scene.follow != "none")
         letters = np.array([ord(c.name) for c in systems[0].contacts], np.uint8)
         period = np.zeros(n, np.int64)
         ipc = np.zeros(n, np.int64)
@@ -440,6 +467,58 @@ class LinearModel(Model):
                                     np.ascontiguousarray(out["v_in"]), period_T,
                                     scene.period_tol, letters, period, ipc, sym)
         return RunResult(out, st, final, period, ipc, sym)
+
+    @staticmethod
+    def _final(systems, which, o_t, o_x, o_vout, after_last, period_T, followed):
+        """``final`` (n, 2N + 1): the state just after each run's last impact, or in a
+        followed sweep at the middle of its last recorded flight (from its last impact but
+        one, by the exact flight ``flight.flight``: certified free of impacts, so the next
+        point's run starts clear of every contact), then its time's phase (``phase_of``).
+        NaN where the run recorded too few impacts."""
+        n, rec = o_t.shape
+        count = np.isfinite(o_t).sum(axis=1)
+        t_ref = np.where(count > 0, o_t[np.arange(n), np.maximum(count - 1, 0)], np.nan)
+        state = after_last.copy()
+        if followed:
+            state[:] = np.nan
+            t_ref = np.full(n, np.nan)
+            A = {}
+            for i in np.flatnonzero(count >= 2):
+                s, k = which[i], count[i] - 2
+                A.setdefault(s, augmented(systems[s]))
+                h = 0.5 * (o_t[i, k + 1] - o_t[i, k])
+                x, v = flight(systems[s], o_t[i, k], o_x[i, k], o_vout[i, k], h, A[s])
+                state[i] = np.concatenate([x, v])
+                t_ref[i] = o_t[i, k] + h
+        still = np.array([autonomous(s) for s in systems], bool)[which]
+        return np.concatenate([state, phase_of(t_ref, period_T, still)[:, None]], axis=1)
+
+    def starts_from_carry(self, carry, ics, wall, params):
+        """The previous slab's final states (``_final``: in flight, with their phase), each
+        started at t0 = phase T of this point's system, where it is clear of every contact
+        at t0; elsewhere the drawn start."""
+        from .events import ContactObstacle  # start-up: loads numba (the obstacles' heights)
+        n2 = carry.shape[-1] - 1
+        names = list(self.params)
+        for p, row in enumerate(params):
+            system, _ = self.system_of(dict(zip(names, row)))
+            T = system_period(system)
+            phase = carry[p, :, n2]
+            if T > 0.0:
+                t0 = phase * T
+            else:           # time matters not (autonomous), or has no phase (NaN)
+                t0 = np.where(np.isfinite(phase) & autonomous(system), 0.0, np.nan)
+            ok = np.isfinite(carry[p]).all(axis=-1) & np.isfinite(t0)
+            for i in np.flatnonzero(ok):
+                x = carry[p, i, :n2 // 2]
+                for c in system.contacts:
+                    ob = ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega)
+                    j, _ = ob.piece_at(t0[i])
+                    if not np.dot(c.gap, x) - ob.state(j, t0[i])[0] > 0.0:
+                        ok[i] = False
+            ics[p, :, :n2] = np.where(ok[:, None], carry[p, :, :n2], ics[p, :, :n2])
+            ics[p, :, n2] = np.where(ok, t0, ics[p, :, n2])
+        return ics
 
     @staticmethod
     def _run_group(systems, which, ics, ints, scene, outs, B):
