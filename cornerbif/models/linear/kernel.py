@@ -81,8 +81,41 @@ STOP_POLL = 4096            # obstacle pieces walked within a chunk between look
 
 
 def prepare(system, t0, x0, v0):
-    """The arrays of ``run`` for one system and start: a dict (module docstring)."""
+    """The arrays of ``run`` for one system and start: a dict (module docstring).  The
+    flight's part (``flight_arrays``) is computed once for systems that differ only in
+    their contacts' obstacles and laws (a sweep of kappa, beta, omega or r)."""
     A = augmented(system)
+    gaps = np.array([c.gap for c in system.contacts], float)
+    key = (A.tobytes(), A.shape, gaps.tobytes(), system.mass.tobytes())
+    flight = FLIGHT_MEMO.get(key)
+    if flight is None:
+        flight = flight_arrays(system, A, gaps)
+        if len(FLIGHT_MEMO) >= FLIGHT_MEMO_SIZE:
+            FLIGHT_MEMO.pop(next(iter(FLIGHT_MEMO)))
+        FLIGHT_MEMO[key] = flight
+    nc = len(system.contacts)
+    rows = np.zeros((nc, NPARAM))
+    ds = np.zeros((nc, NDERIVED))
+    for i, c in enumerate(system.contacts):
+        ob = ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega)
+        rows[i], ds[i] = ob.row, ob.d
+    y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float),
+                         forcing_state(system, t0)])
+    return {**flight, "rows": rows, "ds": ds, "gaps": gaps,
+            "r": np.array([c.r for c in system.contacts], float), "y0": y0,
+            "t0": float(t0), "n": system.n}
+
+
+# the flight's arrays of the last systems prepared (``prepare``), by their matrix A, gaps
+# and mass matrix: a sweep of a contact's numbers prepares its flight once
+FLIGHT_MEMO: dict = {}
+FLIGHT_MEMO_SIZE = 16
+
+
+def flight_arrays(system, A, gaps):
+    """The arrays of ``run`` that depend on the flight alone (A, its ladder, the gaps'
+    series and bounds, M^-1 a): a dict, shared by the systems ``prepare`` finds equal
+    (never written to: ``run`` and ``batch.run_batch`` only read them)."""
     m = A.shape[0]
     normA = float(np.linalg.norm(A, 2))
     H = 1.0 / max(normA, 1e-300)
@@ -90,8 +123,6 @@ def prepare(system, t0, x0, v0):
     nc = len(system.contacts)
     cA = np.zeros((nc, TAYLOR_TERMS + 3, m))
     cAs = np.zeros((nc, POLY_TERMS, m))
-    rows = np.zeros((nc, NPARAM))
-    ds = np.zeros((nc, NDERIVED))
     D = np.zeros((nc, system.n))
     for i, c in enumerate(system.contacts):
         row = np.zeros(m)
@@ -104,17 +135,10 @@ def prepare(system, t0, x0, v0):
         for k in range(POLY_TERMS):          # c (A H)^k / k!: each of norm <= |c| / k!
             cAs[i, k] = row
             row = row @ (A * H) / (k + 1)
-        ob = ContactObstacle(c.obstacle, c.kappa, c.beta, c.omega)
-        rows[i], ds[i] = ob.row, ob.d
         D[i] = np.linalg.solve(system.mass, c.gap)
-    y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float),
-                         forcing_state(system, t0)])
     N = np.array([flight_bounds(cA[i, 0], A, E, H, normA) for i in range(nc)]).reshape(nc, 3)
     return {"E": E, "A": A, "H": H, "normA": normA, "cA": cA, "cAs": cAs, "N": N,
-            "normc": np.array([np.linalg.norm(c.gap) for c in system.contacts]),
-            "rows": rows, "ds": ds, "gaps": np.array([c.gap for c in system.contacts], float),
-            "D": D, "r": np.array([c.r for c in system.contacts], float), "y0": y0,
-            "t0": float(t0), "n": system.n}
+            "normc": np.array([np.linalg.norm(c.gap) for c in system.contacts]), "D": D}
 
 
 @jit
