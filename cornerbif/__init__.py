@@ -5,14 +5,15 @@ forced impact oscillators"; equation numbers in docstrings are the paper's (READ
 it; docs/discrepancies.md lists where this code departs from its printed formulas).
 
 Public entry points: ``simulate`` (any model from Python), ``load_scene``
-(a scene file -> ``Scene``), ``run_sweep`` (a scene to its HDF5 file), and the model
+(a scene file -> ``Scene``), ``run_sweep`` (a scene to its HDF5 file), ``explore`` (a
+file's diagram as a Panel app, for Jupyter; the ``explore`` extra), and the model
 registry in ``cornerbif.registry``.  See README.md.
 """
 
 from ._version import FORMAT_VERSION, __version__
 from .errors import SweepError
 
-__all__ = ["simulate", "load_scene", "run_sweep", "Scene", "SceneError",
+__all__ = ["simulate", "load_scene", "run_sweep", "explore", "Scene", "SceneError",
            "SweepError", "__version__", "FORMAT_VERSION"]
 
 
@@ -27,6 +28,9 @@ def __getattr__(name):
     if name == "run_sweep":
         from .sweep import run_sweep  # start-up: loads h5py
         return run_sweep
+    if name == "explore":
+        from .explorer.session import app  # optional: the explore extra (Panel, HoloViews)
+        return app
     if name in ("Scene", "SceneError"):
         from . import config  # start-up: the registries
         return getattr(config, name)

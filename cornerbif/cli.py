@@ -535,6 +535,33 @@ def explain(file, recompute):
         click.echo(line)
 
 
+@main.command()
+@click.argument("files", nargs=-1, required=True, metavar="FILE.h5|SCENE.toml ...",
+                type=click.Path(dir_okay=False, exists=True))
+@click.option("--port", type=click.IntRange(min=0, max=65535), default=0, show_default=True,
+              help="The port on 127.0.0.1 (0: a free one).")
+@click.option("--no-browser", "no_browser", is_flag=True,
+              help="Print the URL only (a remote machine: forward the port with ssh -L).")
+def explore(files, port, no_browser):
+    """Explore sweeps' diagrams in the browser: every point drawn at screen resolution,
+    zoom and refine (a fresh sweep of the window, in a side file), click a point for its
+    orbit, continue from it, save the view as a scene or a figure (docs/explore.md).  A
+    SCENE.toml is swept first, beside it.  The server listens on 127.0.0.1 only and
+    needs the token of the URL it prints.  Needs pip install "cornerbif[explore]"."""
+    try:
+        from .explorer import server  # optional: the explore extra (Panel, HoloViews, Datashader)
+    except ImportError as e:
+        _fail(f"cornerbif explore needs the explore extra: pip install \"cornerbif[explore]\" "
+              f"({cut(str(e), 200)})")
+    from .io import FileFormatError  # start-up: loads h5py
+    paths = [server.sweep_first(f, echo=lambda m: click.echo(m, err=True))
+             if f.endswith(".toml") else f for f in files]
+    try:
+        server.serve(paths, port=port, browser=not no_browser, echo=click.echo)
+    except (FileFormatError, ValueError) as e:
+        _fail(str(e))
+
+
 def _sweep_lines(file):
     """``info`` of a sweep, in lines (``plot_base.PlotData`` reads it: only its finished points)."""
 

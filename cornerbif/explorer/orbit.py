@@ -1,0 +1,133 @@
+"""The orbit of one run of a file, recomputed: its start and parameters read from the file,
+run again by ``cornerbif.simulate`` with the scene's run settings, its flight rebuilt by the
+model (``Model.time_series``: u(t) over the obstacle z(t)); beside it what the file says
+of that run: word, period, stability, attractor and share, branch."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..api import simulate
+from ..plot_base import status_name, word_label
+from .points import Runs, _plain
+
+
+@dataclass
+class Orbit:
+    """One run's orbit: ``point`` (grid index, a tuple), ``start`` (its index among the
+    starts), the first swept axis's value ``x``, the start ``initial`` (the model's start
+    coordinates), the impacts
+    recomputed (``t``, ``u``, ``v_out``, ``offset``), the flight (``s``, ``us``, ``zs``, ``vs``:
+    v = du/dt of the rebuilt flight, between impacts) when the model rebuilds one, and
+    ``facts`` (name, value) for the page."""
+    point: tuple
+    start: int
+    x: float
+    initial: list
+    word: str
+    period: int
+    impacts: dict
+    flight: dict | None
+    facts: list = field(default_factory=list)
+
+
+def _system(dia: Runs, point: tuple) -> dict:
+    """The parameters at grid point ``point`` as ``simulate`` takes them: the model's
+    numbers, and its non-numeric keys (the obstacle) from the scene."""
+    d = dia.data
+    vals = {k: v for k, v in d.parsed.point(point).items() if v is not None}
+    spec = d.parsed.spec
+    extra = {k: d.scene.get("system", {})[k] for k in spec.system_extra
+             if k in d.scene.get("system", {})}
+    return {k: v for k, v in vals.items() if k in spec.params} | extra
+
+
+def _start(dia: Runs, point: tuple, ic: int) -> dict:
+    """The start of run (``point``, ``ic``) as ``simulate``'s keywords (``u0=``, ``t0=``)."""
+    import h5py  # start-up: loads h5py
+    out = {}
+    with h5py.File(dia.path, "r", locking=False) as f:
+        for c in dia.data.parsed.spec.start_names:
+            if c in f["initial"]:
+                out[f"{c}0"] = float(f["initial"][c][tuple(point) + (ic,)])
+    return out
+
+
+def recompute(dia: Runs, point: tuple, ic: int, cycles: float = 2.0) -> Orbit:
+    """Run (``point``, ``ic``) of ``dia``'s file (``point`` its grid index) again from its
+    start and parameters, with its scene's run settings, and rebuild its flight over
+    ``cycles`` cycles."""
+    point = tuple(int(k) for k in point)
+    scene = dia.data.parsed
+    system = _system(dia, point)
+    start = _start(dia, point, ic)
+    res = simulate(model=scene.model, transient=scene.transient, record=scene.record,
+                   tol=scene.tol, chatter=scene.chatter, escape=scene.escape,
+                   period_tol=scene.period_tol, **start, **system)
+    imp = {k: np.asarray(res[k]).reshape(-1) for k in ("t", "u", "v_out", "corner_offset")
+           if k in res}
+    word = str(np.asarray(res["symbols"]).reshape(-1)[0])
+    period = int(np.asarray(res["period"]).reshape(-1)[0])
+    ipc = int(np.asarray(res["impacts_per_cycle"]).reshape(-1)[0])
+    status = int(np.asarray(res["status"]).reshape(-1)[0])
+    flight = _flight(scene, system, imp, ipc, cycles) if scene.spec.timeseries else None
+    first = dia.data.axes[0]
+    orbit = Orbit(point, ic, float(dia.data.values[first][point[0]]), list(start.values()),
+                  word, period, imp, flight)
+    orbit.facts = _facts(dia, point, ic, orbit, ipc, status)
+    return orbit
+
+
+def _flight(scene, system, imp, ipc, cycles):
+    """u(t), z(t) of the recomputed impacts over ``cycles`` cycles (``Model.time_series``),
+    from the section before the first recorded impact; v = du/dt between impacts."""
+    t, u, vo = imp["t"], imp["u"], imp["v_out"]
+    ok = np.isfinite(t)
+    t, u, vo = t[ok], u[ok], vo[ok]
+    if t.size < 2:
+        return None
+    T = 2.0 * math.pi / system["omega"] if "omega" in system else 1.0
+    t0 = math.floor(t[0] / T + 1e-9) * T
+    span = cycles * (t[ipc] - t[0]) + (t[0] - t0) if 0 < ipc < t.size else t[min(10, t.size - 1)] - t0
+    t1 = min(t0 + span, t[-1])
+    fl = scene.spec.time_series(scene, system, t, u, vo, t0, t1)
+    s, us = fl["t"], fl["u"]
+    vs = np.full(s.shape, np.nan)
+    cuts = np.searchsorted(s, t[(t > t0) & (t < t1)])
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, s.size]):
+        if b - a >= 3:
+            vs[a:b - 1] = np.gradient(us[a:b - 1], s[a:b - 1])
+    return {"s": s - t0, "u": us, "z": fl["z"], "v": vs, "t0": t0}
+
+
+def _facts(dia: Runs, point, ic, orbit, ipc, status) -> list:
+    """What the page says of the run: the recomputed word and period beside the file's,
+    its stability values, its attractor (id, label, share) and branch where the file holds
+    them."""
+    d = dia.data
+    facts = [(a, f"{float(d.values[a][k]):.10g}") for a, k in zip(d.axes, point)]
+    facts += [("grid point, start", ", ".join(map(str, point + (ic,)))),
+             ("start", ", ".join(f"{v:.6g}" for v in orbit.initial)),
+             ("word (recomputed)", _plain(word_label(orbit.word)) if orbit.word else "no cycle"),
+             ("period, impacts per cycle", f"{orbit.period}, {ipc}"),
+             ("status", status_name(status))]
+    run = point + (ic,)
+    file_word = str(d.symbols[run])
+    facts.append(("word in the file", _plain(word_label(file_word)) if file_word else "no cycle"))
+    for what, name in (("lyapunov", "largest Lyapunov exponent"),
+                       ("multiplier", "largest |multiplier|")):
+        if what in d.stability:
+            facts.append((name, f"{d.stability[what][run]:.6g}"))
+    if dia.table is not None:
+        aid = int(dia.table["ids"][run])
+        if aid >= 0:
+            facts.append(("attractor id", str(aid)))
+            facts.append(("share of the starts", f"{float(dia.table['fraction'][aid]):.3g}"))
+            if "branch" in dia.table:
+                facts.append(("branch (cornerbif explain)", str(int(dia.table["branch"][aid]))))
+        else:
+            facts.append(("attractor", "none (no cycle)"))
+    return facts
