@@ -17,7 +17,6 @@ import time
 import h5py
 import numpy as np
 import pytest
-from conftest import cornerbif
 from explore_browser import (
     canvases,
     click_button,
@@ -27,6 +26,7 @@ from explore_browser import (
     start_browser,
     wait_text,
 )
+from explore_server import cornerbif, server, small_file  # noqa: F401 (fixtures)
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(missing() is not None, reason=str(missing()))]

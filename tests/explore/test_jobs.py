@@ -11,6 +11,7 @@ import shutil
 import tomllib
 
 import pytest
+from explore_server import small_file  # noqa: F401 (a fixture)
 
 from cornerbif.explorer import jobs
 
@@ -147,7 +148,7 @@ def test_a_chart_is_drawn_clicked_refined_and_saved_as_a_scene_of_its_cells(tmp_
 
     import h5py
     import numpy as np
-    from conftest import cornerbif
+    from explore_server import cornerbif
 
     from cornerbif.explorer.app import Files
     from cornerbif.explorer.session import page_for

@@ -9,6 +9,7 @@ import urllib.error
 import urllib.request
 
 import pytest
+from explore_server import server, small_file  # noqa: F401 (fixtures)
 
 pytestmark = pytest.mark.slow
 

@@ -1,6 +1,8 @@
-"""The explorer's fixtures: a small sweep of Fig. 6(a) (one per xdist worker) and a
-``cornerbif explore`` server over it (a subprocess, as a user starts it) per module; the
-browser's steps are one test, so that one server and one browser serve them all."""
+"""The explorer's fixtures: a small sweep of Fig. 6(a) and a ``cornerbif explore`` server
+over it (a subprocess, as a user starts it) per module; the browser's steps are one test,
+so that one server and one browser serve them all.  Imported by the test modules that use
+them (``from explore_server import ...``): a ``conftest.py`` here would be imported as the
+module ``conftest`` and shadow tests/conftest.py, which other tests import by name."""
 
 from __future__ import annotations
 
