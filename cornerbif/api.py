@@ -30,8 +30,9 @@ def simulate(*starts, model=registry.DEFAULT_MODEL, transient=0, record=100, tol
     wz_*; ``map2d`` stores a_n, b_n in su, sv) shaped ``shape + (record,)``, and
     status, final (``shape + (state size,)``), period, impacts_per_cycle, symbols.
     ``keep`` names observables as a scene's ``[output] keep`` does; the opt-in ones add
-    their per-run arrays (``keep=["stability"]``: mu_re, mu_im (``shape + (2,)``),
-    cycle_duration, stability_status, lyapunov, lyapunov_window, lyapunov_status).
+    their per-run arrays (``keep=["stability"]``: mu_re, mu_im (``shape + (2,)``;
+    ``two_particle``: 4, ``linear``: 2N), cycle_duration, stability_status, lyapunov,
+    lyapunov_window, lyapunov_status).
 
     A model that its scene declares (``linear``) takes its ``[system]`` as ``table`` (the
     dict a scene's TOML gives), its starts by its coordinates (``x0=``, ``v_x0=``), and any

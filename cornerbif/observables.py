@@ -45,6 +45,16 @@ STABILITY_FIELDS = (
           "two_particle: 5 a particle sticks (none), 6 the w-z table filled (none)",
           axis=(), dtype="i1", fill=-1),
 )
+
+
+def stability_fields(size: int) -> tuple:
+    """The stability datasets with ``size`` multipliers and exponents (the state's
+    dimension: the two-particle model's 4, a linear system's 2N) in place of the flow's 2."""
+    return tuple(Field(f.name, f.source, f.long_name, f.units, axis=(f.axis[0], size),
+                       dtype=f.dtype, fill=f.fill) if f.axis else f
+                 for f in STABILITY_FIELDS)
+
+
 # an attractor's identity beside its word: the impact heights and velocities over one cycle
 IMPACT_CYCLE = CycleSeries(end="t", a="u", b="v_in", per="impacts", names=("u", "v_in"),
                            long_names=("impact height u", "velocity before impact v-"))

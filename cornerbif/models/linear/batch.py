@@ -29,7 +29,7 @@ from ..._jit import STOPPED, count_done, items_kernel, jit, stop_requested
 from ...analysis import smallest_rotation
 from ...obstacles.dispatch import corner_of, derived_tuple, piece_at, piece_length, piece_start
 from ..flow.packed import as_tuple
-from .kernel import BUDGET, CHATTERS, ESCAPED, NONFINITE, gap_at, run
+from .kernel import BUDGET, CHATTERS, ESCAPED, NONFINITE, gap_at, prepare, run
 
 # the integer settings (``LinearModel.int_settings``)
 I_TRANSIENT, I_RECORD, I_CONTROL = 0, 1, 2
@@ -62,12 +62,7 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
         y0[:] = 0.0
         for k in range(2 * n):
             y0[k] = ics[i, k]
-        for h in range(f_omega.shape[1]):
-            th = f_phi[s, h] if t0 == 0.0 else f_omega[s, h] * t0 + f_phi[s, h]
-            y0[2 * n + 2 * h] = math.cos(th)
-            y0[2 * n + 2 * h + 1] = math.sin(th)
-        if f_const[s]:
-            y0[m - 1] = 1.0
+        forcing_into(y0, n, f_omega, f_phi, f_const, s, t0)
         o_final[i, :] = math.nan
         inside = False
         for c in range(gaps.shape[1]):
@@ -90,6 +85,20 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
             continue
         o_status[i] = status_of(st)
         count_done(control)
+
+
+@jit
+def forcing_into(y, n, f_omega, f_phi, f_const, s, t):
+    """The forcing part of the augmented state ``y`` (after its 2n coordinates and
+    velocities) at time t for system ``s`` of the stacked ``f_omega``, ``f_phi`` (per
+    harmonic force) and ``f_const`` (a constant force: its state 1, last):
+    (cos, sin)(Omega t + phi) per harmonic force (``flight.forcing_state``)."""
+    for h in range(f_omega.shape[1]):
+        th = f_phi[s, h] if t == 0.0 else f_omega[s, h] * t + f_phi[s, h]
+        y[2 * n + 2 * h] = math.cos(th)
+        y[2 * n + 2 * h + 1] = math.sin(th)
+    if f_const[s]:
+        y[y.shape[0] - 1] = 1.0
 
 
 @jit
@@ -169,3 +178,25 @@ def corner_offsets(k0, k1, t, rows, ds, o_off, o_corner):
             c, off = corner_of(row, d, j, tk - piece_start(d, j))
             o_corner[i, k] = c
             o_off[i, k] = off
+
+
+def system_arrays(systems):
+    """The stacked arrays of ``run_batch`` and of the stability pass (``tangent``) for systems of one
+    augmented size (``kernel.prepare`` of each): a dict."""
+    nd = systems[0].n
+    prepared = [prepare(s, 0.0, np.zeros(nd), np.zeros(nd)) for s in systems]
+
+    def stack(key, dtype=float):
+        return np.ascontiguousarray(np.stack([np.asarray(p[key], dtype) for p in prepared]))
+
+    harmonic = [[f for f in s.forcing if f.Omega > 0.0] for s in systems]
+    out = {k: stack(k) for k in ("E", "A", "cA", "cAs", "N", "normc", "rows", "ds", "gaps",
+                                 "D", "r")}
+    out["H"] = np.array([p["H"] for p in prepared])
+    out["normA"] = np.array([p["normA"] for p in prepared])
+    out["f_omega"] = np.array([[f.Omega for f in h] for h in harmonic],
+                              float).reshape(len(systems), -1)
+    out["f_phi"] = np.array([[f.phi for f in h] for h in harmonic],
+                            float).reshape(len(systems), -1)
+    out["f_const"] = np.array([any(f.Omega == 0.0 for f in s.forcing) for s in systems], np.bool_)
+    return out

@@ -17,8 +17,10 @@ A run starts at its start time t0 (``[initial] t``, 0 by default) from (x, v); i
 letters are their contacts' names, its period is counted in the system's period T
 (``system_period``).  Chattering ends a run (status STUCK: sticking is not followed yet), as
 do soft stops (not run yet: refused).  A followed sweep carries each run's state in its last
-recorded flight and its phase (``_final``, ``starts_from_carry``).  Not yet: stability,
-continuation (docs/linear.md, "What remains").
+recorded flight and its phase (``_final``, ``starts_from_carry``).  The ``stability``
+observable (opt-in) holds the 2N Floquet multipliers of each run's last recorded cycle and
+its 2N Lyapunov exponents (``tangent``: flights' Jacobians and generalised saltation
+matrices).  Not yet: continuation (docs/linear.md, "What remains").
 """
 
 from __future__ import annotations
@@ -30,7 +32,13 @@ import numpy as np
 
 from ... import obstacles
 from ...model import Coord, Field, Model, Param, RunResult, Warmup, start_time_problems
-from ...observables import ANALYSIS_KERNELS, ANALYSIS_SECONDS, IMPACT_CYCLE, IMPACT_FIELDS
+from ...observables import (
+    ANALYSIS_KERNELS,
+    ANALYSIS_SECONDS,
+    IMPACT_CYCLE,
+    IMPACT_FIELDS,
+    stability_fields,
+)
 from . import cost, declare
 from .flight import augmented, flight
 from .system import LinearSystem
@@ -38,6 +46,10 @@ from .system import LinearSystem
 # cold compile seconds of the linear kernels (the event loop and the cycle detection),
 # measured by ``python benchmarks/compile_time.py`` (announced rounded)
 COMPILE_SECONDS = 16.0
+# cold compile seconds of the stability pass (``tangent.batch_linear_stability``, with the
+# event loop's helpers cached): 16.3 s beside the loop's 41.5 s on a machine where
+# benchmarks/compile_time.py measured the loop's 16 s, scaled
+STABILITY_COMPILE_SECONDS = 6.0
 # combinations of the swept numbers checked together (matrix entries, gap coefficients),
 # all checked at once before a sweep (``declare.refusable``: about 2 microseconds each, and
 # each one flagged read whole for its message): more are refused
@@ -223,7 +235,8 @@ class LinearModel(Model):
         return dataclasses.replace(
             self, params=params, state=tuple(state), start_time=start_time, carried=(PHASE,),
             observables={"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
-                                                              else ())},
+                                                              else ()),
+                         "stability": stability_fields(2 * system.n)},
             contact_words=not corner_words,
             system_table=table), []
 
@@ -374,8 +387,9 @@ class LinearModel(Model):
         return run_batch
 
     def compiles(self, scene, what):
-        """What a first run of ``scene`` compiles: the file's analysis kernels (a sweep) and
-        the linear event loop with its cycle detection."""
+        """What a first run of ``scene`` compiles: the file's analysis kernels (a sweep), the
+        linear event loop with its cycle detection, and the stability pass (a sweep, whose
+        chaos test reruns with it, or a run that keeps "stability")."""
         from ..._jit import dispatchers  # start-up: loads numba
         from .batch import corner_offsets, detect_contact_cycles, run_batch  # start-up: loads numba
         # its cycles: the contacts' (``batch``) or, with the paper's words, the flow's
@@ -389,6 +403,13 @@ class LinearModel(Model):
             cycles += dispatchers("analysis.detect_cycles")
         if "sweep" in what or "simulate" in what:
             out.append(("the linear kernel", COMPILE_SECONDS, [run_batch] + cycles))
+        # a sweep's file tests its runs without a cycle for chaos when it finishes
+        # (cornerbif.chaos: reruns with the stability pass), whatever it keeps
+        if "stability" in what or "sweep" in what or ("simulate" in what
+                                                      and "stability" in scene.keep):
+            from .tangent import batch_linear_stability  # start-up: loads numba
+            out.append(("the linear stability pass", STABILITY_COMPILE_SECONDS,
+                        [batch_linear_stability]))
         return out
 
     def run_items(self, params, ics, ints, scene):
@@ -420,6 +441,7 @@ class LinearModel(Model):
         gaps = np.empty((n, len(systems[0].contacts), nd))
         rows0 = ds0 = None                  # each item's first contact's obstacle rows
         shapes = {}
+        groups = []                         # (items, their systems' indices, the arrays)
         for k, s in enumerate(systems):
             shapes.setdefault((sum(f.Omega > 0.0 for f in s.forcing),
                                any(f.Omega == 0.0 for f in s.forcing)), []).append(k)
@@ -427,9 +449,10 @@ class LinearModel(Model):
             items = np.flatnonzero(np.isin(which, members))
             local = np.searchsorted(members, which[items])
             outs = [a[items] for a in (o_t, o_c, o_x, o_vin, o_vout, st, final)]
-            g, r0, d0 = self._run_group([systems[k] for k in members], local,
-                                        np.ascontiguousarray(ics[items], dtype=float), ints,
-                                        scene, outs, B)
+            g, r0, d0, arrays = self._run_group([systems[k] for k in members], local,
+                                                np.ascontiguousarray(ics[items], dtype=float),
+                                                ints, scene, outs, B)
+            groups.append((items, local, arrays))
             if rows0 is None:
                 rows0 = np.empty((n,) + r0.shape[1:])
                 ds0 = np.empty((n,) + d0.shape[1:])
@@ -466,7 +489,27 @@ class LinearModel(Model):
                                     np.ascontiguousarray(out["u"]),
                                     np.ascontiguousarray(out["v_in"]), period_T,
                                     scene.period_tol, letters, period, ipc, sym)
+        if "stability" in scene.keep:
+            self._stability(groups, n, nd, o_t, o_c, o_x, o_vin, o_vout, ipc,
+                            ints[B.I_CONTROL], out)
         return RunResult(out, st, final, period, ipc, sym)
+
+    @staticmethod
+    def _stability(groups, n, nd, o_t, o_c, o_x, o_vin, o_vout, ipc, control, out):
+        """The ``stability`` observable (``tangent.linear_outputs``: the multipliers of each
+        run's last recorded cycle and its Lyapunov spectrum, 2N each) into ``out``, each
+        group of systems of one augmented size on its stacked arrays."""
+        from .tangent import linear_outputs  # start-up: loads numba
+        stab = {"mu_re": np.full((n, 2 * nd), np.nan), "mu_im": np.full((n, 2 * nd), np.nan),
+                "cycle_duration": np.full(n, np.nan), "stability_status": np.zeros(n, np.int8),
+                "lyapunov": np.full((n, 2 * nd), np.nan), "lyapunov_window": np.full(n, np.nan),
+                "lyapunov_status": np.zeros(n, np.int8)}
+        for items, local, arrays in groups:
+            res = linear_outputs(arrays, local, o_t[items], o_c[items], o_x[items],
+                                 o_vin[items], o_vout[items], ipc[items], control)
+            for k, v in stab.items():
+                v[items] = res[k]
+        out.update(stab)
 
     @staticmethod
     def _final(systems, which, o_t, o_x, o_vout, after_last, period_T, followed):
@@ -523,28 +566,18 @@ class LinearModel(Model):
     @staticmethod
     def _run_group(systems, which, ics, ints, scene, outs, B):
         """``batch.run_batch`` on the items of systems of one augmented size (``which``:
-        each item's index into ``systems``), into ``outs``; each item's gap vectors, and its
-        first contact's packed obstacle row and derived row (``batch.corner_offsets``)."""
-        from .kernel import prepare  # start-up: loads numba
-        nd = systems[0].n
-        prepared = [prepare(s, 0.0, np.zeros(nd), np.zeros(nd)) for s in systems]
-
-        def stack(key, dtype=float):
-            return np.ascontiguousarray(np.stack([np.asarray(a[key], dtype) for a in prepared]))
-
-        harmonic = [[f for f in s.forcing if f.Omega > 0.0] for s in systems]
-        f_omega = np.array([[f.Omega for f in h] for h in harmonic], float).reshape(len(systems), -1)
-        f_phi = np.array([[f.phi for f in h] for h in harmonic], float).reshape(len(systems), -1)
-        f_const = np.array([any(f.Omega == 0.0 for f in s.forcing) for s in systems], np.bool_)
+        each item's index into ``systems``), into ``outs``; each item's gap vectors, its
+        first contact's packed obstacle row and derived row (``batch.corner_offsets``), and
+        the systems' stacked arrays (``batch.system_arrays``: the stability pass's too)."""
+        a = B.system_arrays(systems)
         t_max = np.array([scene.max_periods * time_scale(s) for s in systems], float)
         o_t, o_c, o_x, o_vin, o_vout, st, final = outs
-        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), stack("E"), stack("A"),
-                    np.array([a["H"] for a in prepared]), np.array([a["normA"] for a in prepared]),
-                    stack("cA"), stack("cAs"), stack("N"), stack("normc"), stack("rows"),
-                    stack("ds"), stack("gaps"), stack("D"), stack("r"), f_omega, f_phi, f_const,
-                    ics, ints, scene.tol, scene.chatter, scene.escape, t_max, o_t, o_c, o_x,
-                    o_vin, o_vout, st, final)
-        return stack("gaps")[which], stack("rows")[which, 0], stack("ds")[which, 0]
+        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), a["E"], a["A"], a["H"],
+                    a["normA"], a["cA"], a["cAs"], a["N"], a["normc"], a["rows"], a["ds"],
+                    a["gaps"], a["D"], a["r"], a["f_omega"], a["f_phi"], a["f_const"], ics, ints,
+                    scene.tol, scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
+                    st, final)
+        return a["gaps"][which], a["rows"][which, 0], a["ds"][which, 0], a
 
 
 # ``cornerbif warm``: what a first sweep compiles; its [system] is also the model's example
@@ -580,6 +613,9 @@ v_x = [0.45, 0.6]
 [run]
 transient = 10
 record = 8
+
+[output]
+keep = ["impacts", "stability"]     # the stability pass, which a sweep's chaos test also runs
 """
 # one mass against the rectified sine: the paper's words (``paper_words``: the corner
 # offsets and the flow's cycle analysis), which the example's contact letters do not compile
@@ -615,7 +651,7 @@ transient = 10
 record = 8
 """
 
-WARMUPS = (Warmup("linear", "the linear kernel", "sweep", EXAMPLE_SCENE),
+WARMUPS = (Warmup("linear", "the linear kernel and its stability pass", "sweep", EXAMPLE_SCENE),
            Warmup("linear", "the linear kernel's corner words", "sweep", CORNER_WORDS_SCENE))
 
 
@@ -626,6 +662,7 @@ MODEL = LinearModel(
     state=(),
     system_extra={k: None for k in declare.SYSTEM_KEYS},
     observables={"impacts": BASE_FIELDS},
+    opt_in=("stability",),
     cycle=IMPACT_CYCLE,
     events_per_impact=40,
     bytes_per_event=8 * 40,

@@ -22,9 +22,9 @@ from ...observables import (
     IMPACT_FIELDS,
     RUN_ANALYSIS_KERNELS,
     SECTION_FIELDS,
-    STABILITY_FIELDS,
     U,
     V,
+    stability_fields,
 )
 from . import params as TP
 
@@ -52,9 +52,7 @@ WALL_IMPACT_FIELDS = (
 
 # the flow's stability datasets with four multipliers and exponents (x = (z, y, u, v)), the
 # cycle and the window counted in z-u impacts
-STABILITY = tuple(Field(f.name, f.source, f.long_name, f.units, axis=(f.axis[0], 4),
-                        dtype=f.dtype, fill=f.fill) if f.axis else f
-                  for f in STABILITY_FIELDS)
+STABILITY = stability_fields(4)
 
 
 # the time model of a run (``estimate.estimate_time``): seconds of one core per z-u impact (with
