@@ -243,7 +243,12 @@ class BlockWriter:
             self._raise()              # the thread has ended: no lock needed
 
 
-def run_blocks(scene, f, progress=False, block_points=None):
+class Cancelled(KeyboardInterrupt):
+    """A sweep stopped because its caller set its ``cancel`` event (``run_blocks``): handled
+    as Ctrl-C is (the block computing dropped, the finished ones kept)."""
+
+
+def run_blocks(scene, f, progress=False, block_points=None, cancel=None):
     """Every unfinished block of ``f`` in order, computed and written by a
     ``BlockWriter`` while the next computes.
 
@@ -256,7 +261,9 @@ def run_blocks(scene, f, progress=False, block_points=None):
     comes while it writes), and the interrupt goes on to the caller (``sweep.run_sweep`` says
     what was kept).  A failed write stops the kernels the same way, and its error goes on.
     While it waits the main thread shows the progress (``Progress``) from the runs the
-    kernels count into the same control."""
+    kernels count into the same control.  ``cancel`` (a ``threading.Event`` or None): once
+    set, the waiting thread raises ``Cancelled`` at its next step, an interrupt as above (a
+    sweep run in a thread of its own, where no signal reaches it, is stopped so)."""
     ints = engine.int_settings(scene)
     every = engine.blocks(scene, block_points)
     todo = [every[i] for i in io.unfinished(every, f)]
@@ -279,6 +286,14 @@ def run_blocks(scene, f, progress=False, block_points=None):
 
         def tick():
             bar.update(state["done"] + min(control.done, state["block"]))
+    if cancel is not None:
+        shown = tick
+
+        def tick():
+            if cancel.is_set():
+                raise Cancelled()
+            if shown is not None:
+                shown()
     try:
         run_interruptibly(lambda: compute_blocks(scene, todo, carry, ints, writer, control,
                                                  state), control, tick)

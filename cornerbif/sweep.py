@@ -118,7 +118,7 @@ class _NumbaThreads:
 def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: bool = False,
               overwrite: bool = False, progress: bool = False, command: str = "",
               block_points: int | None = None, scheduler: str | None = None,
-              stats: dict | None = None, inputs=(), echo=None) -> str | None:
+              stats: dict | None = None, inputs=(), echo=None, cancel=None) -> str | None:
     """Run a scene to ``out_path``; return the path of the finished file, or None when
     ``resume`` finds it already finished from this scene (``echo``, a function of one
     line, is told so; the file is left as it is).
@@ -128,7 +128,11 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
     process the only writer of the file either way.  ``threads`` is then the numba
     threads of each worker; ``stats`` (a dict) receives what the Dask backend did
     (chunks submitted, failures, compute seconds per chunk).  ``inputs``: files the
-    output must not replace (the scene file).
+    output must not replace (the scene file).  ``cancel`` (a ``threading.Event``, local
+    blocks only): once set, the sweep stops as on Ctrl-C (the block computing is dropped,
+    the finished ones are kept in the partial file) and ``SweepInterrupted`` is raised; a
+    caller running the sweep in a thread of its own stops it so (``cornerbif explore``'s
+    refine).
     """
     partial = out_path + ".partial"
     d = check_directory(out_path)
@@ -146,7 +150,7 @@ def run_sweep(scene: Scene, out_path: str, threads: int | None = None, resume: b
             return None
         with _NumbaThreads(None if scheduler else threads):
             _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress,
-                          command, block_points, scheduler, stats, echo)
+                          command, block_points, scheduler, stats, echo, cancel)
         return out_path
 
 
@@ -210,7 +214,7 @@ def plan_output(scene: Scene, out_path: str, resume: bool, overwrite: bool, inpu
 
 
 def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress, command,
-                  block_points, scheduler, stats, echo=None):
+                  block_points, scheduler, stats, echo=None, cancel=None):
     f = None
     notes = []
     created = False                    # the partial file is this run's (nothing in it yet)
@@ -252,7 +256,7 @@ def _sweep_locked(scene, out_path, partial, threads, resume, overwrite, progress
                             numba_threads=threads, stats=stats)
         else:
             from .local import run_blocks  # start-up: loads numba
-            run_blocks(scene, f, progress, block_points)
+            run_blocks(scene, f, progress, block_points, cancel)
     except SweepError as e:
         if getattr(e, "broken", False):
             raise                      # HDF5 failed inside a write: the file is left as it is

@@ -1,8 +1,9 @@
 """The explorer's pages: what every page has (``Page``: the colouring, the orbit of a clicked
 point, the view saved as a scene or a figure, the session's clock) and a diagram's page
-(``Explorer``): its points rasterized by Datashader at screen resolution (HoloViews'
-``rasterize`` re-renders on every pan and zoom), the refine of the visible window, the
-continuation from a clicked orbit.  One page per browser session; the files (``Diagram``,
+(``Explorer``): its points rasterized at screen resolution from the file, a slab at a time,
+on every pan and zoom (``points.raster``; the points are never held, the server's memory
+does not grow with the file), the refine of the visible window, the continuation from a
+clicked orbit.  One page per browser session; the files (``Diagram``,
 ``Chart``) are read once per server (``Files``) and shared by the sessions."""
 
 from __future__ import annotations
@@ -10,15 +11,12 @@ from __future__ import annotations
 import os
 import threading
 
-import datashader as ds
 import holoviews as hv
 import numpy as np
 import pandas as pd
 import panel as pn
-from holoviews.operation.datashader import dynspread, rasterize
 from matplotlib.colors import to_hex
 
-from .. import plot_style
 from ..config import dumps
 from ..model import cut
 from ..outputs import write_text
@@ -30,11 +28,13 @@ from .points import (
     LAYERS,
     SCALED,
     SLOTS,
+    Cloud,
     Colouring,
     Diagram,
     _plain,
-    codes,
+    nearest,
     open_file,
+    spread,
     word_colouring,
 )
 
@@ -81,24 +81,21 @@ class Files:
             return self._diagrams[k]
 
 
-def frame(points, colouring: Colouring) -> pd.DataFrame:
-    """``points`` (x, y, run) as the datashader reads them: x, y and ``c``, the run's
-    ``points.codes``."""
-    return pd.DataFrame({"x": points.x, "y": points.y, "c": codes(colouring, points.run)},
-                        copy=False)
-
-
-def in_window(df: pd.DataFrame, x_range) -> pd.DataFrame:
-    """The rows of ``df`` (x ascending, as a file's grid) inside ``x_range``, a slice: what
-    a zoom aggregates is the window's points, not the file's."""
-    if x_range is None or len(df) < 2:
-        return df
-    x = df["x"].to_numpy()
-    if not x[0] <= x[-1]:
-        return df
-    a = int(np.searchsorted(x, x_range[0], side="left"))
-    b = int(np.searchsorted(x, x_range[1], side="right"))
-    return df.iloc[max(a - 1, 0):b + 1]
+def image(points, colouring: Colouring, x_range, y_range) -> hv.Image:
+    """``points`` (a ``points.Diagram`` or ``Cloud``, or None: nothing) in the window at the
+    frame's pixels (``points.raster``: the file read a slab at a time; a diagram keeps its last
+few), as an ``hv.Image`` over
+    the window (NaN pixels: transparent)."""
+    (x0, x1), (y0, y1) = x_range, y_range
+    if points is None or not (x1 > x0 and y1 > y0):      # nothing: 2 x 2 pixels, not sent whole
+        xs, ys = np.array([x0, x1]), np.array([y0, y1])
+        empty = np.full((2, 2), np.nan, np.float32)
+        # its value range given: HoloViews need not look for one in NaN alone
+        return hv.Image((xs, ys, empty), ["x", "y"], hv.Dimension("c", range=(0.0, 1.0)))
+    img = spread(points.image(colouring, x_range, y_range, WIDTH, HEIGHT))
+    xs = x0 + (np.arange(WIDTH) + 0.5) * ((x1 - x0) / WIDTH)
+    ys = y0 + (np.arange(HEIGHT) + 0.5) * ((y1 - y0) / HEIGHT)
+    return hv.Image((xs, ys, img), ["x", "y"], "c")
 
 
 def like(colouring: Colouring, base: Colouring) -> Colouring:
@@ -111,21 +108,28 @@ def like(colouring: Colouring, base: Colouring) -> Colouring:
     return colouring
 
 
-def shaded(points_dmap, colouring: Colouring, rng):
-    """``points_dmap`` (a DynamicMap of ``hv.Points``) rasterized by Datashader over the view's
-    range ``rng`` (a ``RangeXY`` stream) at the frame's pixels, each pixel its highest
-    layer's colour (``frame``: the maximum of the points' values, one fixed colour map), or
-    the mean of the runs' values on a colour scale; sparse points spread to 2 pixels."""
+# how long after the last wheel or pan event the view's range is sent to the server (Bokeh's
+# ``lod_timeout``, 500 ms by default): the re-render starts this soon after a zoom ends
+SETTLE_MS = 100
+
+
+def quick_settle(plot, element):
+    """A HoloViews hook: the Bokeh figure sends its new range ``SETTLE_MS`` after a zoom or
+    pan ends."""
+    plot.state.lod_timeout = SETTLE_MS
+
+
+def shaded(image_dmap, colouring: Colouring):
+    """``image_dmap`` (a DynamicMap of ``image``s, re-rendered on every pan and zoom, sparse
+    points grown by ``points.spread``) shaded: a labelled colouring by one fixed colour map
+    (a pixel's value is its highest layer's colour, ``points.codes``), a value on a colour
+    scale."""
     if colouring.layer is not None:
-        op = rasterize(points_dmap, aggregator=ds.max("c"), width=WIDTH, height=HEIGHT,
-                       streams=[rng])
         style = dict(cmap=LABEL_CMAP, clim=(0, LAYERS * SLOTS))
     else:
-        op = rasterize(points_dmap, aggregator=ds.mean("c"), width=WIDTH, height=HEIGHT,
-                       streams=[rng])
         style = dict(cmap="viridis" if colouring.centre is None else "coolwarm",
                      cnorm="eq_hist")
-    return dynspread(op, threshold=0.6, max_px=2).opts(
+    return image_dmap.opts(
         clipping_colors={"NaN": "transparent"}, colorbar=colouring.layer is None, **style)
 
 
@@ -159,7 +163,7 @@ class Page:
     def __init__(self, files: Files, dia):
         self.files = files
         self.dia = dia
-        self.orbit_job = self.save_job = None
+        self.orbit_job = self.save_job = self.cont_job = None
         self.orbit = self.orbit_dia = None
         self.cont_path = None
 
@@ -168,6 +172,8 @@ class Page:
         self.colour = pn.widgets.Select(label="colour by", options=d.choices(), width=200,
                                         value=d.choices()[0])
         self.colour.param.watch(lambda e: self._recolour(), "value")
+        self.cont_btn = pn.widgets.Button(label="Continue from here", width=170, disabled=True)
+        self.cont_btn.on_click(lambda e: self.start_continuation())
         self.save_btn = pn.widgets.Button(label="Save view as scene", width=170)
         self.save_btn.on_click(lambda e: self.save_scene())
         self.png_btn = pn.widgets.Button(label="Save PNG", width=110)
@@ -182,6 +188,13 @@ class Page:
                                   width=300)
         self.orbit_pane = pn.pane.HoloViews(None, sizing_mode="stretch_width")
         self.download = pn.Column()
+        self.refine_btn = pn.widgets.Button(label="Refine the window", color="primary",
+                                            width=170)
+        self.refine_btn.on_click(lambda e: self.start_refine())
+        self.cancel_btn = pn.widgets.Button(label="Cancel the refine", width=150,
+                                            visible=False)
+        self.cancel_btn.on_click(lambda e: self.cancel_refine())
+        self.progress = pn.indicators.Progress(value=0, max=100, width=300, visible=False)
 
     def _head(self, size_text: str):
         d = self.dia
@@ -227,7 +240,78 @@ class Page:
         self.say(f"orbit: {word} at {dia.data.axes[0]} = {self.orbit.x:.10g}")
 
     def _orbit_shown(self):
-        """What a page does once an orbit is shown (the diagram: it can be continued)."""
+        """Once an orbit is shown, it can be continued."""
+        self.cont_btn.disabled = False
+
+    # ------------------------------------------------------------------ refine
+    def cancel_refine(self):
+        """Stop the running refine (``jobs.start_refine``'s ``cancel``): the block being
+        computed is dropped; the finished ones stay drawn and kept in its partial file."""
+        job = getattr(self, "refine", None)
+        if job is None or not job.running:
+            return self.say("no refine is running", error=True)
+        job.cancel.set()
+        self.say("refine: cancelling (the block being computed is dropped)")
+
+    def _refine_finished(self, job, read, unit: str):
+        """A refine that ended: its side file read by ``read`` into ``refined`` and drawn
+        (``_show_refined``), or its failure or cancellation said."""
+        if job.state == "failed":
+            self.say(job.message, error=True)
+        elif job.state == "cancelled":
+            self.say(job.message)
+        else:
+            try:
+                self.refined = read(job.result)
+                self._show_refined()
+                self.progress.value = 100
+                self.say(job.message + f"; {self.refined.size:,} {unit}")
+            except Exception as e:  # noqa: BLE001 - said on the page
+                self.say(f"refine: the side file cannot be read: {cut(str(e), 300)}", error=True)
+        job.state = "shown" if job.state == "done" else job.state
+        self.progress.visible = self.cancel_btn.visible = False
+
+    # ------------------------------------------------------------------ continuation
+    def start_continuation(self):
+        """Continue the clicked orbit (``_continuation_raw``: the page's parameter and range)
+        in the background; its branches and events are drawn (``_show_branch``) when done."""
+        if self.orbit is None:
+            return self.say("click a point first: its orbit is continued", error=True)
+        if self.cont_job is not None and self.cont_job.running:
+            return self.say("a continuation is running", error=True)
+        try:
+            raw = self._continuation_raw(self.orbit, self.orbit_dia)
+            out = jobs.side_name(self.files.side_dir, _stem(self.dia.path), "continue") + ".h5"
+            write_text(out[:-3] + ".toml", dumps(raw))
+            self.cont_job = jobs.start_continuation(raw, out)
+        except jobs.Refused as e:
+            return self.say(f"continuation refused: {e}", error=True)
+        word = _plain(word_label(self.orbit.word)) if self.orbit.word else "no cycle"
+        c = raw["continue"]
+        self.say(f"continuation: from {word} in {c['parameter']} = {c['start']:.10g} over "
+                 f"[{c['range'][0]:.6g}, {c['range'][1]:.6g}] into {out}")
+
+    def _continuation_raw(self, orbit, dia) -> dict:
+        """The scene that continues ``orbit`` (a run of ``dia``'s file): ``jobs.continue_raw``'s."""
+        raise NotImplementedError
+
+    def _show_branch(self, cont):
+        """Draw the finished continuation ``cont`` (``plot_data.read_continuation``'s)."""
+        raise NotImplementedError
+
+    def _poll_continuation(self):
+        job = self.cont_job
+        if job is None:
+            return
+        if job.running:
+            self.say(job.message)
+            return
+        self.cont_job = None
+        if job.state == "failed":
+            return self.say(job.message, error=True)
+        self.cont_path = job.result["path"]
+        self._show_branch(job.result)
+        self.say(job.message)
 
     # ------------------------------------------------------------------ saving
     def _figure_source(self) -> tuple:
@@ -285,6 +369,7 @@ class Page:
         said.  Never raises: a failure is a message."""
         try:
             self._poll_jobs()
+            self._poll_continuation()
             self._poll_orbit()
             self._poll_save()
             if not self.warning.object and self.dia.changed():
@@ -313,12 +398,10 @@ class Explorer(Page):
 
     def __init__(self, files: Files, k: int = 0):
         super().__init__(files, files.get(k))
-        self.window = ((float(self.dia.x.min()), float(self.dia.x.max())) if self.dia.size
-                       else (0.0, 1.0), _y_window(self.dia))
+        self.window = (self.dia.x_extent() or (0.0, 1.0), _y_window(self.dia))
         self.refine = None          # the running or last refine job
         self.refined = None         # the last finished refine's Diagram
         self.refine_window = None   # its (x0, x1, num)
-        self.cont_job = None
         self.shown_blocks = -1
         self._build_widgets()
         self._build_plot()
@@ -326,17 +409,11 @@ class Explorer(Page):
     # ------------------------------------------------------------------ layout
     def _build_widgets(self):
         self._common_widgets()
-        self.refine_btn = pn.widgets.Button(label="Refine the window", color="primary",
-                                            width=170)
-        self.refine_btn.on_click(lambda e: self.start_refine())
-        self.cont_btn = pn.widgets.Button(label="Continue from here", width=170, disabled=True)
-        self.cont_btn.on_click(lambda e: self.start_continuation())
-        self.progress = pn.indicators.Progress(value=0, max=100, width=300, visible=False)
         self._say_window()
 
     def view(self):
-        controls = pn.Row(self.colour, self.refine_btn, self.cont_btn, self.save_btn,
-                          self.png_btn, self.pdf_btn)
+        controls = pn.Row(self.colour, self.refine_btn, self.cancel_btn, self.cont_btn,
+                          self.save_btn, self.png_btn, self.pdf_btn)
         page = pn.Column(self._head(f"{self.dia.size:,} points"), self.warning, controls,
                          pn.Row(self.progress, self.window_text), self.status,
                          self.plot_pane, self.legend,
@@ -352,23 +429,25 @@ class Explorer(Page):
         (x0, x1), (y0, y1) = self.window
         self.range = hv.streams.RangeXY(x_range=(x0, x1), y_range=(y0, y1))
         self.range.add_subscriber(self._on_range)
-        self.base_pipe = hv.streams.Pipe(data=frame(d, self.col))
-        self.base = hv.DynamicMap(self._points, streams=[self.base_pipe, self.range])
-        self.fine_pipe = hv.streams.Pipe(data=_empty(d, self.col))
-        self.fine = hv.DynamicMap(self._points, streams=[self.fine_pipe, self.range])
+        # what a layer draws: (points, colouring); a new one re-renders the layer
+        self.base_pipe = hv.streams.Pipe(data=(d, self.col))
+        self.base = hv.DynamicMap(self._image, streams=[self.base_pipe, self.range])
+        self.fine_pipe = hv.streams.Pipe(data=(None, self.col))
+        self.fine = hv.DynamicMap(self._image, streams=[self.fine_pipe, self.range])
         self.branch_pipe = hv.streams.Pipe(data=None)
         self.mark_pipe = hv.streams.Pipe(data=None)
         self.plot_pane = pn.pane.HoloViews(self._overlay(), sizing_mode="fixed")
         self.legend.object = legend_html(self.col)
 
-    def _points(self, data, x_range=None, y_range=None):
-        return hv.Points(in_window(data, x_range), ["x", "y"], vdims=["c"])
+    def _image(self, data, x_range=None, y_range=None):
+        (x0, x1), (y0, y1) = self.window
+        return image(data[0], data[1], x_range or (x0, x1), y_range or (y0, y1))
 
     def _overlay(self):
         d = self.dia
         (x0, x1), (y0, y1) = self.window
-        base = shaded(self.base, self.col, self.range)
-        fine = shaded(self.fine, self.fine_col, self.range)
+        base = shaded(self.base, self.col)
+        fine = shaded(self.fine, self.fine_col)
         branches = hv.DynamicMap(_branch_paths, streams=[self.branch_pipe])
         events = hv.DynamicMap(_event_points, streams=[self.branch_pipe])
         mark = hv.DynamicMap(_mark, streams=[self.mark_pipe])
@@ -379,7 +458,8 @@ class Explorer(Page):
                         tools=["tap", "wheel_zoom", "box_zoom", "pan", "reset"],
                         active_tools=["wheel_zoom", "box_zoom", "tap"],
                         xlabel=_plain(axis_label(d.axis, d.data.model)),
-                        ylabel=_plain(y_label(d.kind, d.data.model)), xformatter="%.6g"),
+                        ylabel=_plain(y_label(d.kind, d.data.model)), xformatter="%.6g",
+                        hooks=[quick_settle]),
             hv.opts.Path(color=BRANCH_COLOR, line_width=2),
             hv.opts.Points("Events", color=hv.dim("event").categorize(EVENT_COLORS,
                                                                       default="black"),
@@ -394,11 +474,11 @@ class Explorer(Page):
         self.legend.object = legend_html(self.col)
         if (before.layer is None) != (self.col.layer is None):
             self.fine_col = self.col
-            self.fine_pipe.event(data=_empty(self.dia, self.col))
-            self.base_pipe.event(data=frame(self.dia, self.col))
+            self.fine_pipe.event(data=(None, self.col))
+            self.base_pipe.event(data=(self.dia, self.col))
             self.plot_pane.object = self._overlay()
         else:
-            self.base_pipe.send(frame(self.dia, self.col))
+            self.base_pipe.send((self.dia, self.col))
         if self.refined is not None:
             self._show_refined()
 
@@ -426,7 +506,7 @@ class Explorer(Page):
         self.refine = jobs.start_refine(scene, out)
         self.refine_window = (x0, x1, num)
         self.shown_blocks = -1
-        self.progress.visible = True
+        self.progress.visible = self.cancel_btn.visible = True
         self.progress.value = 0
         self.say(f"refine: sweeping {num} values x {scene.n_ic} starts of {self.dia.axis} in "
                  f"[{x0:.10g}, {x1:.10g}] into {out}")
@@ -441,23 +521,12 @@ class Explorer(Page):
                 self.shown_blocks = got["blocks"]
                 self.fine_col = self._live_colouring(got)
                 self.legend.object = legend_html(self.col, self.fine_col)
-                self.fine_pipe.send(frame(got["points"], self.fine_col))
+                self.fine_pipe.send((got["points"], self.fine_col))
                 self.progress.value = int(100 * got["done"] / max(job.total, 1))
                 self.say(f"refine: {got['done']} of {job.total} values swept "
                          f"({job.seconds():.1f} s); {got['points'].x.size:,} new points drawn")
             return
-        if job.state == "failed":
-            self.say(job.message, error=True)
-        else:
-            try:
-                self.refined = Diagram(job.result, self.dia.kind)
-                self._show_refined()
-                self.progress.value = 100
-                self.say(job.message + f"; {self.refined.size:,} points")
-            except Exception as e:  # noqa: BLE001 - said on the page
-                self.say(f"refine: the side file cannot be read: {cut(str(e), 300)}", error=True)
-        job.state = "shown" if job.state == "done" else job.state
-        self.progress.visible = False
+        self._refine_finished(job, lambda path: Diagram(path, self.dia.kind), "points")
 
     def _show_refined(self):
         what = self.colour.value
@@ -465,58 +534,31 @@ class Explorer(Page):
             what = "word" if self.col.layer is not None else "period"
         self.fine_col = like(self.refined.colouring(what), self.col)
         self.legend.object = legend_html(self.col, self.fine_col)
-        self.fine_pipe.send(frame(self.refined, self.fine_col))
+        self.fine_pipe.send((self.refined, self.fine_col))
 
     # ------------------------------------------------------------------ orbit
     def _on_tap(self, x=None, y=None):
         if x is None or y is None:
             return
         (x0, x1), (y0, y1) = self.window
-        src, i = self.dia.nearest(x, y, (x0, x1), (y0, y1), self.refined)
-        if i < 0:
-            return self.say("no point to select", error=True)
+        got = nearest(x, y, (x0, x1), (y0, y1), [self.dia, self.refined])
+        if got is None:
+            return self.say("no point in the window to select", error=True)
+        src, px, py, run = got
         dia = self.dia if src == 0 else self.refined
-        point, start = dia.run_of(i)
-        self.mark_pipe.send((float(dia.x[i]), float(dia.y[i])))
+        point, start = dia.run_of(run)
+        self.mark_pipe.send((px, py))
         self._start_orbit(dia, point, start)
 
-    def _orbit_shown(self):
-        self.cont_btn.disabled = False
-
     # ------------------------------------------------------------------ continuation
-    def start_continuation(self):
-        """Continue the clicked orbit in the swept parameter over the file's range, in the
-        background; its branches and events are drawn over the diagram when done."""
-        if self.orbit is None:
-            return self.say("click a point first: its orbit is continued", error=True)
-        if self.cont_job is not None and self.cont_job.running:
-            return self.say("a continuation is running", error=True)
-        o, d = self.orbit, self.orbit_dia
+    def _continuation_raw(self, orbit, dia) -> dict:
+        """The clicked orbit continued in the swept parameter over the file's range."""
         xv = self.dia.data.values[self.dia.axis]
-        try:
-            raw = jobs.continue_raw(d.data.scene_text, d.axis, o.x, o.initial,
-                                    float(xv.min()), float(xv.max()))
-            out = jobs.side_name(self.files.side_dir, _stem(self.dia.path), "continue") + ".h5"
-            write_text(out[:-3] + ".toml", dumps(raw))
-            self.cont_job = jobs.start_continuation(raw, out)
-        except jobs.Refused as e:
-            return self.say(f"continuation refused: {e}", error=True)
-        word = _plain(word_label(o.word)) if o.word else "no cycle"
-        self.say(f"continuation: from {word} at {d.axis} = {o.x:.10g} into {out}")
+        return jobs.continue_raw(dia.data.scene_text, dia.axis, orbit.x, orbit.initial,
+                                 float(xv.min()), float(xv.max()))
 
-    def _poll_continuation(self):
-        job = self.cont_job
-        if job is None:
-            return
-        if job.running:
-            self.say(job.message)
-            return
-        self.cont_job = None
-        if job.state == "failed":
-            return self.say(job.message, error=True)
-        self.cont_path = job.result["path"]
-        self.branch_pipe.send((job.result, self.dia.kind))
-        self.say(job.message)
+    def _show_branch(self, cont):
+        self.branch_pipe.send((cont, self.dia.kind))
 
     # ------------------------------------------------------------------ saving
     def save_scene(self):
@@ -540,7 +582,6 @@ class Explorer(Page):
 
     def _poll_jobs(self):
         self._poll_refine()
-        self._poll_continuation()
 
 
 def _stem(path: str) -> str:
@@ -553,23 +594,8 @@ def _y_window(dia: Diagram):
     ylim = dia.data.scene.get("plot", {}).get("ylim")
     if isinstance(ylim, list) and len(ylim) == 2 and dia.kind == dia.data.default_y():
         return float(ylim[0]), float(ylim[1])
-    win = plot_style.robust_range(dia.y) if dia.size else None
+    win = dia.y_window()
     return (float(win[0]), float(win[1])) if win else (0.0, 1.0)
-
-
-def _empty(dia: Diagram, colouring: Colouring) -> pd.DataFrame:
-    """A layer with nothing of its own to draw: the base's first point again, in its colour
-    (datashader shades no empty frame, nor one of no extent)."""
-    if dia.size == 0:
-        return pd.DataFrame({"x": [0.0], "y": [0.0], "c": [np.nan]})
-    return frame(dia, colouring).iloc[:1].copy()
-
-
-class _Live:
-    """A partial refine's points as ``frame`` reads them."""
-
-    def __init__(self, x, y, run):
-        self.x, self.y, self.run = x, y, run
 
 
 def _partial_points(partial, kind, axis):
@@ -595,7 +621,7 @@ def _partial_points(partial, kind, axis):
     ok = np.isfinite(y)
     i, ic, _ = np.nonzero(ok)
     n_ic = y.shape[1]
-    pts = _Live(xv[rows][i].astype(float), y[ok], ((rows[i]) * n_ic + ic).astype(np.int32))
+    pts = Cloud(xv[rows][i].astype(float), y[ok], (rows[i] * n_ic + ic).astype(np.int64), n_ic)
     return {"points": pts, "symbols": sym, "period": per, "done": int(done.sum()),
             "blocks": int(done.sum())}
 

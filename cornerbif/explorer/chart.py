@@ -2,8 +2,10 @@
 one cell per grid point (``points.Chart``), rasterized by Datashader at the frame's pixels
 so that pan and zoom re-render it; a refine of the visible window (cells of ``CELL_PX``
 screen pixels) swept in the background into a side file, drawn as its blocks finish; a
-click shows the cell's orbit; the view is saved as a scene or a figure.  "Continue from
-here" is the diagram's (``app.Explorer``)."""
+click shows the cell's orbit, which "Continue from here" continues (on a chart in one of
+its axes, the corner collisions and folds met continued as curves in the other and drawn
+over it; on a basin in a parameter and range chosen on the page); the view is saved as a
+scene or a figure."""
 
 from __future__ import annotations
 
@@ -11,14 +13,29 @@ import os
 
 import holoviews as hv
 import numpy as np
+import pandas as pd
 import panel as pn
 from holoviews.operation.datashader import rasterize
 
-from ..model import cut
 from ..outputs import write_text
 from ..plot_base import axis_label
 from . import jobs
-from .app import HEIGHT, POLL_MS, WIDTH, Files, Page, _mark, _plain, _stem, legend_html, like
+from .app import (
+    BRANCH_COLOR,
+    EVENT_COLORS,
+    HEIGHT,
+    POLL_MS,
+    WIDTH,
+    Files,
+    Page,
+    _branch_paths,
+    _event_points,
+    _mark,
+    _plain,
+    _stem,
+    legend_html,
+    like,
+)
 from .points import LABEL_CMAP, LAYERS, SLOTS, Chart, Colouring, cell_image
 
 CELL_PX = 4          # a refine's cell, in screen pixels: 215 x 120 cells in the frame
@@ -36,10 +53,7 @@ class ChartPage(Page):
         self.window = (_edges(c.xv), _edges(c.yv))
         self.refine = self.refined = self.refine_grid = None
         self._common_widgets()
-        self.refine_btn = pn.widgets.Button(label="Refine the window", color="primary",
-                                            width=170)
-        self.refine_btn.on_click(lambda e: self.start_refine())
-        self.progress = pn.indicators.Progress(value=0, max=100, width=300, visible=False)
+        self._continuation_widgets()
         self._say_window()
         self.col = self.fine_col = c.colouring(self.colour.value)
         self.range = hv.streams.RangeXY(x_range=self.window[0], y_range=self.window[1])
@@ -47,20 +61,22 @@ class ChartPage(Page):
         self.pipe = hv.streams.Pipe(data=(c.image(self.col), self._bounds(c)))
         self.fine_pipe = hv.streams.Pipe(data=_nothing(self.window))
         self.mark_pipe = hv.streams.Pipe(data=None)
+        self.branch_pipe = hv.streams.Pipe(data=None)
         self.plot_pane = pn.pane.HoloViews(self._overlay(), sizing_mode="fixed")
         self.legend.object = legend_html(self.col)
 
     def view(self):
         c = self.dia
-        controls = pn.Row(self.colour, self.refine_btn, self.save_btn, self.png_btn,
-                          self.pdf_btn)
+        controls = pn.Row(self.colour, self.refine_btn, self.cancel_btn, self.save_btn,
+                          self.png_btn, self.pdf_btn)
+        cont = pn.Row(self.cont_btn, self.cont_param, *([self.cont_range] if c.basin else []))
         shows = "its first start" if c.basin else "the highest layer of its starts"
         note = pn.pane.HTML(f"<i>{self.what}: {c.xv.size} x {c.yv.size} cells of {c.n_ic} "
                             f"start(s); a cell shows {shows}</i>")
-        page = pn.Column(self._head(f"{c.size:,} cells"), self.warning, controls,
+        page = pn.Column(self._head(f"{c.size:,} cells"), self.warning, controls, cont,
                          pn.Row(self.progress, self.window_text, note), self.status,
                          self.plot_pane, self.legend, pn.Row(self.facts, self.orbit_pane),
-                         self.download, sizing_mode="stretch_width")
+                         self.branch_pane, self.download, sizing_mode="stretch_width")
         pn.state.add_periodic_callback(self.poll, period=POLL_MS)
         return page
 
@@ -77,7 +93,15 @@ class ChartPage(Page):
         self.tap = hv.streams.Tap(source=base, x=None, y=None)
         self.tap.add_subscriber(self._on_tap)
         mark = hv.DynamicMap(_mark, streams=[self.mark_pipe])
-        return (base * fine * mark).opts(hv.opts.Image(
+        over = base * fine * mark
+        if not c.basin:      # a chart's continued branch, its events and their curves
+            over = over * hv.DynamicMap(_chart_paths, streams=[self.branch_pipe]) \
+                * hv.DynamicMap(_chart_events, streams=[self.branch_pipe])
+        return over.opts(hv.opts.Path(color=BRANCH_COLOR, line_width=2),
+                         hv.opts.Points("Events", color=hv.dim("event").categorize(
+                             EVENT_COLORS, default="black"), size=10, marker="diamond",
+                             line_color="black", tools=["hover"]),
+                         hv.opts.Image(
             frame_width=WIDTH, frame_height=HEIGHT, xlim=(x0, x1), ylim=(y0, y1),
             tools=["tap", "wheel_zoom", "box_zoom", "pan", "reset"],
             active_tools=["wheel_zoom", "box_zoom", "tap"], xformatter="%.6g",
@@ -115,6 +139,84 @@ class ChartPage(Page):
         self.window_text.object = (f"window: {a} in [{x0:.12g}, {x1:.12g}], "
                                    f"{b} in [{y0:.12g}, {y1:.12g}]")
 
+    # ------------------------------------------------------------------ continuation
+    def _continuation_widgets(self):
+        """What a click's orbit is continued in: on a chart, either of its parameter axes
+        over the chart's range (the corner collisions and folds it meets continued as
+        curves in the other: the edges of the regions drawn); on a basin, a parameter of the
+        model over a range typed in (the branch drawn in a figure of its own)."""
+        c = self.dia
+        spec = c.data.parsed.spec
+        if c.basin:
+            options = list(spec.params)
+        else:
+            options = [a for a in reversed(c.axes) if not a.startswith("initial.")]
+        self.cont_param = pn.widgets.Select(label="continue in", options=options, width=150,
+                                            value=options[0] if options else None,
+                                            disabled=not options)
+        self.cont_range = pn.widgets.TextInput(label="over the range (low, high)", width=200,
+                                               placeholder="e.g. 0.9, 1.1")
+        self.cont_param.param.watch(lambda e: self._default_range(), "value")
+        self._default_range()
+        self.branch_pane = pn.pane.HoloViews(None, sizing_mode="stretch_width")
+
+    def _default_range(self):
+        """A basin's range: the parameter's value +- 5 % (+- 0.05 at 0)."""
+        c = self.dia
+        name = self.cont_param.value
+        if not c.basin or name is None:
+            return
+        v = c.data.parsed.point((0, 0)).get(name)
+        if v is None:
+            self.cont_range.value = ""
+            return
+        h = 0.05 * abs(v) if v else 0.05
+        self.cont_range.value = f"{v - h:.6g}, {v + h:.6g}"
+
+    def _continuation_raw(self, orbit, chart) -> dict:
+        name = self.cont_param.value
+        if name is None:
+            raise jobs.Refused("this chart has no parameter axis to continue in")
+        c = self.dia
+        values = chart.data.parsed.point(orbit.point)
+        if c.basin:
+            try:
+                lo, hi = (float(t) for t in self.cont_range.value.split(","))
+            except ValueError:
+                raise jobs.Refused(f"the range {self.cont_range.value!r} is not two numbers "
+                                   "'low, high'") from None
+            return jobs.continue_raw(chart.data.scene_text, name, float(values[name]),
+                                     orbit.initial, lo, hi)
+        other = next(a for a in c.axes if a != name)
+        lo, hi = _edges(c.xv if name == c.axes[0] else c.yv)
+        v = float(values[name])
+        fixed = {} if other.startswith("initial.") else {other: float(values[other])}
+        curve = None if other.startswith("initial.") else \
+            (other, *_edges(c.xv if other == c.axes[0] else c.yv))
+        return jobs.continue_raw(chart.data.scene_text, name, v, orbit.initial,
+                                 min(lo, v), max(hi, v), fixed=fixed, curve=curve)
+
+    def _show_branch(self, cont):
+        c = self.dia
+        if c.basin:
+            kind = "impact_u"
+            self.branch_pane.object = (
+                hv.DynamicMap(_branch_paths, streams=[hv.streams.Pipe(data=(cont, kind))])
+                * hv.DynamicMap(_event_points, streams=[hv.streams.Pipe(data=(cont, kind))])
+            ).opts(hv.opts.Path(color=BRANCH_COLOR, line_width=2, frame_width=500,
+                                frame_height=260, xlabel=_plain(cont["parameter"]),
+                                ylabel="impact height u", title="the continued branch"),
+                   hv.opts.Points("Events", color=hv.dim("event").categorize(
+                       EVENT_COLORS, default="black"), size=10, marker="diamond",
+                       line_color="black", tools=["hover"]))
+            return
+        name = cont["parameter"]
+        point = self.orbit.point
+        chart = self.orbit_dia
+        values = chart.data.parsed.point(point)
+        other = next(a for a in c.axes if a != name)
+        self.branch_pipe.send((cont, name == c.axes[0], float(values.get(other, np.nan))))
+
     # ------------------------------------------------------------------ refine
     def _refine_grid(self) -> tuple:
         """The visible window as a refine's grid: cell centres, ``CELL_PX`` pixels a cell:
@@ -142,7 +244,8 @@ class ChartPage(Page):
         write_text(out[:-3] + ".toml", text)
         self.refine = jobs.start_refine(scene, out)
         self.refine_grid = (gx, gy, self.window, scene.n_ic)
-        self.progress.visible, self.progress.value = True, 0
+        self.progress.visible = self.cancel_btn.visible = True
+        self.progress.value = 0
         self.say(f"refine: sweeping {gx[2]} x {gy[2]} cells x {scene.n_ic} starts into {out}")
 
     def _poll_refine(self):
@@ -161,17 +264,7 @@ class ChartPage(Page):
                 self.say(f"refine: {int(got['done'].sum())} of {job.total} cells swept "
                          f"({job.seconds():.1f} s)")
             return
-        if job.state == "failed":
-            self.say(job.message, error=True)
-        else:
-            try:
-                self.refined = Chart(job.result)
-                self._show_refined()
-                self.say(job.message)
-            except Exception as e:  # noqa: BLE001 - said on the page
-                self.say(f"refine: the side file cannot be read: {cut(str(e), 300)}", error=True)
-        job.state = "shown" if job.state == "done" else job.state
-        self.progress.visible = False
+        self._refine_finished(job, Chart, "cells")
 
     def _show_refined(self):
         what = self.colour.value
@@ -265,3 +358,35 @@ def _inside(v, lo, hi) -> tuple:
         return float(lo), float(hi), 2
     return float(inside[0]), float(inside[-1]), int(inside.size)
 
+
+
+def _chart_paths(data):
+    """A chart's continuation as paths in its plane: each branch at the run's value of the
+    other axis (a line along the continued one), each curve of a corner collision or fold
+    (its points in the two parameters); ``data`` = (continuation, continued along x, the
+    other axis's value) or None."""
+    paths = []
+    if data is not None:
+        cont, along_x, other = data
+        for br in cont["branches"]:
+            lam = np.asarray(br["param"], float)
+            fix = np.full(lam.shape, other)
+            paths.append({"x": lam, "y": fix} if along_x else {"x": fix, "y": lam})
+        for cv in cont["curves"]:
+            p2, p1 = np.asarray(cv["param"], float), np.asarray(cv["event_param"], float)
+            paths.append({"x": p1, "y": p2} if along_x else {"x": p2, "y": p1})
+    paths = paths or [{"x": np.array([np.nan]), "y": np.array([np.nan])}]
+    return hv.Path(paths, ["x", "y"])
+
+
+def _chart_events(data):
+    """A chart's continuation's events (``_chart_paths``' data) as points in their ``cornerbif
+    plot`` colours, named on hover."""
+    rows = []
+    if data is not None:
+        cont, along_x, other = data
+        for e in cont["events"]:
+            lam = float(e["param"])
+            rows.append((lam, other, str(e["kind"])) if along_x else (other, lam, str(e["kind"])))
+    df = pd.DataFrame(rows or [(np.nan, np.nan, "none")], columns=["x", "y", "event"])
+    return hv.Points(df, ["x", "y"], vdims=["event"], group="Events")

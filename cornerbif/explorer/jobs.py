@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import continuation_run
 from ..config import SceneError, dumps, loads, set_dotted
+from ..errors import SweepInterrupted
 from ..estimate import duration, estimate_time
 from ..model import cut
 
@@ -102,7 +103,8 @@ def window_scene(scene_text, axis, x0, x1, num, threads=1, second=None):
 
 
 class Job:
-    """Work in a thread of its own: ``state`` ("running", "done", "failed"), ``message``
+    """Work in a thread of its own: ``state`` ("running", "done", "failed", "cancelled"),
+    ``message``
     (what the page says), ``result`` (the file written); ``done``/``total``: its
     progress."""
 
@@ -121,6 +123,8 @@ class Job:
             try:
                 self.result = work()
                 self.state = "done"
+            except Cancelled:
+                self.state = "cancelled"
             except Exception as e:  # noqa: BLE001 - a job never takes the server down
                 self.state = "failed"
                 self.message = f"{self.what} failed: {type(e).__name__}: {cut(str(e), 400)}"
@@ -155,15 +159,19 @@ def partial_copy(partial):
     reading through a byte copy (removed after).  HDF5 shares one open file between the
     handles of a process: a handle on the partial file itself (even read-only, SWMR) would
     keep the writer's file open past its close, and the sweep's finishing would then fail
-    ("file is already open for write").  A copy cut mid-write fails to open (OSError) or
-    holds fewer blocks done: the page reads again at its next poll."""
+    ("file is already open for write").  The copy is opened as a SWMR reader (the sweep
+    writes in SWMR mode: the copy's superblock says so, and a plain reader is refused).  A
+    copy cut mid-write fails to open (OSError) or holds fewer blocks done: the page reads
+    again at its next poll."""
     import h5py  # start-up: loads h5py
     fd, path = tempfile.mkstemp(suffix=".h5", prefix="refine-read-",
                                 dir=os.path.dirname(os.path.abspath(partial)))
     os.close(fd)
     try:
         shutil.copyfile(partial, path)
-        with h5py.File(path, "r") as f:
+        # the copy carries the writer's "open for SWMR write" flags: only a SWMR reader
+        # opens it (a plain one is refused: "file is already open for write")
+        with h5py.File(path, "r", swmr=True) as f:
             yield f
     finally:
         os.remove(path)
@@ -176,31 +184,57 @@ def start_refine(scene, out_path, threads=None) -> Job:
     job = Job("refine")
     job.partial = out_path + ".partial"
     job.total = int(np.prod([a.array.size for a in scene.axes]))
+    job.cancel = threading.Event()         # set by the page's "Cancel the refine"
     block = max(1, math.ceil(job.total / REFINE_BLOCKS))
 
     def work():
         job.message = "refine: compiling or starting the kernels"
-        run_sweep(scene, out_path, threads=threads, progress=False, block_points=block,
-                  command="cornerbif explore (refine)", echo=lambda m: None)
+        try:
+            run_sweep(scene, out_path, threads=threads, progress=False, block_points=block,
+                      command="cornerbif explore (refine)", echo=lambda m: None,
+                      cancel=job.cancel)
+        except SweepInterrupted:
+            if not job.cancel.is_set():
+                raise
+            job.message = (f"refine: cancelled after {job.seconds():.1f} s; its finished "
+                           f"blocks are kept in {job.partial} (cornerbif sweep --resume with "
+                           "its scene completes it)")
+            raise Cancelled() from None
         job.message = f"refine: done in {job.seconds():.1f} s, {out_path}"
         return out_path
     return job.start(work)
 
 
-def continue_raw(scene_text: str, axis: str, x: float, start: list, lo: float, hi: float) -> dict:
+class Cancelled(Exception):
+    """A job stopped at the page's request (``Job``: state "cancelled")."""
+
+
+def continue_raw(scene_text: str, axis: str, x: float, start: list, lo: float, hi: float,
+                 fixed=None, curve=None) -> dict:
     """The file's scene made a continuation from one run: its parameter ``axis`` from ``x``
     over [lo, hi], seeded by the attractor the start ``start`` reaches there (``initial
-    points``), no sweep.  ``Refused`` when the axis is a start coordinate."""
+    points``), no sweep; ``fixed`` (name -> value) the run's other swept parameters, and
+    ``curve`` (name, lo, hi) a second parameter in which the located corner collisions and
+    folds are continued as curves (``[continue] curve``).  ``Refused`` when the axis is a
+    start coordinate, or the range is degenerate."""
     if axis.startswith("initial."):
         raise Refused("continuation follows a parameter; this file sweeps a start "
                       f"coordinate ({axis})")
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi and lo <= x <= hi):
+        raise Refused(f"the range [{lo:.6g}, {hi:.6g}] of {axis} must be finite, increasing "
+                      f"and hold the orbit's value {x:.6g}")
     raw = copy.deepcopy(tomllib.loads(scene_text))
     for k in ("sweep", "plot", "continue"):
         raw.pop(k, None)
     raw.setdefault("system", {})[axis] = float(x)
+    for name, v in (fixed or {}).items():
+        raw["system"][name] = float(v)
     raw["initial"] = {"points": [[float(s) for s in start]]}
     raw["continue"] = {"parameter": axis, "range": [float(lo), float(hi)], "start": float(x),
                        "seed": "all"}
+    if curve is not None:
+        raw["continue"]["curve"] = curve[0]
+        raw["continue"]["curve_range"] = [float(curve[1]), float(curve[2])]
     sc = raw.setdefault("scene", {})
     sc["name"] = re.sub(r"[^A-Za-z0-9._-]", "_", str(sc.get("name", "scene")))[:60] + "_continue"
     return raw

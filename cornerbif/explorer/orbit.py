@@ -64,9 +64,12 @@ def recompute(dia: Runs, point: tuple, ic: int, cycles: float = 2.0) -> Orbit:
     scene = dia.data.parsed
     system = _system(dia, point)
     start = _start(dia, point, ic)
+    # the orbit's stability recomputed with it where the model has a tangent pass
+    keep = None if "stability" not in scene.spec.observables else \
+        [k for k in scene.spec.observables if k not in scene.spec.opt_in] + ["stability"]
     res = simulate(model=scene.model, transient=scene.transient, record=scene.record,
                    tol=scene.tol, chatter=scene.chatter, escape=scene.escape,
-                   period_tol=scene.period_tol, **start, **system)
+                   period_tol=scene.period_tol, keep=keep, **start, **system)
     imp = {k: np.asarray(res[k]).reshape(-1) for k in ("t", "u", "v_out", "corner_offset")
            if k in res}
     word = str(np.asarray(res["symbols"]).reshape(-1)[0])
@@ -77,8 +80,29 @@ def recompute(dia: Runs, point: tuple, ic: int, cycles: float = 2.0) -> Orbit:
     first = dia.data.axes[0]
     orbit = Orbit(point, ic, float(dia.data.values[first][point[0]]), list(start.values()),
                   word, period, imp, flight)
-    orbit.facts = _facts(dia, point, ic, orbit, ipc, status)
+    orbit.facts = _facts(dia, point, ic, orbit, ipc, status) + _stability_facts(res)
     return orbit
+
+
+def _stability_facts(res) -> list:
+    """The recomputed run's multipliers (the monodromy's eigenvalues over its cycle) and
+    Lyapunov exponents, as ``simulate`` gives them with ``keep=["stability"]``; none where
+    the model has no tangent pass."""
+    from ..stability import REASONS  # start-up: loads numba
+    if "mu_re" not in res:
+        return []
+    re, im = (np.asarray(res[k]).reshape(-1) for k in ("mu_re", "mu_im"))
+    st = int(np.asarray(res["stability_status"]).reshape(-1)[0])
+    if np.isfinite(re).any():
+        mult = ", ".join(f"{a:.5g}" + (f" {'+' if b >= 0 else '-'} {abs(b):.4g}i" if b else "")
+                         + f" (|μ| {math.hypot(a, b):.4g})" for a, b in zip(re, im))
+    else:
+        mult = REASONS.get(st, f"none (status {st})")
+    out = [("multipliers (recomputed)", mult)]
+    lam = np.asarray(res["lyapunov"]).reshape(-1)
+    if np.isfinite(lam).any():
+        out.append(("Lyapunov exponents (recomputed)", ", ".join(f"{v:.5g}" for v in lam)))
+    return out
 
 
 def _flight(scene, system, imp, ipc, cycles):
@@ -127,7 +151,21 @@ def _facts(dia: Runs, point, ic, orbit, ipc, status) -> list:
             facts.append(("attractor id", str(aid)))
             facts.append(("share of the starts", f"{float(dia.table['fraction'][aid]):.3g}"))
             if "branch" in dia.table:
-                facts.append(("branch (cornerbif explain)", str(int(dia.table["branch"][aid]))))
+                facts += _branch_facts(dia, int(dia.table["branch"][aid]))
         else:
             facts.append(("attractor", "none (no cycle)"))
     return facts
+
+
+def _branch_facts(dia: Runs, b: int) -> list:
+    """The run's branch (``cornerbif explain``'s table): its number and word, where it
+    begins and ends and why (the events located by continuation)."""
+    if b < 0:
+        return [("branch (cornerbif explain)", "none")]
+    tab = dia.branches()
+    if tab is None or b >= len(tab["id"]):
+        return [("branch (cornerbif explain)", str(b))]
+    word = _plain(word_label(str(tab["word"][b])))
+    return [("branch (cornerbif explain)", f"{b}: {word}, period {int(tab['period'][b])}"),
+            ("branch begins", f"{tab['low_kind'][b]}: {tab['low_detail'][b]}"),
+            ("branch ends", f"{tab['high_kind'][b]}: {tab['high_detail'][b]}")]

@@ -9,15 +9,16 @@ from __future__ import annotations
 
 import os
 import re
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import plot_attractors
-from ..attractors import read_table
+from ..attractors import read_branches, read_table
 from ..plot_base import COLOR_BY, word_label
 from ..plot_data import PlotData
-from ..plot_style import row_slabs
+from ..plot_style import robust_range, row_slabs, slab_rows
 
 # the labels named and coloured (``plot_attractors.draw_diagram_by_label``'s ``shown``)
 SHOWN = 8
@@ -84,15 +85,25 @@ class Runs:
         idx = plot_attractors.run_index(self.table["ids"], row)
         return _layers(what, names, counts, idx)
 
+    def branches(self):
+        """The file's branch table (``attractors.read_branches``), read once; None without."""
+        if not hasattr(self, "_branches"):
+            self._branches = read_branches(self.path) if self.table is not None else None
+        return self._branches
+
     def changed(self) -> bool:
         """Whether the file changed on disk since it was read."""
         return _stamp(self.path) != self.mtime
 
 
 class Diagram(Runs):
-    """A file of one swept parameter as points: ``x``, ``y`` (finite values of the y kind
-    ``kind``), ``run`` (each point's run, grid index * starts + start), read once.
-    ``ValueError`` for a file this view cannot draw."""
+    """A file of one swept parameter as points (x, y, run): x the swept value, y a finite
+    value of the y kind ``kind``, run its run (grid index * starts + start).  The points
+    are never held: each render, zoom or click reads the rows of the window from the file a
+    slab at a time (``chunks``), so that the server's memory does not grow with the file.
+    ``size`` (the finite values) and the y window (``plot_style.robust_range``) are read in
+    one pass each when the file is opened.  ``ValueError`` for a file this view cannot
+    draw."""
 
     def __init__(self, path, kind=None, data=None):
         super().__init__(path, data)
@@ -107,33 +118,208 @@ class Diagram(Runs):
             raise ValueError(f"{path}: the file holds no recorded values to draw (output.keep "
                              "of its scene: impact values need \"impacts\", section values "
                              "\"section\")")
+        self.rows = rows
+        self.xv = np.asarray(d.values[self.axis], float)
         self.n_ic = rows.shape[1]
-        self.x, self.y, self.run = _points(d.values[self.axis], rows)
+        has = np.zeros(self.xv.size, bool)      # the grid rows with a point
+        self.size = 0
+        for a, block in row_slabs(rows):
+            ok = np.isfinite(block)
+            self.size += int(ok.sum())
+            has[a:a + block.shape[0]] = ok.any(axis=(1, 2))
+        self._x_extent = ((float(self.xv[has].min()), float(self.xv[has].max())) if has.any()
+                          else None)
+        self._y_window = False
+        self._images = {}
+        self._lock = threading.Lock()
+
+    def x_extent(self) -> tuple:
+        """(lowest, highest) swept value of a row with a point, or None without a point."""
+        return self._x_extent
+
+    def slabs(self, x_range=None):
+        """The file's rows whose x is in ``x_range`` (all without one; only the window's
+        rows are read where the grid is increasing), a slab at a time, as arrays that
+        broadcast together: x (rows, 1, 1), y (rows, starts, record), run (rows, starts, 1);
+        y NaN where no point is."""
+        lo, hi = 0, self.xv.size
+        if x_range is not None and self.xv.size > 1 and np.all(np.diff(self.xv) >= 0):
+            lo = int(np.searchsorted(self.xv, x_range[0], side="left"))
+            hi = int(np.searchsorted(self.xv, x_range[1], side="right"))
+        if hi <= lo:
+            return
+        with self.rows.opened():
+            for rows in slab_rows((hi - lo,) + self.rows.shape[1:]):
+                a, b = lo + rows.start, lo + rows.stop
+                y = np.asarray(self.rows[a:b])
+                k = np.arange(a, b)
+                run = k[:, None, None] * self.n_ic + np.arange(self.n_ic)[None, :, None]
+                yield self.xv[a:b, None, None], y, run
+
+    def chunks(self, x_range=None):
+        """(x, y, run) of each point whose x is in ``x_range``, flat, a slab at a time."""
+        for x, y, run in self.slabs(x_range):
+            ok = np.isfinite(y)
+            if x_range is not None:
+                ok &= (x >= x_range[0]) & (x <= x_range[1])
+            yield (np.broadcast_to(x, y.shape)[ok], y[ok], np.broadcast_to(run, y.shape)[ok])
+
+    def image(self, colouring: Colouring, x_range, y_range, width: int, height: int):
+        """``raster`` of the file's points; the last ``KEPT_IMAGES`` images are kept (the
+        file's sessions share them: a new page's first view, a reset, a zoom back out are not
+        read again; memory: at most that many images, whatever the file)."""
+        key = (colouring.what, tuple(colouring.names), tuple(colouring.colors),
+               tuple(map(float, x_range)), tuple(map(float, y_range)), width, height)
+        with self._lock:
+            if key in self._images:
+                self._images[key] = self._images.pop(key)         # the most recent last
+                return self._images[key]
+        img = raster(self, colouring, x_range, y_range, width, height)
+        with self._lock:
+            self._images[key] = img
+            while len(self._images) > KEPT_IMAGES:
+                self._images.pop(next(iter(self._images)))
+        return img
+
+    def y_window(self):
+        """``plot_style.robust_range`` of the values: (low, high, outside), None without;
+        read once (the file's sessions share it)."""
+        if self._y_window is False:
+            self._y_window = robust_range(self.rows) if self.size else None
+        return self._y_window
+
+    def run_of(self, run: int) -> tuple:
+        """(grid index, start) of run ``run``."""
+        k, ic = divmod(int(run), self.n_ic)
+        return (k,), ic
+
+
+KEPT_IMAGES = 8       # a diagram's last rasters kept (``Diagram.image``): 8 x 1.6 MB
+
+
+class Cloud:
+    """Points held in memory (a refine's finished blocks, read from its partial file): the
+    same ``chunks`` and ``run_of`` as a ``Diagram``."""
+
+    def __init__(self, x, y, run, n_ic):
+        self.x, self.y, self.run, self.n_ic = x, y, run, n_ic
 
     @property
     def size(self) -> int:
         return int(self.x.size)
 
-    def nearest(self, px, py, xr, yr, extra=None):
-        """The point nearest (``px``, ``py``) in the view's ranges ``xr``, ``yr`` (distances
-        measured in screen units): (source, index); ``extra`` (a ``Diagram`` of a refine, or
-        None) is searched too, source 1."""
-        best = (np.inf, 0, -1)
-        for src, dia in enumerate([self, extra]):
-            if dia is None or dia.size == 0:
-                continue
-            dx = (dia.x - px) / max(xr[1] - xr[0], 1e-300)
-            dy = (dia.y - py) / max(yr[1] - yr[0], 1e-300)
-            d2 = dx * dx + dy * dy
-            i = int(np.argmin(d2))
-            if d2[i] < best[0]:
-                best = (float(d2[i]), src, i)
-        return best[1], best[2]
+    def chunks(self, x_range=None):
+        keep = (slice(None) if x_range is None
+                else (self.x >= x_range[0]) & (self.x <= x_range[1]))
+        yield self.x[keep], self.y[keep], self.run[keep]
 
-    def run_of(self, i: int) -> tuple:
-        """(grid index, start) of point ``i``."""
-        k, ic = divmod(int(self.run[i]), self.n_ic)
-        return (k,), ic
+    slabs = chunks
+    run_of = Diagram.run_of
+
+    def image(self, colouring: Colouring, x_range, y_range, width: int, height: int):
+        return raster(self, colouring, x_range, y_range, width, height)
+
+
+def raster(points, colouring: Colouring, x_range, y_range, width: int, height: int):
+    """The points of ``points`` (a ``Diagram`` or a ``Cloud``) in the window ``x_range`` x
+    ``y_range`` as an image of ``width`` x ``height`` pixels (row 0 at the lowest y), read a
+    slab at a time: each pixel the highest of its points' ``codes`` (a labelled colouring:
+    the highest layer wins, as ``cornerbif plot``'s raster) or their mean (a colour scale);
+    NaN where no point falls.  Memory: the image's and one slab's."""
+    (x0, x1), (y0, y1) = x_range, y_range
+    n = width * height
+    labelled = colouring.layer is not None
+    top = np.full(n, -np.inf, np.float32)
+    total = np.zeros(n)
+    count = np.zeros(n)
+    if not (x1 > x0 and y1 > y0):
+        return np.full((height, width), np.nan, np.float32)
+    for x, y, run in points.slabs(x_range):
+        c = codes(colouring, run)
+        # NaN compares false: a missing value, or a run without a value, is no point
+        ok = (y >= y0) & (y <= y1) & (x >= x0) & (x <= x1) & np.isfinite(c)
+        ix = np.clip(((x - x0) * (width / (x1 - x0))).astype(np.int64), 0, width - 1)
+        iy = np.clip(((np.where(ok, y, y0) - y0) * (height / (y1 - y0))).astype(np.int64), 0,
+                     height - 1)
+        pixel = (iy * width + ix)[ok]
+        value = np.broadcast_to(c, ok.shape)[ok]
+        if labelled:
+            np.maximum.at(top, pixel, value)
+        else:
+            total += np.bincount(pixel, weights=value, minlength=n)
+            count += np.bincount(pixel, minlength=n)
+    if labelled:
+        img = np.where(np.isfinite(top), top, np.nan)
+    else:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            img = np.where(count > 0, total / count, np.nan)
+    return img.reshape(height, width).astype(np.float32)
+
+
+def _neighbourhood_max(img, px: int):
+    """Each pixel's highest value over the (2 px + 1)^2 pixels around it (NaN: none)."""
+    out = img.copy()
+    h, w = img.shape
+    for dy in range(-px, px + 1):
+        for dx in range(-px, px + 1):
+            if dx == 0 and dy == 0:
+                continue
+            src = img[max(0, -dy):h - max(0, dy), max(0, -dx):w - max(0, dx)]
+            dst = out[max(0, dy):h - max(0, -dy), max(0, dx):w - max(0, -dx)]
+            np.fmax(dst, src, out=dst)
+    return out
+
+
+def _has_neighbour(drawn):
+    """The drawn pixels with a drawn pixel among their 8 neighbours."""
+    pad = np.pad(drawn, 1)
+    h, w = drawn.shape
+    around = np.zeros(drawn.shape, bool)
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            if (dy, dx) != (1, 1):
+                around |= pad[dy:dy + h, dx:dx + w]
+    return drawn & around
+
+
+def spread(img, threshold: float = 0.6, max_px: int = 2):
+    """Sparse points grown so that they are seen, as Datashader's ``dynspread``: while fewer
+    than ``threshold`` of the drawn pixels have a drawn neighbour, the points grow by one
+    pixel more, up to ``max_px``; an empty pixel within the reach of points takes the
+    highest of their values (the highest layer wins, as in ``raster``), a drawn pixel keeps
+    its own."""
+    drawn = np.isfinite(img)
+    n = np.count_nonzero(drawn)
+    if n == 0:
+        return img
+    grown = img
+    for px in range(1, max_px + 1):
+        ok = np.isfinite(grown)
+        if np.count_nonzero(_has_neighbour(ok)) >= threshold * np.count_nonzero(ok):
+            break
+        grown = _neighbourhood_max(img, px)
+    return np.where(drawn, img, grown)
+
+
+def nearest(px, py, xr, yr, sources):
+    """The point of ``sources`` (``Diagram``s or ``Cloud``s, None skipped) in the view's
+    window ``xr`` x ``yr`` nearest (``px``, ``py``), distances measured in screen units,
+    read a slab at a time: (source index, x, y, run), or None when the window holds none."""
+    best = None
+    sx, sy = max(xr[1] - xr[0], 1e-300), max(yr[1] - yr[0], 1e-300)
+    for src, pts in enumerate(sources):
+        if pts is None:
+            continue
+        for x, y, run in pts.chunks(xr):
+            inside = (y >= yr[0]) & (y <= yr[1])
+            if not inside.any():
+                continue
+            x, y, run = x[inside], y[inside], run[inside]
+            d2 = ((x - px) / sx) ** 2 + ((y - py) / sy) ** 2
+            i = int(np.argmin(d2))
+            if best is None or d2[i] < best[0]:
+                best = (float(d2[i]), src, float(x[i]), float(y[i]), int(run[i]))
+    return None if best is None else best[1:]
 
 
 class Chart(Runs):
@@ -225,22 +411,6 @@ def _stamp(path):
     """What tells a changed file: its modification time, size and inode."""
     st = os.stat(path)
     return (st.st_mtime_ns, st.st_size, st.st_ino)
-
-
-def _points(xv, rows):
-    """The finite values of ``rows`` (``plot_style.Rows`` of (points, starts, record)) with
-    their x and run index, read a slab at a time: three flat arrays."""
-    xs, ys, runs = [], [], []
-    n_ic = rows.shape[1]
-    for a, block in row_slabs(rows):
-        ok = np.isfinite(block)
-        i, ic, _ = np.nonzero(ok)
-        xs.append(xv[a + i].astype(float))
-        ys.append(block[ok].astype(float))
-        runs.append(((a + i) * n_ic + ic).astype(np.int32))
-    if not xs:
-        return np.zeros(0), np.zeros(0), np.zeros(0, np.int32)
-    return np.concatenate(xs), np.concatenate(ys), np.concatenate(runs)
 
 
 def _layers(what, names, counts, idx) -> Colouring:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import shutil
 import tomllib
 
@@ -20,6 +21,30 @@ FIG06A = os.path.join(os.path.dirname(__file__), "..", "..", "configs", "fig06a.
 
 def scene_text():
     return open(FIG06A, encoding="utf-8").read()
+
+
+def page_of_scene(tmp_path, scene, name, *sets):
+    """A page of the explorer over ``scene`` swept (``--set`` each of ``sets``) into
+    ``tmp_path / name``."""
+    from explore_server import cornerbif
+
+    from cornerbif.explorer.app import Files
+    from cornerbif.explorer.session import page_for
+    path = str(tmp_path / name)
+    r = cornerbif("sweep", scene, "-o", path, "--no-progress",
+                  *[a for s in sets for a in ("--set", s)])
+    assert r.returncode == 0, r.stderr
+    return page_for(Files([path], str(tmp_path)))
+
+
+def wait_continued(page, timeout=300):
+    """Poll ``page`` until its continuation is done."""
+    import time
+    end = time.time() + timeout
+    while page.cont_job is not None and time.time() < end:
+        page.poll()
+        time.sleep(0.05)
+    assert page.cont_path is not None, page.status.object
 
 
 @pytest.mark.parametrize("x0, x1, why", [
@@ -118,6 +143,10 @@ def test_a_refine_is_drawn_block_by_block_into_a_side_file(small_file, tmp_path)
         said.append(page.status.object)
         time.sleep(0.01)
     assert any("values swept" in s and "new points drawn" in s for s in said), set(said)
+    # the blocks arrive one by one while the refine runs (its partial file read as a SWMR
+    # reader: before, the copy was refused until the end, and nothing came early)
+    swept = {int(m.group(1)) for s in said if (m := re.search(r"(\d+) of 400 values swept", s))}
+    assert len(swept - {400}) >= 2, swept
     assert "refine: done" in said[-1]
     assert page.refined.size > 0 and page.refined.path.startswith(str(tmp_path))
     assert (os.stat(small_file).st_mtime_ns, os.path.getsize(small_file)) == before
@@ -192,3 +221,121 @@ def test_a_chart_is_drawn_clicked_refined_and_saved_as_a_scene_of_its_cells(tmp_
     with h5py.File(page.refined.path, "r") as a, h5py.File(tmp_path / "again2.h5", "r") as b:
         for name in ("omega", "kappa", "period", "symbols", "status", "final/u"):
             np.testing.assert_array_equal(a[name][...], b[name][...], err_msg=name)
+
+
+@pytest.mark.slow
+def test_a_charts_cell_is_continued_and_its_corner_curve_drawn_over_the_chart(tmp_path):
+    """On a chart of (omega, kappa), a click on a cell of the period-one orbit beta and
+    "Continue from here" (in kappa, the corner collisions continued as curves in omega over
+    the chart's width): the branch is drawn as a vertical line at the cell's omega, its
+    corner collision at kappa_C(omega) of eq (11) (``theory.kappa_C``, the closed form), and
+    the curve drawn over the chart is eq (11) at every point (to 1e-6)."""
+    pytest.importorskip("panel")
+
+    import numpy as np
+
+    from cornerbif import theory
+    from cornerbif.explorer.chart import _chart_events, _chart_paths
+    page = page_of_scene(tmp_path, "configs/chart_flow.toml", "chart.h5", "sweep.omega.num=5",
+                         "sweep.kappa.num=11", "initial.count=1")
+    assert page.cont_param.value == "kappa"
+    i, j = 1, 0                                    # omega = 1.998, kappa = -0.03: beta
+    assert page.dia.data.symbols[i, j, 0] == "b"
+    page._on_tap(x=float(page.dia.xv[i]), y=float(page.dia.yv[j]))
+    page.orbit_job.join(120)
+    page.poll()
+    page.start_continuation()
+    wait_continued(page)
+    data = page.branch_pipe.contents["data"]
+    cont, along_x, other = data
+    omega = float(page.dia.xv[i])
+    assert not along_x and other == omega
+    corners = [e for e in cont["events"] if e["kind"] == "corner"]
+    k_c = theory.kappa_C(omega, 0.8)
+    assert any(abs(e["param"] - k_c) < 1e-6 for e in corners), ([e["param"] for e in corners], k_c)
+    ev = _chart_events(data).dframe()
+    assert ((ev["x"] == omega) & (abs(ev["y"] - k_c) < 1e-6)).any()
+    paths = _chart_paths(data).split()
+    branch = paths[0].dframe()
+    assert (branch["x"] == omega).all() and branch["y"].min() < k_c + 1e-6
+    curves = [p.dframe() for p in paths[len(cont["branches"]):]]
+    assert curves, "no corner curve drawn"
+    on_eq11 = [np.abs(c["y"] - [theory.kappa_C(w, 0.8) for w in c["x"]]).max() for c in curves]
+    assert min(on_eq11) < 1e-6, on_eq11
+    xs = np.concatenate([c["x"] for c in curves])
+    assert xs.min() < 1.9965 and xs.max() > 2.0035        # over the chart's width
+
+
+@pytest.mark.slow
+def test_a_basins_cell_is_continued_in_a_parameter_chosen_on_the_page(tmp_path):
+    """On a basin of (u, v) starts (the hysteresis basin at omega = 2.001, kappa = 0.008),
+    a clicked cell's orbit continued in kappa over a range typed on the page: the branch is
+    drawn in a figure of its own; its parameter values hold the cell's kappa and stay in the
+    range; a range that is not two numbers, or does not hold the value, is refused on the
+    page."""
+    pytest.importorskip("panel")
+
+    page = page_of_scene(tmp_path, "configs/basin_hysteresis.toml", "basin.h5",
+                         "sweep.initial.u.num=6", "sweep.initial.v.num=5")
+    assert page.dia.basin and "kappa" in page.cont_param.options
+    page.cont_param.value = "kappa"
+    kappa = page.dia.data.parsed.point((0, 0))["kappa"]
+    lo, hi = (float(t) for t in page.cont_range.value.split(","))
+    assert lo < kappa < hi                       # the default: the value +- 5 %
+    page._on_tap(x=float(page.dia.xv[2]), y=float(page.dia.yv[2]))
+    page.orbit_job.join(120)
+    page.poll()
+    for bad in ("0.1", "a, b", f"{kappa + 0.001}, {kappa + 0.002}"):
+        page.cont_range.value = bad
+        page.start_continuation()
+        assert "continuation refused" in page.status.object, bad
+    page.cont_range.value = f"{kappa - 0.004}, {kappa + 0.004}"
+    page.start_continuation()
+    wait_continued(page)
+    assert page.branch_pane.object is not None
+    import h5py
+    with h5py.File(page.cont_path, "r") as f:
+        params = [f["branches"][b]["param"][...] for b in f["branches"]]
+    assert any(p.min() <= kappa <= p.max() for p in params)
+    assert all(p.min() >= kappa - 0.004 - 1e-12 and p.max() <= kappa + 0.004 + 1e-12
+               for p in params)
+
+
+@pytest.mark.slow
+def test_a_refine_cancelled_keeps_its_finished_blocks_and_resumes(small_file, tmp_path):  # noqa: F811
+    """"Cancel the refine" while it runs: the sweep stops as on Ctrl-C (``run_sweep``'s
+    ``cancel``), the page says so (no error), the blocks finished are kept in the partial
+    file, fewer than all, and ``cornerbif sweep --resume`` of the refine's scene completes
+    it."""
+    pytest.importorskip("panel")
+    import time
+
+    import h5py
+    from explore_server import cornerbif
+
+    from cornerbif.explorer.app import Explorer, Files
+    page = Explorer(Files([small_file], str(tmp_path)))
+    page.window = ((-0.012, -0.004), page.window[1])
+    page.start_refine(num=800)
+    assert page.cancel_btn.visible
+    job = page.refine
+    end = time.time() + 120
+    while job.running and time.time() < end and "values swept" not in page.status.object:
+        page.poll()
+        time.sleep(0.01)
+    page.cancel_refine()
+    while job.running and time.time() < end:
+        time.sleep(0.01)
+    page.poll()
+    assert job.state == "cancelled", job.message
+    assert "refine: cancelled" in page.status.object and "#b00020" not in page.status.object
+    assert not page.cancel_btn.visible and page.refined is None
+    with h5py.File(job.partial, "r") as f:
+        done = int(f["done"][...].sum())
+    assert 0 < done < 800, done
+    scene = job.partial[:-len(".h5.partial")] + ".toml"
+    r = cornerbif("sweep", scene, "-o", job.partial[:-len(".partial")], "--resume",
+                  "--no-progress")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(job.partial[:-len(".partial")], "r") as f:
+        assert f["done"][...].all()
