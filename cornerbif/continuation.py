@@ -39,6 +39,17 @@ class OrbitError(RuntimeError):
     """Newton did not converge to an orbit of the itinerary."""
 
 
+def failure_words(e: BaseException) -> str:
+    """An orbit solve's failure in words: numpy's bare "Singular matrix" said as what it
+    means here (the orbit's Jacobian is singular: a fold, a multiplier at +1, or an
+    itinerary whose unknowns do not fix the orbit), others as they are."""
+    if isinstance(e, np.linalg.LinAlgError):
+        return (f"the orbit's equations have a singular Jacobian there ({e}): a fold or a "
+                "Floquet multiplier at +1, where the orbit cannot be continued in this "
+                "parameter from this point; try a start a little away from it")
+    return str(e)
+
+
 class StepRejected(OrbitError):
     """A corrected step that the continuation must not take (``_advance``): retried shorter."""
 
@@ -542,7 +553,7 @@ def follow_step(prob, X, lam, T0, origin, lam_range, direction=1.0, switch=True,
         except (OrbitError, np.linalg.LinAlgError, ArithmeticError, ValueError):
             mon, mu, ok, margin = {}, np.full(2, complex(math.nan, math.nan)), True, math.nan
         pts = [Point(lam, X, mu, mon, prob, ok, margin)]
-        evs = [Event("end", lam, X, f"the continuation failed ({e})", prob)]
+        evs = [Event("end", lam, X, f"the continuation failed ({failure_words(e)})", prob)]
     br = Branch(prob, pts, evs, prob.word(pts[0].X, pts[0].lam), origin)
     last = evs[-1] if evs else None
     if (switch and last is not None and last.kind == "grazing"
@@ -566,7 +577,7 @@ def follow_step(prob, X, lam, T0, origin, lam_range, direction=1.0, switch=True,
         Xn = newton(new, Xs, last.lam)
         T = _tangent(new, Xn, last.lam)
     except (OrbitError, np.linalg.LinAlgError) as e:
-        last.detail += f"; no orbit of the other side's itinerary ({e})"
+        last.detail += f"; no orbit of the other side's itinerary ({failure_words(e)})"
         return br, more
     ok, why = new.admissible(Xn, last.lam)
     if not ok:

@@ -31,6 +31,7 @@ from .continuation import (
     Event,
     OrbitError,
     corner_curve,
+    failure_words,
     fold_curve,
     follow_step,
 )
@@ -297,7 +298,7 @@ def _seeds(scene, log, control):
                 raise OrbitError(f"its orbit is not admissible at the start ({why})")
         except (OrbitError, NotImplementedError, np.linalg.LinAlgError, ArithmeticError,
                 ValueError) as e:
-            log(f"seed {word!r}: {e}")
+            log(f"seed {word!r}: {failure_words(e)}")
             continue
         seeds.append({"word": word, "problem": prob.to_doc(), "X": _array(X)})
     return {"version": STATE_VERSION, "start": float(start),
