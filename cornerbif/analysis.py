@@ -20,6 +20,8 @@ word (``winding_number``, the package's one: it also reads the run-length words 
 ``cornerbif.cycles`` (re-exported here); this module holds the jitted passes.
 """
 
+import math
+
 import numpy as np
 
 from ._jit import items_kernel, jit
@@ -37,6 +39,52 @@ from .cycles import (  # noqa: F401 (the Python side, loaded without numba: impo
 )
 
 A, B, G, X = ord("a"), ord("b"), ord("g"), ord("x")
+
+
+# ------------------------------------------------------------ corners of a second contact
+# The two-particle model's corners (section 6): its u-z impacts are grouped about its w-z
+# impacts, the w-z impacts playing the part of the obstacle's corners.  A u-z impact takes
+# the offset to the previous w-z impact unless the next one is strictly nearer (then a
+# negative offset to it), with the corner's number among all the run's w-z impacts; the
+# offset is settled on-line as the w-z impacts come (the two-particle kernel, and a linear
+# scene's ``[system] words``: docs/linear.md).  One rule, these three functions.
+
+
+@jit
+def offset_to_previous(has_previous, since_previous, previous):
+    """(offset, corner) of an impact when it happens: ``since_previous`` after the previous
+    corner impact (number ``previous``), if there was one; else (+inf, -1), pending: the
+    next corner impact decides (``settle_corner_offsets``)."""
+    if has_previous:
+        return since_previous, previous
+    return math.inf, np.int64(-1)
+
+
+@jit
+def settle_corner_offsets(off, corner, t, lo, hi, t_corner, between, k):
+    """At corner impact number ``k``, at time ``t_corner`` and ``between`` after the previous
+    corner impact: the impacts ``lo .. hi - 1`` since that one (times ``t``, offsets ``off``
+    and corners ``corner``, in place) take this corner where it is strictly nearer than the
+    previous one (offset -(between - off) < 0), or where they had none (+inf: t - t_corner)."""
+    for i in range(lo, hi):
+        if off[i] == math.inf:
+            off[i] = t[i] - t_corner
+            corner[i] = k
+        else:
+            dn = between - off[i]
+            if dn < off[i]:
+                off[i] = -dn
+                corner[i] = k
+
+
+@jit
+def close_corner_offsets(off, corner, lo, hi):
+    """At a run's end: the impacts ``lo .. hi - 1`` still waiting for a next corner impact
+    keep their offset to the previous one; those with none (+inf) get NaN and corner -1."""
+    for i in range(lo, hi):
+        if off[i] == math.inf:
+            off[i] = math.nan
+            corner[i] = -1
 
 
 @jit

@@ -40,13 +40,16 @@ NINT = 3
 @items_kernel
 def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, f_omega, f_phi,
               f_const, ics, ints, tol, chatter, escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
-              o_status, o_final):
+              o_status, o_final, counted, corners, period, o_off, o_corner):
     """Item i: the system ``which[i]`` (the stacked arrays' first index) from the start ics[i]
     = (x, v, t0) at t = t0 (the start time, 0 where ics has no column for it):
     ``ints[I_TRANSIENT]`` impacts, then up to o_t.shape[1] recorded, within the time
     ``t_max`` of its system after t0.  A start with a gap below zero: BELOW_OBSTACLE, nothing
     recorded.  ``f_omega``, ``f_phi`` (per system, per harmonic force) and ``f_const`` (a
-    constant force: its state 1) start the forcing's states (``flight.forcing_state``)."""
+    constant force: its state 1) start the forcing's states (``flight.forcing_state``).
+    ``counted``, ``corners`` (contact indices, -1: none), ``period`` (per system) and
+    ``o_off``, ``o_corner`` ((n, record); (n, 0) without them): the two-particle model's
+    words (``kernel.run``)."""
     n = gaps.shape[2]
     control = ints[I_CONTROL]
     skip = ints[I_TRANSIENT]
@@ -79,7 +82,8 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
         st, _ = run(E[s], A[s], H[s], normA[s], cA[s], cAs[s], N[s], normc[s], rows[s], ds[s], gaps[s],
                     D[s], r[s], y0, t0, n, skip, skip + rec, tol, chatter, escape, t0 + t_max[s],
                     control,
-                    o_t[i], o_c[i], o_x[i], o_vin[i], o_vout[i], o_final[i])
+                    o_t[i], o_c[i], o_x[i], o_vin[i], o_vout[i], o_final[i], counted, corners,
+                    period[s], o_off[i], o_corner[i])
         if st == STOPPED:
             o_status[i] = STOPPED
             continue

@@ -62,9 +62,12 @@ import numpy as np
 
 from ... import obstacles
 from ...model import KEY_CHARS, cut, did_you_mean, is_number, shown
-from .system import MAX_CONTACTS, MAX_DOFS, Contact, Forcing, LinearSystem
+from .system import MAX_CONTACTS, MAX_DOFS, Contact, Forcing, LinearSystem, Words
 
-SYSTEM_KEYS = ("dofs", "mass", "stiffness", "damping", "forcing", "contact")
+SYSTEM_KEYS = ("dofs", "mass", "stiffness", "damping", "forcing", "contact", "words")
+# [system] words: the two-particle model's words (system.Words)
+WORDS_KEYS = ("impacts", "corners", "height", "velocity")
+WORDS_EXAMPLE = 'words = { impacts = "U", corners = "W" }'
 FORCING_KEYS = ("on", "F", "Omega", "phi")
 CONTACT_KEYS = ("name", "gap", "obstacle", "kappa", "beta", "omega", "law", "r", "k", "c")
 FIXED = "fixed"
@@ -391,6 +394,48 @@ class _Reader:
                 out.append(Contact(name, *got))
         return tuple(out)
 
+    def words(self, v, dofs, contacts):
+        """``[system] words`` (``system.Words``): two distinct contacts by name, the impacts'
+        and the corners', and optionally the dofs of the impacts' height and velocity."""
+        if not isinstance(v, dict):
+            self.bad("words", v, f"must be a table naming two contacts, e.g. {WORDS_EXAMPLE} "
+                                 "(the two-particle model's words: the impacts on U named by "
+                                 "their offsets to the impacts on W)")
+            return None
+        n_before = len(self.problems)
+        self.unknown("words.", v, WORDS_KEYS)
+        names = [c.name for c in contacts] if contacts is not None else None
+        got = {}
+        for key, what in (("impacts", "the contact whose impacts are recorded and named"),
+                          ("corners", "the contact whose impacts are their corners")):
+            if key not in v:
+                self.problems.append(f"system.words.{key}: missing; {what} (e.g. {WORDS_EXAMPLE})")
+            elif not _letter(v[key]):
+                self.bad(f"words.{key}", v[key], f"must be a contact's name (one letter): {what}")
+            elif names is not None and v[key] not in names:
+                self.bad(f"words.{key}", v[key], f"is not a contact of the system; its contacts: "
+                                                 f"{', '.join(names) or 'none'}")
+            else:
+                got[key] = names.index(v[key]) if names is not None else -1
+        if "impacts" in got and "corners" in got and v["impacts"] == v["corners"]:
+            self.bad("words.corners", v["corners"], "is the impacts' contact too; the corners are "
+                                                    "another contact's impacts")
+        for key, what in (("height", "its position at each impact is the impact's height u"),
+                          ("velocity", "its velocities before and after each impact are v_in "
+                                       "and v_out")):
+            if key not in v:
+                got[key] = -1
+            elif dofs is None:
+                continue
+            elif not (isinstance(v[key], str) and v[key] in dofs):
+                self.bad(f"words.{key}", v[key], f"is not a dof of the system ({what}); its dofs: "
+                                                 f"{', '.join(dofs)}")
+            else:
+                got[key] = dofs.index(v[key])
+        if len(self.problems) > n_before or names is None or dofs is None:
+            return None
+        return Words(got["impacts"], got["corners"], got["height"], got["velocity"])
+
     def contact(self, key, c, dofs):
         a = None
         if "gap" not in c:
@@ -513,13 +558,14 @@ def read_system(table: dict) -> tuple[LinearSystem | None, list[str]]:
         c = r.damping(table["damping"], dofs) if "damping" in table else np.zeros((len(dofs), len(dofs)))
     forcing = r.forcing(table.get("forcing", []), dofs)
     contacts = r.contacts(table.get("contact", []), dofs)
+    words = r.words(table["words"], dofs, contacts) if "words" in table else None
     if not r.problems:
         r.scales(table, m, k, c, forcing, contacts)
     if r.problems:
         return None, r.problems
     for a in (m, k, c, *(x.gap for x in contacts)):
         a.flags.writeable = False
-    return LinearSystem(dofs, m, k, c, forcing, contacts), []
+    return LinearSystem(dofs, m, k, c, forcing, contacts, words), []
 
 
 # ------------------------------------------------------------------ paths of the numbers

@@ -42,6 +42,10 @@ arithmetic's: flights drift by rounding (about 1e-12 over 80 chunks, measured), 
 shallower than that drift is decided by rounding; time is absolute, so past t ~ 1e4 impact
 times are resolved to ulp(t) rather than ``tol``.  Chattering (a rebound w+ <= ``chatter``)
 ends the run (CHATTERS), as does the time budget.
+
+With the two-particle model's words (``[system] words``: ``run``'s ``counted`` and
+``corners``) only one contact's impacts count and are recorded, each with its offset to the
+other's impacts, settled on-line by the two-particle kernel's rule (``analysis``).
 """
 
 from __future__ import annotations
@@ -51,6 +55,7 @@ import math
 import numpy as np
 
 from ..._jit import STOPPED, jit, jit_inline, stop_requested
+from ...analysis import close_corner_offsets, offset_to_previous, settle_corner_offsets
 from ...numerics.roots import FAIL, FOUND, bracket
 from ...numerics.roots import NONE as ROOT_NONE
 from ...obstacles.dispatch import (
@@ -510,13 +515,40 @@ def state_norm(y, n, escape):
 
 @jit
 def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter,
-        escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y):
+        escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners, period,
+        o_off, o_corner):
     """Up to ``count`` impacts from y0 at t0 (module docstring), the first ``skip`` not
     recorded (a transient), the others into the outputs; the state after the last impact
     into ``o_y`` ((x, v): 2n): (status, impacts recorded).  A coordinate or velocity past
     ``escape`` in size ends the run (ESCAPED), one not a number (NONFINITE), as a start that
     is either.  Under a sweep's ``control`` (``_jit.Control``; 0: none) told to stop:
-    (STOPPED, 0), its outputs incomplete."""
+    (STOPPED, 0), its outputs incomplete.
+
+    The two-particle model's words (``[system] words``; ``counted`` >= 0, else -1): only the
+    impacts on contact ``counted`` count, ``skip`` and ``count`` of them, and only they are
+    recorded, each with its offset to the impacts on contact ``corners`` into ``o_off`` and
+    the corner's number into ``o_corner`` (``analysis.offset_to_previous``,
+    ``settle_corner_offsets``: the two-particle kernel's rule).  After the last counted
+    impact the run goes on to the next corner impact, which settles the last offsets, at
+    most to the second multiple of ``period`` (the system's period, when > 0) after it, as
+    the two-particle kernel goes on at most two sections; it then ends OK whatever ends it
+    (the offsets still pending keep the previous corner's: ``close_corner_offsets``)."""
+    st, kept = _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip,
+                       count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout,
+                       o_y, counted, corners, period, o_off, o_corner)
+    if counted >= 0 and st != STOPPED:
+        if corners >= 0:
+            close_corner_offsets(o_off, o_corner, 0, kept)
+        if kept == count - skip:
+            st = OK
+    return st, kept
+
+
+@jit
+def _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol,
+            chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners,
+            period, o_off, o_corner):
+    """``run``'s loop: (status, impacts recorded)."""
     m = y0.shape[0]
     nc = gaps.shape[0]
     y = y0.copy()
@@ -534,8 +566,12 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
     st_a = np.empty(2 * LEVELS + 4)
     st_k = np.empty(2 * LEVELS + 4, np.int64)
     st_y = np.empty((2 * LEVELS + 4, m))
-    impacts = 0
-    while impacts < count:
+    impacts = 0            # with ``counted`` >= 0: the impacts on that contact
+    # the two-particle words: corner impacts so far, the last one's time, the recorded ones
+    # waiting for the next (pend_lo .. pend_hi - 1); done: past the last counted impact
+    words = counted >= 0
+    n_corner, t_corner, pend_lo, pend_hi, done = 0, 0.0, 0, 0, False
+    while impacts < count or (done and pend_hi > pend_lo):
         if stop_requested(control):
             return STOPPED, 0
         if t > t_max:
@@ -640,25 +676,62 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
             free_until[bi] = te + max(2.0 * tol, min(w / B, H, piece_start(d, j) +
                                                      piece_length(d, j) - te))
             continue
-        ad = 0.0
-        for k in range(n):
-            ad += gaps[bi, k] * D[bi, k]
-        kept = impacts - skip
-        for k in range(n):
-            if kept >= 0:
-                o_vin[kept, k] = y[n + k]
-            y[n + k] -= (1.0 + r[bi]) * w * D[bi, k] / ad
-            if kept >= 0:
-                o_vout[kept, k] = y[n + k]
-                o_x[kept, k] = y[k]
-        if kept >= 0:
-            o_t[kept] = te
-            o_c[kept] = bi
-        impacts += 1
-        copy_to(o_y, y, 2 * n)
+        counts = not words or (bi == counted and not done)
+        kept = impacts - skip if counts else -1
+        _impact(y, n, gaps, D, r, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout)
+        if words:
+            n_corner, t_corner, pend_lo, pend_hi = _corners(bi, kept, te, corners, n_corner,
+                                                            t_corner, pend_lo, pend_hi, o_t,
+                                                            o_off, o_corner)
+        impacts += 1 if counts else 0
+        if done and pend_hi == pend_lo:
+            break
+        if not done:
+            copy_to(o_y, y, 2 * n)
+            if words and impacts == count:
+                done = True
+                if period > 0.0:        # at most to the second multiple of the period after
+                    t_max = min(t_max, (math.floor(te / period) + 2.0) * period)
         if -r[bi] * w <= chatter:
-            return CHATTERS, max(0, impacts - skip)
+            return CHATTERS, max(0, min(impacts, count) - skip)
     return OK, max(0, impacts - skip)
+
+
+@jit_inline
+def _impact(y, n, gaps, D, r, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout):
+    """The generalised Newton law at contact ``bi`` (w = its w-, ``impact.newton_impact``) on
+    the state ``y``, the impact recorded as number ``kept`` (not when < 0)."""
+    ad = 0.0
+    for k in range(n):
+        ad += gaps[bi, k] * D[bi, k]
+    for k in range(n):
+        if kept >= 0:
+            o_vin[kept, k] = y[n + k]
+        y[n + k] -= (1.0 + r[bi]) * w * D[bi, k] / ad
+        if kept >= 0:
+            o_vout[kept, k] = y[n + k]
+            o_x[kept, k] = y[k]
+    if kept >= 0:
+        o_t[kept] = te
+        o_c[kept] = bi
+
+
+@jit_inline
+def _corners(bi, kept, te, corners, n_corner, t_corner, pend_lo, pend_hi, o_t, o_off, o_corner):
+    """The two-particle words at an impact on contact ``bi`` at ``te`` (recorded as number
+    ``kept``, not when < 0): a recorded impact's offset to the previous corner impact (pending
+    till the next: ``analysis.offset_to_previous``), a corner impact's settling of those
+    pending (``analysis.settle_corner_offsets``).  Returns (corner impacts so far, the last
+    one's time, the pending impacts' range)."""
+    if kept >= 0 and corners >= 0:
+        o_off[kept], o_corner[kept] = offset_to_previous(n_corner > 0, te - t_corner, n_corner - 1)
+        if pend_hi == pend_lo:
+            pend_lo = kept
+        pend_hi = kept + 1
+    if bi == corners:
+        settle_corner_offsets(o_off, o_corner, o_t, pend_lo, pend_hi, te, te - t_corner, n_corner)
+        return n_corner + 1, te, 0, 0
+    return n_corner, t_corner, pend_lo, pend_hi
 
 
 def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4, escape=1e6):
@@ -671,7 +744,8 @@ def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4, es
     o_x, o_vin, o_vout = (np.full((count, n), np.nan) for _ in range(3))
     st, k = run(a["E"], a["A"], a["H"], a["normA"], a["cA"], a["cAs"], a["N"], a["normc"], a["rows"],
                 a["ds"], a["gaps"], a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter,
-                escape, t_max, 0, o_t, o_c, o_x, o_vin, o_vout, np.empty(2 * n))
+                escape, t_max, 0, o_t, o_c, o_x, o_vin, o_vout, np.empty(2 * n), -1, -1, 0.0,
+                np.empty(0), np.empty(0, np.int64))
     names = [system.contacts[i].name for i in o_c[:k]]
     return st, {"t": o_t[:k], "contact": names, "x": o_x[:k], "v_in": o_vin[:k],
                 "v_out": o_vout[:k]}

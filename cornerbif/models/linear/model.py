@@ -15,12 +15,16 @@ checks it), with
 
 A run starts at its start time t0 (``[initial] t``, 0 by default) from (x, v); its impacts'
 letters are their contacts' names, its period is counted in the system's period T
-(``system_period``).  Chattering ends a run (status STUCK: sticking is not followed yet), as
-do soft stops (not run yet: refused).  A followed sweep carries each run's state in its last
-recorded flight and its phase (``_final``, ``starts_from_carry``).  The ``stability``
-observable (opt-in) holds the 2N Floquet multipliers of each run's last recorded cycle and
-its 2N Lyapunov exponents (``tangent``: flights' Jacobians and generalised saltation
-matrices).  Not yet: continuation (docs/linear.md, "What remains").
+(``system_period``).  With one contact on a cornered obstacle its words are the paper's
+(``paper_words``); with ``[system] words = { impacts = "U", corners = "W" }`` the
+two-particle model's (section 6: only U's impacts recorded, each grouped about the W impacts
+as that model's u-z impacts about its w-z impacts; ``words_fields``).  Chattering ends a run
+(status STUCK: sticking is not followed yet), as do soft stops (not run yet: refused).  A
+followed sweep carries each run's state in its last recorded flight and its phase
+(``_final``, ``starts_from_carry``).  The ``stability`` observable (opt-in) holds the 2N
+Floquet multipliers of each run's last recorded cycle and its 2N Lyapunov exponents
+(``tangent``: flights' Jacobians and generalised saltation matrices).  Not yet: continuation
+(docs/linear.md, "What remains").
 """
 
 from __future__ import annotations
@@ -72,6 +76,32 @@ BASE_FIELDS = (
 # with the paper's words (``paper_words``): each impact's offset to its nearest corner, as
 # the flow's file holds it
 CORNER_FIELDS = tuple(f for f in IMPACT_FIELDS if f.name == "impacts/corner_offset")
+
+
+def words_fields(system: LinearSystem) -> tuple:
+    """The impacts' own datasets with the two-particle model's words (``[system] words``,
+    ``system.Words``): those of one contact, its height and velocities those of the dofs the
+    words name (else along its gap), and each one's offset to its corner impact."""
+    w = system.words
+    name = system.contacts[w.impacts].name
+    corners = system.contacts[w.corners].name
+    h = system.dofs[w.height] if w.height >= 0 else None
+    v = system.dofs[w.velocity] if w.velocity >= 0 else None
+    return (
+        BASE_FIELDS[0],
+        Field("impacts/contact", "contact", f"the impacting contact (its index in the scene's "
+              f"order): always {name}'s, whose impacts alone are recorded ([system] words)",
+              dtype="i1", fill=-1),
+        Field("impacts/u", "u", f"impact height: {h} at the impact" if h
+              else BASE_FIELDS[2].long_name, "length"),
+        Field("impacts/v_in", "v_in", f"velocity of {v} just before the impact" if v
+              else BASE_FIELDS[3].long_name, "length/time"),
+        Field("impacts/v_out", "v_out", f"velocity of {v} just after the impact" if v
+              else BASE_FIELDS[4].long_name, "length/time"),
+        Field("impacts/corner_offset", "corner_offset", f"offset of the {name} impact to its "
+              f"corner, a {corners} impact: to the previous one unless the next is strictly "
+              "nearer (then < 0), as the two-particle model's u-z impacts to its w-z impacts "
+              "(section 6)", "time"))
 
 
 def _checked_together(path: str) -> bool:
@@ -232,12 +262,21 @@ class LinearModel(Model):
         start_time = Coord("t", (0.0, 0.0), 2 * system.n, None, "start time t0 of the run (the "
                            "forces' and the obstacles' phase at the start; the state is given "
                            "at t0)", "")
+        if system.words is not None:
+            # the two-particle model's words: one contact's impacts alone are recorded, so
+            # neither the stability pass (its saltations need every impact) nor a followed
+            # sweep (its flights too) is offered (``check``)
+            own = words_fields(system)
+            observables = {"impacts": own[:5] + per_dof + own[5:]}
+        else:
+            observables = {"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
+                                                                else ()),
+                           "stability": stability_fields(2 * system.n)}
         return dataclasses.replace(
             self, params=params, state=tuple(state), start_time=start_time, carried=(PHASE,),
-            observables={"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
-                                                              else ()),
-                         "stability": stability_fields(2 * system.n)},
-            contact_words=not corner_words,
+            observables=observables,
+            opt_in=self.opt_in if "stability" in observables else (),
+            contact_words=not (corner_words or system.words is not None),
             system_table=table), []
 
     def system_table_with(self, values: dict) -> dict:
@@ -289,6 +328,11 @@ class LinearModel(Model):
         problems = start_time_problems(ctx)
         if self.system_table is None:
             return problems
+        if "words" in self.system_table and ctx.follow not in (None, "none"):
+            problems.append(f"sweep.follow: {ctx.follow!r} with [system] words: a followed sweep "
+                            "starts each run in its last recorded flight, and with the "
+                            "two-particle model's words only one contact's impacts are "
+                            "recorded; not yet (docs/linear.md, \"What remains\")")
         swept = [a for a in ctx.axes if a.name in self.params]
         names = {a.name for a in swept}
         for a in swept:
@@ -392,8 +436,11 @@ class LinearModel(Model):
         chaos test reruns with it, or a run that keeps "stability")."""
         from ..._jit import dispatchers  # start-up: loads numba
         from .batch import corner_offsets, detect_contact_cycles, run_batch  # start-up: loads numba
-        # its cycles: the contacts' (``batch``) or, with the paper's words, the flow's
-        cycles = [detect_contact_cycles] if self.contact_words else [corner_offsets]
+        # its cycles: the contacts' (``batch``) or, with the paper's words, the flow's (the
+        # corner offsets: ``batch``'s of the obstacle, or the event loop's with [system] words)
+        words = isinstance(self.system_table, dict) and "words" in self.system_table
+        cycles = ([detect_contact_cycles] if self.contact_words
+                  else [] if words else [corner_offsets])
         out = []
         if "sweep" in what:          # the file's analysis
             out.append(("the cycle analysis", ANALYSIS_SECONDS,
@@ -405,8 +452,9 @@ class LinearModel(Model):
             out.append(("the linear kernel", COMPILE_SECONDS, [run_batch] + cycles))
         # a sweep's file tests its runs without a cycle for chaos when it finishes
         # (cornerbif.chaos: reruns with the stability pass), whatever it keeps
-        if "stability" in what or "sweep" in what or ("simulate" in what
-                                                      and "stability" in scene.keep):
+        if ("stability" in self.observables
+                and ("stability" in what or "sweep" in what
+                     or ("simulate" in what and "stability" in scene.keep))):
             from .tangent import batch_linear_stability  # start-up: loads numba
             out.append(("the linear stability pass", STABILITY_COMPILE_SECONDS,
                         [batch_linear_stability]))
@@ -415,7 +463,9 @@ class LinearModel(Model):
     def run_items(self, params, ics, ints, scene):
         """The linear event loop (``batch.run_batch``) on n items, each system prepared once
         (``kernel.prepare``), and each run's cycle (``batch.detect_contact_cycles``; with the
-        paper's words, ``batch.corner_offsets`` and the flow's ``analysis.detect_cycles``).  Systems
+        paper's words, ``batch.corner_offsets`` and the flow's ``analysis.detect_cycles``; with
+        ``[system] words``, the event loop's offsets to the corner contact's impacts and
+        ``analysis.detect_cycles``, as the two-particle model's ``run_items``).  Systems
         whose augmented states differ in size (a forcing's Omega 0 at some points, > 0 at
         others) run in separate calls, each on its items."""
         from ..._jit import raise_if_stopped  # start-up: loads numba
@@ -438,6 +488,9 @@ class LinearModel(Model):
         o_x, o_vin, o_vout = (full((n, rec, nd), np.nan) for _ in range(3))
         st = np.zeros(n, np.int8)
         final = np.full((n, 2 * nd), np.nan)
+        words = systems[0].words          # the two-particle model's (the scene's, every point)
+        o_off = full((n, rec if words else 0), np.nan)
+        o_corner = full((n, rec if words else 0), -1, np.int64)
         gaps = np.empty((n, len(systems[0].contacts), nd))
         rows0 = ds0 = None                  # each item's first contact's obstacle rows
         shapes = {}
@@ -448,7 +501,7 @@ class LinearModel(Model):
         for members in shapes.values():
             items = np.flatnonzero(np.isin(which, members))
             local = np.searchsorted(members, which[items])
-            outs = [a[items] for a in (o_t, o_c, o_x, o_vin, o_vout, st, final)]
+            outs = [a[items] for a in (o_t, o_c, o_x, o_vin, o_vout, st, final, o_off, o_corner)]
             g, r0, d0, arrays = self._run_group([systems[k] for k in members], local,
                                                 np.ascontiguousarray(ics[items], dtype=float),
                                                 ints, scene, outs, B)
@@ -457,7 +510,7 @@ class LinearModel(Model):
                 rows0 = np.empty((n,) + r0.shape[1:])
                 ds0 = np.empty((n,) + d0.shape[1:])
             gaps[items], rows0[items], ds0[items] = g, r0, d0
-            for a, b in zip((o_t, o_c, o_x, o_vin, o_vout, st, final), outs):
+            for a, b in zip((o_t, o_c, o_x, o_vin, o_vout, st, final, o_off, o_corner), outs):
                 a[items] = b
         raise_if_stopped(ints[B.I_CONTROL])
         cc = np.where(o_c >= 0, o_c, 0)
@@ -466,6 +519,12 @@ class LinearModel(Model):
                "u": np.where(o_c >= 0, (a_k * o_x).sum(-1), np.nan),
                "v_in": np.where(o_c >= 0, (a_k * o_vin).sum(-1), np.nan),
                "v_out": np.where(o_c >= 0, (a_k * o_vout).sum(-1), np.nan)}
+        if words is not None:   # the words' height and velocity: those of the dofs named
+            if words.height >= 0:
+                out["u"] = np.where(o_c >= 0, o_x[:, :, words.height], np.nan)
+            if words.velocity >= 0:
+                out["v_in"] = np.where(o_c >= 0, o_vin[:, :, words.velocity], np.nan)
+                out["v_out"] = np.where(o_c >= 0, o_vout[:, :, words.velocity], np.nan)
         for k, d in enumerate(systems[0].dofs):
             out[f"x_{d}"] = np.ascontiguousarray(o_x[:, :, k])
             out[f"v_{d}"] = np.ascontiguousarray(o_vout[:, :, k])
@@ -476,7 +535,15 @@ class LinearModel(Model):
         period = np.zeros(n, np.int64)
         ipc = np.zeros(n, np.int64)
         sym = np.zeros((n, rec), np.uint8)
-        if not self.contact_words:      # the model's words, decided once (for_system)
+        if words is not None:
+            # the two-particle model's words: its run_items' cycles over the recorded impacts
+            # with an offset (the kernel's ``analysis.settle_corner_offsets``)
+            from ...analysis import detect_cycles  # start-up: loads numba
+            out["corner_offset"] = o_off
+            t_off = np.where(np.isnan(o_off), np.nan, o_t)
+            detect_cycles(t_off, np.ascontiguousarray(out["v_in"]), o_off, o_corner,
+                          np.ones(n, np.bool_), scene.period_tol, period, ipc, sym)
+        elif not self.contact_words:      # the model's words, decided once (for_system)
             from ...analysis import detect_cycles  # start-up: loads numba
             off = np.full((n, rec), np.nan)
             corner = np.zeros((n, rec), np.int64)
@@ -571,12 +638,15 @@ class LinearModel(Model):
         the systems' stacked arrays (``batch.system_arrays``: the stability pass's too)."""
         a = B.system_arrays(systems)
         t_max = np.array([scene.max_periods * time_scale(s) for s in systems], float)
-        o_t, o_c, o_x, o_vin, o_vout, st, final = outs
+        o_t, o_c, o_x, o_vin, o_vout, st, final, o_off, o_corner = outs
+        w = systems[0].words
+        period = np.array([system_period(s) for s in systems], float)
         B.run_batch(np.ascontiguousarray(which, dtype=np.int64), a["E"], a["A"], a["H"],
                     a["normA"], a["cA"], a["cAs"], a["N"], a["normc"], a["rows"], a["ds"],
                     a["gaps"], a["D"], a["r"], a["f_omega"], a["f_phi"], a["f_const"], ics, ints,
                     scene.tol, scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
-                    st, final)
+                    st, final, w.impacts if w else -1, w.corners if w else -1, period, o_off,
+                    o_corner)
         return a["gaps"][which], a["rows"][which, 0], a["ds"][which, 0], a
 
 

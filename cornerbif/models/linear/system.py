@@ -50,14 +50,32 @@ class Contact:
 
 
 @dataclass(frozen=True)
+class Words:
+    """The two-particle model's words (section 6; ``[system] words``): the impacts on
+    contact ``impacts`` (its index) are recorded and named by their offsets to the impacts
+    on contact ``corners``, which play the obstacle's corners (the w-z impacts of Fig. 19
+    about which its u-z impacts cluster).  ``height`` and ``velocity`` (dof indices, -1:
+    the gap's own u = a . x and v = a . v) are the coordinate whose position at the impact
+    is its height u and the one whose velocities before and after are its v_in and v_out
+    (the two-particle model's u = z and v = u')."""
+    impacts: int
+    corners: int
+    height: int = -1
+    velocity: int = -1
+
+
+@dataclass(frozen=True)
 class LinearSystem:
-    """M x'' + C x' + K x = sum of ``forcing``, with ``contacts``."""
+    """M x'' + C x' + K x = sum of ``forcing``, with ``contacts``; ``words``: None (the
+    contacts' letters, or the paper's corner clusters with one cornered contact) or the
+    two-particle model's (``Words``)."""
     dofs: tuple               # coordinate names, in order
     mass: np.ndarray          # (N, N) symmetric positive-definite
     stiffness: np.ndarray     # (N, N) symmetric positive semi-definite
     damping: np.ndarray       # (N, N) its symmetric part positive semi-definite
     forcing: tuple = ()       # of Forcing
     contacts: tuple = ()      # of Contact
+    words: Words | None = None
 
     @property
     def n(self) -> int:

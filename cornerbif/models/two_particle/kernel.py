@@ -15,6 +15,7 @@ import numpy as np
 
 from ... import status as S
 from ..._jit import POLL_EVERY, STOPPED, count_done, items_kernel, jit, jit_inline, stop_requested
+from ...analysis import close_corner_offsets, offset_to_previous, settle_corner_offsets
 from ...numerics.impact import restitution
 from ...numerics.oscillator import deriv_bound, homogeneous, particular
 from ...numerics.oscillator import derive as osc_derive
@@ -817,11 +818,9 @@ def stack_floor(c):
 
 @jit
 def _close(o_zu, o_corner, lo, hi):
-    """Offsets still waiting for a next w-z impact: keep the previous one, NaN if none."""
-    for i in range(lo, hi):
-        if o_zu[i, ZU_OFF] == math.inf:
-            o_zu[i, ZU_OFF] = math.nan
-            o_corner[i] = -1
+    """Offsets still waiting for a next w-z impact: keep the previous one, NaN if none
+    (``analysis.close_corner_offsets``)."""
+    close_corner_offsets(o_zu[:, ZU_OFF], o_corner, lo, hi)
 
 
 @jit_inline
@@ -1113,16 +1112,9 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                 o_wz[n_wz_rec, WZ_YOUT] = y_out
                 n_wz_rec += 1
             # settle the offsets of the z-u impacts since the previous w-z impact
-            for i in range(pend_lo, pend_hi):
-                if o_zu[i, ZU_OFF] == math.inf:
-                    o_zu[i, ZU_OFF] = o_zu[i, ZU_T] - (n * Sper + tau)
-                    o_corner[i] = n_wz
-                else:
-                    Dw = (n - n_w) * Sper + (tau - tau_w)
-                    dn = Dw - o_zu[i, ZU_OFF]
-                    if dn < o_zu[i, ZU_OFF]:
-                        o_zu[i, ZU_OFF] = -dn
-                        o_corner[i] = n_wz
+            # (the rule: ``analysis.settle_corner_offsets``)
+            settle_corner_offsets(o_zu[:, ZU_OFF], o_corner, o_zu[:, ZU_T], pend_lo, pend_hi,
+                                  n * Sper + tau, (n - n_w) * Sper + (tau - tau_w), n_wz)
             pend_lo = 0
             pend_hi = 0
             has_w = True
@@ -1197,12 +1189,8 @@ def run_one(p_row, ints, z0, y0, u0, v0, o_zu, o_corner, o_wz, o_sec, final):
                 o_zu[i, ZU_VOUT] = v_out
                 o_zu[i, ZU_YIN] = y_in
                 o_zu[i, ZU_YOUT] = y_out
-                if has_w:
-                    o_zu[i, ZU_OFF] = (n - n_w) * Sper + (tau - tau_w)
-                    o_corner[i] = n_wz - 1
-                else:
-                    o_zu[i, ZU_OFF] = math.inf
-                    o_corner[i] = -1
+                o_zu[i, ZU_OFF], o_corner[i] = offset_to_previous(
+                    has_w, (n - n_w) * Sper + (tau - tau_w), n_wz - 1)
                 if pend_hi == pend_lo:
                     pend_lo = i
                 pend_hi = i + 1
