@@ -21,9 +21,11 @@ The linear loop resolves each impact by certified steps on a chunk's gap polynom
 
 Whole sweeps (``sweep.run_sweep``: kernels, cycle analysis, the HDF5 file; the machine's
 threads), paired rounds in one process: Fig. 6(a) (configs/fig06a.toml) against
-configs/fig06a_linear.toml, and Fig. 4(c) (configs/fig04c.toml) against the same system
-written as a linear scene, each on P points of its axis (default 400) with its own starts
-and run settings; the ratio of the sweeps' rates, linear / flow.
+configs/fig06a_linear.toml, Fig. 4(c) (configs/fig04c.toml) against the same system
+written as a linear scene, and Fig. 19(a) (configs/fig19a.toml, the two-particle model)
+against configs/fig19a_linear.toml (its words by ``[system] words``), each on P points of
+its axis (default 400) with its own starts and run settings; the ratio of the sweeps' rates,
+linear / the paper's model.
 
     python benchmarks/linear_kernel.py --dofs [--impacts N]
 
@@ -158,7 +160,9 @@ def compare_sweeps(rounds, points):
     for name, flow_axis, lin_text, lin_axis in (
             ("fig06a", "kappa", open(os.path.join(root, "configs", "fig06a_linear.toml")).read(),
              '"contact.R.kappa"'),
-            ("fig04c", "omega", fig04c_linear(root), '"contact.R.omega"')):
+            ("fig04c", "omega", fig04c_linear(root), '"contact.R.omega"'),
+            ("fig19a", "omega0", open(os.path.join(root, "configs", "fig19a_linear.toml")).read(),
+             '"contact.W.omega"')):
         flow_text = open(os.path.join(root, "configs", f"{name}.toml")).read()
         pairs.append((name, scene(flow_text, flow_axis), scene(lin_text, lin_axis)))
     with tempfile.TemporaryDirectory() as tmp:
@@ -166,7 +170,8 @@ def compare_sweeps(rounds, points):
         for _, f, lin in pairs:                       # compiled (or loaded) first
             run_sweep(f, out, overwrite=True)
             run_sweep(lin, out, overwrite=True)
-        print("| sweep | points x starts | flow | linear | ratio of rates |\n|---|---|---|---|---|")
+        print("| sweep | points x starts | the paper's model | linear | ratio of rates |\n"
+              "|---|---|---|---|---|")
         for name, f, lin in pairs:
             times = []
             for _ in range(rounds):

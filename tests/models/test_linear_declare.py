@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from cornerbif.model import shown
 from cornerbif.models.linear.declare import numeric_paths, read_system, with_value
-from cornerbif.models.linear.system import MAX_CONTACTS, MAX_DOFS
+from cornerbif.models.linear.system import MAX_CONTACTS, MAX_DOFS, MAX_SOFT
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -344,11 +344,14 @@ def systems(draw):
         gap = dict(zip(dofs, draw(st.lists(FLOATS, min_size=n, max_size=n))))
         gap[draw(st.sampled_from(dofs))] = 1.0         # not all zero
         c = {"name": name, "gap": gap, "kappa": draw(FLOATS)}
-        if draw(st.booleans()):
+        moving = draw(st.booleans())
+        if moving:
             c.update(obstacle=draw(st.sampled_from(["sine", "rectified_sine", "triangle"])),
                      beta=draw(FLOATS.filter(lambda b: b != 0.0)),   # 0: the fixed one
                      omega=draw(st.floats(0.1, 5.0)))
-        if draw(st.booleans()):
+        # a soft stop: on a fixed obstacle, at most MAX_SOFT of them
+        if not moving and sum(x.get("law") == "spring" for x in contacts) < MAX_SOFT \
+                and draw(st.booleans()):
             c.update(law="spring", k=draw(st.floats(0.1, 100.0)), c=draw(st.floats(0.0, 1.0)))
         else:
             c["r"] = draw(st.floats(0.0, 1.0))

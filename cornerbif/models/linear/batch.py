@@ -29,6 +29,7 @@ from ..._jit import STOPPED, count_done, items_kernel, jit, stop_requested
 from ...analysis import smallest_rotation
 from ...obstacles.dispatch import corner_of, derived_tuple, piece_at, piece_length, piece_start
 from ..flow.packed import as_tuple
+from .flight import has_constant_state
 from .kernel import BUDGET, CHATTERS, ESCAPED, NONFINITE, gap_at, prepare, run
 
 # the integer settings (``LinearModel.int_settings``)
@@ -38,8 +39,8 @@ NINT = 3
 
 
 @items_kernel
-def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, f_omega, f_phi,
-              f_const, ics, ints, tol, chatter, escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
+def run_batch(k0, k1, which, Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft,
+              f_omega, f_phi, f_const, ics, ints, tol, chatter, escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
               o_status, o_final, counted, corners, period, o_off, o_corner):
     """Item i: the system ``which[i]`` (the stacked arrays' first index) from the start ics[i]
     = (x, v, t0) at t = t0 (the start time, 0 where ics has no column for it):
@@ -49,12 +50,14 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
     constant force: its state 1) start the forcing's states (``flight.forcing_state``).
     ``counted``, ``corners`` (contact indices, -1: none), ``period`` (per system) and
     ``o_off``, ``o_corner`` ((n, record); (n, 0) without them): the two-particle model's
-    words (``kernel.run``)."""
+    words (``kernel.run``).  ``Es`` .. ``dsm``, ``soft``: each system's arrays per mode (the
+    soft stops acting: ``kernel.mode_arrays``); a start inside a soft stop is not run either
+    (BELOW_OBSTACLE)."""
     n = gaps.shape[2]
     control = ints[I_CONTROL]
     skip = ints[I_TRANSIENT]
     rec = o_t.shape[1]
-    m = E.shape[2]
+    m = Es.shape[3]
     y0 = np.empty(m)
     for i in range(k0, k1):
         if stop_requested(control):
@@ -69,19 +72,19 @@ def run_batch(k0, k1, which, E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, 
         o_final[i, :] = math.nan
         inside = False
         for c in range(gaps.shape[1]):
-            row, d = as_tuple(rows[s, c]), derived_tuple(ds[s, c])   # (kernel.run's types)
+            row, d = as_tuple(rowsm[s, 0, c]), derived_tuple(dsm[s, 0, c])   # (kernel.run's types)
             j, _ = piece_at(d, t0)
             while piece_start(d, j) + piece_length(d, j) <= t0:
                 j += 1
-            g, _ = gap_at(cA[s], c, y0, row, d, j, t0)
+            g, _ = gap_at(cAm[s, 0], c, y0, row, d, j, t0)
             if g < 0.0:
                 inside = True
         if inside:
             o_status[i] = S.BELOW_OBSTACLE
             continue
-        st, _ = run(E[s], A[s], H[s], normA[s], cA[s], cAs[s], N[s], normc[s], rows[s], ds[s], gaps[s],
-                    D[s], r[s], y0, t0, n, skip, skip + rec, tol, chatter, escape, t0 + t_max[s],
-                    control,
+        st, _ = run(Es[s], As[s], Hs[s], normAs[s], cAm[s], cAsm[s], Nm[s], normc[s], rowsm[s], dsm[s],
+                    gaps[s], D[s], r[s], soft[s], y0, t0, n, skip, skip + rec, tol, chatter, escape,
+                    t0 + t_max[s], control,
                     o_t[i], o_c[i], o_x[i], o_vin[i], o_vout[i], o_final[i], counted, corners,
                     period[s], o_off[i], o_corner[i])
         if st == STOPPED:
@@ -195,12 +198,14 @@ def system_arrays(systems):
 
     harmonic = [[f for f in s.forcing if f.Omega > 0.0] for s in systems]
     out = {k: stack(k) for k in ("E", "A", "cA", "cAs", "N", "normc", "rows", "ds", "gaps",
-                                 "D", "r")}
+                                 "D", "r", "Es", "As", "Hs", "normAs", "cAm", "cAsm", "Nm", "rowsm",
+                                 "dsm")}
+    out["soft"] = stack("soft", np.int64)
     out["H"] = np.array([p["H"] for p in prepared])
     out["normA"] = np.array([p["normA"] for p in prepared])
     out["f_omega"] = np.array([[f.Omega for f in h] for h in harmonic],
                               float).reshape(len(systems), -1)
     out["f_phi"] = np.array([[f.phi for f in h] for h in harmonic],
                             float).reshape(len(systems), -1)
-    out["f_const"] = np.array([any(f.Omega == 0.0 for f in s.forcing) for s in systems], np.bool_)
+    out["f_const"] = np.array([has_constant_state(s) for s in systems], np.bool_)
     return out

@@ -42,8 +42,10 @@ What is checked, and why:
   and not below MIN_FREQUENCY when not 0 (its period a float);
 * contacts: a gap over declared dofs, finite, not all zero (no coordinate: no contact); law
   "impact" with 0 <= r <= 1 (restitution, default 0.8 as the flow model's, so that the
-  paper's scenes written as linear scenes keep their default); law "spring" with k > 0
-  (required: no default stiffness of a stop makes sense) and c >= 0 (default 0); obstacle
+  paper's scenes written as linear scenes keep their default); law "spring" (a soft stop)
+  with k > 0 (required: no default stiffness of a stop makes sense) and c >= 0 (default
+  0), on a fixed obstacle only, at most MAX_SOFT of them (each set of them acting is a
+  flight of its own, prepared in advance: 2^MAX_SOFT); obstacle
   "fixed" (z = kappa: beta and omega are refused) or a registered kind without tables of
   its own (a cam ``profile`` needs [system.profile], which a contact cannot hold yet); a
   moving kind needs both beta (finite, not 0: that is the fixed obstacle) and omega (>=
@@ -62,7 +64,7 @@ import numpy as np
 
 from ... import obstacles
 from ...model import KEY_CHARS, cut, did_you_mean, is_number, shown
-from .system import MAX_CONTACTS, MAX_DOFS, Contact, Forcing, LinearSystem, Words
+from .system import MAX_CONTACTS, MAX_DOFS, MAX_SOFT, Contact, Forcing, LinearSystem, Words
 
 SYSTEM_KEYS = ("dofs", "mass", "stiffness", "damping", "forcing", "contact", "words")
 # [system] words: the two-particle model's words (system.Words)
@@ -392,6 +394,11 @@ class _Reader:
             got = self.contact(key, c, dofs)
             if _letter(name) and got is not None:
                 out.append(Contact(name, *got))
+        soft = [c.name for c in out if c.law == "spring"]
+        if len(soft) > MAX_SOFT:
+            self.bad("contact", soft, f"names {len(soft)} soft stops (law \"spring\"); at most "
+                                      f"{MAX_SOFT}: the flight of each set of them acting is "
+                                      f"prepared (2^{MAX_SOFT} flights)")
         return tuple(out)
 
     def words(self, v, dofs, contacts):
@@ -478,6 +485,11 @@ class _Reader:
             r = self.number(key, c, "r", Contact.r, test=lambda x: 0 <= x <= 1,
                             need="in [0, 1] (the restitution: w+ = -r w-)")
         elif law == "spring":
+            if obstacle not in (None, FIXED):
+                self.bad(f"{key}.obstacle", obstacle, "is a moving obstacle, but the law is "
+                                                      "'spring': a soft stop is on a fixed "
+                                                      "obstacle (obstacle = \"fixed\", z = kappa) "
+                                                      "for now")
             k = self.number(key, c, "k", test=lambda x: x > 0, need="> 0 (the stop's stiffness)")
             cc = self.number(key, c, "c", 0.0, test=lambda x: x >= 0, need=">= 0 (the stop's damping)")
         got = (a, obstacle, kappa, beta, omega, law, r, k, cc)

@@ -63,19 +63,44 @@ def expm(A) -> np.ndarray:
     return X
 
 
-def augmented(system: LinearSystem) -> np.ndarray:
+def soft_contacts(system: LinearSystem) -> list:
+    """The indices of the system's soft stops (law "spring"), in order: soft stop number b
+    is bit b of an active set (``augmented``'s ``active``)."""
+    return [i for i, c in enumerate(system.contacts) if c.law == "spring"]
+
+
+def has_constant_state(system: LinearSystem) -> bool:
+    """Whether the augmented state ends with the state 1: a constant force, or a soft stop
+    (whose spring against z = kappa pushes by k kappa a while it acts)."""
+    return any(f.Omega == 0.0 for f in system.forcing) or bool(soft_contacts(system))
+
+
+def augmented(system: LinearSystem, active: int = 0) -> np.ndarray:
     """The matrix A of the augmented flight y' = A y (module docstring), of size
-    2N + 2 (harmonic forces) + 1 (when there is a constant force)."""
+    2N + 2 (harmonic forces) + 1 (when there is a constant force or a soft stop).
+    ``active``: the soft stops acting (bit b: soft stop b of ``soft_contacts``), each
+    adding its spring and dashpot while g = a . x - kappa < 0: the force -(k g + c g') a,
+    so K + k a a^T, C + c a a^T and the constant force k kappa a (docs/linear.md, "Soft
+    stops")."""
     n = system.n
     harmonic = [f for f in system.forcing if f.Omega > 0.0]
     constant = [f for f in system.forcing if f.Omega == 0.0]
-    m = 2 * len(harmonic) + (1 if constant else 0)
+    m = 2 * len(harmonic) + (1 if has_constant_state(system) else 0)
     A = np.zeros((2 * n + m, 2 * n + m))
     Minv = np.linalg.inv(system.mass)
-    A[:n, n:2 * n] = np.eye(n)
-    A[n:2 * n, :n] = -Minv @ system.stiffness
-    A[n:2 * n, n:2 * n] = -Minv @ system.damping
+    K, C = system.stiffness, system.damping
     B = np.zeros((n, m))
+    if active:
+        K, C = K.copy(), C.copy()
+        for b, i in enumerate(soft_contacts(system)):
+            if active >> b & 1:
+                c = system.contacts[i]
+                K += c.k * np.outer(c.gap, c.gap)
+                C += c.c * np.outer(c.gap, c.gap)
+                B[:, m - 1] += c.k * c.kappa * c.gap
+    A[:n, n:2 * n] = np.eye(n)
+    A[n:2 * n, :n] = -Minv @ K
+    A[n:2 * n, n:2 * n] = -Minv @ C
     for j, f in enumerate(harmonic):
         B[f.on, 2 * j] += f.F                      # on c = cos(Omega t + phi)
         c, s = 2 * n + 2 * j, 2 * n + 2 * j + 1
@@ -94,14 +119,15 @@ def forcing_state(system: LinearSystem, t: float) -> np.ndarray:
     out = []
     for f in harmonic:
         out += [np.cos(f.Omega * t + f.phi), np.sin(f.Omega * t + f.phi)]
-    if any(f.Omega == 0.0 for f in system.forcing):
+    if has_constant_state(system):
         out.append(1.0)
     return np.array(out, dtype=float)
 
 
 def flight(system: LinearSystem, t0: float, x0, v0, h: float, A=None):
     """The state (x, v) at t0 + h of the free flight from (x0, v0) at t0: expm(A h) on the
-    augmented state (``A``: ``augmented(system)``, computed when not given)."""
+    augmented state (``A``: ``augmented(system)``, computed when not given; with soft stops
+    acting, ``augmented(system, active)``)."""
     A = augmented(system) if A is None else A
     n = system.n
     y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float), forcing_state(system, t0)])

@@ -43,6 +43,17 @@ shallower than that drift is decided by rounding; time is absolute, so past t ~ 
 times are resolved to ulp(t) rather than ``tol``.  Chattering (a rebound w+ <= ``chatter``)
 ends the run (CHATTERS), as does the time budget.
 
+**Soft stops** (law "spring", fixed obstacles; docs/linear.md, "Soft stops"): each set of
+them acting is a mode with a flight of its own (K + k a a^T, C + c a a^T, k kappa a), whose
+arrays ``prepare`` stacks by mode (``mode_arrays``: "Es", "As", ... indexed by the mode's
+bits); ``run`` takes the stacks and the loop binds the arrays of the mode that acts.  Inside
+a soft stop its gap rows and obstacle are those of -g, so its exit is found by the same
+certified search as any event.  At an entry or exit nothing jumps: the mode switches, the
+contacts' free steps are cleared (their bounds were the other flight's), and an entry is
+recorded as an impact with v+ = v- (no chatter test); an exit is not recorded.  Without soft
+stops there is one mode, the flight's own arrays: the loop's arithmetic is the same as
+before, bit for bit.
+
 With the two-particle model's words (``[system] words``: ``run``'s ``counted`` and
 ``corners``) only one contact's impacts count and are recorded, each with its offset to the
 other's impacts, settled on-line by the two-particle kernel's rule (``analysis``).
@@ -70,7 +81,7 @@ from ...obstacles.dispatch import (
 )
 from ..flow.params import BETA, KAPPA, NPARAM
 from .events import TAYLOR_TERMS, ContactObstacle
-from .flight import augmented, forcing_state
+from .flight import augmented, forcing_state, soft_contacts
 
 LEVELS = 52                 # ``search``'s deepest halving: H / 2^52 resolves a chunk to its bit
 LADDER_BITS = 12            # ``advance``: the ladder's first bits, then Taylor's series of A
@@ -88,16 +99,9 @@ STOP_POLL = 4096            # obstacle pieces walked within a chunk between look
 def prepare(system, t0, x0, v0):
     """The arrays of ``run`` for one system and start: a dict (module docstring).  The
     flight's part (``flight_arrays``) is computed once for systems that differ only in
-    their contacts' obstacles and laws (a sweep of kappa, beta, omega or r)."""
-    A = augmented(system)
-    gaps = np.array([c.gap for c in system.contacts], float)
-    key = (A.tobytes(), A.shape, gaps.tobytes(), system.mass.tobytes())
-    flight = FLIGHT_MEMO.get(key)
-    if flight is None:
-        flight = flight_arrays(system, A, gaps)
-        if len(FLIGHT_MEMO) >= FLIGHT_MEMO_SIZE:
-            FLIGHT_MEMO.pop(next(iter(FLIGHT_MEMO)))
-        FLIGHT_MEMO[key] = flight
+    their contacts' obstacles and laws (a sweep of kappa, beta, omega or r).  With soft
+    stops, the arrays of each set of them acting (``mode_arrays``)."""
+    flight = _memo_flight(system, 0)
     nc = len(system.contacts)
     rows = np.zeros((nc, NPARAM))
     ds = np.zeros((nc, NDERIVED))
@@ -106,9 +110,67 @@ def prepare(system, t0, x0, v0):
         rows[i], ds[i] = ob.row, ob.d
     y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float),
                          forcing_state(system, t0)])
-    return {**flight, "rows": rows, "ds": ds, "gaps": gaps,
+    return {**flight, **mode_arrays(system, flight, rows, ds), "rows": rows, "ds": ds,
+            "gaps": np.array([c.gap for c in system.contacts], float),
             "r": np.array([c.r for c in system.contacts], float), "y0": y0,
             "t0": float(t0), "n": system.n}
+
+
+def _memo_flight(system, active):
+    """``flight_arrays`` of the flight with the soft stops ``active`` acting (0: none), each
+    acting contact's gap searched from inside (its sign turned: ``flight_arrays``),
+    remembered in FLIGHT_MEMO."""
+    A = augmented(system, active)
+    signs = _signs(system, active)
+    gaps = np.array([c.gap for c in system.contacts], float)
+    key = (A.tobytes(), A.shape, gaps.tobytes(), system.mass.tobytes()) + \
+        ((signs.tobytes(),) if active else ())
+    flight = FLIGHT_MEMO.get(key)
+    if flight is None:
+        flight = flight_arrays(system, A, gaps, signs if active else None)
+        if len(FLIGHT_MEMO) >= FLIGHT_MEMO_SIZE:
+            FLIGHT_MEMO.pop(next(iter(FLIGHT_MEMO)))
+        FLIGHT_MEMO[key] = flight
+    return flight
+
+
+def _signs(system, active):
+    """(nc,) -1 for each soft stop acting in ``active`` (its gap g < 0: the search is on
+    -g, whose root is the stop's exit), +1 for the others."""
+    signs = np.ones(len(system.contacts))
+    for b, i in enumerate(soft_contacts(system)):
+        if active >> b & 1:
+            signs[i] = -1.0
+    return signs
+
+
+def mode_arrays(system, flight, rows, ds):
+    """The arrays of ``run`` per set of soft stops acting (a mode: bit b for soft stop b of
+    ``flight.soft_contacts``; 2^(soft stops) modes, mode 0 none, whose arrays are
+    ``flight``'s, ``rows``' and ``ds``'): "Es", "As", "Hs", "normAs", "cAm", "cAsm", "Nm",
+    "rowsm", "dsm" (stacked by mode) and "soft" (nc,), each contact's bit (-1: law
+    "impact").  In mode ``act`` an acting soft stop's gap rows (c A^k) and its obstacle
+    (z = -kappa) are those of -g = -a . x + kappa: the search for its exit is the search
+    for a root of -g from above, the same certified search as for an impact."""
+    soft = soft_contacts(system)
+    bits = np.full(len(system.contacts), -1, np.int64)
+    for b, i in enumerate(soft):
+        bits[i] = b
+    flights, rowsm, dsm = [flight], [rows], [ds]
+    for act in range(1, 1 << len(soft)):
+        flights.append(_memo_flight(system, act))
+        r, d = rows.copy(), ds.copy()
+        for b, i in enumerate(soft):
+            if act >> b & 1:
+                c = system.contacts[i]
+                ob = ContactObstacle(c.obstacle, -c.kappa, c.beta, c.omega)
+                r[i], d[i] = ob.row, ob.d
+        rowsm.append(r)
+        dsm.append(d)
+    out = {new: np.stack([np.asarray(f[old], float) for f in flights]) for new, old in
+           (("Es", "E"), ("As", "A"), ("Hs", "H"), ("normAs", "normA"), ("cAm", "cA"),
+            ("cAsm", "cAs"), ("Nm", "N"))}
+    return {**out, "rowsm": np.stack(rowsm), "dsm": np.stack(dsm), "soft": bits}
 
 
 # the flight's arrays of the last systems prepared (``prepare``), by their matrix A, gaps
@@ -117,10 +179,11 @@ FLIGHT_MEMO: dict = {}
 FLIGHT_MEMO_SIZE = 16
 
 
-def flight_arrays(system, A, gaps):
+def flight_arrays(system, A, gaps, signs=None):
     """The arrays of ``run`` that depend on the flight alone (A, its ladder, the gaps'
     series and bounds, M^-1 a): a dict, shared by the systems ``prepare`` finds equal
-    (never written to: ``run`` and ``batch.run_batch`` only read them)."""
+    (never written to: ``run`` and ``batch.run_batch`` only read them).  ``signs`` (nc,):
+    each contact's gap rows taken with that sign (-1: an acting soft stop, ``mode_arrays``)."""
     m = A.shape[0]
     normA = float(np.linalg.norm(A, 2))
     H = 1.0 / max(normA, 1e-300)
@@ -130,13 +193,14 @@ def flight_arrays(system, A, gaps):
     cAs = np.zeros((nc, POLY_TERMS, m))
     D = np.zeros((nc, system.n))
     for i, c in enumerate(system.contacts):
+        a = c.gap if signs is None else signs[i] * c.gap
         row = np.zeros(m)
-        row[:system.n] = c.gap
+        row[:system.n] = a
         for k in range(TAYLOR_TERMS + 3):
             cA[i, k] = row
             row = row @ A
         row = np.zeros(m)
-        row[:system.n] = c.gap
+        row[:system.n] = a
         for k in range(POLY_TERMS):          # c (A H)^k / k!: each of norm <= |c| / k!
             cAs[i, k] = row
             row = row @ (A * H) / (k + 1)
@@ -514,8 +578,8 @@ def state_norm(y, n, escape):
 
 
 @jit
-def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol, chatter,
-        escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners, period,
+def run(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, y0, t0, n, skip, count,
+        tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners, period,
         o_off, o_corner):
     """Up to ``count`` impacts from y0 at t0 (module docstring), the first ``skip`` not
     recorded (a transient), the others into the outputs; the state after the last impact
@@ -533,8 +597,8 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
     most to the second multiple of ``period`` (the system's period, when > 0) after it, as
     the two-particle kernel goes on at most two sections; it then ends OK whatever ends it
     (the offsets still pending keep the previous corner's: ``close_corner_offsets``)."""
-    st, kept = _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip,
-                       count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout,
+    st, kept = _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, y0, t0,
+                       n, skip, count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout,
                        o_y, counted, corners, period, o_off, o_corner)
     if counted >= 0 and st != STOPPED:
         if corners >= 0:
@@ -545,13 +609,15 @@ def run(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip
 
 
 @jit
-def _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, skip, count, tol,
-            chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners,
+def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, y0, t0, n, skip,
+            count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners,
             period, o_off, o_corner):
     """``run``'s loop: (status, impacts recorded)."""
     m = y0.shape[0]
     nc = gaps.shape[0]
     y = y0.copy()
+    act = _initial_mode(gaps, rowsm, soft, y, n)      # the soft stops acting (mode_arrays)
+    E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm, dsm, act)
     # time as t_base + k H: the chunks' flights are E_0 exactly, and time summed chunk by
     # chunk would drift by a rounding of t each (module docstring)
     t = t0
@@ -611,31 +677,10 @@ def _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, 
                 s0 = min(g1 / (N[i, 0] * ny + piece_zpp(row, j)),
                          piece_start(d, j) + piece_length(d, j) - t)
             end = min(L, best)       # a later contact's event must come before the best
-            code = ROOT_NONE
-            s = end
-            walked = 0
-            while s0 < end:
-                walked += 1
-                if walked % STOP_POLL == 0 and stop_requested(control):
-                    return STOPPED, 0    # a fast obstacle: many pieces within one chunk
-                pe = piece_start(d, j) + piece_length(d, j) - t
-                if pe <= s0:
-                    j += 1
-                    continue
-                seg = min(end, pe)
-                code, s = first_event(bt, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, row, d, j,
-                                      t, s0, seg, tol)
-                if code == STEPS_OUT:
-                    # a slow approach (a near-graze): halving on the ladder from there
-                    copy_to(yp, y, m)
-                    advance(E, A, H, yp, s, tmp, tmp2)
-                    kind, te = search(E, A, H, cA, i, normc[i], normA, row, d, j, t + s,
-                                      yp, t + seg, tol, st_a, st_k, st_y, tmp, tmp2)
-                    code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, seg)
-                if code != ROOT_NONE:
-                    break
-                s0 = seg
-                j += 1
+            code, s, j = _walk(E, A, H, normA, cA, N, normc, i, bt, ny, row, d, j, t, s0, end, y,
+                               tol, control, yp, st_a, st_k, st_y, tmp, tmp2)
+            if code == STOPPED:
+                return STOPPED, 0        # a fast obstacle: many pieces within one chunk
             if code == FAIL:
                 return NONFINITE, max(0, impacts - skip)
             if code == FOUND and s < best:
@@ -664,6 +709,9 @@ def _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, 
         for k in range(n):
             w += gaps[bi, k] * y[n + k]
         w -= zp
+        sb = soft[bi]
+        if sb >= 0 and (act >> sb) & 1 == 1:
+            w = -w              # inside a soft stop: its exit is the root of -g (mode_arrays)
         t = te
         t_base = te
         k_chunks = 0
@@ -676,6 +724,15 @@ def _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, 
             free_until[bi] = te + max(2.0 * tol, min(w / B, H, piece_start(d, j) +
                                                      piece_length(d, j) - te))
             continue
+        if sb >= 0:
+            # a soft stop entered or left: the state goes on (no jump), the flight switches
+            act ^= 1 << sb
+            E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm,
+                                                         dsm, act)
+            free_until[:] = -math.inf
+            if (act >> sb) & 1 == 0:
+                continue        # an exit: not recorded
+            w = 0.0             # an entry: recorded as an impact with v+ = v-
         counts = not words or (bi == counted and not done)
         kept = impacts - skip if counts else -1
         _impact(y, n, gaps, D, r, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout)
@@ -692,9 +749,65 @@ def _events(E, A, H, normA, cA, cAs, N, normc, rows, ds, gaps, D, r, y0, t0, n, 
                 done = True
                 if period > 0.0:        # at most to the second multiple of the period after
                     t_max = min(t_max, (math.floor(te / period) + 2.0) * period)
-        if -r[bi] * w <= chatter:
+        if sb < 0 and -r[bi] * w <= chatter:
             return CHATTERS, max(0, min(impacts, count) - skip)
     return OK, max(0, impacts - skip)
+
+
+@jit_inline
+def _walk(E, A, H, normA, cA, N, normc, i, bt, ny, row, d, j, t, s0, end, y, tol, control, yp,
+          st_a, st_k, st_y, tmp, tmp2):
+    """Contact i's first event in [s0, end] of the chunk from t (its gap's polynomial ``bt``,
+    the state y of norm ``ny``), walking its obstacle's pieces from piece j: (code, s, piece),
+    code roots.FOUND, roots.NONE, roots.FAIL or STOPPED (the sweep's ``control`` told to
+    stop, looked at every STOP_POLL pieces)."""
+    code = ROOT_NONE
+    s = end
+    walked = 0
+    m = y.shape[0]
+    while s0 < end:
+        walked += 1
+        if walked % STOP_POLL == 0 and stop_requested(control):
+            return STOPPED, s, j
+        pe = piece_start(d, j) + piece_length(d, j) - t
+        if pe <= s0:
+            j += 1
+            continue
+        seg = min(end, pe)
+        code, s = first_event(bt, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, row, d, j,
+                              t, s0, seg, tol)
+        if code == STEPS_OUT:
+            # a slow approach (a near-graze): halving on the ladder from there
+            copy_to(yp, y, m)
+            advance(E, A, H, yp, s, tmp, tmp2)
+            kind, te = search(E, A, H, cA, i, normc[i], normA, row, d, j, t + s,
+                              yp, t + seg, tol, st_a, st_k, st_y, tmp, tmp2)
+            code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, seg)
+        if code != ROOT_NONE:
+            break
+        s0 = seg
+        j += 1
+    return code, s, j
+
+
+@jit_inline
+def _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm, dsm, act):
+    """The arrays of the flight in mode ``act`` (the soft stops acting: ``mode_arrays``)."""
+    return Es[act], As[act], Hs[act], normAs[act], cAm[act], cAsm[act], Nm[act], rowsm[act], dsm[act]
+
+
+@jit_inline
+def _initial_mode(gaps, rowsm, soft, y, n):
+    """The mode of a start: each soft stop whose gap a . x - kappa is below zero acts."""
+    act = 0
+    for i in range(gaps.shape[0]):
+        if soft[i] >= 0:
+            g = -rowsm[0, i, KAPPA]
+            for k in range(n):
+                g += gaps[i, k] * y[k]
+            if g < 0.0:
+                act |= 1 << soft[i]
+    return act
 
 
 @jit_inline
@@ -742,9 +855,9 @@ def run_system(system, t0, x0, v0, count, tol=1e-12, chatter=1e-6, t_max=1e4, es
     o_t = np.full(count, np.nan)
     o_c = np.full(count, -1, np.int64)
     o_x, o_vin, o_vout = (np.full((count, n), np.nan) for _ in range(3))
-    st, k = run(a["E"], a["A"], a["H"], a["normA"], a["cA"], a["cAs"], a["N"], a["normc"], a["rows"],
-                a["ds"], a["gaps"], a["D"], a["r"], a["y0"], a["t0"], n, 0, count, tol, chatter,
-                escape, t_max, 0, o_t, o_c, o_x, o_vin, o_vout, np.empty(2 * n), -1, -1, 0.0,
+    st, k = run(a["Es"], a["As"], a["Hs"], a["normAs"], a["cAm"], a["cAsm"], a["Nm"], a["normc"],
+                a["rowsm"], a["dsm"], a["gaps"], a["D"], a["r"], a["soft"], a["y0"], a["t0"], n, 0, count,
+                tol, chatter, escape, t_max, 0, o_t, o_c, o_x, o_vin, o_vout, np.empty(2 * n), -1, -1, 0.0,
                 np.empty(0), np.empty(0, np.int64))
     names = [system.contacts[i].name for i in o_c[:k]]
     return st, {"t": o_t[:k], "contact": names, "x": o_x[:k], "v_in": o_vin[:k],

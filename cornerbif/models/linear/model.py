@@ -19,7 +19,9 @@ letters are their contacts' names, its period is counted in the system's period 
 (``paper_words``); with ``[system] words = { impacts = "U", corners = "W" }`` the
 two-particle model's (section 6: only U's impacts recorded, each grouped about the W impacts
 as that model's u-z impacts about its w-z impacts; ``words_fields``).  Chattering ends a run
-(status STUCK: sticking is not followed yet), as do soft stops (not run yet: refused).  A
+(status STUCK: sticking is not followed yet).  Soft stops (law "spring", on fixed
+obstacles) switch the flight while they act; their entries are recorded as impacts with
+v+ = v-, and they offer no stability observable and no followed sweep yet.  A
 followed sweep carries each run's state in its last recorded flight and its phase
 (``_final``, ``starts_from_carry``).  The ``stability`` observable (opt-in) holds the 2N
 Floquet multipliers of each run's last recorded cycle and its 2N Lyapunov exponents
@@ -44,7 +46,7 @@ from ...observables import (
     stability_fields,
 )
 from . import cost, declare
-from .flight import augmented, flight
+from .flight import augmented, flight, has_constant_state
 from .system import LinearSystem
 
 # cold compile seconds of the linear kernels (the event loop and the cycle detection),
@@ -230,11 +232,11 @@ class LinearModel(Model):
         if not system.contacts:
             return None, ["system.contact: none declared; a vibro-impact scene needs at least "
                           "one [[system.contact]] (its gap, obstacle and law)"]
-        soft = [c.name for c in system.contacts if c.law != "impact"]
-        if soft:
-            return None, [f"system.contact.{soft[0]}.law: \"spring\" (a soft stop) is declared "
-                          "but not run yet by the linear model (docs/linear.md, \"What "
-                          "remains\"); use law = \"impact\""]
+        soft = [c.name for c in system.contacts if c.law == "spring"]
+        if soft and system.words is not None:
+            return None, [f"system.words: with the soft stop {soft[0]} (law \"spring\"): the "
+                          "two-particle model's words name one contact's impacts by the "
+                          "other's; not with soft stops yet (docs/linear.md, \"Soft stops\")"]
         paths = declare.numeric_paths(table)
         params = {p: _param(p, v) for p, v in paths.items()}
         state = []
@@ -262,7 +264,12 @@ class LinearModel(Model):
         start_time = Coord("t", (0.0, 0.0), 2 * system.n, None, "start time t0 of the run (the "
                            "forces' and the obstacles' phase at the start; the state is given "
                            "at t0)", "")
-        if system.words is not None:
+        if soft:
+            # soft stops: their entries are recorded as impacts (no jump); the stability pass
+            # has no saltation through a soft stop's switch yet, so it is not offered
+            observables = {"impacts": BASE_FIELDS + per_dof + (CORNER_FIELDS if corner_words
+                                                                else ())}
+        elif system.words is not None:
             # the two-particle model's words: one contact's impacts alone are recorded, so
             # neither the stability pass (its saltations need every impact) nor a followed
             # sweep (its flights too) is offered (``check``)
@@ -277,6 +284,9 @@ class LinearModel(Model):
             observables=observables,
             opt_in=self.opt_in if "stability" in observables else (),
             contact_words=not (corner_words or system.words is not None),
+            keep_hint=(f" with the soft stop {soft[0]} (law \"spring\"): the stability pass has "
+                       "no saltation through a soft stop's switch yet (docs/linear.md, \"Soft "
+                       "stops\")") if soft else self.keep_hint,
             system_table=table), []
 
     def system_table_with(self, values: dict) -> dict:
@@ -333,6 +343,13 @@ class LinearModel(Model):
                             "starts each run in its last recorded flight, and with the "
                             "two-particle model's words only one contact's impacts are "
                             "recorded; not yet (docs/linear.md, \"What remains\")")
+        soft = [c.get("name") for c in self.system_table.get("contact", [])
+                if isinstance(c, dict) and c.get("law") == "spring"]
+        if soft and ctx.follow not in (None, "none"):
+            problems.append(f"sweep.follow: {ctx.follow!r} with the soft stop {soft[0]} (law "
+                            "\"spring\"): a followed sweep starts each run in its last recorded "
+                            "flight, which a soft stop's switch may cross; not yet (docs/linear.md, "
+                            "\"Soft stops\")")
         swept = [a for a in ctx.axes if a.name in self.params]
         names = {a.name for a in swept}
         for a in swept:
@@ -497,7 +514,7 @@ class LinearModel(Model):
         groups = []                         # (items, their systems' indices, the arrays)
         for k, s in enumerate(systems):
             shapes.setdefault((sum(f.Omega > 0.0 for f in s.forcing),
-                               any(f.Omega == 0.0 for f in s.forcing)), []).append(k)
+                               has_constant_state(s)), []).append(k)
         for members in shapes.values():
             items = np.flatnonzero(np.isin(which, members))
             local = np.searchsorted(members, which[items])
@@ -641,9 +658,10 @@ class LinearModel(Model):
         o_t, o_c, o_x, o_vin, o_vout, st, final, o_off, o_corner = outs
         w = systems[0].words
         period = np.array([system_period(s) for s in systems], float)
-        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), a["E"], a["A"], a["H"],
-                    a["normA"], a["cA"], a["cAs"], a["N"], a["normc"], a["rows"], a["ds"],
-                    a["gaps"], a["D"], a["r"], a["f_omega"], a["f_phi"], a["f_const"], ics, ints,
+        B.run_batch(np.ascontiguousarray(which, dtype=np.int64), a["Es"], a["As"], a["Hs"],
+                    a["normAs"], a["cAm"], a["cAsm"], a["Nm"], a["normc"], a["rowsm"], a["dsm"],
+                    a["gaps"], a["D"], a["r"], a["soft"], a["f_omega"], a["f_phi"], a["f_const"], ics,
+                    ints,
                     scene.tol, scene.chatter, scene.escape, t_max, o_t, o_c, o_x, o_vin, o_vout,
                     st, final, w.impacts if w else -1, w.corners if w else -1, period, o_off,
                     o_corner)

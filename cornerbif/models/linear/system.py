@@ -19,6 +19,7 @@ import numpy as np
 
 MAX_DOFS = 6          # N: the exact flight's augmented matrix stays small (flight.py)
 MAX_CONTACTS = 8
+MAX_SOFT = 3          # soft stops (law "spring"): each set of them acting is a flight (2^3)
 
 
 @dataclass(frozen=True)
