@@ -279,6 +279,10 @@ class Page:
             return self.say("click a point first: its orbit is continued", error=True)
         if self.cont_job is not None and self.cont_job.running:
             return self.say("a continuation is running", error=True)
+        spec = self.dia.data.parsed.spec
+        if not spec.continuation:
+            return self.say(f"continuation refused: the model {spec.name!r} has no "
+                            "continuation yet (cornerbif continue)", error=True)
         try:
             raw = self._continuation_raw(self.orbit, self.orbit_dia)
             out = jobs.side_name(self.files.side_dir, _stem(self.dia.path), "continue") + ".h5"

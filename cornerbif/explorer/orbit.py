@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..api import simulate
+from ..config import SceneError
 from ..plot_base import status_name, word_label
 from .points import Runs, _plain
 
@@ -36,13 +37,16 @@ class Orbit:
 
 def _system(dia: Runs, point: tuple) -> dict:
     """The parameters at grid point ``point`` as ``simulate`` takes them: the model's
-    numbers, and its non-numeric keys (the obstacle) from the scene."""
+    numbers (by path for a model its scene declares, ``linear``: with its ``[system]`` as
+    ``table``), and its non-numeric keys (the obstacle) from the scene."""
     d = dia.data
     vals = {k: v for k, v in d.parsed.point(point).items() if v is not None}
     spec = d.parsed.spec
-    extra = {k: d.scene.get("system", {})[k] for k in spec.system_extra
-             if k in d.scene.get("system", {})}
-    return {k: v for k, v in vals.items() if k in spec.params} | extra
+    table = d.scene.get("system", {})
+    numbers = {k: v for k, v in vals.items() if k in spec.params}
+    if spec.for_system is not None:
+        return numbers | {"table": table}
+    return numbers | {k: table[k] for k in spec.system_extra if k in table}
 
 
 def _start(dia: Runs, point: tuple, ic: int) -> dict:
@@ -67,9 +71,15 @@ def recompute(dia: Runs, point: tuple, ic: int, cycles: float = 2.0) -> Orbit:
     # the orbit's stability recomputed with it where the model has a tangent pass
     keep = None if "stability" not in scene.spec.observables else \
         [k for k in scene.spec.observables if k not in scene.spec.opt_in] + ["stability"]
-    res = simulate(model=scene.model, transient=scene.transient, record=scene.record,
-                   tol=scene.tol, chatter=scene.chatter, escape=scene.escape,
-                   period_tol=scene.period_tol, keep=keep, **start, **system)
+    run = dict(model=scene.model, transient=scene.transient, record=scene.record,
+               tol=scene.tol, chatter=scene.chatter, escape=scene.escape,
+               period_tol=scene.period_tol, **start, **system)
+    try:
+        res = simulate(keep=keep, **run)
+    except SceneError:
+        if keep is None:
+            raise
+        res = simulate(**run)        # a system whose stability is not run (a soft stop)
     imp = {k: np.asarray(res[k]).reshape(-1) for k in ("t", "u", "v_out", "corner_offset")
            if k in res}
     word = str(np.asarray(res["symbols"]).reshape(-1)[0])

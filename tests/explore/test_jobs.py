@@ -339,3 +339,35 @@ def test_a_refine_cancelled_keeps_its_finished_blocks_and_resumes(small_file, tm
     assert r.returncode == 0, r.stderr
     with h5py.File(job.partial[:-len(".partial")], "r") as f:
         assert f["done"][...].all()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scene, axis, stability", [
+    ("configs/bouncing_ball.toml", '"contact.T.beta"', True),
+    ("configs/soft_stop.toml", '"forcing.0.Omega"', False),
+])
+def test_a_linear_scenes_point_is_recomputed_with_its_table(tmp_path, scene, axis, stability):
+    """A click on a diagram of a linear scene (a model its scene declares) recomputes the
+    run through ``simulate(table=...)`` with the point's numbers by path: the word and period
+    the file holds; the multipliers where the system's stability is run (not through a soft
+    stop: the orbit is recomputed without them rather than refused)."""
+    pytest.importorskip("panel")
+    import numpy as np
+
+    page = page_of_scene(tmp_path, scene, "linear.h5", f"sweep.{axis}.num=9",
+                         "initial.count=2")
+    d = page.dia
+    k = next(k for k in range(9) if d.data.period[k, 0] > 0)
+    page._start_orbit(d, (k,), 0)
+    page.orbit_job.join(120)
+    page.poll()
+    assert page.orbit is not None, page.status.object
+    facts = dict(page.orbit.facts)
+    assert facts["word (recomputed)"] == facts["word in the file"]
+    assert page.orbit.period == int(d.data.period[k, 0])
+    assert ("multipliers (recomputed)" in facts) == stability
+    if stability:
+        assert np.isfinite(float(facts["multipliers (recomputed)"].split()[0]))
+    page.start_continuation()           # the linear model has no continuation yet: said
+    assert "continuation refused" in page.status.object and "'linear'" in page.status.object
+    assert page.cont_job is None
