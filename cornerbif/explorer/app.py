@@ -379,9 +379,9 @@ class Page:
             if not self.warning.object and self.dia.changed():
                 self.warning.object = (
                     f"<span style='color:#b00020'><b>{_escape(self.dia.path)} changed on disk "
-                    "since it was read</b>: what is drawn is the file as it was (a click's "
-                    "orbit reads its start from the file as it is now); restart cornerbif "
-                    "explore to read it again</span>")
+                    "since it was read</b>: its points are no longer read (a new view of it "
+                    "draws nothing; a click's orbit reads its start from the file as it is "
+                    "now); restart cornerbif explore to read it again</span>")
         except Exception as e:  # noqa: BLE001 - the page says it; the server goes on
             self.say(f"{type(e).__name__}: {cut(str(e), 300)}", error=True)
 

@@ -146,8 +146,8 @@ class Diagram(Runs):
         if x_range is not None and self.xv.size > 1 and np.all(np.diff(self.xv) >= 0):
             lo = int(np.searchsorted(self.xv, x_range[0], side="left"))
             hi = int(np.searchsorted(self.xv, x_range[1], side="right"))
-        if hi <= lo:
-            return
+        if hi <= lo or self.changed():      # a file changed on disk is not read again: its
+            return                          # runs' colours are the file's as it was read
         with self.rows.opened():
             for rows in slab_rows((hi - lo,) + self.rows.shape[1:]):
                 a, b = lo + rows.start, lo + rows.stop

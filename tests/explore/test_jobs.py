@@ -96,6 +96,7 @@ def test_a_job_that_fails_says_so_and_raises_nothing():
 @pytest.mark.slow
 def test_the_page_says_what_it_refuses_and_a_changed_file(small_file, tmp_path, monkeypatch):
     pytest.importorskip("panel")
+    import numpy as np
     import panel as pn
 
     import cornerbif
@@ -116,9 +117,14 @@ def test_the_page_says_what_it_refuses_and_a_changed_file(small_file, tmp_path, 
     assert "refine refused" in page.status.object
     page.start_continuation()
     assert "click a point first" in page.status.object
+    from cornerbif.explorer.points import raster
+    xr, yr = page.window
+    assert np.isfinite(raster(page.dia, page.col, xr, yr, 40, 30)).any()
     os.utime(path, ns=(1, 1))
     page.poll()
     assert "changed on disk" in page.warning.object
+    # its points are no longer read (the runs' colours are the file's as it was read)
+    assert not np.isfinite(raster(page.dia, page.col, xr, yr, 40, 30)).any()
     assert os.listdir(files.side_dir) == []          # nothing run, nothing written
     assert isinstance(cornerbif.explore(small_file), pn.viewable.Viewable)
 
