@@ -46,7 +46,8 @@ import run as R
 import tomllib
 with open(os.path.join(R.ROOT, "configs", {scene!r} + ".toml"), "rb") as fh:
     axis = next(k for k in tomllib.load(fh)["sweep"] if k != "follow")   # the first axis
-sc = R._scene({scene!r}, **{{f"sweep.{{axis}}.num": {num}}})
+key = f'"{{axis}}"' if "." in axis else axis          # a linear scene's path, quoted
+sc = R._scene({scene!r}, **{{f"sweep.{{key}}.num": {num}}})
 import time, numba
 sweep = R.engine()
 numba.set_num_threads(1)

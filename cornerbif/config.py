@@ -132,7 +132,7 @@ MAX_PANELS = 64
 MAX_PLOT_LIMIT = 1e100
 MIN_PLOT_WIDTH = 1e-12
 PLOT_KEYS = ("y", "xlim", "ylim", "marker_size", "title", "kind", "point", "ic", "cycles",
-             "max_panels", "color_by", "style", "marks", "orbits")
+             "max_panels", "color_by", "style", "marks", "orbits", "coordinate", "without")
 # [plot] color_by: a diagram's or a chart's colour from the stability observable
 PLOT_COLOR_BY = ("lyapunov", "multiplier")
 PLOT_ORBITS = ("words", "families", "branches")

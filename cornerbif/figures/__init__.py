@@ -22,6 +22,7 @@ FIGURE_MODULES = (
     "cornerbif.figures.orbit",
     "cornerbif.figures.fractions",
     "cornerbif.figures.branches",
+    "cornerbif.figures.amplitude",
 )
 # the figure when a scene's [plot] names none
 DEFAULT = "diagram"
