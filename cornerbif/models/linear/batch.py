@@ -112,7 +112,7 @@ def forcing_into(y, n, f_omega, f_phi, f_const, s, t):
 def status_of(st):
     """The file's status code (cornerbif.status) of an ending of ``kernel.run``."""
     if st == CHATTERS:
-        return S.STUCK                 # chattering to rest: sticking is not followed yet
+        return S.STUCK                 # held at the budget, or chattering where it cannot be held
     if st == BUDGET:
         return S.NO_IMPACT
     if st == ESCAPED:

@@ -125,6 +125,18 @@ class Gap:
             * math.exp(nA * h)
         return float(terms @ fact + rem + self.obstacle.zpp_bound(j))
 
+    def bound4(self, y, h):
+        """A bound on the gap's fourth derivative over [p, p + h] from the state y at p, for
+        a fixed obstacle (the series of ``bound2`` from c A^4: J - 2 terms, then the
+        remainder)."""
+        J = TAYLOR_TERMS - 2
+        terms = np.abs(self.cA[4:J + 4] @ y)
+        fact = np.array([h ** i / math.factorial(i) for i in range(J)])
+        nA = self.normA
+        rem = self.normc * nA ** 4 * np.linalg.norm(y) * (nA * h) ** J / math.factorial(J) \
+            * math.exp(nA * h)
+        return float(terms @ fact + rem)
+
 
 def first_event(gap, length, tol=1e-12):
     """``first_event_piece`` without the piece: (kind, s)."""

@@ -133,3 +133,36 @@ def flight(system: LinearSystem, t0: float, x0, v0, h: float, A=None):
     y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float), forcing_state(system, t0)])
     y = expm(A * h) @ y0
     return y[:n], y[n:2 * n]
+
+
+def holdable(system: LinearSystem) -> list:
+    """Whether each contact can be held after it chatters to rest (docs/linear.md, "Sticking"):
+    law "impact" on a fixed obstacle, in a system without soft stops."""
+    if soft_contacts(system):
+        return [False] * len(system.contacts)
+    return [c.law == "impact" and c.obstacle == "fixed" for c in system.contacts]
+
+
+def held(system: LinearSystem, i: int):
+    """The flight with contact i held (g = a . x - kappa = 0, g' = 0) and its contact force:
+    (A_h, row), A_h the augmented matrix of M x'' = F - K x - C x' + lam a with a . x'' = 0,
+
+        lam = -a^T M^-1 (F - K x - C x') / (a^T M^-1 a)
+
+    (lam >= 0 pushes the coordinates out of the contact, along M^-1 a, since a^T M^-1 a > 0),
+    so that x'' = P M^-1 (F - K x - C x'), P = I - M^-1 a a^T / (a^T M^-1 a): A's acceleration
+    rows projected.  ``row``: lam = row . y (y the augmented state), scaled to the norm |a|
+    (the same root and sign; the kernel's bounds take |c| = |a|), or None where lam is 0 for
+    every state (nothing presses the contact)."""
+    n = system.n
+    A = augmented(system)
+    a = np.asarray(system.contacts[i].gap, float)
+    d = np.linalg.solve(system.mass, a)             # M^-1 a
+    acc = a @ A[n:2 * n, :]                         # a . x'' of the free flight, a row of y
+    Ah = A.copy()
+    Ah[n:2 * n, :] -= np.outer(d, acc) / (a @ d)
+    lam = -acc / (a @ d)
+    size = np.linalg.norm(lam)
+    if not size > 0.0:
+        return Ah, None
+    return Ah, lam * (np.linalg.norm(a) / size)

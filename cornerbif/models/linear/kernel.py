@@ -40,8 +40,17 @@ Obstacles are evaluated by ``obstacles.dispatch`` on each contact's packed row (
 kinds, beta of either sign; a cam profile not yet).  The certification is exact
 arithmetic's: flights drift by rounding (about 1e-12 over 80 chunks, measured), and a dip
 shallower than that drift is decided by rounding; time is absolute, so past t ~ 1e4 impact
-times are resolved to ulp(t) rather than ``tol``.  Chattering (a rebound w+ <= ``chatter``)
-ends the run (CHATTERS), as does the time budget.
+times are resolved to ulp(t) rather than ``tol``.  The time budget ends the run.
+
+**Sticking** (docs/linear.md, "Sticking"): a rebound w+ <= ``chatter`` on a contact that can
+be held (``soft`` -2: law "impact", a fixed obstacle, no soft stops) whose contact force after
+the law with r = 0 presses (``held_force`` > 0) is recorded as an impact with v+ that held
+velocity, the state put on the contact (``snap``), and the loop goes on in mode 1 + i (the
+held flight, ``flight.held``; ``mode_arrays``), where contact i's rows are its force's: its
+root with a negative rate is the release (not recorded), after which the contact is free for
+``release_step``.  An impact elsewhere while held releases it.  Any other chatter (a contact
+that cannot be held, a force <= 0, a second contact while one is held) ends the run
+(CHATTERS), as does the budget spent while held (stuck: the file's STUCK).
 
 **Soft stops** (law "spring", fixed obstacles; docs/linear.md, "Soft stops"): each set of
 them acting is a mode with a flight of its own (K + k a a^T, C + c a a^T, k kappa a), whose
@@ -81,7 +90,7 @@ from ...obstacles.dispatch import (
 )
 from ..flow.params import BETA, KAPPA, NPARAM
 from .events import TAYLOR_TERMS, ContactObstacle
-from .flight import augmented, forcing_state, soft_contacts
+from .flight import augmented, forcing_state, held, holdable, soft_contacts
 
 LEVELS = 52                 # ``search``'s deepest halving: H / 2^52 resolves a chunk to its bit
 LADDER_BITS = 12            # ``advance``: the ladder's first bits, then Taylor's series of A
@@ -157,6 +166,25 @@ def mode_arrays(system, flight, rows, ds):
     for b, i in enumerate(soft):
         bits[i] = b
     flights, rowsm, dsm = [flight], [rows], [ds]
+    can_hold = holdable(system)
+    if any(can_hold):
+        # sticking (docs/linear.md, "Sticking"): mode 1 + i holds contact i, its "gap" rows
+        # those of its contact force (``flight.held``) against z = 0; -2 marks it holdable
+        still = ContactObstacle("fixed", 0.0)
+        for i in range(len(system.contacts)):
+            if can_hold[i]:
+                f = _memo_held(system, i)
+                if f is not None:
+                    bits[i] = -2
+                    flights.append(f)
+                    r, d = rows.copy(), ds.copy()
+                    r[i], d[i] = still.row, still.d
+                    rowsm.append(r)
+                    dsm.append(d)
+                    continue
+            flights.append(flight)
+            rowsm.append(rows)
+            dsm.append(ds)
     for act in range(1, 1 << len(soft)):
         flights.append(_memo_flight(system, act))
         r, d = rows.copy(), ds.copy()
@@ -173,17 +201,36 @@ def mode_arrays(system, flight, rows, ds):
     return {**out, "rowsm": np.stack(rowsm), "dsm": np.stack(dsm), "soft": bits}
 
 
+def _memo_held(system, i):
+    """``flight_arrays`` of the flight with contact i held (``flight.held``), contact i's rows
+    those of its contact force; None where nothing ever presses it."""
+    A, row = held(system, i)
+    if row is None:
+        return None
+    gaps = np.array([c.gap for c in system.contacts], float)
+    key = (A.tobytes(), A.shape, gaps.tobytes(), system.mass.tobytes(), "held", i)
+    flight = FLIGHT_MEMO.get(key)
+    if flight is None:
+        flight = flight_arrays(system, A, gaps, None, {i: row})
+        if len(FLIGHT_MEMO) >= FLIGHT_MEMO_SIZE:
+            FLIGHT_MEMO.pop(next(iter(FLIGHT_MEMO)))
+        FLIGHT_MEMO[key] = flight
+    return flight
+
+
 # the flight's arrays of the last systems prepared (``prepare``), by their matrix A, gaps
 # and mass matrix: a sweep of a contact's numbers prepares its flight once
 FLIGHT_MEMO: dict = {}
 FLIGHT_MEMO_SIZE = 16
 
 
-def flight_arrays(system, A, gaps, signs=None):
+def flight_arrays(system, A, gaps, signs=None, rows=None):
     """The arrays of ``run`` that depend on the flight alone (A, its ladder, the gaps'
     series and bounds, M^-1 a): a dict, shared by the systems ``prepare`` finds equal
     (never written to: ``run`` and ``batch.run_batch`` only read them).  ``signs`` (nc,):
-    each contact's gap rows taken with that sign (-1: an acting soft stop, ``mode_arrays``)."""
+    each contact's gap rows taken with that sign (-1: an acting soft stop, ``mode_arrays``);
+    ``rows``: {contact: a row of the augmented state} searched instead of its gap (a held
+    contact's force, of norm |a|: ``flight.held``)."""
     m = A.shape[0]
     normA = float(np.linalg.norm(A, 2))
     H = 1.0 / max(normA, 1e-300)
@@ -196,11 +243,13 @@ def flight_arrays(system, A, gaps, signs=None):
         a = c.gap if signs is None else signs[i] * c.gap
         row = np.zeros(m)
         row[:system.n] = a
+        if rows is not None and i in rows:
+            row = np.array(rows[i], float)
+        first = row.copy()
         for k in range(TAYLOR_TERMS + 3):
             cA[i, k] = row
             row = row @ A
-        row = np.zeros(m)
-        row[:system.n] = a
+        row = first
         for k in range(POLY_TERMS):          # c (A H)^k / k!: each of norm <= |c| / k!
             cAs[i, k] = row
             row = row @ (A * H) / (k + 1)
@@ -617,6 +666,10 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
     nc = gaps.shape[0]
     y = y0.copy()
     act = _initial_mode(gaps, rowsm, soft, y, n)      # the soft stops acting (mode_arrays)
+    can_hold = False        # holdable contacts (soft -2): modes 1 + i hold contact i
+    for i in range(nc):
+        can_hold = can_hold or soft[i] == -2
+    hold = -1               # the contact held (-1: none)
     E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm, dsm, act)
     # time as t_base + k H: the chunks' flights are E_0 exactly, and time summed chunk by
     # chunk would drift by a rounding of t each (module docstring)
@@ -641,53 +694,21 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
         if stop_requested(control):
             return STOPPED, 0
         if t > t_max:
-            return BUDGET, max(0, impacts - skip)
+            return (BUDGET if hold < 0 else CHATTERS), max(0, impacts - skip)
         status, ny = state_norm(y, n, escape)
         if status != OK:
             return status, max(0, impacts - skip)
         # the chunk (H, or to t_max): each contact's pieces searched on its flight's polynomial
         L = min(H, t_max - t)
-        best = math.inf
-        bi = -1
-        bj = 0
-        for i in range(nc):
-            # the contact's obstacle as the tuples the obstacle functions take (values: an
-            # array argument's atomic reference counting took half the loop's time, measured
-            # with perf, as it took a fifth of the flow kernel's: params.as_tuple)
-            row, d = contact_tuples(rows, ds, i)
-            j, _ = piece_at(d, t)
-            # at a piece's end, t rounds into either piece: the one that goes on past t
-            while piece_start(d, j) + piece_length(d, j) <= t:
-                j += 1
-            gap_poly(cAs, i, y, b)
-            bt = poly_tuple(b)
-            z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
-            g0 = bt[0] - z
-            g1 = bt[1] / H - zp
-            s0 = 0.0
-            if free_until[i] > t:
-                s0 = free_until[i] - t      # moving away from an event (below)
-            elif g0 <= 0.0:
-                if g1 <= 0.0:
-                    if 0.0 < best:
-                        best, bi, bj = 0.0, i, j
-                    continue
-                # leaving the obstacle: free until g' / B at least (events.py), within the
-                # piece (its end is a corner, where z' jumps)
-                s0 = min(g1 / (N[i, 0] * ny + piece_zpp(row, j)),
-                         piece_start(d, j) + piece_length(d, j) - t)
-            end = min(L, best)       # a later contact's event must come before the best
-            code, s, j = _walk(E, A, H, normA, cA, N, normc, i, bt, ny, row, d, j, t, s0, end, y,
-                               tol, control, yp, st_a, st_k, st_y, tmp, tmp2)
-            if code == STOPPED:
-                return STOPPED, 0        # a fast obstacle: many pieces within one chunk
-            if code == FAIL:
-                return NONFINITE, max(0, impacts - skip)
-            if code == FOUND and s < best:
-                best, bi, bj = s, i, j
+        code, best, bi, bj = _scan(E, A, H, normA, cA, cAs, N, normc, rows, ds, free_until, y, ny, t,
+                                   L, tol, control, yp, st_a, st_k, st_y, tmp, tmp2, b)
+        if code == STOPPED:
+            return STOPPED, 0        # a fast obstacle: many pieces within one chunk
+        if code == FAIL:
+            return NONFINITE, max(0, impacts - skip)
         if bi < 0:
-            if L < H:
-                return BUDGET, max(0, impacts - skip)    # no event before the budget's end
+            if L < H:       # no event before the budget's end
+                return (BUDGET if hold < 0 else CHATTERS), max(0, impacts - skip)
             # on by the chunk's flight E_0 (written out: a call with arrays costs their atomic
             # reference counting, measured with perf)
             for k in range(m):
@@ -712,6 +733,10 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
         sb = soft[bi]
         if sb >= 0 and (act >> sb) & 1 == 1:
             w = -w              # inside a soft stop: its exit is the root of -g (mode_arrays)
+        if bi == hold:
+            w = 0.0             # held: the contact force's rate (its rows: mode_arrays)
+            for k in range(m):
+                w += cA[bi, 1, k] * y[k]
         t = te
         t_base = te
         k_chunks = 0
@@ -724,6 +749,18 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
             free_until[bi] = te + max(2.0 * tol, min(w / B, H, piece_start(d, j) +
                                                      piece_length(d, j) - te))
             continue
+        if bi == hold:
+            # released (the contact force turns negative): the free flight again, the contact
+            # free while its gap is at least g^(3) s^3 / 12 > 0 (``release_step``)
+            hold = -1
+            act = 0
+            E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm,
+                                                         dsm, act)
+            free_until[:] = -math.inf
+            _, ny = state_norm(y, n, escape)
+            free_until[bi] = te + release_step(cA, N, bi, y, ny, H, tol)
+            continue
+        rr = r[bi]
         if sb >= 0:
             # a soft stop entered or left: the state goes on (no jump), the flight switches
             act ^= 1 << sb
@@ -733,9 +770,23 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
             if (act >> sb) & 1 == 0:
                 continue        # an exit: not recorded
             w = 0.0             # an entry: recorded as an impact with v+ = v-
+        elif sb < 0 and -r[bi] * w <= chatter:
+            # chattering to rest: held where it can be (not while another is held) and its
+            # contact force after the law with r = 0 presses (docs/linear.md, "Sticking")
+            if sb == -2 and hold < 0 and held_force(cAm, gaps, D, bi, y, n, w) > 0.0:
+                rr = 0.0
+                hold = bi
+                snap(y, n, gaps, D, bi, rowsm[0, bi, KAPPA])
+        elif hold >= 0:
+            hold = -1           # an impact elsewhere releases the held contact
+        if can_hold and (act > 0) != (hold >= 0) or (hold >= 0 and act != 1 + hold):
+            act = 1 + hold
+            E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm,
+                                                         dsm, act)
+            free_until[:] = -math.inf
         counts = not words or (bi == counted and not done)
         kept = impacts - skip if counts else -1
-        _impact(y, n, gaps, D, r, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout)
+        _impact(y, n, gaps, D, rr, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout)
         if words:
             n_corner, t_corner, pend_lo, pend_hi = _corners(bi, kept, te, corners, n_corner,
                                                             t_corner, pend_lo, pend_hi, o_t,
@@ -749,9 +800,57 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
                 done = True
                 if period > 0.0:        # at most to the second multiple of the period after
                     t_max = min(t_max, (math.floor(te / period) + 2.0) * period)
-        if sb < 0 and -r[bi] * w <= chatter:
+        if sb < 0 and -r[bi] * w <= chatter and hold != bi:
             return CHATTERS, max(0, min(impacts, count) - skip)
     return OK, max(0, impacts - skip)
+
+
+@jit_inline
+def _scan(E, A, H, normA, cA, cAs, N, normc, rows, ds, free_until, y, ny, t, L, tol, control, yp,
+          st_a, st_k, st_y, tmp, tmp2, b):
+    """The chunk from t (length L): each contact's pieces searched on its flight's polynomial,
+    the earliest event (ties: the contacts' order): (code, s, contact, piece), code FOUND (contact
+    -1: none), STOPPED or FAIL (``_walk``'s)."""
+    nc = rows.shape[0]
+    best = math.inf
+    bi = -1
+    bj = 0
+    for i in range(nc):
+        # the contact's obstacle as the tuples the obstacle functions take (values: an
+        # array argument's atomic reference counting took half the loop's time, measured
+        # with perf, as it took a fifth of the flow kernel's: params.as_tuple)
+        row, d = contact_tuples(rows, ds, i)
+        j, _ = piece_at(d, t)
+        # at a piece's end, t rounds into either piece: the one that goes on past t
+        while piece_start(d, j) + piece_length(d, j) <= t:
+            j += 1
+        gap_poly(cAs, i, y, b)
+        bt = poly_tuple(b)
+        z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
+        g0 = bt[0] - z
+        g1 = bt[1] / H - zp
+        s0 = 0.0
+        if free_until[i] > t:
+            s0 = free_until[i] - t      # moving away from an event (below)
+        elif g0 <= 0.0:
+            if g1 <= 0.0:
+                if 0.0 < best:
+                    best, bi, bj = 0.0, i, j
+                continue
+            # leaving the obstacle: free until g' / B at least (events.py), within the
+            # piece (its end is a corner, where z' jumps)
+            s0 = min(g1 / (N[i, 0] * ny + piece_zpp(row, j)),
+                     piece_start(d, j) + piece_length(d, j) - t)
+        end = min(L, best)       # a later contact's event must come before the best
+        code, s, j = _walk(E, A, H, normA, cA, N, normc, i, bt, ny, row, d, j, t, s0, end, y,
+                           tol, control, yp, st_a, st_k, st_y, tmp, tmp2)
+        if code == STOPPED:
+            return STOPPED, best, bi, bj    # a fast obstacle: many pieces within one chunk
+        if code == FAIL:
+            return FAIL, best, bi, bj
+        if code == FOUND and s < best:
+            best, bi, bj = s, i, j
+    return FOUND, best, bi, bj
 
 
 @jit_inline
@@ -811,16 +910,57 @@ def _initial_mode(gaps, rowsm, soft, y, n):
 
 
 @jit_inline
-def _impact(y, n, gaps, D, r, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout):
-    """The generalised Newton law at contact ``bi`` (w = its w-, ``impact.newton_impact``) on
-    the state ``y``, the impact recorded as number ``kept`` (not when < 0)."""
+def held_force(cAm, gaps, D, i, y, n, w):
+    """Contact i's force (``flight.held``, scaled) just after the law with r = 0 at an impact
+    of w- = ``w``: v+ = v - w M^-1 a / (a^T M^-1 a), read by the held mode's rows."""
+    ad = 0.0
+    for k in range(n):
+        ad += gaps[i, k] * D[i, k]
+    lam = 0.0
+    for k in range(y.shape[0]):
+        lam += cAm[1 + i, i, 0, k] * y[k]
+    for k in range(n):
+        lam -= cAm[1 + i, i, 0, n + k] * w * D[i, k] / ad
+    return lam
+
+
+@jit_inline
+def snap(y, n, gaps, D, i, kappa):
+    """Puts the state on contact i: x <- x - g M^-1 a / (a^T M^-1 a), g = a . x - kappa (the
+    smallest move in M's metric; within the event's resolution)."""
+    ad = 0.0
+    g = -kappa
+    for k in range(n):
+        ad += gaps[i, k] * D[i, k]
+        g += gaps[i, k] * y[k]
+    for k in range(n):
+        y[k] -= g * D[i, k] / ad
+
+
+@jit_inline
+def release_step(cA, N, i, y, ny, H, tol):
+    """After a release (g, g', g'' are 0): g >= g3 s^3 / 6 - B4 s^4 / 24 >= g3 s^3 / 12 > 0
+    for s <= 2 g3 / B4, g3 = g^(3) (the free flight's rows), B4 = N_4 |y| over a chunk."""
+    g3 = 0.0
+    for k in range(y.shape[0]):
+        g3 += cA[i, 3, k] * y[k]
+    if g3 <= 0.0:
+        return 2.0 * tol
+    return max(2.0 * tol, min(H, 2.0 * g3 / (N[i, 2] * ny)))
+
+
+@jit_inline
+def _impact(y, n, gaps, D, rr, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout):
+    """The generalised Newton law at contact ``bi`` (w = its w-, ``impact.newton_impact``;
+    restitution ``rr``) on the state ``y``, the impact recorded as number ``kept`` (not when
+    < 0)."""
     ad = 0.0
     for k in range(n):
         ad += gaps[bi, k] * D[bi, k]
     for k in range(n):
         if kept >= 0:
             o_vin[kept, k] = y[n + k]
-        y[n + k] -= (1.0 + r[bi]) * w * D[bi, k] / ad
+        y[n + k] -= (1.0 + rr) * w * D[bi, k] / ad
         if kept >= 0:
             o_vout[kept, k] = y[n + k]
             o_x[kept, k] = y[k]

@@ -18,8 +18,9 @@ letters are their contacts' names, its period is counted in the system's period 
 (``system_period``).  With one contact on a cornered obstacle its words are the paper's
 (``paper_words``); with ``[system] words = { impacts = "U", corners = "W" }`` the
 two-particle model's (section 6: only U's impacts recorded, each grouped about the W impacts
-as that model's u-z impacts about its w-z impacts; ``words_fields``).  Chattering ends a run
-(status STUCK: sticking is not followed yet).  Soft stops (law "spring", on fixed
+as that model's u-z impacts about its w-z impacts; ``words_fields``).  A contact that
+chatters to rest on a fixed stop is held (sticking: kernel.py, docs/linear.md "Sticking"); a
+run held at its budget, or chattering where it cannot be held, is STUCK.  Soft stops (law "spring", on fixed
 obstacles) switch the flight while they act; their entries are recorded as impacts with
 v+ = v-, and they offer no stability observable and no followed sweep yet.  A
 followed sweep carries each run's state in its last recorded flight and its phase
