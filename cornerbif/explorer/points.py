@@ -100,10 +100,10 @@ class Diagram(Runs):
     """A file of one swept parameter as points (x, y, run): x the swept value, y a finite
     value of the y kind ``kind``, run its run (grid index * starts + start).  The points
     are never held: each render, zoom or click reads the rows of the window from the file a
-    slab at a time (``chunks``), so that the server's memory does not grow with the file.
-    ``size`` (the finite values) and the y window (``plot_style.robust_range``) are read in
-    one pass each when the file is opened.  ``ValueError`` for a file this view cannot
-    draw."""
+    slab at a time (``slabs``, ``chunks``), so that the server's memory does not grow with
+    the file.  ``size`` (the finite values) and the x extent are read in one pass when the
+    file is opened, the y window (``plot_style.robust_range``) at its first use.
+    ``ValueError`` for a file this view cannot draw."""
 
     def __init__(self, path, kind=None, data=None):
         super().__init__(path, data)
@@ -227,13 +227,13 @@ def raster(points, colouring: Colouring, x_range, y_range, width: int, height: i
     the highest layer wins, as ``cornerbif plot``'s raster) or their mean (a colour scale);
     NaN where no point falls.  Memory: the image's and one slab's."""
     (x0, x1), (y0, y1) = x_range, y_range
+    if not (x1 > x0 and y1 > y0):
+        return np.full((height, width), np.nan, np.float32)
     n = width * height
     labelled = colouring.layer is not None
     top = np.full(n, -np.inf, np.float32)
     total = np.zeros(n)
     count = np.zeros(n)
-    if not (x1 > x0 and y1 > y0):
-        return np.full((height, width), np.nan, np.float32)
     for x, y, run in points.slabs(x_range):
         c = codes(colouring, run)
         # NaN compares false: a missing value, or a run without a value, is no point
@@ -289,8 +289,7 @@ def spread(img, threshold: float = 0.6, max_px: int = 2):
     highest of their values (the highest layer wins, as in ``raster``), a drawn pixel keeps
     its own."""
     drawn = np.isfinite(img)
-    n = np.count_nonzero(drawn)
-    if n == 0:
+    if not drawn.any():
         return img
     grown = img
     for px in range(1, max_px + 1):
