@@ -818,6 +818,8 @@ class CheckContext:
         self.drawn = w.drawn
         self.obstacle_table = getattr(w, "obstacle_table", None)
         self.follow = getattr(w, "follow", "none")
+        # the scene has a [continue] table (``cornerbif continue``: a model may refuse it)
+        self.continued = "continue" in getattr(w, "raw", {})
 
     def swept(self, name):
         return next((a for a in self.axes if a.name == name), None)

@@ -138,13 +138,23 @@ def _seed_runs(scene, f):
         raise _seed_file_error(scene, f"sweeps {', '.join(map(repr, axes)) or 'nothing'}, "
                                       f"not {name!r} alone")
     theirs = theirs_doc.get("system", {})
-    ours = {k: v for k, v in scene.system.items() if v is not None}
-    if "obstacle" in scene.spec.system_extra:
-        ours["obstacle"] = recorded_obstacle(scene)
-    for k in sorted(set(ours) | set(theirs)):
-        if k != name and k != "section_period" and theirs.get(k) != ours.get(k):
-            raise _seed_file_error(scene, f"was swept with system.{k} = {theirs.get(k)!r}, "
-                                          f"the scene has {ours.get(k)!r}")
+    if scene.spec.system_table is not None:
+        # a model its scene declares (linear): the two [system] tables, the parameter aside
+        mine, _ = scene.spec.for_system(theirs)
+        if mine is None or name not in mine.params or (
+                mine.system_table_with({name: 0.0})
+                != scene.spec.system_table_with({name: 0.0})):
+            raise _seed_file_error(scene, "was swept with another [system] table than the "
+                                          f"scene's (beside {name!r})")
+    else:
+        ours = {k: v for k, v in scene.system.items() if v is not None}
+        if "obstacle" in scene.spec.system_extra:
+            ours["obstacle"] = recorded_obstacle(scene)
+        for k in sorted(set(ours) | set(theirs)):
+            if k != name and k != "section_period" and theirs.get(k) != ours.get(k):
+                raise _seed_file_error(scene, f"was swept with system.{k} = "
+                                              f"{theirs.get(k)!r}, the scene has "
+                                              f"{ours.get(k)!r}")
     x = f[name][...]
     if not np.all(np.isfinite(x)):
         raise _seed_file_error(scene, f"its {name!r} values are not all finite")

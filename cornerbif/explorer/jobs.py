@@ -20,7 +20,7 @@ import tomllib
 
 import numpy as np
 
-from .. import continuation_run
+from .. import continuation_run, registry
 from ..config import SceneError, dumps, loads, set_dotted
 from ..errors import SweepInterrupted
 from ..estimate import duration, estimate_time
@@ -226,9 +226,17 @@ def continue_raw(scene_text: str, axis: str, x: float, start: list, lo: float, h
     raw = copy.deepcopy(tomllib.loads(scene_text))
     for k in ("sweep", "plot", "continue"):
         raw.pop(k, None)
-    raw.setdefault("system", {})[axis] = float(x)
-    for name, v in (fixed or {}).items():
-        raw["system"][name] = float(v)
+    numbers = {axis: float(x)} | {name: float(v) for name, v in (fixed or {}).items()}
+    spec = registry.models().get(str(raw.get("scene", {}).get("model", "")))
+    if spec is not None and spec.for_system is not None:
+        # a model its scene declares (``linear``): its numbers by path, written into its
+        # [system] table where they are (``Model.system_table_with``)
+        model, problems = spec.for_system(raw.get("system", {}))
+        if model is None:
+            raise Refused("the file's [system] is refused: " + "; ".join(problems[:3]))
+        raw["system"] = model.system_table_with(numbers)
+    else:
+        raw.setdefault("system", {}).update(numbers)
     raw["initial"] = {"points": [[float(s) for s in start]]}
     raw["continue"] = {"parameter": axis, "range": [float(lo), float(hi)], "start": float(x),
                        "seed": "all"}

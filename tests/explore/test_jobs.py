@@ -356,7 +356,9 @@ def test_a_linear_scenes_point_is_recomputed_with_its_table(tmp_path, scene, axi
     """A click on a diagram of a linear scene (a model its scene declares) recomputes the
     run through ``simulate(table=...)`` with the point's numbers by path: the word and period
     the file holds; the multipliers where the system's stability is run (not through a soft
-    stop: the orbit is recomputed without them rather than refused)."""
+    stop: the orbit is recomputed without them rather than refused).  "Continue from here"
+    continues the bouncing ball's orbit (its number written into the table by path) and
+    refuses the soft stop's, naming the key (docs/linear.md, "Continuation")."""
     pytest.importorskip("panel")
     import numpy as np
 
@@ -374,6 +376,21 @@ def test_a_linear_scenes_point_is_recomputed_with_its_table(tmp_path, scene, axi
     assert ("multipliers (recomputed)" in facts) == stability
     if stability:
         assert np.isfinite(float(facts["multipliers (recomputed)"].split()[0]))
-    page.start_continuation()           # the linear model has no continuation yet: said
-    assert "continuation refused" in page.status.object and "'linear'" in page.status.object
-    assert page.cont_job is None
+    page.start_continuation()
+    if not stability:
+        # a soft stop: its orbits are not continued (docs/linear.md, "Continuation"), said
+        # naming the key
+        assert "continuation refused" in page.status.object, page.status.object
+        assert "system.contact.S.law" in page.status.object, page.status.object
+        assert page.cont_job is None
+        return
+    # the bouncing ball: its period-one orbit is continued in contact.T.beta over the
+    # file's range, from the clicked point (the number written into its [system] by path)
+    wait_continued(page)
+    import h5py
+    x = float(d.xv[k])
+    with h5py.File(page.cont_path, "r") as f:
+        params = [f["branches"][b]["param"][...] for b in f["branches"]]
+        words = [f["branches"][b].attrs["word"] for b in f["branches"]]
+    assert "T" in words, words
+    assert any(p.min() <= x <= p.max() for p in params), (x, params)

@@ -763,3 +763,35 @@ def _matrices(table, system, key, rows, at) -> dict:
             out["bad"] |= _not_psd(eig, sym, 1 - SLACK)
             out["norm"] = np.linalg.norm(sym, axis=(1, 2))
     return {k: v[which] for k, v in out.items()}
+
+
+def paper_words(system: LinearSystem) -> bool:
+    """Whether the system's words are the paper's corner clusters (a, b, g, x: the flow's
+    ``analysis.detect_cycle``, its period in clusters) rather than its contacts' names: one
+    contact, on an obstacle kind with corners, with beta > 0 (corners at z's valleys, as
+    the paper's |sin|).  The paper's flow written as a linear scene then has the flow's
+    words and periods."""
+    if len(system.contacts) != 1:
+        return False
+    c = system.contacts[0]
+    return (c.obstacle != FIXED and c.beta > 0.0
+            and obstacles.registered()[c.obstacle].has_corners(None))
+
+
+def system_period(system: LinearSystem) -> float:
+    """The period T of the system's time dependence: the common period of its harmonic
+    forces (2 pi / Omega) and moving obstacles (their ``shape`` period over omega); 0 when
+    there is none (an autonomous system: periods are then counted in impacts) or when those
+    periods have no common multiple within 1000 of the longest (to 1e-9)."""
+    periods = [2.0 * math.pi / f.Omega for f in system.forcing if f.Omega > 0.0]
+    kinds = obstacles.registered()
+    periods += [kinds[c.obstacle].period(c.omega) for c in system.contacts
+                if c.obstacle != FIXED]
+    if not periods:
+        return 0.0
+    longest = max(periods)
+    for mult in range(1, 1001):
+        T = mult * longest
+        if all(abs(T / p - round(T / p)) <= 1e-9 * (T / p) for p in periods):
+            return T
+    return 0.0

@@ -26,8 +26,9 @@ v+ = v-, and they offer no stability observable and no followed sweep yet.  A
 followed sweep carries each run's state in its last recorded flight and its phase
 (``_final``, ``starts_from_carry``).  The ``stability`` observable (opt-in) holds the 2N
 Floquet multipliers of each run's last recorded cycle and its 2N Lyapunov exponents
-(``tangent``: flights' Jacobians and generalised saltation matrices).  Not yet: continuation
-(docs/linear.md, "What remains").
+(``tangent``: flights' Jacobians and generalised saltation matrices).  ``cornerbif continue``
+solves and follows its periodic orbits of impacts on hard contacts (``orbit.LinearOrbit``;
+not with soft stops, ``[system] words`` or an autonomous system: ``continuation_refusal``).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ import math
 
 import numpy as np
 
-from ... import obstacles
+from ...continuation import OrbitError
 from ...model import Coord, Field, Model, Param, RunResult, Warmup, start_time_problems
 from ...observables import (
     ANALYSIS_KERNELS,
@@ -47,6 +48,7 @@ from ...observables import (
     stability_fields,
 )
 from . import cost, declare
+from .declare import paper_words, system_period  # (with the declarations: orbit.py reads them)
 from .flight import augmented, flight, has_constant_state
 from .system import LinearSystem
 
@@ -123,38 +125,6 @@ def _grows(path: str) -> bool:
     return k[0] == "forcing" and k[-1] in ("F", "Omega")
 
 
-def paper_words(system: LinearSystem) -> bool:
-    """Whether the system's words are the paper's corner clusters (a, b, g, x: the flow's
-    ``analysis.detect_cycle``, its period in clusters) rather than its contacts' names: one
-    contact, on an obstacle kind with corners, with beta > 0 (corners at z's valleys, as
-    the paper's |sin|).  The paper's flow written as a linear scene then has the flow's
-    words and periods."""
-    if len(system.contacts) != 1:
-        return False
-    c = system.contacts[0]
-    return (c.obstacle != declare.FIXED and c.beta > 0.0
-            and obstacles.registered()[c.obstacle].has_corners(None))
-
-
-def system_period(system: LinearSystem) -> float:
-    """The period T of the system's time dependence: the common period of its harmonic
-    forces (2 pi / Omega) and moving obstacles (their ``shape`` period over omega); 0 when
-    there is none (an autonomous system: periods are then counted in impacts) or when those
-    periods have no common multiple within 1000 of the longest (to 1e-9)."""
-    periods = [2.0 * math.pi / f.Omega for f in system.forcing if f.Omega > 0.0]
-    kinds = obstacles.registered()
-    periods += [kinds[c.obstacle].period(c.omega) for c in system.contacts
-                if c.obstacle != declare.FIXED]
-    if not periods:
-        return 0.0
-    longest = max(periods)
-    for mult in range(1, 1001):
-        T = mult * longest
-        if all(abs(T / p - round(T / p)) <= 1e-9 * (T / p) for p in periods):
-            return T
-    return 0.0
-
-
 def autonomous(system: LinearSystem) -> bool:
     """No time dependence: no harmonic force and every contact on a fixed stop (a constant
     force is allowed)."""
@@ -170,6 +140,27 @@ def phase_of(t: np.ndarray, T: np.ndarray, still: np.ndarray) -> np.ndarray:
         ph = np.where(T > 0.0, np.mod(t, np.where(T > 0.0, T, 1.0)) / np.where(T > 0.0, T, 1.0),
                       np.where(still, 0.0, np.nan))
     return np.where(np.isfinite(t), ph, np.nan)
+
+
+def continuation_refusal(system, table) -> str | None:
+    """Why a linear system's orbits cannot be continued (naming the key and the value), or
+    None: soft stops, ``[system] words``, or no period T (an autonomous system, whose orbit
+    would need a phase condition, or periods without a common multiple)."""
+    for c in system.contacts:
+        if c.law != "impact":
+            return (f"system.contact.{c.name}.law: {c.law!r} (a soft stop): continuation solves "
+                    "orbits of impacts on hard contacts (law \"impact\") only; not with soft "
+                    "stops yet (docs/linear.md, \"Continuation\")")
+    if system.words is not None:
+        return (f"system.words: {table.get('words')!r}: continuation names an orbit by all its "
+                "impacts, and with the two-particle model's words only one contact's impacts "
+                "are recorded; not yet (docs/linear.md, \"Continuation\")")
+    if system_period(system) <= 0.0:
+        return ("system: no period T (fixed stops and no harmonic force, or periods without a "
+                "common multiple): a continued orbit closes after m periods T of the system; "
+                "an autonomous system's would need a phase condition, not yet (docs/linear.md, "
+                "\"Continuation\")")
+    return None
 
 
 # what a followed sweep carries beside the state: the phase of the final state's time
@@ -339,6 +330,11 @@ class LinearModel(Model):
         problems = start_time_problems(ctx)
         if self.system_table is None:
             return problems
+        if getattr(ctx, "continued", False):
+            system, bad = declare.read_system(self.system_table)
+            why = None if bad else continuation_refusal(system, self.system_table)
+            if why:
+                problems.append(f"{why} (a scene with [continue])")
         if "words" in self.system_table and ctx.follow not in (None, "none"):
             problems.append(f"sweep.follow: {ctx.follow!r} with [system] words: a followed sweep "
                             "starts each run in its last recorded flight, and with the "
@@ -426,8 +422,19 @@ class LinearModel(Model):
                                   idx[..., None], axis=-1)[..., 0]
 
     def orbit_seed(self, values, scene, param, word, run):
-        raise NotImplementedError("the linear model does not solve its periodic orbits yet "
-                                  "(docs/linear.md, \"What remains\")")
+        """A ``orbit.LinearOrbit`` and its solved unknowns from one run's record (its last
+        cycle), refused (OrbitError) for a system whose orbits are not continued
+        (``continuation_refusal``) or a cycle that sticks."""
+        from .orbit import linear_seed  # start-up: loads numba
+        system, bad = declare.read_system(self.system_table)
+        why = bad[0] if bad else continuation_refusal(system, self.system_table)
+        if why:
+            raise OrbitError(why)
+        return linear_seed(self.system_table, values, param, run)
+
+    def orbit_from_doc(self, doc):
+        from .orbit import LinearOrbit  # start-up: loads numba
+        return LinearOrbit.from_doc(doc)
 
     def wall_at_start(self, params):
         return np.full(params.shape[0], -np.inf)      # no start is drawn above an obstacle
@@ -466,7 +473,9 @@ class LinearModel(Model):
                                       if k != "analysis.detect_cycles" or not self.contact_words))))
         elif not self.contact_words:
             cycles += dispatchers("analysis.detect_cycles")
-        if "sweep" in what or "simulate" in what:
+        if "sweep" in what or "simulate" in what or "continuation" in what:
+            # (a continuation's seeds are the scene's starts run by the kernel; its orbit
+            # problem, orbit.py, is numpy around the obstacles' functions the kernel compiles)
             out.append(("the linear kernel", COMPILE_SECONDS, [run_batch] + cycles))
         # a sweep's file tests its runs without a cycle for chaos when it finishes
         # (cornerbif.chaos: reruns with the stability pass), whatever it keeps
@@ -752,6 +761,8 @@ MODEL = LinearModel(
     system_extra={k: None for k in declare.SYSTEM_KEYS},
     observables={"impacts": BASE_FIELDS},
     opt_in=("stability",),
+    continuation=True,
+    seed_observable="impacts",
     cycle=IMPACT_CYCLE,
     events_per_impact=40,
     bytes_per_event=8 * 40,
