@@ -1770,7 +1770,18 @@ def _check_seed_word(w, s):
     """A ``[continue] seed`` word: on a smooth obstacle (no corners: every cluster is x)
     a word of x only; elsewhere letters a, b, g (x names a smooth obstacle's cluster and
     has no orbit to solve there); at most ``analysis.MAX_WORD_LETTERS`` letters, counted
-    without expanding the word."""
+    without expanding the word.  A model whose words are its own letters
+    (``Model.seed_letters``: a linear system's contacts' names) reads the word in them, case
+    kept."""
+    alphabet = w.spec.seed_letters()
+    if alphabet is not None:
+        try:
+            parse_word(s, alphabet=alphabet)
+        except ValueError as e:
+            w.problems.append(f"continue.seed: {_fmt(s)}: {e}; a seed word of this "
+                              f"{w.model} system is its contacts' names, case kept (e.g. "
+                              f"\"{alphabet}\"), or \"all\" (every attractor)")
+        return
     obstacle = w.spec.obstacles.get(w.obstacle) if w.spec.obstacles else None
     smooth = obstacle is not None and not obstacle.corners
     try:

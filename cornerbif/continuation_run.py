@@ -55,10 +55,13 @@ class Result:
     seeds: list = field(default_factory=list)      # the words found at the start
 
 
-def _matches(word: str, seed: str) -> bool:
-    """Whether a cycle word is the seed word up to rotation."""
+def _matches(word: str, seed: str, alphabet: str | None = None) -> bool:
+    """Whether a cycle word is the seed word up to rotation; ``alphabet``: the model's own
+    letters (``Model.seed_letters``: a linear system's contacts' names, case kept), else the
+    clusters' a, b, g, x."""
     from .analysis import parse_word  # start-up: loads numba
-    s = parse_word(seed, allow_x=True)
+    s = (parse_word(seed, allow_x=True) if alphabet is None
+         else parse_word(seed, alphabet=alphabet))
     return len(s) == len(word) and s in word + word
 
 
@@ -209,7 +212,8 @@ def find_seeds(scene, control=None):
         found.append((str(w[i]), {key: a[i] for key, a in out.items()} | {"ipc": int(ipc[i])}))
     seeds = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
     if "all" not in seeds:
-        found = [f for f in found if any(_matches(f[0], s) for s in seeds)]
+        letters = spec.seed_letters()
+        found = [f for f in found if any(_matches(f[0], s, letters) for s in seeds)]
     return found
 
 
@@ -278,6 +282,7 @@ def _seeds(scene, log, control):
     values = {k: v for k, v in scene.system.items() if v is not None}
     start = c["start"]
     wanted = c["seed"] if isinstance(c["seed"], list) else [c["seed"]]
+    letters = scene.spec.seed_letters()
     if "seed_file" in c:
         found, at = seeds_from_file(scene)
         if at != start:
@@ -285,12 +290,12 @@ def _seeds(scene, log, control):
                 f"nearest continue.start)")
             start = at
         if "all" not in wanted:
-            found = [f for f in found if any(_matches(f[0], s) for s in wanted)]
+            found = [f for f in found if any(_matches(f[0], s, letters) for s in wanted)]
     else:
         found = find_seeds(scene, control)
     values[c["parameter"]] = start
     for s in wanted:
-        if s != "all" and not any(_matches(f[0], s) for f in found):
+        if s != "all" and not any(_matches(f[0], s, letters) for f in found):
             # not an attractor from these starts: the orbit of the word itself, stable or not
             found.append((s, {"word_seed": True}))
     if not found:

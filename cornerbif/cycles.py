@@ -42,22 +42,32 @@ MAX_WORD_TEXT = 10 * MAX_WORD_LETTERS
 WORD_SHOWN = 40
 
 
-def parse_word(word: str, allow_x: bool = False) -> str:
+def parse_word(word: str, allow_x: bool = False, alphabet: str | None = None) -> str:
     """Expand a symbol word: 'bbbg', 'b11 g b12 g', 'b^11 g', 'β^3γ' -> plain letters a/b/g
     (and x, the cluster of a smooth obstacle, with ``allow_x``).
 
-    Parentheses are ignored; an exponent applies to the letter before it.  A word longer
-    than ``MAX_WORD_LETTERS`` letters (or ``MAX_WORD_TEXT`` characters) is refused with
-    ValueError from its counts, without being expanded.
+    ``alphabet``: the word's letters where they are not the corner clusters' (a linear
+    system's contacts' names, ``Model.seed_letters``): those letters alone, case kept (no
+    Greek letters, no lower-casing; ``allow_x`` does not apply).  Parentheses are ignored;
+    an exponent applies to the letter before it.  A word longer than ``MAX_WORD_LETTERS``
+    letters (or ``MAX_WORD_TEXT`` characters) is refused with ValueError from its counts,
+    without being expanded.
     """
     s = str(word)
     if len(s) > MAX_WORD_TEXT:
         raise ValueError(f"word {cut(s, WORD_SHOWN, quote=True)} is {len(s)} characters long; "
                          f"a word is written in at most {MAX_WORD_TEXT} (cycles of at most "
                          f"{MAX_WORD_LETTERS} letters)")
-    s = s.replace("(", " ").replace(")", " ").lower()
-    token = _TOKEN_X if allow_x else _TOKEN
-    letters = "a, b, g" + (", x" if allow_x else "")
+    s = s.replace("(", " ").replace(")", " ")
+    if alphabet is None:
+        s = s.lower()
+        token = _TOKEN_X if allow_x else _TOKEN
+        letters = "a, b, g" + (", x" if allow_x else "")
+    else:
+        if not alphabet:
+            raise ValueError(f"word {cut(word, WORD_SHOWN, quote=True)}: no letters to read it in")
+        token = re.compile(r"\s*([" + re.escape(alphabet) + r"])\s*(?:\^?\s*(\d+))?\s*")
+        letters = ", ".join(alphabet)
     out = []
     total = 0
     pos = 0

@@ -435,6 +435,13 @@ class Model:
         numbers by path) written in: the scene as run."""
         raise NotImplementedError
 
+    def seed_letters(self) -> str | None:
+        """The letters of a ``[continue] seed`` word where the model's words are not the
+        corner clusters' a, b, g, x (a linear system's contacts' names), read case kept by
+        ``cycles.parse_word(..., alphabet=...)``; None (every model but those): the clusters'
+        letters."""
+        return None
+
     # --- declared facts, derived ------------------------------------------------------
     @property
     def coords(self) -> tuple:

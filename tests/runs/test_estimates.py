@@ -211,3 +211,30 @@ def test_the_linear_estimate_counts_obstacle_pieces():
                                 "system.contact.R.beta=1e-3", "system.contact.R.omega=1e4"), 2)
     assert fast.high > 10 * fixed.high, (fast, fixed)
     assert any("obstacle pieces" in r for r in fast.reasons)
+
+
+def test_the_linear_estimate_counts_the_corner_contacts_impacts():
+    """With ``[system] words`` a run counts one contact's impacts (U's, Fig. 19(a) as a linear
+    scene) and resolves the other's (W's, the corners: 0.85 per U impact in its sweep) between
+    them: each run is priced for both contacts' impacts (``cost.resolved_per_counted``: one
+    impact a time scale per contact), the same system without words for the impacts it
+    counts alone.  Before, 2.9 s was estimated for a sweep that took 14.7 s; the other
+    linear scenes' estimates do not move (a factor of 1)."""
+    from cornerbif.models.linear.cost import COST_IMPACT, resolved_per_counted
+    words = _scene("fig19a_linear")
+    text = open(os.path.join(ROOT, "configs", "fig19a_linear.toml")).read()
+    plain = config.loads(text.replace("words = {", "# words = {"))
+    assert plain.spec.system_table.get("words") is None
+    at = words.point((0,))
+    w = words.spec.run_seconds(words, at)
+    p = plain.spec.run_seconds(plain, at)
+    n = words.transient + words.record
+    assert w[0] - p[0] == pytest.approx(n * COST_IMPACT, rel=1e-12), (w, p)
+    assert w[1] > p[1] and w[2] > p[2]
+    system, _ = words.spec.system_of(at)
+    assert resolved_per_counted(system) == 2.0
+    for name in ("two_stops", "impact_damper", "bouncing_ball", "fig06a_linear", "gear_rattle",
+                 "soft_stop", "cont_beta_linear"):
+        sc = _scene(name)
+        system, _ = sc.spec.system_of(sc.point((0,) * len(sc.shape)))
+        assert resolved_per_counted(system) == 1.0, name

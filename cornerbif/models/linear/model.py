@@ -288,6 +288,14 @@ class LinearModel(Model):
                 table = declare.with_value(table, path, v)
         return table
 
+    def seed_letters(self) -> str | None:
+        """A ``[continue] seed`` word's letters: the contacts' names (case kept) where the
+        words are the contacts' letters; None (the clusters' a, b, g, as the flow's) where
+        they are the paper's (``paper_words``) or the two-particle model's."""
+        if not self.contact_words or not isinstance(self.system_table, dict):
+            return None
+        return "".join(c["name"] for c in self.system_table.get("contact", ()))
+
     def system_of(self, values: dict):
         """(the system at the numbers ``values``, by path; problems): the scene's table with
         the values that differ from it written in (``system_table_with``: a mirrored matrix
