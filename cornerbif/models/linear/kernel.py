@@ -102,6 +102,7 @@ POLY_STEPS = 60             # certified steps on the polynomial before the halvi
 NONE, IMPACT, GRAZE = 0, 1, 2
 STEPS_OUT = 3               # ``first_event``: its step budget spent
 OK, CHATTERS, BUDGET, ESCAPED, NONFINITE = 0, 1, 2, 3, 4
+SWITCH = -3                 # ``_flights``: a switch of mode (never a run's status)
 STOP_POLL = 4096            # obstacle pieces walked within a chunk between looks at the stop flag
 
 
@@ -661,7 +662,12 @@ def run(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, 
 def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, y0, t0, n, skip,
             count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners,
             period, o_off, o_corner):
-    """``run``'s loop: (status, impacts recorded)."""
+    """``run``'s loop: (status, impacts recorded).  Each mode's events are ``_flights``'s, called
+    with that mode's arrays and returning at a switch of mode: the arrays are its arguments,
+    bound once per mode.  (Rebound inside the loop, at each switch, they cost the loop without
+    soft stops or holds a quarter of its throughput, and the search written as functions taking
+    arrays another third: their reference counting at every call; ``benchmarks/linear_kernel.py``
+    and docs/linear.md, "Speed".)"""
     m = y0.shape[0]
     nc = gaps.shape[0]
     y = y0.copy()
@@ -670,45 +676,135 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
     for i in range(nc):
         can_hold = can_hold or soft[i] == -2
     hold = -1               # the contact held (-1: none)
-    E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm, dsm, act)
-    # time as t_base + k H: the chunks' flights are E_0 exactly, and time summed chunk by
-    # chunk would drift by a rounding of t each (module docstring)
-    t = t0
-    t_base = t0
-    k_chunks = 0
     free_until = np.full(nc, -math.inf)   # a contact moving away from an event: free until
     copy_to(o_y, y, 2 * n)
     tmp = np.empty(m)
     tmp2 = np.empty(m)
     yp = np.empty(m)
-    b = np.empty(cAs.shape[1])
+    b = np.empty(cAsm.shape[2])
     st_a = np.empty(2 * LEVELS + 4)
     st_k = np.empty(2 * LEVELS + 4, np.int64)
     st_y = np.empty((2 * LEVELS + 4, m))
+    t = t0
     impacts = 0            # with ``counted`` >= 0: the impacts on that contact
     # the two-particle words: corner impacts so far, the last one's time, the recorded ones
     # waiting for the next (pend_lo .. pend_hi - 1); done: past the last counted impact
-    words = counted >= 0
     n_corner, t_corner, pend_lo, pend_hi, done = 0, 0.0, 0, 0, False
+    while True:
+        (st, kept, t, t_max, impacts, act, hold, n_corner, t_corner, pend_lo, pend_hi, done,
+         released) = _flights(Es[act], As[act], Hs[act], normAs[act], cAm[act], cAsm[act], Nm[act], normc,
+                              rowsm[act], dsm[act], cAm, rowsm[0], gaps, D, r, soft, can_hold, act, hold,
+                              y, t, n, skip, count, impacts, tol, chatter, escape, t_max, control, o_t,
+                              o_c, o_x, o_vin, o_vout, o_y, counted, corners, period, o_off, o_corner,
+                              n_corner, t_corner, pend_lo, pend_hi, done, free_until, tmp, tmp2, yp, b,
+                              st_a, st_k, st_y)
+        if st != SWITCH:
+            return st, kept
+        if released >= 0:
+            # released (the contact force turned negative): the free flight again, the
+            # contact free while its gap is at least g^(3) s^3 / 12 > 0 (``release_step``)
+            _, ny = state_norm(y, n, escape)
+            free_until[released] = t + release_step(cAm[act], Nm[act], released, y, ny, Hs[act], tol)
+
+
+@jit
+def _flights(E, A, H, normA, cA, cAs, N, normc, rows, ds, cAm, rows0, gaps, D, r, soft, can_hold, act, hold,
+             y, t, n, skip, count, impacts, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin,
+             o_vout, o_y, counted, corners, period, o_off, o_corner, n_corner, t_corner, pend_lo, pend_hi,
+             done, free_until, tmp, tmp2, yp, b, st_a, st_k, st_y):
+    """The events of mode ``act``'s flight (its arrays E .. ds), from the state y at t: up to
+    the run's end, (status, impacts recorded, ...), or up to a switch of mode, (SWITCH, 0,
+    ...), with the loop's state (t, t_max, impacts, act, hold, the words' counters) and the
+    contact just released (-1: none) for ``_events`` to go on.  The search over each contact's
+    pieces is written out here, not called: a call passing arrays costs their reference
+    counting (``_events``)."""
+    m = y.shape[0]
+    nc = gaps.shape[0]
+    words = counted >= 0
+    # time as t_base + k H: the chunks' flights are E_0 exactly, and time summed chunk by
+    # chunk would drift by a rounding of t each (module docstring)
+    t_base = t
+    k_chunks = 0
     while impacts < count or (done and pend_hi > pend_lo):
         if stop_requested(control):
-            return STOPPED, 0
+            return STOPPED, 0, t, t_max, impacts, act, hold, n_corner, t_corner, pend_lo, pend_hi, done, -1
         if t > t_max:
-            return (BUDGET if hold < 0 else CHATTERS), max(0, impacts - skip)
+            return ((BUDGET if hold < 0 else CHATTERS), max(0, impacts - skip), t, t_max, impacts, act, hold,
+                    n_corner, t_corner, pend_lo, pend_hi, done, -1)
         status, ny = state_norm(y, n, escape)
         if status != OK:
-            return status, max(0, impacts - skip)
-        # the chunk (H, or to t_max): each contact's pieces searched on its flight's polynomial
+            return (status, max(0, impacts - skip), t, t_max, impacts, act, hold, n_corner, t_corner,
+                    pend_lo, pend_hi, done, -1)
+        # the chunk (H, or to t_max): each contact's pieces searched on its flight's polynomial,
+        # the earliest event (ties: the contacts' order)
         L = min(H, t_max - t)
-        code, best, bi, bj = _scan(E, A, H, normA, cA, cAs, N, normc, rows, ds, free_until, y, ny, t,
-                                   L, tol, control, yp, st_a, st_k, st_y, tmp, tmp2, b)
-        if code == STOPPED:
-            return STOPPED, 0        # a fast obstacle: many pieces within one chunk
-        if code == FAIL:
-            return NONFINITE, max(0, impacts - skip)
+        best = math.inf
+        bi = -1
+        bj = 0
+        for i in range(nc):
+            # the contact's obstacle as the tuples the obstacle functions take (values: an
+            # array argument's atomic reference counting took half the loop's time, measured
+            # with perf, as it took a fifth of the flow kernel's: params.as_tuple)
+            row, d = contact_tuples(rows, ds, i)
+            j, _ = piece_at(d, t)
+            # at a piece's end, t rounds into either piece: the one that goes on past t
+            while piece_start(d, j) + piece_length(d, j) <= t:
+                j += 1
+            gap_poly(cAs, i, y, b)
+            bt = poly_tuple(b)
+            z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
+            g0 = bt[0] - z
+            g1 = bt[1] / H - zp
+            s0 = 0.0
+            if free_until[i] > t:
+                s0 = free_until[i] - t      # moving away from an event (below)
+            elif g0 <= 0.0:
+                if g1 <= 0.0:
+                    if 0.0 < best:
+                        best, bi, bj = 0.0, i, j
+                    continue
+                # leaving the obstacle: free until g' / B at least (events.py), within the
+                # piece (its end is a corner, where z' jumps)
+                s0 = min(g1 / (N[i, 0] * ny + piece_zpp(row, j)),
+                         piece_start(d, j) + piece_length(d, j) - t)
+            end = min(L, best)       # a later contact's event must come before the best
+            # contact i's first event in [s0, end], walking its obstacle's pieces from j
+            code = ROOT_NONE
+            s = end
+            walked = 0
+            while s0 < end:
+                walked += 1
+                if walked % STOP_POLL == 0 and stop_requested(control):
+                    # a fast obstacle: many pieces within one chunk
+                    return (STOPPED, 0, t, t_max, impacts, act, hold, n_corner, t_corner, pend_lo, pend_hi,
+                            done, -1)
+                pe = piece_start(d, j) + piece_length(d, j) - t
+                if pe <= s0:
+                    j += 1
+                    continue
+                seg = min(end, pe)
+                code, s = first_event(bt, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, row, d, j,
+                                      t, s0, seg, tol)
+                if code == STEPS_OUT:
+                    # a slow approach (a near-graze): halving on the ladder from there
+                    copy_to(yp, y, m)
+                    advance(E, A, H, yp, s, tmp, tmp2)
+                    kind, te = search(E, A, H, cA, i, normc[i], normA, row, d, j, t + s,
+                                      yp, t + seg, tol, st_a, st_k, st_y, tmp, tmp2)
+                    code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, seg)
+                if code != ROOT_NONE:
+                    break
+                s0 = seg
+                j += 1
+            if code == FAIL:
+                return (NONFINITE, max(0, impacts - skip), t, t_max, impacts, act, hold, n_corner, t_corner,
+                        pend_lo, pend_hi, done, -1)
+            if code == FOUND and s < best:
+                best, bi, bj = s, i, j
         if bi < 0:
             if L < H:       # no event before the budget's end
-                return (BUDGET if hold < 0 else CHATTERS), max(0, impacts - skip)
+                return ((BUDGET if hold < 0 else CHATTERS), max(0, impacts - skip), t, t_max, impacts, act,
+                        hold, n_corner, t_corner, pend_lo, pend_hi, done, -1)
             # on by the chunk's flight E_0 (written out: a call with arrays costs their atomic
             # reference counting, measured with perf)
             for k in range(m):
@@ -750,25 +846,19 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
                                                      piece_length(d, j) - te))
             continue
         if bi == hold:
-            # released (the contact force turns negative): the free flight again, the contact
-            # free while its gap is at least g^(3) s^3 / 12 > 0 (``release_step``)
-            hold = -1
-            act = 0
-            E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm,
-                                                         dsm, act)
+            # released (the contact force turns negative): the free flight again (``_events``)
             free_until[:] = -math.inf
-            _, ny = state_norm(y, n, escape)
-            free_until[bi] = te + release_step(cA, N, bi, y, ny, H, tol)
-            continue
+            return SWITCH, 0, t, t_max, impacts, 0, -1, n_corner, t_corner, pend_lo, pend_hi, done, bi
+        switched = False
         rr = r[bi]
         if sb >= 0:
             # a soft stop entered or left: the state goes on (no jump), the flight switches
             act ^= 1 << sb
-            E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm,
-                                                         dsm, act)
             free_until[:] = -math.inf
-            if (act >> sb) & 1 == 0:
-                continue        # an exit: not recorded
+            if (act >> sb) & 1 == 0:    # an exit: not recorded
+                return (SWITCH, 0, t, t_max, impacts, act, hold, n_corner, t_corner, pend_lo, pend_hi, done,
+                        -1)
+            switched = True
             w = 0.0             # an entry: recorded as an impact with v+ = v-
         elif sb < 0 and -r[bi] * w <= chatter:
             # chattering to rest: held where it can be (not while another is held) and its
@@ -776,17 +866,30 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
             if sb == -2 and hold < 0 and held_force(cAm, gaps, D, bi, y, n, w) > 0.0:
                 rr = 0.0
                 hold = bi
-                snap(y, n, gaps, D, bi, rowsm[0, bi, KAPPA])
+                snap(y, n, gaps, D, bi, rows0[bi, KAPPA])
         elif hold >= 0:
             hold = -1           # an impact elsewhere releases the held contact
         if can_hold and (act > 0) != (hold >= 0) or (hold >= 0 and act != 1 + hold):
             act = 1 + hold
-            E, A, H, normA, cA, cAs, N, rows, ds = _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm,
-                                                         dsm, act)
             free_until[:] = -math.inf
+            switched = True
         counts = not words or (bi == counted and not done)
         kept = impacts - skip if counts else -1
-        _impact(y, n, gaps, D, rr, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout)
+        # the generalised Newton law at contact bi (``impact.newton_impact``; restitution rr),
+        # recorded as impact number ``kept`` (not when < 0); written out (``_flights``)
+        ad = 0.0
+        for k in range(n):
+            ad += gaps[bi, k] * D[bi, k]
+        for k in range(n):
+            if kept >= 0:
+                o_vin[kept, k] = y[n + k]
+            y[n + k] -= (1.0 + rr) * w * D[bi, k] / ad
+            if kept >= 0:
+                o_vout[kept, k] = y[n + k]
+                o_x[kept, k] = y[k]
+        if kept >= 0:
+            o_t[kept] = te
+            o_c[kept] = bi
         if words:
             n_corner, t_corner, pend_lo, pend_hi = _corners(bi, kept, te, corners, n_corner,
                                                             t_corner, pend_lo, pend_hi, o_t,
@@ -801,98 +904,12 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
                 if period > 0.0:        # at most to the second multiple of the period after
                     t_max = min(t_max, (math.floor(te / period) + 2.0) * period)
         if sb < 0 and -r[bi] * w <= chatter and hold != bi:
-            return CHATTERS, max(0, min(impacts, count) - skip)
-    return OK, max(0, impacts - skip)
-
-
-@jit_inline
-def _scan(E, A, H, normA, cA, cAs, N, normc, rows, ds, free_until, y, ny, t, L, tol, control, yp,
-          st_a, st_k, st_y, tmp, tmp2, b):
-    """The chunk from t (length L): each contact's pieces searched on its flight's polynomial,
-    the earliest event (ties: the contacts' order): (code, s, contact, piece), code FOUND (contact
-    -1: none), STOPPED or FAIL (``_walk``'s)."""
-    nc = rows.shape[0]
-    best = math.inf
-    bi = -1
-    bj = 0
-    for i in range(nc):
-        # the contact's obstacle as the tuples the obstacle functions take (values: an
-        # array argument's atomic reference counting took half the loop's time, measured
-        # with perf, as it took a fifth of the flow kernel's: params.as_tuple)
-        row, d = contact_tuples(rows, ds, i)
-        j, _ = piece_at(d, t)
-        # at a piece's end, t rounds into either piece: the one that goes on past t
-        while piece_start(d, j) + piece_length(d, j) <= t:
-            j += 1
-        gap_poly(cAs, i, y, b)
-        bt = poly_tuple(b)
-        z, zp, _, _ = z_state(row, j, t - piece_start(d, j))
-        g0 = bt[0] - z
-        g1 = bt[1] / H - zp
-        s0 = 0.0
-        if free_until[i] > t:
-            s0 = free_until[i] - t      # moving away from an event (below)
-        elif g0 <= 0.0:
-            if g1 <= 0.0:
-                if 0.0 < best:
-                    best, bi, bj = 0.0, i, j
-                continue
-            # leaving the obstacle: free until g' / B at least (events.py), within the
-            # piece (its end is a corner, where z' jumps)
-            s0 = min(g1 / (N[i, 0] * ny + piece_zpp(row, j)),
-                     piece_start(d, j) + piece_length(d, j) - t)
-        end = min(L, best)       # a later contact's event must come before the best
-        code, s, j = _walk(E, A, H, normA, cA, N, normc, i, bt, ny, row, d, j, t, s0, end, y,
-                           tol, control, yp, st_a, st_k, st_y, tmp, tmp2)
-        if code == STOPPED:
-            return STOPPED, best, bi, bj    # a fast obstacle: many pieces within one chunk
-        if code == FAIL:
-            return FAIL, best, bi, bj
-        if code == FOUND and s < best:
-            best, bi, bj = s, i, j
-    return FOUND, best, bi, bj
-
-
-@jit_inline
-def _walk(E, A, H, normA, cA, N, normc, i, bt, ny, row, d, j, t, s0, end, y, tol, control, yp,
-          st_a, st_k, st_y, tmp, tmp2):
-    """Contact i's first event in [s0, end] of the chunk from t (its gap's polynomial ``bt``,
-    the state y of norm ``ny``), walking its obstacle's pieces from piece j: (code, s, piece),
-    code roots.FOUND, roots.NONE, roots.FAIL or STOPPED (the sweep's ``control`` told to
-    stop, looked at every STOP_POLL pieces)."""
-    code = ROOT_NONE
-    s = end
-    walked = 0
-    m = y.shape[0]
-    while s0 < end:
-        walked += 1
-        if walked % STOP_POLL == 0 and stop_requested(control):
-            return STOPPED, s, j
-        pe = piece_start(d, j) + piece_length(d, j) - t
-        if pe <= s0:
-            j += 1
-            continue
-        seg = min(end, pe)
-        code, s = first_event(bt, H, N[i, 0] * ny, N[i, 1] * ny, N[i, 2] * ny, row, d, j,
-                              t, s0, seg, tol)
-        if code == STEPS_OUT:
-            # a slow approach (a near-graze): halving on the ladder from there
-            copy_to(yp, y, m)
-            advance(E, A, H, yp, s, tmp, tmp2)
-            kind, te = search(E, A, H, cA, i, normc[i], normA, row, d, j, t + s,
-                              yp, t + seg, tol, st_a, st_k, st_y, tmp, tmp2)
-            code, s = (FOUND, te - t) if kind != NONE else (ROOT_NONE, seg)
-        if code != ROOT_NONE:
-            break
-        s0 = seg
-        j += 1
-    return code, s, j
-
-
-@jit_inline
-def _mode(Es, As, Hs, normAs, cAm, cAsm, Nm, rowsm, dsm, act):
-    """The arrays of the flight in mode ``act`` (the soft stops acting: ``mode_arrays``)."""
-    return Es[act], As[act], Hs[act], normAs[act], cAm[act], cAsm[act], Nm[act], rowsm[act], dsm[act]
+            return (CHATTERS, max(0, min(impacts, count) - skip), t, t_max, impacts, act, hold, n_corner,
+                    t_corner, pend_lo, pend_hi, done, -1)
+        if switched:
+            return SWITCH, 0, t, t_max, impacts, act, hold, n_corner, t_corner, pend_lo, pend_hi, done, -1
+    return (OK, max(0, impacts - skip), t, t_max, impacts, act, hold, n_corner, t_corner, pend_lo, pend_hi,
+            done, -1)
 
 
 @jit_inline
@@ -947,26 +964,6 @@ def release_step(cA, N, i, y, ny, H, tol):
     if g3 <= 0.0:
         return 2.0 * tol
     return max(2.0 * tol, min(H, 2.0 * g3 / (N[i, 2] * ny)))
-
-
-@jit_inline
-def _impact(y, n, gaps, D, rr, bi, w, kept, te, o_t, o_c, o_x, o_vin, o_vout):
-    """The generalised Newton law at contact ``bi`` (w = its w-, ``impact.newton_impact``;
-    restitution ``rr``) on the state ``y``, the impact recorded as number ``kept`` (not when
-    < 0)."""
-    ad = 0.0
-    for k in range(n):
-        ad += gaps[bi, k] * D[bi, k]
-    for k in range(n):
-        if kept >= 0:
-            o_vin[kept, k] = y[n + k]
-        y[n + k] -= (1.0 + rr) * w * D[bi, k] / ad
-        if kept >= 0:
-            o_vout[kept, k] = y[n + k]
-            o_x[kept, k] = y[k]
-    if kept >= 0:
-        o_t[kept] = te
-        o_c[kept] = bi
 
 
 @jit_inline
