@@ -646,28 +646,15 @@ def run(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, 
     impact the run goes on to the next corner impact, which settles the last offsets, at
     most to the second multiple of ``period`` (the system's period, when > 0) after it, as
     the two-particle kernel goes on at most two sections; it then ends OK whatever ends it
-    (the offsets still pending keep the previous corner's: ``close_corner_offsets``)."""
-    st, kept = _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, y0, t0,
-                       n, skip, count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout,
-                       o_y, counted, corners, period, o_off, o_corner)
-    if counted >= 0 and st != STOPPED:
-        if corners >= 0:
-            close_corner_offsets(o_off, o_corner, 0, kept)
-        if kept == count - skip:
-            st = OK
-    return st, kept
+    (the offsets still pending keep the previous corner's: ``close_corner_offsets``).
 
-
-@jit
-def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, soft, y0, t0, n, skip,
-            count, tol, chatter, escape, t_max, control, o_t, o_c, o_x, o_vin, o_vout, o_y, counted, corners,
-            period, o_off, o_corner):
-    """``run``'s loop: (status, impacts recorded).  Each mode's events are ``_flights``'s, called
-    with that mode's arrays and returning at a switch of mode: the arrays are its arguments,
-    bound once per mode.  (Rebound inside the loop, at each switch, they cost the loop without
-    soft stops or holds a quarter of its throughput, and the search written as functions taking
-    arrays another third: their reference counting at every call; ``benchmarks/linear_kernel.py``
-    and docs/linear.md, "Speed".)"""
+    The loop: each mode's events are ``_flights``'s, called with that mode's arrays as its
+    arguments (bound once per mode) and returning at a switch of mode.  Rebound inside the
+    loop at each switch, the arrays cost the loop 15 % of its throughput where nothing
+    switches, and the search written as functions taking arrays another 25 % (their
+    reference counting at every call; docs/linear.md, "What remains").  One compiled level
+    between the sweep's batch and ``_flights``: each level links its callees' code in and
+    optimises it again (their compile time)."""
     m = y0.shape[0]
     nc = gaps.shape[0]
     y = y0.copy()
@@ -699,12 +686,18 @@ def _events(Es, As, Hs, normAs, cAm, cAsm, Nm, normc, rowsm, dsm, gaps, D, r, so
                               n_corner, t_corner, pend_lo, pend_hi, done, free_until, tmp, tmp2, yp, b,
                               st_a, st_k, st_y)
         if st != SWITCH:
-            return st, kept
+            break
         if released >= 0:
             # released (the contact force turned negative): the free flight again, the
             # contact free while its gap is at least g^(3) s^3 / 12 > 0 (``release_step``)
             _, ny = state_norm(y, n, escape)
             free_until[released] = t + release_step(cAm[act], Nm[act], released, y, ny, Hs[act], tol)
+    if counted >= 0 and st != STOPPED:
+        if corners >= 0:
+            close_corner_offsets(o_off, o_corner, 0, kept)
+        if kept == count - skip:
+            st = OK
+    return st, kept
 
 
 @jit
@@ -715,9 +708,9 @@ def _flights(E, A, H, normA, cA, cAs, N, normc, rows, ds, cAm, rows0, gaps, D, r
     """The events of mode ``act``'s flight (its arrays E .. ds), from the state y at t: up to
     the run's end, (status, impacts recorded, ...), or up to a switch of mode, (SWITCH, 0,
     ...), with the loop's state (t, t_max, impacts, act, hold, the words' counters) and the
-    contact just released (-1: none) for ``_events`` to go on.  The search over each contact's
+    contact just released (-1: none) for ``run`` to go on.  The search over each contact's
     pieces is written out here, not called: a call passing arrays costs their reference
-    counting (``_events``)."""
+    counting (``run``)."""
     m = y.shape[0]
     nc = gaps.shape[0]
     words = counted >= 0
@@ -846,7 +839,7 @@ def _flights(E, A, H, normA, cA, cAs, N, normc, rows, ds, cAm, rows0, gaps, D, r
                                                      piece_length(d, j) - te))
             continue
         if bi == hold:
-            # released (the contact force turns negative): the free flight again (``_events``)
+            # released (the contact force turns negative): the free flight again (``run``)
             free_until[:] = -math.inf
             return SWITCH, 0, t, t_max, impacts, 0, -1, n_corner, t_corner, pend_lo, pend_hi, done, bi
         switched = False
