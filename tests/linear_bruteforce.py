@@ -87,6 +87,7 @@ DRIFT = 1e-13             # ... the flight's length in the kernel's chunks 1 / |
 STATE_TOL = 1e-9          # the kernel's state at an impact against the brute force's flight
 LAW_TOL = 1e-12           # the kernel's v_out against the law written out here
 KINDS = ("fixed", "sine", "rectified_sine", "triangle")
+WINDOW = 400             # the hybrid check's flights: at most WINDOW nodes at a time
 ROOT_XTOL = 1e-15
 ROOT_RTOL = 4 * np.finfo(float).eps
 
@@ -181,21 +182,14 @@ class System:
             else:
                 constant[on] += F * math.cos(phi)
         self.harmonic = harmonic
-        self.has_constant = any(f.get("Omega", 0.0) == 0.0 for f in table.get("forcing", []))
+        self.constant = constant
+        # a soft stop (law "spring") pushes by k kappa a while it acts: the state 1 is carried
+        springs = [c for c in table["contact"] if c.get("law", "impact") == "spring"]
+        self.has_constant = (any(f.get("Omega", 0.0) == 0.0 for f in table.get("forcing", []))
+                             or bool(springs))
         m = self.m = 2 * n + 2 * len(harmonic) + (1 if self.has_constant else 0)
-        Minv = np.linalg.inv(self.M)
-        A = np.zeros((m, m))
-        A[:n, n:2 * n] = np.eye(n)
-        A[n:2 * n, :n] = -Minv @ self.K
-        A[n:2 * n, n:2 * n] = -Minv @ self.C
-        for j, (on, F, Om, _) in enumerate(harmonic):
-            ci, si = 2 * n + 2 * j, 2 * n + 2 * j + 1
-            A[n:2 * n, ci] += Minv[:, on] * F
-            A[ci, si] = -Om
-            A[si, ci] = Om
-        if self.has_constant:
-            A[n:2 * n, m - 1] = Minv @ constant
-        self.A = A
+        self.Minv = np.linalg.inv(self.M)
+        A = self.A = self._augment(self.K, self.C, constant)
         self.normA = float(np.linalg.norm(A, 2))
         self.contacts = []
         for c in table["contact"]:
@@ -206,6 +200,15 @@ class System:
                           c.get("omega", 0.0))
             self.contacts.append((c["name"], a, ob, float(c.get("r", 0.8))))
         self.names = [c[0] for c in self.contacts]
+        # soft stops (the hybrid runs below): contact index -> (bit, k, c, kappa)
+        self.soft = {}
+        for i, c in enumerate(table["contact"]):
+            if c.get("law", "impact") == "spring":
+                self.soft[i] = (len(self.soft), float(c["k"]), float(c.get("c", 0.0)),
+                                float(c.get("kappa", 0.0)))
+        self.holdable = [not self.soft and c.get("law", "impact") == "impact"
+                         and c.get("obstacle", "fixed") == "fixed" for c in table["contact"]]
+        self._modes = {}
         rate = max([self.normA, 1.0] + [c[2].omega for c in self.contacts])
         self.dt = DT_RATE / rate
         self.E_steps = np.array([scipy.linalg.expm(A * (self.dt * j)) for j in range(BLOCK)])
@@ -217,6 +220,22 @@ class System:
             c1 = c0 @ A
             c2 = c1 @ A
             self.rows.append((c0, c1, c2, float(np.linalg.norm(c2))))
+
+    def _augment(self, K, C, constant):
+        """The augmented matrix of M x'' + C x' + K x = the harmonic forces + ``constant``."""
+        n, m, Minv = self.n, self.m, self.Minv
+        A = np.zeros((m, m))
+        A[:n, n:2 * n] = np.eye(n)
+        A[n:2 * n, :n] = -Minv @ K
+        A[n:2 * n, n:2 * n] = -Minv @ C
+        for j, (on, F, Om, _) in enumerate(self.harmonic):
+            ci, si = 2 * n + 2 * j, 2 * n + 2 * j + 1
+            A[n:2 * n, ci] += Minv[:, on] * F
+            A[ci, si] = -Om
+            A[si, ci] = Om
+        if self.has_constant:
+            A[n:2 * n, m - 1] = Minv @ constant
+        return A
 
     def state(self, t, x, v):
         ph = []
@@ -322,7 +341,10 @@ class Flight:
         a, h, k, ya = iv["T"][q], iv["h"][q], iv["k"][q], iv["Y"][q]
         c0, c1, c2, nc2 = s.rows[i]
         ob = s.contacts[i][2]
-        E = scipy.linalg.expm(s.A * (h / SUB))
+        cache = s.__dict__.setdefault("_esub", {})      # the same h recurs: one expm for each
+        E = cache.get(h)
+        if E is None:
+            E = cache[h] = scipy.linalg.expm(s.A * (h / SUB))
         U = np.empty((SUB + 1, s.m))
         U[0] = ya
         for j in range(SUB):
@@ -803,3 +825,594 @@ def check_graze(seed, delta, where):
         v["wrong"] = not v["rounding"]
     v["case"] = {k: case[k] for k in ("table", "t0", "x0", "v0")}
     return case, v, res
+
+
+# ------------------------------------------------------------------ hybrid runs: soft stops, holds
+# (docs/linear.md, "Soft stops" and "Sticking"; the check's design is ``check_hybrid``'s)
+class Mode:
+    """One flight of a hybrid system and its surfaces, in the shape ``Flight`` reads: the
+    matrix A of the flight that acts (a set of soft stops acting, or one contact held) and
+    per contact the "gap" searched in that flight (name, row c0 on the augmented state,
+    Obstacle): a hard contact's gap a . x - z(t); a soft stop outside, g = a . x - kappa; a
+    soft stop acting, -g = (-a) . x - (-kappa) (its exit is -g reaching 0 from above); the
+    held contact, its contact force as an acceleration along the unit normal,
+    l = -(a . x''_free) / |a| (the free flight's acceleration rows: l < 0 pulls, a release)."""
+
+    def __init__(self, s, act, hold):
+        n, m = s.n, s.m
+        self.n, self.m, self.act, self.hold = n, m, act, hold
+        if hold >= 0:
+            A0 = s.A
+            a = s.contacts[hold][1]
+            d = s.Minv @ a
+            acc = a @ A0[n:2 * n, :]                       # a . x'' of the free flight
+            A = A0.copy()
+            A[n:2 * n, :] = A0[n:2 * n, :] - np.outer(d, acc) / (a @ d)   # P M^-1 (forces)
+        elif act:
+            K, C, constant = s.K.copy(), s.C.copy(), s.constant.copy()
+            for i, (b, k, c, kappa) in s.soft.items():
+                if act >> b & 1:
+                    a = s.contacts[i][1]
+                    K += k * np.outer(a, a)
+                    C += c * np.outer(a, a)
+                    constant += k * kappa * a
+            A = s._augment(K, C, constant)
+        else:
+            A = s.A
+        self.A = A
+        self.normA = float(np.linalg.norm(A, 2))
+        self.contacts, self.rows, self.norms = [], [], []
+        for i, (name, a, ob, r) in enumerate(s.contacts):
+            c0 = np.zeros(m)
+            if i == hold:
+                c0 = -(a @ s.A[n:2 * n, :]) / np.linalg.norm(a)
+                ob = Obstacle("fixed", 0.0)
+            elif i in s.soft and act >> s.soft[i][0] & 1:
+                c0[:n] = -a
+                ob = Obstacle("fixed", -ob.kappa)
+            else:
+                c0[:n] = a
+            self.contacts.append((name, c0[:n], ob, r))
+            c1 = c0 @ A
+            c2 = c1 @ A
+            self.rows.append((c0, c1, c2, float(np.linalg.norm(c2))))
+            self.norms.append(float(np.linalg.norm(c0)))
+        rate = max([self.normA, 1.0] + [c[2].omega for c in self.contacts])
+        self.dt = DT_RATE / rate
+        self.E_steps = np.array([scipy.linalg.expm(A * (self.dt * j)) for j in range(BLOCK)])
+        self.E_block = scipy.linalg.expm(A * (self.dt * BLOCK))
+
+    def flow(self, y, s):
+        return scipy.linalg.expm(self.A * s) @ y
+
+
+def mode(s, act, hold):
+    """The system's flight with the soft stops ``act`` acting (bit b: soft stop b) or contact
+    ``hold`` held (-1: none), memoised on the System."""
+    key = (act, hold)
+    if key not in s._modes:
+        s._modes[key] = Mode(s, act, hold)
+    return s._modes[key]
+
+
+def initial_act(s, x):
+    """The soft stops acting at a start: those with g = a . x - kappa < 0."""
+    return sum(1 << b for i, (b, _, _, kappa) in s.soft.items() if s.contacts[i][1] @ x - kappa < 0.0)
+
+
+class Segment:
+    """The flight of mode ``md`` from (t, y) sampled to t_e, each surface's ``Flight`` (a
+    surface in ``late`` {i: t_i} is searched from t_i on: the contact just released, whose
+    gap rises as g''' s^3 / 6 from its release, cleared up to t_i by a bound)."""
+
+    def __init__(self, md, t, y, t_e, late=None):
+        self.md, self.t = md, t
+        self.fl = Flight(md, t, y, t_e)
+        self.fls = []
+        for i in range(len(md.contacts)):
+            tl = (late or {}).get(i)
+            if tl is None or tl <= t:
+                self.fls.append(self.fl)
+            else:
+                self.fls.append(Flight(md, tl, self.fl.state_at(tl), max(t_e, tl + md.dt)))
+
+    def first(self, t_min_to):
+        """The first event (surface, time), or None, and each surface's least value up to
+        t_min_to (value, time)."""
+        best, mins = None, []
+        for i, f in enumerate(self.fls):
+            if f.t_s > t_min_to:
+                ev, gmin, tmin = None, math.inf, f.t_s
+            else:
+                ev, _, gmin, tmin = f.scan(i, t_min_to)
+            mins.append((gmin, tmin))
+            if ev is not None and (best is None or ev < best[1]):
+                best = (i, ev)
+        return best, mins
+
+
+def release_clearance(md_free, i, y):
+    """After a release of contact i at state y (g, g', g'' zero): g(s) >= g''' s^3 / 6 -
+    B4 s^4 / 24 >= g''' s^3 / 12 > 0 for s <= 2 g''' / B4 (B4 = |c A^4| |y| e^(|A| s)
+    bounds g''''), capped at the node spacing: (that step, g''')."""
+    c0 = md_free.rows[i][0]
+    A = md_free.A
+    c3 = c0 @ A @ A @ A
+    c4 = c3 @ A
+    g3 = float(c3 @ y)
+    if not g3 > 0.0:
+        return None, g3
+    B4 = float(np.linalg.norm(c4) * np.linalg.norm(y) * math.exp(md_free.normA * md_free.dt))
+    return min(md_free.dt, 2.0 * g3 / B4), g3
+
+
+def _w(s, i, t, v):
+    """Contact i's approach speed w = a . v - z'(t) (either side's z' at a corner: the
+    side with the smaller |w|, the law checked on both)."""
+    a, ob = s.contacts[i][1], s.contacts[i][2]
+    return float(a @ v - ob.z(t, ob.piece(t))[1])
+
+
+def check_hybrid(table, t0, x0, v0, count=10, t_max=None, span=30.0, run=None, chatter=1e-6,
+                 max_switches=400):
+    """The kernel's run of a system with soft stops, or one that sticks, against the brute
+    force, event by event (docs/linear.md, "Certified events"; the design):
+
+    The kernel records impacts, soft-stop entries (v+ = v-) and the impacts that start a
+    hold; it records neither exits nor releases.  The brute force therefore runs the hybrid
+    system itself between two recorded events: restarted from the kernel's state just after
+    recorded event k - 1, in the mode that event implies (the soft stops acting: the set
+    before, with an entry's stop added; held: the brute force's own decision at that impact,
+    from -r w- <= chatter and the contact force after the law with r = 0 being > 0), it
+    finds the first crossing of every surface of that mode (``Mode``: a hard gap, a soft
+    stop's g outside, -g inside, the held contact's force) with ``Flight``'s search.  A
+    crossing of an unrecorded kind (an exit, a release) before the kernel's next recorded
+    event is taken by the brute force itself: it switches mode at its own root, from its own
+    state, and searches on (a released contact from the bound of ``release_clearance``).  The
+    first crossing of a recorded kind must be the kernel's event k:
+
+    * nothing missed: over [t_(k-1), t_k], through the brute force's own switches, every
+      surface stays >= -eps (eps: ``check_run``'s allowance, on the row's norm and the
+      flight's length from t_(k-1) in chunks of the largest |A| of the modes flown).  So an
+      entry the kernel missed is a stop's g below -eps; an exit the kernel missed (it goes on
+      inside) shows as the brute force's re-entry (a missed entry), or as a state that is
+      not the brute force's at event k; a release it missed, as the contact's next impact
+      (missed) or the state; a spurious exit, as an entry recorded where the brute force is
+      inside ("entry while inside"); a spurious release, as an impact of the held contact;
+    * each recorded event is real: its surface (in the brute force's mode) is within eps of
+      0 at t_k; an entry is of a stop outside; v_out = v_in for an entry, the Newton law
+      (r, or r = 0 where the brute force holds) for an impact; the state is the brute force's;
+    * a run that ends on its time budget (BUDGET, or CHATTERS while held) has nothing
+      recorded-kind after its last event up to t_max, through the brute force's own
+      exits and releases; a run that ends CHATTERS otherwise ends at a chatter the brute
+      force cannot hold.
+
+    Returns a dict of counts (events, entries, impacts, holds, and the brute force's exits
+    and releases), worst differences and problems."""
+    t_max = t0 + span if t_max is None else t_max
+    status, out = kernel(table, t0, x0, v0, count, t_max) if run is None else run
+    s = System(table)
+    res = {"status": status, "events": 0, "entries": 0, "impacts": 0, "holds": 0, "exits": 0,
+           "releases": 0, "problems": [], "early_depth": 0.0, "gap_at_event": 0.0,
+           "allowance_used": 0.0, "state_worst": 0.0, "law_worst": 0.0, "dt_worst": 0.0,
+           "kernel_t": [float(t) for t in out["t"]], "kernel_contact": list(out["contact"]),
+           "switches": []}
+    if status in ("ESCAPED", "NONFINITE"):
+        return res
+    n = s.n
+    t, y = float(t0), s.state(t0, x0, v0)
+    act, hold, late = initial_act(s, np.asarray(x0, float)), -1, {}
+    free = mode(s, 0, -1)
+    K = len(out["t"])
+    ended_chatter = False
+    for k in range(K + 1):
+        tail = k == K
+        if tail and not (status == "BUDGET" or (status == "CHATTERS" and hold >= 0)):
+            if status == "CHATTERS" and not ended_chatter:
+                res["problems"].append({"event": k, "what": "status", "status": status,
+                                        "why": "CHATTERS, but the brute force does not see the "
+                                               "last impact chatter unheld"})
+            break
+        tk = t_max if tail else float(out["t"][k])
+        t_last, size, normA, switches = t, float(np.abs(y[:2 * n]).max()), 0.0, []
+        where = {"event": k, "t": None if tail else tk,
+                 "contact": None if tail else out["contact"][k]}
+        aborted = False
+        while True:
+            md = mode(s, act, hold)
+            normA = max(normA, md.normA)
+            t_we = min(tk, t + WINDOW * md.dt)           # flown a window at a time
+            seg = Segment(md, t, y, t_we + 4 * md.dt, late)
+            ev, _ = seg.first(t)
+            unrecorded = ev is not None and (ev[0] == hold
+                                             or (ev[0] in s.soft and act >> s.soft[ev[0]][0] & 1))
+            if unrecorded and ev[1] < tk and ev[1] <= t_we and len(switches) < max_switches:
+                # an exit or a release before the kernel's next event: the brute force's own
+                i, te = ev
+                _, mins = seg.first(te)
+                ye = seg.fls[i].state_at(te)
+                size = max(size, float(np.abs(ye[:2 * n]).max()))
+                _misses(res, md, mins, s, size, t_last, te, normA, dict(where, switches=list(switches)))
+                switches.append(("exit" if hold < 0 else "release", s.names[i], te))
+                t, y, late = te, ye, {}
+                if hold >= 0:
+                    hold = -1
+                    res["releases"] += 1
+                    step, g3 = release_clearance(free, i, ye)
+                    if step is None:
+                        res["problems"].append(dict(where, what="degenerate release", g3=g3, at=te))
+                        step = free.dt
+                    late = {i: te + step}
+                else:
+                    act ^= 1 << s.soft[i][0]
+                    res["exits"] += 1
+                continue
+            _, mins = seg.first(t_we)
+            yk = seg.fl.state_at(t_we)
+            size = max(size, float(np.abs(yk[:2 * n]).max()))
+            before = len(res["problems"])
+            eps = _misses(res, md, mins, s, size, t_last, t_we, normA, dict(where, switches=list(switches)))
+            if t_we < tk:
+                if len(res["problems"]) > before:
+                    aborted = True          # a miss: the brute force cannot go on past it
+                    break
+                t, y = t_we, yk
+                late = {i: tl for i, tl in late.items() if tl > t_we}
+                continue
+            break
+        res["switches"].append(switches)
+        if tail or aborted:
+            break
+        # the recorded event k
+        ck = s.names.index(out["contact"][k])
+        x_k, vin_k, vout_k = (np.asarray(out[key][k], float) for key in ("x", "v_in", "v_out"))
+        f = seg.fls[ck]
+        obk = md.contacts[ck][2]
+        gk = float(md.rows[ck][0] @ f.state_at(tk) - obk.z(tk, obk.piece(tk))[0])
+        rel = gk / (1.0 + md.norms[ck] * size)
+        res["gap_at_event"] = max(res["gap_at_event"], abs(rel))
+        res["allowance_used"] = max(res["allowance_used"], rel / eps)
+        if rel > eps:
+            res["problems"].append(dict(where, what="no contact there", gap=gk, allowance=eps))
+        if ev is not None and ev[0] == ck:
+            res["dt_worst"] = max(res["dt_worst"], abs(ev[1] - tk))
+        dstate = max(np.abs(yk[:n] - x_k).max(), np.abs(yk[n:2 * n] - vin_k).max()) / (1.0 + size)
+        res["state_worst"] = max(res["state_worst"], dstate)
+        if dstate > STATE_TOL:
+            res["problems"].append(dict(where, what="state", diff=dstate))
+        scale = 1.0 + np.abs(vin_k).max()
+        if ck == hold:
+            res["problems"].append(dict(where, what="an impact of the held contact (a release missed "
+                                                    "or spurious)"))
+        if ck in s.soft:
+            if act >> s.soft[ck][0] & 1:
+                res["problems"].append(dict(where, what="entry while inside (an exit the brute force "
+                                                        "does not have)"))
+            dlaw = np.abs(vout_k - vin_k).max() / scale
+            act |= 1 << s.soft[ck][0]
+            res["entries"] += 1
+        else:
+            was_held = hold
+            hold = -1                       # an impact releases a held contact
+            ob = s.contacts[ck][2]
+            kp = int(ob.piece(tk))
+            corner = ob.spacing is not None and min(abs(tk - kk * ob.spacing) for kk in (kp, kp + 1)) < 1e-9
+            sides = [kp, kp - 1, kp + 1] if corner else [kp]
+            r = s.contacts[ck][3]
+            best = None
+            for kk in sides:
+                zp = float(ob.z(tk, kk)[1])
+                w = float(s.contacts[ck][1] @ vin_k - zp)
+                chat = -r * w <= chatter
+                near = abs(-r * w - chatter) <= 1e-9 * chatter      # the kernel's rounding decides
+                v_r = s.law(ck, vin_k, zp)
+                dk = s.Minv @ s.contacts[ck][1]
+                v_0 = vin_k - w * dk / (s.contacts[ck][1] @ dk)        # the law with r = 0
+                lam = None
+                if chat and s.holdable[ck] and was_held < 0:
+                    lam = float(mode(s, 0, ck).rows[ck][0] @ s.state(tk, x_k, v_0))
+                holds = lam is not None and lam > 0.0
+                options = [(holds, v_0 if holds else v_r, chat)]
+                if near or (lam is not None and abs(lam) <= 1e-9 * (1.0 + np.abs(x_k).max())):
+                    options.append((not holds, v_r if holds else v_0, chat))
+                for hh, vv, cc in options:
+                    d = np.abs(vv - vout_k).max() / scale
+                    if best is None or d < best[0]:
+                        best = (d, hh, cc)
+            dlaw, holds, chat = best
+            if holds:
+                hold = ck
+                res["holds"] += 1
+            elif chat:
+                # a chatter that is not held (or a second contact's while one is held): the
+                # kernel ends the run there, CHATTERS
+                ended_chatter = True
+                if k != K - 1 or status != "CHATTERS":
+                    res["problems"].append(dict(where, what="a chatter the kernel went past unheld"))
+            res["impacts"] += 1
+        res["law_worst"] = max(res["law_worst"], dlaw)
+        if dlaw > LAW_TOL:
+            res["problems"].append(dict(where, what="law", diff=dlaw))
+        res["events"] += 1
+        t, y, late = tk, s.state(tk, x_k, vout_k), {}
+    return res
+
+
+def _misses(res, md, mins, s, size, t_last, t_end, normA, where):
+    """Every surface's least value over the flight (``mins``) against the allowance; a miss
+    recorded as a problem.  Returns the allowance (per unit of 1 + |c0| |y|)."""
+    eps = EPS_GAP + DRIFT * normA * (t_end - t_last)
+    worst = None
+    for j, (g, at) in enumerate(mins):
+        if g == math.inf:
+            continue
+        rel = -g / (1.0 + md.norms[j] * size)
+        res["early_depth"] = max(res["early_depth"], rel)
+        res["allowance_used"] = max(res["allowance_used"], rel / eps)
+        if rel > eps and (worst is None or rel > worst[0]):
+            worst = (rel, j, g, at)
+    if worst is not None:
+        j = worst[1]
+        kind = ("release" if j == md.hold else
+                "exit" if j in s.soft and md.act >> s.soft[j][0] & 1 else
+                "entry" if j in s.soft else "impact")
+        res["problems"].append(dict(where, what="missed", missed=f"{kind} of {s.names[j]}", gap=worst[2],
+                                    at=worst[3], allowance=eps))
+    return eps
+
+
+# ------------------------------------------------------------------ random hybrid systems
+def soften(c, rng):
+    """Contact table ``c`` made a soft stop: law "spring" on its fixed obstacle, k
+    log-uniform in [1, 100], c = 0 (a third of them) or up to 0.5."""
+    for key in ("beta", "omega", "r"):
+        c.pop(key, None)
+    c["obstacle"] = "fixed"
+    c["law"] = "spring"
+    c["k"] = float(math.exp(rng.uniform(0.0, math.log(100.0))))
+    c["c"] = 0.0 if rng.random() < 1 / 3 else float(rng.uniform(0.0, 0.5))
+    return c
+
+
+def random_soft_case(seed):
+    """(table, t0, x0, v0): a random system (``random_table``: N = 1..4) with 1..3 contacts,
+    all soft stops (half of them) or all but one hard contact of any obstacle kind, placed as
+    ``place_contacts`` places them (the free flight reaches each)."""
+    rng = np.random.default_rng(seed)
+    table = random_table(rng)
+    cs = table["contact"]
+    ns = len(cs) if (len(cs) == 1 or rng.random() < 0.5) else len(cs) - 1
+    for c in cs[:ns]:
+        soften(c, rng)
+    n = len(table["dofs"])
+    t0 = float(rng.uniform(0.0, 10.0))
+    x0, v0 = rng.standard_normal(n).tolist(), rng.standard_normal(n).tolist()
+    place_contacts(table, t0, x0, v0, rng)
+    return table, t0, x0, v0
+
+
+def random_stick_case(seed):
+    """(table, t0, x0, v0): a random system that lands on a fixed stop and can stick there: N =
+    1..3, a random SPD mass, a PSD stiffness of random rank, damping sometimes; contact A a
+    fixed stop on one coordinate (its sign random) with r = 0 (two fifths) or r in (0, 0.4)
+    (a chatter to rest), a constant force pressing into it and a harmonic force on the same
+    coordinate of up to 2.5 times that (releasing it, or not); a second fixed stop of any
+    gap vector sometimes (r in [0, 1))."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 4))
+    table = random_table(rng, n=n, nc=int(rng.choice([1, 1, 2])))
+    j = int(rng.integers(n))
+    sign = float(rng.choice([-1.0, 1.0]))
+    a = np.zeros(n)
+    a[j] = sign
+    for c in table["contact"]:
+        c.pop("beta", None)
+        c.pop("omega", None)
+        c["obstacle"] = "fixed"
+    A = table["contact"][0]
+    A["gap"] = a.tolist()
+    A["r"] = 0.0 if rng.random() < 0.4 else float(rng.uniform(0.0, 0.4))
+    Fg = float(rng.uniform(0.5, 2.0))
+    table["forcing"] = [{"on": f"q{j}", "F": -sign * Fg},
+                        {"on": f"q{j}", "F": float(rng.uniform(0.0, 2.5) * Fg),
+                         "Omega": float(rng.uniform(0.5, 3.0)), "phi": float(rng.uniform(0, 2 * math.pi))}]
+    t0 = float(rng.uniform(0.0, 10.0))
+    x0, v0 = rng.standard_normal(n).tolist(), rng.standard_normal(n).tolist()
+    place_contacts(table, t0, x0, v0, rng)
+    return table, t0, x0, v0
+
+
+# ------------------------------------------------------------------ hybrid grazes
+HYBRID_GRAZES = ("entry", "exit", "release")
+
+
+def _first_low(fl, i, margin=1e-3):
+    """Surface i's first smooth low point (t, value) on flight ``fl`` that lies below every
+    earlier value (its valley's included) by ``margin``, at least 0.1 after the start and
+    0.5 before the flight's end; None when there is none."""
+    iv = fl.intervals(i)
+    for tm, gm in fl.local_minima(i, "smooth"):
+        if tm < fl.t_s + 0.1 or tm > fl.t_e - 0.5:
+            continue
+        q = int(np.searchsorted(iv["T"], tm)) - 1
+        while q > 0 and iv["L"][1][q] < 0.0:
+            q -= 1
+        if q == 0 or iv["L"][0][:q].min() < gm + margin or iv["L"][0][0] < gm + margin:
+            continue
+        return float(tm), float(gm)
+    return None
+
+
+def _dip_of(fl, i, tm):
+    """The ends of surface i's dip below zero around its low point tm (``_dip`` for any
+    surface)."""
+    def g(t):
+        return fl.gap_at(i, t)[0]
+    ends = []
+    for sign in (-1.0, 1.0):
+        w = 1e-12
+        while w < 0.5 and g(tm + sign * w) <= 0.0:
+            w *= 2.0
+        if w >= 0.5:
+            return None
+        ends.append(_root(g, *sorted((tm, tm + sign * w))))
+    return None if None in ends else (ends[0], ends[1])
+
+
+def _force_along(table, a, mu):
+    """A constant force mu a added to the table's forcing (one entry per coordinate)."""
+    table.setdefault("forcing", [])
+    for j, aj in enumerate(a):
+        if aj != 0.0:
+            table["forcing"].append({"on": table["dofs"][j], "F": float(mu * aj)})
+
+
+def hybrid_graze_case(seed, kind, delta, tries=40, span=8.0):
+    """A flight whose surface of contact A has its least value at ``delta`` (< 0: a dip of
+    that depth, an event to be found; > 0: a clearance), the first low point of that
+    surface after the start (every earlier value above it by 1e-3):
+
+    * "entry": A a soft stop, outside; its gap g on the free flight (as ``graze_case``:
+      kappa shifted, which moves g alone);
+    * "exit": A a soft stop, the start inside it (g0 in [-1, -0.3]); -g on the flight with
+      its spring acting.  A constant force mu a (along the stop's normal) moves the mode's
+      equilibrium by dx = K'^-1 mu a (K' = K + k a a^T, invertible: tries without are
+      skipped); the start moved by dx too, the whole flight moves by dx, and g by
+      mu a^T K'^-1 a: -g shifted without changing its shape;
+    * "release": A a fixed stop with r = 0 and a constant force pressing into it (the
+      systems of ``random_stick_case``), the start on the stop (g0 = 0) with a . v0 < 0:
+      an impact at once that holds (the brute force's contact force after it > 0).  A
+      constant force mu a changes neither the held motion (the constraint takes it whole:
+      P M^-1 a = 0) nor the impact law, and moves the contact force l (``Mode``) by
+      -mu a^T M^-1 a / |a|: l shifted without changing its shape.
+
+    Returns a dict (table, t0, x0, v0, kind, surface mode (act, hold), t_graze, dip: its
+    ends for a dip, window: where a kernel's event counts as this graze's), or None."""
+    rng = np.random.default_rng(seed)
+    for _ in range(tries):
+        if kind == "release":
+            table, t0, x0, v0 = random_stick_case(int(rng.integers(2**31)))
+            table["contact"][0]["r"] = 0.0
+            n = len(table["dofs"])
+            a = np.array(table["contact"][0]["gap"])
+            x0 = np.array(x0)
+            v0 = np.array(v0)
+            v0 -= a * (a @ v0 + float(rng.uniform(0.05, 1.0))) / (a @ a)     # a . v0 < 0
+            table["contact"][0]["kappa"] = float(a @ x0)                        # g0 = 0
+            x0, v0 = x0.tolist(), v0.tolist()
+        else:
+            table = random_table(rng)
+            soften(table["contact"][0], rng)
+            n = len(table["dofs"])
+            t0 = float(rng.uniform(0.0, 10.0))
+            x0, v0 = rng.standard_normal(n).tolist(), rng.standard_normal(n).tolist()
+            a = np.array(table["contact"][0]["gap"], float)
+            if kind == "exit":
+                table["contact"][0]["kappa"] = float(a @ x0 + rng.uniform(0.3, 1.0))
+        for c in table["contact"][1:]:
+            c["kappa"] = -1e3             # out of the way; placed on the final flight below
+        s = System(table)
+        if kind == "release":
+            x, v = np.array(x0), np.array(v0)
+            w = a @ v
+            v_h = v - w * (s.Minv @ a) / (a @ s.Minv @ a)
+            md = mode(s, 0, 0)
+            y_h = s.state(t0, x, v_h)
+            if not md.rows[0][0] @ y_h > 0.0:
+                continue
+            fl = Flight(md, t0, y_h, t0 + span)
+        else:
+            md = mode(s, 1 if kind == "exit" else 0, -1)
+            fl = Flight(md, t0, s.state(t0, x0, v0), t0 + span)
+        low = _first_low(fl, 0)
+        if low is None:
+            continue
+        tm, gm = low
+        if kind == "entry":
+            table["contact"][0]["kappa"] += gm - delta
+        elif kind == "exit":
+            k = table["contact"][0]["k"]
+            Kp = s.K + k * np.outer(a, a)
+            if np.linalg.cond(Kp) > 1e8:
+                continue
+            q = a @ np.linalg.solve(Kp, a)
+            mu = (gm - delta) / q
+            dx = np.linalg.solve(Kp, mu * a)
+            _force_along(table, a, mu)
+            x0 = (np.array(x0) + dx).tolist()
+        else:
+            q = a @ s.Minv @ a / np.linalg.norm(a)
+            _force_along(table, a, (gm - delta) / q)
+        s2 = System(table)
+        if kind == "release":
+            md2 = mode(s2, 0, 0)
+            y2 = s2.state(t0, x0, np.array(v0) - (a @ np.array(v0)) * (s2.Minv @ a) / (a @ s2.Minv @ a))
+        else:
+            md2 = mode(s2, initial_act(s2, np.array(x0)), -1)
+            if kind == "exit" and md2.act != 1:
+                continue
+            y2 = s2.state(t0, x0, v0)
+        fl2 = Flight(md2, t0, y2, tm + 0.5)
+        g_at = fl2.gap_at(0, tm)
+        _, _, gmin, tmin = fl2.scan(0, tm + 1e-3)
+        if abs(gmin - delta) > 1e-14 + 1e-3 * abs(delta) or abs(tmin - tm) > 1e-3:
+            continue
+        dip = _dip_of(fl2, 0, tm) if delta < 0 else None
+        if delta < 0 and dip is None:
+            continue
+        for j in range(1, len(table["contact"])):
+            # the other contacts 0.2 below their least gap on the graze's flight (not acting,
+            # they do not change it)
+            iv = fl2.intervals(j)
+            table["contact"][j]["kappa"] += float(min(iv["L"][0].min(), iv["R"][0].min())) - 0.2
+        if dip is not None:
+            # a release's landing follows the dip's end by about twice the dip's width
+            w = dip[1] - dip[0] + 1e-9
+            window = (dip[0] - w, dip[1] + (3.0 if kind == "release" else 1.0) * w)
+        else:
+            w = 2.0 * math.sqrt(2.0 * delta / max(abs(g_at[2]), 1e-300)) + 1e-9
+            window = (tm - w, tm + w)
+        if kind == "release":
+            # the landing after a release's dip comes after its end by a time of the gap's
+            # rounding: a gap of about delta tau^2 rises and falls (tau the dip's width);
+            # measured up to 2.1e-4 after a dip of 1e-12
+            window = (window[0], max(window[1], tm + 1e-3))
+        return {"table": table, "t0": t0, "x0": x0, "v0": v0, "kind": kind, "t_graze": tm,
+                "dip": dip, "window": window}
+    return None
+
+
+def check_hybrid_graze(seed, kind, delta):
+    """A hybrid graze (``hybrid_graze_case``) through the kernel and ``check_hybrid``: (the
+    case or None, the verdict, the check's dict).  Contact A's events in the graze's window
+    among the kernel's recorded events (a release's start, the hold at t0, not counted):
+    a dip must have one (an entry; after an exit's dip, the re-entry; after a release's dip,
+    the landing that follows it), a clearance none."""
+    case = hybrid_graze_case(seed, kind, delta)
+    if case is None:
+        return None, None, None
+    lo, hi = case["window"]
+    count = 4 if kind == "release" else 3
+    res = check_hybrid(case["table"], case["t0"], case["x0"], case["v0"], count=count,
+                       t_max=case["t_graze"] + 0.5)
+    kt, kc = res["kernel_t"], res["kernel_contact"]
+    hits = [t for t, c in zip(kt, kc) if c == "A" and lo <= t <= hi and t > case["t0"]]
+    v = {"kind": kind, "delta": delta, "t_graze": case["t_graze"], "window": case["window"],
+         "ok": bool(hits) if delta < 0 else not hits}
+    if not v["ok"]:
+        v["what"] = "dip missed" if delta < 0 else "event on a clearance"
+    return case, v, res
+
+
+def hybrid_graze_plan(g, slow_releases=False):
+    """The g-th hybrid graze's (kind, delta): entry, exit and release in turn, then each
+    depth of GRAZE_DEPTHS, a dip (delta < 0) and a clearance in turn: every 30 cover all.
+    A release's dips of 1e-8 .. 1e-11 are replaced by its clearances unless
+    ``slow_releases`` (the kernel takes 5 to 60 s on each: docs/linear.md, "Certified
+    against a brute force")."""
+    kind = HYBRID_GRAZES[g % 3]
+    depth = GRAZE_DEPTHS[(g // 3) % len(GRAZE_DEPTHS)]
+    delta = -depth if (g // (3 * len(GRAZE_DEPTHS))) % 2 == 0 else depth
+    if kind == "release" and delta < 0 and depth not in (1e-6, 1e-12) and not slow_releases:
+        delta = depth
+    return kind, delta

@@ -883,6 +883,9 @@ def _flights(E, A, H, normA, cA, cAs, N, normc, rows, ds, cAm, rows0, gaps, D, r
         if kept >= 0:
             o_t[kept] = te
             o_c[kept] = bi
+        # the velocities changed: every contact's free step (a graze's, a release's) was
+        # bounded on the flight before, and is searched again from here
+        free_until[:] = -math.inf
         if words:
             n_corner, t_corner, pend_lo, pend_hi = _corners(bi, kept, te, corners, n_corner,
                                                             t_corner, pend_lo, pend_hi, o_t,

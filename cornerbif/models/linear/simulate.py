@@ -166,7 +166,9 @@ def simulate(system: LinearSystem, x0, v0, t0: float, count: int, horizon: float
         if c.gap @ v_out - zp > chatter:
             if hold >= 0:
                 hold = -1                       # an impact elsewhere releases the held contact
-                free_from = {}
+            # the velocities change: a released contact's free step was bounded on the flight
+            # before, and is searched again from here (the kernel's rule)
+            free_from = {}
             y[n:2 * n] = v_out
             out.append(Impact(t, c.name, y[:n].copy(), v_in, v_out, kind != IMPACT))
             continue
