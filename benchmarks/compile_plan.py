@@ -14,8 +14,10 @@ callees, in the order the compile reached them, the last ones, about half of the
 compile time, are the plan: the second process compiles them (each with its own callees),
 last reached first, while the first compiles the rest.
 
-``--check`` compares the plan with the file and exits 1 when they differ (a helper's arguments
-changed: run this script).  tests/runs/test_warm.py checks the file against a real first run.
+``--only LABEL ...`` records those plans alone and replaces them in the file (or adds them),
+keeping the others as they are.  ``--check`` compares the plan with the file and exits 1
+when they differ (a helper's arguments changed: run this script).  tests/runs/test_warm.py
+checks the file against a real first run.
 """
 
 from __future__ import annotations
@@ -48,8 +50,9 @@ def cont(scene):
 
 STAB = 'output.keep=["impacts", "section", "stability"]'
 # (the name ``Model.compiles`` gives the kernel, its command, a command run first, untimed,
-# what the second process takes: "half" of the heaviest function's callees, or "all" that the
-# command compiles beyond the command run first: a kernel of its own)
+# what the second process takes: "half" of the heaviest function's callees, "all" that the
+# command compiles beyond the command run first: a kernel of its own, or "top:PREFIX" the
+# functions under that name the command compiles at the top)
 ENTRIES = [
     ("the flow kernel", sweep("fig04c", "omega"), None, "half"),
     # a first cam or two-particle sweep may be the first run of all: recorded in an empty cache
@@ -62,6 +65,12 @@ ENTRIES = [
     ("the flow continuation's functions", cont("cont_beta"), sweep("fig04c", "omega"), "all"),
     ("the two-particle continuation's functions", cont("cont_fig19"),
      sweep("fig19a", "omega0"), "all"),
+    ("the linear kernel", sweep("bouncing_ball", '"contact.T.beta"'), None, "half"),
+    # its kernel's first sweep compiles the stability pass too (the chaos test of the runs
+    # without a cycle): recorded in an empty cache, the pass's own entry taken ("top:")
+    ("the linear stability pass", sweep("bouncing_ball", '"contact.T.beta"',
+                                        'output.keep=["impacts", "stability"]'),
+     None, "top:models.linear.tangent."),
 ]
 
 RECORD = r"""
@@ -117,6 +126,14 @@ def plan_all(rows):
             "functions": [(short(r["name"]), r["args"]) for r in top]}
 
 
+def plan_top(rows, prefix):
+    """The functions the command compiled at the top whose names start with ``prefix``."""
+    top = [r for r in rows if r["parent"] < 0 and short(r["name"]).startswith(prefix)]
+    return {"under": "the command", "seconds": round(sum(r["seconds"] for r in top), 2),
+            "of": round(sum(r["seconds"] for r in rows if r["parent"] < 0), 2),
+            "functions": [(short(r["name"]), r["args"]) for r in top]}
+
+
 def plan(rows):
     """The late half of the callees of the function whose callees cost most, descending while
     one callee takes most of them."""
@@ -144,6 +161,35 @@ def plan(rows):
             "functions": [(short(rows[k]["name"]), rows[k]["args"]) for k in chosen]}
 
 
+def block(label, p):
+    """One plan's lines in PLANS."""
+    lines = [f"    # {len(p['functions'])} functions of {p['under']}: {p['seconds']} s of "
+             f"{p['of']} s when recorded", f"    {label!r}: ("]
+    for name, args in p["functions"]:
+        lines.append(f"        ({name!r},")
+        lines.append(f"         {args!r}),")
+    lines.append("    ),")
+    return lines
+
+
+def merged(text, plans):
+    """The file ``text`` with the blocks of ``plans`` replaced or added (``--only``)."""
+    lines = text.splitlines()
+    for label, p in plans.items():
+        head = f"    {label!r}: ("
+        if head in lines:
+            i = lines.index(head) - 1            # its comment line
+            j = lines.index("    ),", i)
+            lines[i:j + 1] = block(label, p)
+        else:
+            end = lines.index("}")
+            lines[end:end] = block(label, p)
+    half = [label for label, _, _, mode in ENTRIES if mode == "half"]
+    k = next(i for i, line in enumerate(lines) if line.startswith("HALF_PLANS = "))
+    lines[k] = f"HALF_PLANS = {tuple(half)!r}"
+    return "\n".join(lines) + "\n"
+
+
 def render(plans):
     lines = ["# ruff: noqa: E501 (written by benchmarks/compile_plan.py: one type signature per line)",
              '"""What a second process compiles beside a kernel\'s first compile',
@@ -153,13 +199,7 @@ def render(plans):
              'chosen); tests/runs/test_warm.py checks them against a real first run."""', "",
              "PLANS = {"]
     for label, p in plans.items():
-        lines.append(f"    # {len(p['functions'])} functions of {p['under']}: {p['seconds']} s of "
-                     f"{p['of']} s when recorded")
-        lines.append(f"    {label!r}: (")
-        for name, args in p["functions"]:
-            lines.append(f"        ({name!r},")
-            lines.append(f"         {args!r}),")
-        lines.append("    ),")
+        lines += block(label, p)
     lines.append("}")
     half = [label for label, _, _, mode in ENTRIES if mode == "half"]
     lines += ["", "# the plans that are part of a kernel (the rest are kernels of their own)",
@@ -170,11 +210,20 @@ def render(plans):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--check", action="store_true")
+    ap.add_argument("--only", nargs="+", metavar="LABEL",
+                    help="record these plans alone and replace them in the file (the others kept)")
     a = ap.parse_args()
+    unknown = set(a.only or ()) - {e[0] for e in ENTRIES}
+    if unknown:
+        ap.error(f"--only: no such plan {sorted(unknown)}; plans: {[e[0] for e in ENTRIES]}")
     plans = {}
     for label, cmd, before, mode in ENTRIES:
+        if a.only and label not in a.only:
+            continue
         rows = record(cmd, before)
-        plans[label] = plan(rows) if mode == "half" else plan_all(rows)
+        plans[label] = (plan(rows) if mode == "half" else
+                        plan_top(rows, mode.removeprefix("top:")) if mode.startswith("top:") else
+                        plan_all(rows))
         print(f"{label}: {len(plans[label]['functions'])} callees of {plans[label]['under']}, "
               f"{plans[label]['seconds']} s of {plans[label]['of']} s", flush=True)
     if a.check:
@@ -184,7 +233,11 @@ def main():
                    for k, p in plans.items())
         print("compile_plan.py is current" if same else "compile_plan.py differs: run this script")
         sys.exit(0 if same else 1)
-    text = render(plans)
+    if a.only:
+        with open(TARGET) as fh:
+            text = merged(fh.read(), plans)
+    else:
+        text = render(plans)
     with open(TARGET, "w") as fh:
         fh.write(text)
     print(f"wrote {TARGET}")

@@ -234,6 +234,10 @@ COLD_ENTRIES = [
      ["continue", "configs/cont_beta.toml", "-o", "{tmp}/cb.h5", "--overwrite"]),
     ("two_particle continuation: `cornerbif continue configs/cont_fig19.toml`",
      ["continue", "configs/cont_fig19.toml", "-o", "{tmp}/cf.h5", "--overwrite"]),
+    ("linear (issue 33): `cornerbif sweep configs/two_stops.toml`",
+     ["sweep", "configs/two_stops.toml", "-o", "{tmp}/l.h5", "--overwrite", "--no-progress"]),
+    ("linear continuation: `cornerbif continue configs/cont_beta_linear.toml`",
+     ["continue", "configs/cont_beta_linear.toml", "-o", "{tmp}/cl.h5", "--overwrite"]),
 ]
 
 

@@ -163,7 +163,31 @@ PLANS = {
         ('models.two_particle.tangent.two_particle_steps_py',
          "(Array(float64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, int64)"),
     ),
+    # 8 functions of models.linear.kernel._flights: 5.35 s of 10.04 s when recorded
+    'the linear kernel': (
+        ('models.linear.kernel._corners',
+         "(int64, int64, float64, int64, int64, float64, int64, int64, Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True))"),
+        ('models.linear.kernel.snap',
+         "(Array(float64, 1, 'C', False, aligned=True), int64, Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, float64)"),
+        ('models.linear.kernel.held_force',
+         "(Array(float64, 4, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), int64, Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
+        ('models.linear.kernel.search',
+         "(Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), float64, Array(float64, 3, 'C', False, aligned=True), int64, float64, float64, UniTuple(float64, 18), UniTuple(float64, 16), int64, float64, Array(float64, 1, 'C', False, aligned=True), float64, float64, Array(float64, 1, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
+        ('models.linear.kernel.piece_zpp',
+         '(UniTuple(float64, 18), int64)'),
+        ('models.linear.kernel.poly_tuple',
+         "(Array(float64, 1, 'C', False, aligned=True))"),
+        ('models.linear.kernel.gap_poly',
+         "(Array(float64, 3, 'C', False, aligned=True), int64, Array(float64, 1, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True))"),
+        ('models.linear.kernel.state_norm',
+         "(Array(float64, 1, 'C', False, aligned=True), int64, float64)"),
+    ),
+    # 1 functions of the command: 16.14 s of 63.55 s when recorded
+    'the linear stability pass': (
+        ('models.linear.tangent.batch_linear_stability',
+         "(int64, int64, Array(int64, 1, 'C', False, aligned=True), Tuple((Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(float64, 4, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(bool, 1, 'C', False, aligned=True))), Array(float64, 2, 'C', False, aligned=True), Array(int64, 2, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(int64, 1, 'C', False, aligned=True), Array(float64, 3, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), Array(float64, 2, 'C', False, aligned=True), Array(float64, 1, 'C', False, aligned=True), Array(int8, 1, 'C', False, aligned=True), int64)"),
+    ),
 }
 
 # the plans that are part of a kernel (the rest are kernels of their own)
-HALF_PLANS = ('the flow kernel', 'the flow kernel for a cam profile', 'the two-particle kernel')
+HALF_PLANS = ('the flow kernel', 'the flow kernel for a cam profile', 'the two-particle kernel', 'the linear kernel')
