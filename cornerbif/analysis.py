@@ -232,3 +232,25 @@ def cycle_signatures(k0, k1, end, a, b, count, sig_out, point_out):
     """``cycle_signature_one`` over all items in parallel."""
     for i in range(k0, k1):
         cycle_signature_one(end[i], a[i], b[i], count[i], sig_out[i], point_out[i])
+
+
+def word_of_impacts(t, v_in, offset, corner, duration, corners_per_cycle, cornered=True,
+                    cycles=4, period_tol=1e-9):
+    """The word of one cycle of impacts (times ``t``, incoming velocities ``v_in``, corner
+    offsets and corner numbers, N each) in the engine's symbols: the cycle repeated
+    ``cycles`` times (plus two impacts), each repetition ``duration`` later and its corners
+    ``corners_per_cycle`` on, through ``detect_cycles`` as a run's record (the orbit
+    problems' ``word``: models/flow/orbit.py, models/linear/orbit.py)."""
+    N = len(t)
+    reps = cycles * N + 2
+    q = np.arange(reps)
+    i, k = q % N, q // N
+    rt = (np.asarray(t, float)[i] + k * duration).reshape(1, reps)
+    rv = np.asarray(v_in, float)[i].reshape(1, reps)
+    ro = np.asarray(offset, float)[i].reshape(1, reps)
+    rc = (np.asarray(corner, np.int64)[i] + k * corners_per_cycle).reshape(1, reps)
+    per = np.zeros(1, np.int64)
+    ipc = np.zeros(1, np.int64)
+    sym = np.zeros((1, reps), np.uint8)
+    detect_cycles(rt, rv, ro, rc, np.array([bool(cornered)]), period_tol, per, ipc, sym)
+    return str(words(sym)[0])

@@ -618,32 +618,16 @@ def across_corner(problem, q, X, lam):
 def word_of(problem, X, lam, cycles=4):
     """The orbit's word in the engine's symbols (``analysis.detect_cycle`` on ``cycles``
     repetitions of its impacts: clusters by nearest corner, a, b, g)."""
-    from ...analysis import detect_cycles, words  # start-up: loads numba
+    from ...analysis import word_of_impacts  # start-up: loads numba
     imp = problem.impacts(X, lam)
-    N = problem.n
     p, d = problem.packed(lam)
-    D = problem.duration(lam)
     # how far one cycle moves the corner ids (corner_of's numbering, whatever the kind)
     shift = problem.m * cycle_np(d)
     j0, tau0 = int(problem.pieces[0]), X[0]
     per_corners = corner_of(p, d, j0 + shift, tau0)[0] - corner_of(p, d, j0, tau0)[0]
-    reps = cycles * N + 2
-    t = np.full((1, reps), np.nan)
-    vin = np.full((1, reps), np.nan)
-    off = np.full((1, reps), np.nan)
-    corner = np.zeros((1, reps), np.int64)
-    for c in range(reps):
-        i, k = c % N, c // N
-        t[0, c] = imp["t"][i] + k * D
-        vin[0, c] = imp["v_in"][i]
-        off[0, c] = imp["offset"][i]
-        corner[0, c] = imp["corner"][i] + k * per_corners
-    per = np.zeros(1, np.int64)
-    ipc = np.zeros(1, np.int64)
-    sym = np.zeros((1, reps), np.uint8)
-    cornered = np.array([OBSTACLES[problem.obstacle].has_corners(problem.table())])
-    detect_cycles(t, vin, off, corner, cornered, 1e-9, per, ipc, sym)
-    return str(words(sym)[0])
+    cornered = OBSTACLES[problem.obstacle].has_corners(problem.table())
+    return word_of_impacts(imp["t"], imp["v_in"], imp["offset"], imp["corner"],
+                           problem.duration(lam), per_corners, cornered, cycles)
 
 
 def section_state(problem, X, lam, section, at=None):

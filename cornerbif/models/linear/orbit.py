@@ -406,7 +406,7 @@ class LinearOrbit:
         return min(letters[i:] + letters[:i] for i in range(len(letters)))
 
     def _paper_word(self, s, X, lam, cycles=4):
-        from ...analysis import detect_cycles, words  # start-up: loads numba
+        from ...analysis import word_of_impacts  # start-up: loads numba
         imp = self.impacts(X, lam)
         ob = s.obs[0]
         N = self.n
@@ -417,22 +417,8 @@ class LinearOrbit:
         j0, tau0 = self._piece(s, 0, imp["t"][0])
         shift = int(piece_at(ob.d, imp["t"][0] + s.D)[0] - piece_at(ob.d, imp["t"][0])[0])
         per_corners = corner_of(ob.row, ob.d, j0 + shift, tau0)[0] - corner[0]
-        reps = cycles * N + 2
-        t = np.full((1, reps), np.nan)
-        vin = np.full((1, reps), np.nan)
-        offs = np.full((1, reps), np.nan)
-        cor = np.zeros((1, reps), np.int64)
-        for q in range(reps):
-            i, k = q % N, q // N
-            t[0, q] = imp["t"][i] + k * s.D
-            vin[0, q] = imp["v_in"][i]
-            offs[0, q] = off[i]
-            cor[0, q] = corner[i] + k * per_corners
-        per = np.zeros(1, np.int64)
-        ipc = np.zeros(1, np.int64)
-        sym = np.zeros((1, reps), np.uint8)
-        detect_cycles(t, vin, offs, cor, np.array([True]), 1e-9, per, ipc, sym)
-        return str(words(sym)[0])
+        return word_of_impacts(imp["t"], imp["v_in"], off, corner, s.D, per_corners,
+                               True, cycles)
 
     def itinerary(self) -> str:
         return (f"impacts on contacts {list(map(int, self.contacts))}, pieces "
